@@ -1,0 +1,1 @@
+"""Command-line tools of rvn_data (`rvn-scene`)."""

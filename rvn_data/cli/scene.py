@@ -1,0 +1,113 @@
+"""`rvn-scene`: inspect a scene (`info`), draw its top-down navmesh map (`map`), render
+sample views (`views`). SCENE is a mesh path or `procedural:<split>/<index>`.
+
+Bad input prints one line on stderr and exits with code 2.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+import numpy as np
+
+
+def _add_scene_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("scene", help="mesh path (GLB/glTF/OBJ/PLY) or procedural:<split>/<index>")
+    p.add_argument("--up-axis", choices=("y", "z"), default="y", help="up axis of the file (HM3D: z)")
+    p.add_argument("--unit-scale", type=float, default=1.0, help="metres per file unit (mm: 0.001)")
+    p.add_argument("--level", action="store_true", help="rotate so the dominant floor normal is +y")
+    p.add_argument("--agent-radius", type=float, default=0.18, help="navmesh agent radius (m)")
+    p.add_argument("--agent-height", type=float, default=1.0, help="navmesh agent height (m)")
+
+
+def _parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog="rvn-scene", description=__doc__.split("\n\n")[0])
+    sub = ap.add_subparsers(dest="command", required=True)
+    p = sub.add_parser("info", help="triangles, bounds, walkable islands, navigable area")
+    _add_scene_args(p)
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p = sub.add_parser("map", help="write a top-down map of the navmesh (PNG)")
+    _add_scene_args(p)
+    p.add_argument("-o", "--output", required=True, help="PNG path")
+    p = sub.add_parser("views", help="render sample views from random navigable poses")
+    _add_scene_args(p)
+    p.add_argument("-o", "--output", required=True, help="output folder")
+    p.add_argument("-n", type=int, default=8, help="number of views")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--backend", choices=("auto", "gl", "raycast"), default="auto")
+    return ap
+
+
+def _load(args):
+    from rvn_data.navmesh import NavMesh, NavMeshSettings
+    from rvn_data.scenes import load_scene
+
+    settings = NavMeshSettings(agent_radius=args.agent_radius, agent_height=args.agent_height)
+    scene = load_scene(args.scene, up_axis=args.up_axis, unit_scale=args.unit_scale, level=args.level)
+    return scene, settings, NavMesh
+
+
+def cmd_info(args) -> None:
+    scene, settings, NavMesh = _load(args)
+    nm = NavMesh.build(scene, settings)
+    info = {
+        "scene": scene.scene_id,
+        "source": scene.source,
+        "triangles": scene.num_triangles,
+        "parts": len(scene.parts),
+        "bounds": np.round(scene.bounds, 4).tolist(),
+        "islands": [round(a, 4) for a in nm.island_areas],
+        "navigable_area_m2": round(nm.navigable_area, 4),
+        "layers": len(nm.layers),
+        "navmesh": settings.to_dict(),
+    }
+    if args.json:
+        print(json.dumps(info))
+        return
+    lo, hi = scene.bounds
+    print(f"scene      {info['scene']}  ({info['source'] or 'generated'})")
+    print(f"triangles  {info['triangles']:,} in {info['parts']} part(s)")
+    print(f"bounds     x {lo[0]:.2f}..{hi[0]:.2f}  y {lo[1]:.2f}..{hi[1]:.2f}  z {lo[2]:.2f}..{hi[2]:.2f} m"
+          f"  (size {hi[0] - lo[0]:.2f} x {hi[1] - lo[1]:.2f} x {hi[2] - lo[2]:.2f})")
+    print(f"islands    {len(nm.island_areas)} (>= {settings.min_island_area} m², agent radius "
+          f"{settings.agent_radius} m, height {settings.agent_height} m)")
+    for i, a in enumerate(nm.island_areas):
+        print(f"  island {i}: {a:8.2f} m²" + ("  (main)" if i == 0 else ""))
+    print(f"navigable  {nm.navigable_area:.2f} m² on the main island")
+
+
+def cmd_map(args) -> None:
+    from rvn_data.cli.topdown_map import write_map
+
+    scene, settings, NavMesh = _load(args)
+    nm = NavMesh.build(scene, settings)
+    write_map(scene, nm, args.output)
+    print(f"wrote {args.output}")
+
+
+def cmd_views(args) -> None:
+    from rvn_data.render.views import write_views  # lazy: pulls in the renderer
+
+    if args.n <= 0:
+        raise ValueError(f"-n {args.n}: the number of views must be positive")
+    scene, _, _ = _load(args)
+    write_views(scene, args.output, args.n, args.seed, args.backend)
+    print(f"wrote {args.n} view(s) to {args.output}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    from rvn_data.scenes.scene import SceneError
+
+    try:
+        {"info": cmd_info, "map": cmd_map, "views": cmd_views}[args.command](args)
+    except (SceneError, ValueError, OSError) as exc:
+        msg = " ".join(str(exc).split())
+        print(f"rvn-scene {args.command}: error: {msg}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

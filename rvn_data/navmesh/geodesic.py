@@ -1,0 +1,185 @@
+"""Geodesic distances on the navigable grid.
+
+Graph: every navigable cell is a node; edges are 32-neighbour moves (offsets (1,0), (1,1),
+(2,1), (3,1), (3,2) and their symmetries) allowed only when every cell the straight move
+crosses is navigable (line of sight), weighted by their 3-D length; plus seam links between
+layers. Its worst-case error against the Euclidean length of a free straight line is 1.3 %
+(largest angular gap 18.4°), versus 8 % for 8-connectivity. Fields come from
+`scipy.sparse.csgraph.dijkstra`, then Theta*-style any-angle smoothing of its tree
+(`any_angle`, compiled) brings them close to true Euclidean detours; point-to-point distances use the string-pulled path
+(greedy line-of-sight shortcutting), which is exact for polygonal detours up to the cell
+discretisation of the corners.
+"""
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+
+import numpy as np
+from numba import njit
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import dijkstra
+
+from rvn_data.navmesh.grid import NavGrid
+
+_MOVES = [(0, 1), (1, 0), (1, 1), (1, -1), (1, 2), (2, 1), (1, -2), (2, -1),
+          (1, 3), (3, 1), (1, -3), (3, -1), (2, 3), (3, 2), (2, -3), (3, -2)]
+_PAD = 3
+
+
+@lru_cache(maxsize=None)
+def crossed_cells(di: int, dj: int) -> tuple[tuple[int, int], ...]:
+    """Cells (other than the end points) touched by the segment between two cell centres."""
+    t = np.linspace(0.0, 1.0, 401)[1:-1]
+    n = np.array([-dj, di], float) / math.hypot(di, dj) * 1e-6
+    cells = set()
+    for s in (-1.0, 0.0, 1.0):
+        p = np.outer(t, [di, dj]) + s * n
+        cells.update(map(tuple, np.floor(p + 0.5).astype(int).tolist()))
+    cells -= {(0, 0), (di, dj)}
+    return tuple(sorted(cells))
+
+
+def build_graph(layers: list[NavGrid], offsets: np.ndarray, links: np.ndarray, max_climb: float):
+    """(csr graph over navigable cells, node id per packed cell (-1 elsewhere))."""
+    total = int(sum(g.free.size for g in layers))
+    node_of = np.full(total, -1, np.int64)
+    src, dst, w = [], [], []
+    count = 0
+    for g, off in zip(layers, offsets):
+        nav = g.island >= 0
+        flat = np.flatnonzero(nav.ravel())
+        node_of[off + flat] = count + np.arange(len(flat))
+        count += len(flat)
+        rows, cols = g.shape
+        pnav = np.pad(nav, _PAD)
+        pisl = np.pad(g.island, _PAD, constant_values=-1)
+        phgt = np.pad(np.nan_to_num(g.height.astype(np.float64), nan=0.0), _PAD)
+        pid = np.pad(node_of[off:off + g.free.size].reshape(rows, cols), _PAD, constant_values=-1)
+        sl = lambda di, dj: (slice(_PAD + di, _PAD + di + rows), slice(_PAD + dj, _PAD + dj + cols))
+        for di, dj in _MOVES:
+            ok = nav & pnav[sl(di, dj)] & (g.island == pisl[sl(di, dj)])
+            for ci, cj in crossed_cells(di, dj):
+                ok &= pnav[sl(ci, cj)]
+            dh = phgt[sl(di, dj)] - phgt[sl(0, 0)]
+            ok &= np.abs(dh) <= max_climb * max(abs(di), abs(dj)) + 1e-9
+            a = pid[sl(0, 0)][ok]
+            b = pid[sl(di, dj)][ok]
+            length = np.sqrt((di * di + dj * dj) * g.cs ** 2 + dh[ok] ** 2)
+            src += [a, b]
+            dst += [b, a]
+            w += [length, length]
+    for la, ra, ca, lb, rb, cb in links:
+        ga, gb = layers[la], layers[lb]
+        a = node_of[offsets[la] + ra * ga.shape[1] + ca]
+        b = node_of[offsets[lb] + rb * gb.shape[1] + cb]
+        if a >= 0 and b >= 0:
+            length = math.hypot(ga.cs, float(ga.height[ra, ca]) - float(gb.height[rb, cb]))
+            src += [np.array([a, b])]
+            dst += [np.array([b, a])]
+            w += [np.array([length, length])]
+    cat = lambda xs, dt: np.concatenate(xs).astype(dt) if xs else np.zeros(0, dt)
+    graph = csr_matrix((cat(w, np.float64), (cat(src, np.int64), cat(dst, np.int64))), shape=(count, count))
+    return graph, node_of
+
+
+def node_centres(layers: list[NavGrid], node_of: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """World centre [N, 3] of every graph node."""
+    out = np.zeros((int(node_of.max()) + 1 if len(node_of) else 0, 3))
+    for g, off in zip(layers, offsets):
+        ids = node_of[off:off + g.free.size].reshape(g.shape)
+        rr, cc = np.nonzero(ids >= 0)
+        out[ids[rr, cc]] = g.grid_to_world(np.stack([rr, cc], -1))
+    return out
+
+
+def node_cells(layers: list[NavGrid], node_of: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """(layer, row, col) int64 [N, 3] of every graph node."""
+    out = np.zeros((int(node_of.max()) + 1 if len(node_of) else 0, 3), np.int64)
+    for k, (g, off) in enumerate(zip(layers, offsets)):
+        ids = node_of[off:off + g.free.size].reshape(g.shape)
+        rr, cc = np.nonzero(ids >= 0)
+        out[ids[rr, cc]] = np.stack([np.full(len(rr), k), rr, cc], -1)
+    return out
+
+
+@njit(cache=True)
+def _visible(meta, clearance, island, k, i0, j0, i1, j1, r):
+    """Segment between grid points (i0, j0) and (i1, j1) of layer k (in cell units, centres at
+    integers) keeps a bilinear clearance >= r (sampled every half cell), i.e. stays navigable."""
+    n = int(2 * max(abs(i1 - i0), abs(j1 - j0))) + 1
+    rows, cols, off = meta[k, 2], meta[k, 3], meta[k, 4]
+    for s in range(1, n):
+        t = s / n
+        u = i0 + (i1 - i0) * t
+        v = j0 + (j1 - j0) * t
+        i = int(np.floor(u))
+        j = int(np.floor(v))
+        if i < 0 or j < 0 or i + 1 >= rows or j + 1 >= cols:
+            return False
+        fu = u - i
+        fv = v - j
+        c = ((1 - fu) * ((1 - fv) * clearance[off + i * cols + j] + fv * clearance[off + i * cols + j + 1])
+             + fu * ((1 - fv) * clearance[off + (i + 1) * cols + j] + fv * clearance[off + (i + 1) * cols + j + 1]))
+        if c < r:
+            return False
+    return True
+
+
+@njit(cache=True)
+def any_angle(dist, pred, source, cells, centres, meta, clearance, island, goal, gk, gi, gj, r):
+    """Theta*-style smoothing of a Dijkstra tree rooted at the goal point: visiting nodes by
+    increasing distance, a node takes its tree parent's any-angle parent (or the goal point
+    itself) when that one is in line of sight, so distances follow straight lines at any
+    angle instead of the 32 grid directions. (gk, gi, gj): goal layer and grid coordinates."""
+    n = dist.shape[0]
+    out = np.full(n, np.inf)
+    parent = np.full(n, -1, np.int64)  # -2: the goal point
+    if source < 0:
+        return out
+    order = np.argsort(dist)
+    for m in range(n):
+        v = order[m]
+        if not np.isfinite(dist[v]):
+            break
+        k = cells[v, 0]
+        if k == gk and _visible(meta, clearance, island, k, gi, gj, float(cells[v, 1]), float(cells[v, 2]), r):
+            out[v] = np.sqrt(((centres[v] - goal) ** 2).sum())
+            parent[v] = -2
+            continue
+        p = pred[v]
+        if p < 0:
+            out[v] = np.sqrt(((centres[v] - goal) ** 2).sum())
+            parent[v] = -2
+            continue
+        best = out[p] + np.sqrt(((centres[v] - centres[p]) ** 2).sum())
+        parent[v] = p
+        g = parent[p]
+        if g >= 0 and g != p and cells[g, 0] == k and _visible(
+                meta, clearance, island, k, float(cells[g, 1]), float(cells[g, 2]),
+                float(cells[v, 1]), float(cells[v, 2]), r):
+            d = out[g] + np.sqrt(((centres[v] - centres[g]) ** 2).sum())
+            if d <= best:
+                best = d
+                parent[v] = g
+        out[v] = best
+    return out
+
+
+def run_dijkstra(graph, source: int, predecessors: bool = False):
+    return dijkstra(graph, directed=True, indices=source, return_predecessors=predecessors)
+
+
+class GeodesicField:
+    """Geodesic distances (m) to one goal from everywhere on its island.
+
+    `distance(p)` takes a world point [3] (→ float) or points [N, 3] (→ float [N]) and
+    returns inf off the navmesh or on another island."""
+
+    def __init__(self, navmesh, goal: np.ndarray, values: np.ndarray):
+        self.navmesh = navmesh
+        self.goal = np.asarray(goal, dtype=np.float64)
+        self.values = values  # per graph node
+
+    def distance(self, p: np.ndarray) -> float | np.ndarray:
+        return self.navmesh._field_distance(self, p)

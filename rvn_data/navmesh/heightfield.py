@@ -1,0 +1,247 @@
+"""Conservative rasterisation of a triangle mesh into a span heightfield (Recast step 1-3).
+
+Every triangle is clipped against each grid cell it overlaps (Recast's `dividePoly`), so
+a 3 cm pillar or a thin table leg marks every cell it touches. A cell keeps a sorted list
+of solid spans [smin, smax] (in `cell_height` voxels above `y0`); overlapping spans merge
+with Recast's rule (the span whose top is highest decides walkability, walkable wins when
+the tops are within `max_climb`). Each span remembers the x/z bounding box of the
+non-walkable geometry clipped into its cell (sub-cell obstacle position, used by erosion).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+_EPS_VOXEL = 1e-4
+
+
+@njit(cache=True)
+def _divide(inp, n, out1, out2, offset, axis):
+    """Split polygon `inp[:n]` by the plane v[axis] = offset: out1 (<=), out2 (>=)."""
+    d = np.empty(n)
+    for i in range(n):
+        d[i] = offset - inp[i, axis]
+    m = 0
+    k = 0
+    j = n - 1
+    for i in range(n):
+        ina = d[i] >= 0.0
+        inb = d[j] >= 0.0
+        if ina != inb:
+            s = d[j] / (d[j] - d[i])
+            for c in range(3):
+                v = inp[j, c] + (inp[i, c] - inp[j, c]) * s
+                out1[m, c] = v
+                out2[k, c] = v
+            m += 1
+            k += 1
+            if d[i] > 0.0:
+                out1[m, :] = inp[i, :]
+                m += 1
+            elif d[i] < 0.0:
+                out2[k, :] = inp[i, :]
+                k += 1
+        else:
+            if d[i] >= 0.0:
+                out1[m, :] = inp[i, :]
+                m += 1
+            if d[i] <= 0.0:
+                out2[k, :] = inp[i, :]
+                k += 1
+        j = i
+    return m, k
+
+
+@njit(cache=True)
+def _rasterize(verts, faces, walk, x0, z0, cs, nx, nz, y0, ch, emit,
+               o_cell, o_smin, o_smax, o_walk, o_box):
+    """Clip every triangle to the cells it overlaps; count (emit=False) or write records."""
+    rest = np.empty((12, 3))
+    rest2 = np.empty((12, 3))
+    row = np.empty((12, 3))
+    rrest = np.empty((12, 3))
+    rrest2 = np.empty((12, 3))
+    cell = np.empty((12, 3))
+    count = 0
+    for t in range(faces.shape[0]):
+        zmin = 1e30
+        zmax = -1e30
+        for a in range(3):
+            for c in range(3):
+                rest[a, c] = verts[faces[t, a], c]
+            zmin = min(zmin, rest[a, 2])
+            zmax = max(zmax, rest[a, 2])
+        r0 = max(int(math.floor((zmin - z0) / cs)), 0)
+        r1 = min(int(math.floor((zmax - z0) / cs)), nz - 1)
+        nrest = 3
+        for r in range(r0, r1 + 1):
+            nrow, nr2 = _divide(rest, nrest, row, rest2, z0 + (r + 1) * cs, 2)
+            rest, rest2 = rest2, rest
+            nrest = nr2
+            if nrow < 3:
+                if nrest < 3:
+                    break
+                continue
+            xmin = 1e30
+            xmax = -1e30
+            for a in range(nrow):
+                xmin = min(xmin, row[a, 0])
+                xmax = max(xmax, row[a, 0])
+            c0 = max(int(math.floor((xmin - x0) / cs)), 0)
+            c1 = min(int(math.floor((xmax - x0) / cs)), nx - 1)
+            for a in range(nrow):
+                rrest[a, :] = row[a, :]
+            nrr = nrow
+            for col in range(c0, c1 + 1):
+                ncell, nrr2 = _divide(rrest, nrr, cell, rrest2, x0 + (col + 1) * cs, 0)
+                rrest, rrest2 = rrest2, rrest
+                nrr = nrr2
+                if ncell < 3:
+                    if nrr < 3:
+                        break
+                    continue
+                if emit:
+                    ylo = 1e30
+                    yhi = -1e30
+                    bx0 = 1e30
+                    bx1 = -1e30
+                    bz0 = 1e30
+                    bz1 = -1e30
+                    for a in range(ncell):
+                        ylo = min(ylo, cell[a, 1])
+                        yhi = max(yhi, cell[a, 1])
+                        bx0 = min(bx0, cell[a, 0])
+                        bx1 = max(bx1, cell[a, 0])
+                        bz0 = min(bz0, cell[a, 2])
+                        bz1 = max(bz1, cell[a, 2])
+                    smin = int(math.floor((ylo - y0) / ch + 1e-4))
+                    smax = int(math.ceil((yhi - y0) / ch - 1e-4))
+                    o_cell[count] = r * nx + col
+                    o_smin[count] = smin
+                    o_smax[count] = max(smax, smin)
+                    o_walk[count] = walk[t]
+                    o_box[count, 0] = bx0
+                    o_box[count, 1] = bx1
+                    o_box[count, 2] = bz0
+                    o_box[count, 3] = bz1
+                count += 1
+    return count
+
+
+@njit(cache=True)
+def _merge(cell, smin, smax, walk, box, ncells, climb):
+    """Merge sorted records into spans per cell; then Recast's low-hanging-obstacle filter."""
+    n = cell.shape[0]
+    start = np.zeros(ncells + 1, np.int64)
+    s_min = np.empty(n, np.int32)
+    s_max = np.empty(n, np.int32)
+    s_walk = np.empty(n, np.bool_)
+    s_box = np.full((n, 4), np.nan, np.float32)  # non-walkable geometry x0, x1, z0, z1
+    s_all = np.empty((n, 4), np.float32)  # all geometry
+    m = -1
+    prev_cell = -1
+    for i in range(n):
+        c = cell[i]
+        if c != prev_cell or smin[i] > s_max[m]:
+            m += 1
+            s_min[m] = smin[i]
+            s_max[m] = smax[i]
+            s_walk[m] = walk[i]
+            for q in range(4):
+                s_all[m, q] = box[i, q]
+            if not walk[i]:
+                for q in range(4):
+                    s_box[m, q] = box[i, q]
+            if c != prev_cell:
+                for cc in range(prev_cell + 1, c + 1):
+                    start[cc] = m
+                prev_cell = c
+            continue
+        if abs(smax[i] - s_max[m]) <= climb:
+            s_walk[m] = s_walk[m] or walk[i]
+        elif smax[i] > s_max[m]:
+            s_walk[m] = walk[i]
+        s_max[m] = max(s_max[m], smax[i])
+        s_all[m, 0] = min(s_all[m, 0], box[i, 0])
+        s_all[m, 1] = max(s_all[m, 1], box[i, 1])
+        s_all[m, 2] = min(s_all[m, 2], box[i, 2])
+        s_all[m, 3] = max(s_all[m, 3], box[i, 3])
+        if not walk[i]:
+            if np.isnan(s_box[m, 0]):
+                for q in range(4):
+                    s_box[m, q] = box[i, q]
+            else:
+                s_box[m, 0] = min(s_box[m, 0], box[i, 0])
+                s_box[m, 1] = max(s_box[m, 1], box[i, 1])
+                s_box[m, 2] = min(s_box[m, 2], box[i, 2])
+                s_box[m, 3] = max(s_box[m, 3], box[i, 3])
+    m += 1
+    for cc in range(prev_cell + 1, ncells + 1):
+        start[cc] = m
+    # Low-hanging obstacles: a non-walkable span whose top is within climb of the walkable
+    # span below it becomes walkable (curbs, stair nosings).
+    for c in range(ncells):
+        prev_walk = False
+        prev_top = 0
+        for k in range(start[c], start[c + 1]):
+            w = s_walk[k]
+            if not w and prev_walk and s_max[k] - prev_top <= climb:
+                s_walk[k] = True
+            prev_walk = w
+            prev_top = s_max[k]
+    return start, s_min[:m].copy(), s_max[:m].copy(), s_walk[:m].copy(), s_box[:m].copy(), s_all[:m].copy()
+
+
+@dataclass
+class Heightfield:
+    """Solid spans per grid cell. Cell (row, col) covers x in [x0 + col·cs, x0 + (col+1)·cs),
+    z in [z0 + row·cs, ...); span heights are voxels: y = y0 + v·ch."""
+
+    x0: float
+    z0: float
+    y0: float
+    cs: float
+    ch: float
+    nx: int
+    nz: int
+    start: np.ndarray  # int64 [nz*nx + 1], spans of cell c are start[c]:start[c+1]
+    smin: np.ndarray   # int32 [S]
+    smax: np.ndarray   # int32 [S]
+    walk: np.ndarray   # bool [S]
+    box: np.ndarray    # float32 [S, 4] non-walkable geometry bbox (x0, x1, z0, z1), NaN if none
+    allbox: np.ndarray  # float32 [S, 4] bbox of all geometry in the span
+
+
+def rasterize(vertices: np.ndarray, faces: np.ndarray, cs: float, ch: float,
+              max_slope_deg: float, max_climb: float) -> Heightfield:
+    """Rasterise a triangle soup (y up) conservatively into a span heightfield."""
+    v = np.ascontiguousarray(vertices, dtype=np.float64)
+    f = np.ascontiguousarray(faces, dtype=np.int64)
+    n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    norm = np.linalg.norm(n, axis=1)
+    walk = n[:, 1] > math.cos(math.radians(max_slope_deg)) * np.maximum(norm, 1e-30)
+    lo, hi = v.min(0), v.max(0)
+    x0 = math.floor(lo[0] / cs) * cs - cs
+    z0 = math.floor(lo[2] / cs) * cs - cs
+    y0 = math.floor(lo[1] / ch) * ch - ch
+    nx = int(math.ceil((hi[0] - x0) / cs)) + 2
+    nz = int(math.ceil((hi[2] - z0) / cs)) + 2
+    e_i = np.zeros(0, np.int64)
+    e_f = np.zeros((0, 4), np.float32)
+    e_s = np.zeros(0, np.int32)
+    e_b = np.zeros(0, np.bool_)
+    count = _rasterize(v, f, walk, x0, z0, cs, nx, nz, y0, ch, False, e_i, e_s, e_s, e_b, e_f)
+    o_cell = np.empty(count, np.int64)
+    o_smin = np.empty(count, np.int32)
+    o_smax = np.empty(count, np.int32)
+    o_walk = np.empty(count, np.bool_)
+    o_box = np.empty((count, 4), np.float32)
+    _rasterize(v, f, walk, x0, z0, cs, nx, nz, y0, ch, True, o_cell, o_smin, o_smax, o_walk, o_box)
+    order = np.lexsort((o_smax, o_smin, o_cell))
+    climb = int(math.floor(max_climb / ch + _EPS_VOXEL))
+    start, smin, smax, swalk, sbox, sall = _merge(
+        o_cell[order], o_smin[order], o_smax[order], o_walk[order], o_box[order], nx * nz, climb)
+    return Heightfield(x0, z0, y0, cs, ch, nx, nz, start, smin, smax, swalk, sbox, sall)

@@ -1,0 +1,64 @@
+"""Navigation-mesh build settings (Habitat/Recast semantics, reference §1)."""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, fields
+from typing import Any, Mapping
+
+
+@dataclass(frozen=True)
+class NavMeshSettings:
+    """How walkable surfaces are extracted from a scene mesh.
+
+    cell_size: horizontal grid cell (m); cell_height: vertical resolution of surface
+    heights (m); agent_radius: erosion radius (m); agent_height: clearance needed above a
+    surface (m); max_climb: largest step between neighbouring surfaces (m);
+    max_slope_deg: steepest walkable face; min_island_area: connected navigable islands
+    smaller than this (m²) are dropped.
+    """
+
+    cell_size: float = 0.05
+    cell_height: float = 0.01
+    agent_radius: float = 0.18
+    agent_height: float = 1.0
+    max_climb: float = 0.2
+    max_slope_deg: float = 45.0
+    min_island_area: float = 1.0
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ValueError(f"navmesh setting {f.name}={value!r} must be a finite number")
+            object.__setattr__(self, f.name, float(value))
+        for name in ("cell_size", "cell_height", "agent_height"):
+            if getattr(self, name) <= 0:
+                raise ValueError(f"navmesh setting {name}={getattr(self, name)!r} must be > 0")
+        for name in ("agent_radius", "max_climb", "min_island_area"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"navmesh setting {name}={getattr(self, name)!r} must be >= 0")
+        if not 0 < self.max_slope_deg < 90:
+            raise ValueError(f"navmesh setting max_slope_deg={self.max_slope_deg!r} must be in (0, 90)")
+        if self.cell_size > 1.0 or self.cell_height > 1.0:
+            raise ValueError(
+                f"navmesh settings cell_size={self.cell_size}, cell_height={self.cell_height} "
+                "are absurd (metres; expected about 0.05 and 0.01)")
+        if self.max_climb >= self.agent_height:
+            raise ValueError(
+                f"navmesh setting max_climb={self.max_climb} must be smaller than "
+                f"agent_height={self.agent_height}")
+
+    @classmethod
+    def from_config(cls, cfg: Mapping[str, Any] | None = None, **overrides: Any) -> "NavMeshSettings":
+        """Settings from a mapping (e.g. the Hydra `navmesh` group); unknown keys are an error."""
+        values = dict(cfg or {})
+        values.update(overrides)
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(values) - known)
+        if unknown:
+            raise ValueError(f"unknown navmesh setting(s) {unknown}; known: {sorted(known)}")
+        return cls(**{k: (float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else v)
+                      for k, v in values.items()})
+
+    def to_dict(self) -> dict[str, float]:
+        return asdict(self)

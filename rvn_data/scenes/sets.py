@@ -1,0 +1,71 @@
+"""Scene lists of a split: `scene_specs(source, split, ...)` → specs for `load_scene`.
+
+Sources: `procedural` (`procedural:<split>/<i>`; 800 train / 50 val / 50 test), `mesh_dir`
+(a directory of GLB/glTF/OBJ/PLY files, `<root>/<split>/` when it exists, or a text file
+listing paths), `list_file` (a text file listing paths; relative paths are relative to the
+file; blank lines and `#` comments ignored) and `hm3d` (`<root>/<split>/<NNNNN-id>/<id>.glb`).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+from rvn_data.scenes.hm3d import hm3d_scenes
+from rvn_data.scenes.mesh_file import SUFFIXES
+from rvn_data.scenes.scene import SceneError
+
+PROCEDURAL_SPLITS = {"train": 800, "val": 50, "test": 50}
+SOURCES = ("procedural", "mesh_dir", "list_file", "hm3d")
+
+
+def _list_file(path: Path) -> list[str]:
+    out = []
+    for line in path.read_text().splitlines():
+        line = line.split("#", 1)[0].strip()
+        if line:
+            p = Path(line).expanduser()
+            out.append(str(p if p.is_absolute() else path.parent / p))
+    if not out:
+        raise SceneError(f"scene list {str(path)!r} names no mesh files")
+    return out
+
+
+def _mesh_dir(root: Path, split: str) -> list[str]:
+    if root.is_file():
+        return _list_file(root)
+    if not root.is_dir():
+        raise SceneError(f"scene folder {str(root)!r} not found; set scenes.root to a folder of "
+                         "mesh files or a text file listing them")
+    base = root / split if (root / split).is_dir() else root
+    files = sorted(str(p) for p in base.iterdir() if p.is_file() and p.name.lower().endswith(SUFFIXES)
+                   and not p.name.lower().endswith(".basis.glb"))
+    if not files:
+        raise SceneError(f"no mesh files ({', '.join(SUFFIXES)}) in {str(base)!r}")
+    return files
+
+
+def scene_specs(source: str, split: str, root: str | Path | None = None,
+                num_scenes: int | None = None, first_scene: int = 0) -> list[str]:
+    """Specs (`procedural:<split>/<i>` or mesh paths) of a split, `first_scene` onward, at most
+    `num_scenes` of them (None: all)."""
+    if source not in SOURCES:
+        raise ValueError(f"scene source {source!r} unknown; use one of {list(SOURCES)}")
+    if first_scene < 0 or (num_scenes is not None and num_scenes < 0):
+        raise ValueError(f"first_scene={first_scene}, num_scenes={num_scenes} must be >= 0")
+    if source == "procedural":
+        if split not in PROCEDURAL_SPLITS:
+            raise ValueError(f"split {split!r} unknown; procedural splits are {list(PROCEDURAL_SPLITS)}")
+        specs = [f"procedural:{split}/{i}" for i in range(PROCEDURAL_SPLITS[split])]
+    else:
+        if root is None or str(root) in ("", "???"):
+            raise ValueError(f"scene source {source!r} needs a root (scenes.root=...)")
+        root = Path(root).expanduser()
+        if source == "hm3d":
+            specs = [str(p) for p in hm3d_scenes(root, split)]
+        elif source == "list_file":
+            if not root.is_file():
+                raise SceneError(f"scene list {str(root)!r} not found")
+            specs = _list_file(root)
+        else:
+            specs = _mesh_dir(root, split)
+    specs = specs[first_scene:]
+    return specs if num_scenes is None else specs[:num_scenes]

@@ -1,0 +1,46 @@
+"""Shared test helpers: analytic box scenes and the real scene shipped with the project."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from rvn_data.scenes.scene import Part, Scene
+
+DREAM_APARTMENT = Path("/work/shared/scenes/dream_apartment.glb")
+if not DREAM_APARTMENT.exists():
+    DREAM_APARTMENT = Path(__file__).resolve().parents[2] / "shared" / "scenes" / "dream_apartment.glb"
+
+
+def box_scene(boxes, name: str = "test") -> Scene:
+    """A Scene of axis-aligned boxes given as (min xyz, max xyz) pairs, one part."""
+    mesh = trimesh.util.concatenate([trimesh.creation.box(bounds=[lo, hi]) for lo, hi in boxes])
+    return Scene(name, [Part("boxes", mesh.vertices, mesh.faces)], source="test")
+
+
+def room_boxes(x: float = 4.0, z: float = 4.0, wall: float = 0.1, height: float = 2.5,
+               origin=(0.0, 0.0)) -> list:
+    """Floor (top at y=0) and four walls enclosing the interior [ox, ox+x] × [oz, oz+z]."""
+    ox, oz = origin
+    w = wall
+    return [
+        ((ox - w, -0.1, oz - w), (ox + x + w, 0.0, oz + z + w)),
+        ((ox - w, 0.0, oz - w), (ox, height, oz + z + w)),
+        ((ox + x, 0.0, oz - w), (ox + x + w, height, oz + z + w)),
+        ((ox - w, 0.0, oz - w), (ox + x + w, height, oz)),
+        ((ox - w, 0.0, oz + z), (ox + x + w, height, oz + z + w)),
+    ]
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    return np.random.default_rng(0)
+
+
+@pytest.fixture(scope="session")
+def dream_path() -> Path:
+    if not DREAM_APARTMENT.exists():
+        pytest.skip(f"{DREAM_APARTMENT} not available")
+    return DREAM_APARTMENT

@@ -1,0 +1,120 @@
+"""Mesh files (GLB/OBJ/PLY), up-axis / unit / levelling options, scene lists, HM3D layout."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import trimesh
+from PIL import Image
+
+from conftest import box_scene, room_boxes
+from rvn_data.navmesh import NavMesh
+from rvn_data.scenes import NEUTRAL_GREY, SceneError, load_mesh_file, load_scene, scene_specs
+from rvn_data.scenes import mesh_file
+
+
+def _room_mesh() -> trimesh.Trimesh:
+    v, f = box_scene(room_boxes(3.0, 3.0)).triangles()
+    return trimesh.Trimesh(v.astype(np.float64), f, process=False)
+
+
+def test_dream_apartment_materials(dream_path):
+    scene = load_scene(dream_path)
+    assert scene.scene_id == "dream_apartment" and scene.num_triangles == 177_934
+    assert len(scene.parts) == 67 and all(p.texture is None for p in scene.parts)
+    assert len({p.base_color for p in scene.parts}) > 10
+    lo, hi = scene.bounds
+    assert hi[1] - lo[1] == pytest.approx(2.78, abs=0.02)
+
+
+def test_z_up_millimetres_round_trip(tmp_path):
+    mesh = _room_mesh()
+    zup = mesh.copy()
+    zup.vertices = np.stack([mesh.vertices[:, 0], -mesh.vertices[:, 2], mesh.vertices[:, 1]], 1) * 1000.0
+    zup.export(tmp_path / "room_zup_mm.glb")
+    scene = load_mesh_file(tmp_path / "room_zup_mm.glb", up_axis="z", unit_scale=0.001)
+    v, f = scene.triangles()
+    assert np.allclose(v, mesh.vertices, atol=1e-4)
+    assert np.array_equal(f, mesh.faces)  # a proper rotation keeps the winding
+    nm = NavMesh.build(scene)
+    assert nm.navigable_area == pytest.approx((3 - 0.36) ** 2, rel=0.02)
+
+
+def test_level_rotates_tilted_floor(tmp_path):
+    mesh = _room_mesh()
+    mesh.apply_transform(trimesh.transformations.rotation_matrix(math.radians(8), [1, 0, 0]))
+    mesh.export(tmp_path / "tilted.ply")
+    scene = load_mesh_file(tmp_path / "tilted.ply", level=True)
+    v, _ = scene.triangles()
+    floor = v[v[:, 1] < v[:, 1].min() + 0.2]
+    assert np.ptp(floor[:, 1]) < 0.11  # the floor box is 0.1 m thick: flat again
+    assert NavMesh.build(scene).navigable_area == pytest.approx((3 - 0.36) ** 2, rel=0.03)
+
+
+def test_texture_uv_and_grey_default(tmp_path):
+    tex = np.zeros((8, 4, 3), np.uint8)
+    tex[:4] = (255, 0, 0)  # top half red
+    plane = trimesh.creation.box(extents=[1, 0.1, 1])
+    uv = np.tile([[0.5, 0.9]], (len(plane.vertices), 1))
+    mat = trimesh.visual.material.PBRMaterial(name="painted", baseColorTexture=Image.fromarray(tex),
+                                              baseColorFactor=[255, 255, 255, 255])
+    plane.visual = trimesh.visual.TextureVisuals(uv=uv, material=mat)
+    bare = trimesh.creation.box(extents=[1, 1, 1])
+    bare.apply_translation([3, 0, 0])
+    trimesh.Scene([plane, bare]).export(tmp_path / "tex.glb")
+    scene = load_mesh_file(tmp_path / "tex.glb")
+    by_name = {p.name: p for p in scene.parts}
+    painted = by_name["painted"]
+    assert painted.texture.shape == (8, 4, 3) and painted.texture.dtype == np.uint8
+    assert tuple(painted.texture[0, 0]) == (255, 0, 0)  # row 0 is the image top
+    assert np.allclose(painted.uv, [0.5, 0.9], atol=1e-6)  # v = 0.9 samples the top half
+    others = [p for p in scene.parts if p is not painted]
+    assert len(others) == 1 and others[0].texture is None
+    assert others[0].base_color == pytest.approx(NEUTRAL_GREY, abs=0.01) or others[0].colors is not None
+
+
+def test_undecodable_texture_warns_and_falls_back():
+    class Broken:
+        def convert(self, mode):
+            raise OSError("truncated PNG")
+
+    with pytest.warns(UserWarning, match="'marble'.*base colour"):
+        assert mesh_file._texture(Broken(), "marble") is None
+
+
+def test_missing_and_unreadable_files(tmp_path):
+    with pytest.raises(SceneError, match="nope.glb.*not found"):
+        load_scene(tmp_path / "nope.glb")
+    bad = tmp_path / "garbage.glb"
+    bad.write_bytes(b"this is not a glb file")
+    with pytest.raises(SceneError, match="garbage.glb"):
+        load_scene(bad)
+    with pytest.raises(SceneError, match="procedural:<split>/<index>"):
+        load_scene("procedural:train")
+
+
+def test_scene_specs(tmp_path):
+    assert len(scene_specs("procedural", "train")) == 800
+    assert scene_specs("procedural", "test", num_scenes=2, first_scene=48) == ["procedural:test/48", "procedural:test/49"]
+    assert len(scene_specs("procedural", "val")) == 50
+    (tmp_path / "meshes" / "val").mkdir(parents=True)
+    for name in ("b.glb", "a.obj", "notes.txt"):
+        (tmp_path / "meshes" / "val" / name).write_text("x")
+    assert [s.split("/")[-1] for s in scene_specs("mesh_dir", "val", root=tmp_path / "meshes")] == ["a.obj", "b.glb"]
+    listing = tmp_path / "list.txt"
+    listing.write_text("# scenes\nmeshes/val/b.glb\n\n/abs/c.ply\n")
+    assert scene_specs("mesh_dir", "train", root=listing) == [str(tmp_path / "meshes/val/b.glb"), "/abs/c.ply"]
+    assert scene_specs("list_file", "train", root=listing)[1] == "/abs/c.ply"
+    for sid, files in (("00800-TEEsavR23oF", ["TEEsavR23oF.basis.glb", "TEEsavR23oF.glb"]),
+                       ("00801-HaxA7YrQdEC", ["HaxA7YrQdEC.basis.glb", "HaxA7YrQdEC.basis.navmesh"])):
+        d = tmp_path / "hm3d" / "val" / sid
+        d.mkdir(parents=True)
+        for f in files:
+            (d / f).write_text("x")
+    specs = scene_specs("hm3d", "val", root=tmp_path / "hm3d")
+    assert [s.split("/")[-1] for s in specs] == ["TEEsavR23oF.glb", "HaxA7YrQdEC.basis.glb"]
+    with pytest.raises(SceneError, match="train"):
+        scene_specs("hm3d", "train", root=tmp_path / "hm3d")
+    with pytest.raises(ValueError, match="needs a root"):
+        scene_specs("mesh_dir", "train")

@@ -1,0 +1,172 @@
+"""Navigation mesh on analytic box scenes (areas, gaps, layers, steps, geodesics) and on
+the real dream_apartment scene."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from conftest import box_scene, room_boxes
+from rvn_data.navmesh import NavMesh, NavMeshSettings
+from rvn_data.scenes import Part, Scene, SceneError, load_scene
+
+R = 0.18
+
+
+@pytest.mark.parametrize("origin", [(0.0, 0.0), (0.013, 0.031)])
+def test_empty_room_area(origin):
+    nm = NavMesh.build(box_scene(room_boxes(origin=origin)))
+    assert nm.island_areas == pytest.approx([(4 - 2 * R) ** 2], rel=0.02)
+    ox, oz = origin
+    assert nm.is_navigable(np.array([ox + 2.0, 0.0, oz + 2.0]))
+    assert nm.is_navigable(np.array([ox + R + 0.01, 0.0, oz + 2.0]))
+    assert not nm.is_navigable(np.array([ox + R - 0.01, 0.0, oz + 2.0]))
+    assert nm.floor_height(np.array([ox + 2.0, 0.3, oz + 2.0])) == pytest.approx(0.0, abs=0.011)
+
+
+def _gap_scene(gap: float):
+    """4 x 2 m room split by a wall at x = 2 with a doorway of width `gap` centred at z = 1."""
+    boxes = room_boxes(4.0, 2.0)
+    boxes += [((1.95, 0, 0), (2.05, 2.5, 1 - gap / 2)), ((1.95, 0, 1 + gap / 2), (2.05, 2.5, 2))]
+    return NavMesh.build(box_scene(boxes, f"gap{gap}"))
+
+
+def test_gap_030_impassable_050_passable():
+    a, b = np.array([1.0, 0, 1.0]), np.array([3.0, 0, 1.0])
+    narrow = _gap_scene(0.30)
+    assert narrow.island_of(a) >= 0 and narrow.island_of(b) >= 0
+    assert narrow.island_of(a) != narrow.island_of(b)
+    assert narrow.geodesic_distance(a, b) == math.inf
+    wide = _gap_scene(0.50)
+    assert wide.island_of(a) == wide.island_of(b) == 0
+    assert wide.geodesic_distance(a, b) == pytest.approx(2.0, rel=0.01)
+
+
+def test_low_table_blocks_high_overhang_does_not():
+    table = [((1.0, 0.67, 1.0), (2.0, 0.70, 2.0))] + [  # top and four 4 cm legs
+        ((x, 0, z), (x + 0.04, 0.67, z + 0.04)) for x in (1.0, 1.96) for z in (1.0, 1.96)]
+    shelf = [((2.5, 1.2, 1.0), (3.5, 1.25, 2.0))]  # overhang held by nothing below 1.2 m
+    nm = NavMesh.build(box_scene(room_boxes() + table + shelf))
+    assert not nm.is_navigable(np.array([1.5, 0.0, 1.5]))  # under the table
+    assert not nm.is_navigable(np.array([1.0 - R + 0.02, 0.0, 1.5]))  # closer than r to the top
+    assert nm.is_navigable(np.array([1.0 - R - 0.02, 0.0, 1.5]))
+    assert nm.is_navigable(np.array([3.0, 0.0, 1.5]))  # under the 1.2 m overhang
+    assert nm.island_areas[0] == pytest.approx((4 - 2 * R) ** 2 - (1 + 2 * R) ** 2 + (4 - math.pi) * R ** 2,
+                                               rel=0.02)
+
+
+def test_thin_pillar_blocks_its_cells():
+    pillar = [((2.011, 0, 2.011), (2.041, 2.5, 2.041))]  # 3 cm, off the cell grid
+    nm = NavMesh.build(box_scene(room_boxes() + pillar))
+    c = np.array([2.026, 0.0, 2.026])
+    for ang in np.linspace(0, 2 * math.pi, 12, endpoint=False):
+        d = np.array([math.cos(ang), 0, math.sin(ang)])
+        assert not nm.is_navigable(c + d * (0.015 + R - 0.02))
+        assert nm.is_navigable(c + d * (0.015 * math.sqrt(2) + R + 0.02))
+
+
+def test_geodesic_detour_around_wall():
+    wall = [((1.95, 0, 0), (2.05, 2.5, 3.0))]  # from the z = 0 wall up to z = 3, 1 m gap
+    nm = NavMesh.build(box_scene(room_boxes() + wall))
+    a, b = np.array([1.0, 0, 1.0]), np.array([3.0, 0, 1.0])
+    # analytic: tangents from a and b to the margin circles (radius R) around the wall end
+    c1 = np.array([1.95, 3.0])
+    d1 = np.hypot(*(np.array([1.0, 1.0]) - c1))
+    tangent = math.sqrt(d1 ** 2 - R ** 2)
+    phi_a = math.atan2(1.0 - 3.0, 1.0 - 1.95)
+    t_ang = phi_a - math.acos(R / d1)  # tangent point on the far side of the circle
+    arc = R * abs(((t_ang - math.pi / 2) + math.pi) % (2 * math.pi) - math.pi)
+    analytic = 2 * tangent + 2 * arc + 0.1
+    geo = nm.geodesic_distance(a, b)
+    assert geo > np.linalg.norm(a - b) + 1.0
+    assert geo == pytest.approx(analytic, rel=0.03)
+    field = nm.distance_field(b)
+    assert field.distance(a) == pytest.approx(analytic, rel=0.03)
+    assert field.distance(b) == pytest.approx(0.0, abs=1e-9)
+    assert field.distance(np.stack([a, b])).shape == (2,)
+    path = nm.shortest_path(a, b)
+    assert np.allclose(path[0], a) and np.allclose(path[-1], b)
+    assert all(nm.is_navigable(p) for p in path)
+
+
+def test_step_015_climbable_030_not():
+    for h, same in ((0.15, True), (0.30, False)):
+        step = [((2.0, 0, 0), (4.0, h, 4.0))]
+        nm = NavMesh.build(box_scene(room_boxes() + step))
+        lo, hi = np.array([1.0, 0, 2.0]), np.array([3.0, h, 2.0])
+        assert nm.is_navigable(lo) and nm.is_navigable(hi)
+        assert (nm.island_of(lo) == nm.island_of(hi)) is same
+        assert nm.floor_height(hi) == pytest.approx(h, abs=0.011)
+        assert math.isfinite(nm.geodesic_distance(lo, hi)) is same
+
+
+def test_second_storey_is_its_own_surface():
+    upper = [((0.5, 2.9, 0.5), (3.5, 3.0, 3.5))]  # a slab 3 m up, over the room
+    nm = NavMesh.build(box_scene(room_boxes(height=2.5) + upper))
+    down, up = np.array([2.0, 0.0, 2.0]), np.array([2.0, 3.0, 2.0])
+    assert nm.is_navigable(down) and nm.is_navigable(up)
+    assert nm.island_of(down) != nm.island_of(up)
+    assert nm.floor_height(up) == pytest.approx(3.0, abs=0.011)
+    assert nm.floor_height(down) == pytest.approx(0.0, abs=0.011)
+    assert len(nm.layers) == 2
+
+
+def test_sample_snap_grid(rng):
+    nm = NavMesh.build(box_scene(room_boxes()))
+    pts = np.stack([nm.sample(rng) for _ in range(50)])
+    assert nm.is_navigable(pts).all()
+    again = np.stack([nm.sample(np.random.default_rng(0)) for _ in range(1)])
+    assert np.array_equal(again[0], pts[0])
+    snapped = nm.snap(np.array([0.05, 0.4, 2.0]))
+    assert nm.is_navigable(snapped) and snapped[0] == pytest.approx(R, abs=0.01)
+    assert np.isnan(nm.snap(np.array([20.0, 0.0, 20.0]))).all()
+    g = nm.grid(0)
+    rc = g.world_to_grid(np.array([2.0, 0.0, 2.0]))
+    assert g.navigable[rc[0], rc[1]]
+    assert np.allclose(g.grid_to_world(rc)[[0, 2]], 2.0, atol=g.cs)
+    assert g.occupancy(0.1).sum() > g.occupancy(0.3).sum() > 0
+    with pytest.raises(ValueError, match="island"):
+        nm.sample(rng, island=3)
+
+
+def test_bad_input_errors():
+    with pytest.raises(ValueError, match="agent_radius"):
+        NavMeshSettings(agent_radius=-0.1)
+    with pytest.raises(ValueError, match="cell_size"):
+        NavMeshSettings(cell_size=0)
+    quad = np.array([[0, 0, 0], [0, 0, 3], [0, 2, 3], [0, 2, 0]], float)  # one vertical wall
+    wall_only = Scene("wall-only", [Part("wall", quad, [[0, 1, 2], [0, 2, 3]])])
+    with pytest.raises(SceneError, match="wall-only.*no walkable surface"):
+        NavMesh.build(wall_only, NavMeshSettings())
+    with pytest.raises(SceneError, match="tiny.*island"):
+        NavMesh.build(box_scene(room_boxes(0.8, 0.8), "tiny"))
+
+
+def test_dream_apartment(dream_path):
+    scene = load_scene(dream_path)
+    nm = NavMesh.build(scene)
+    assert 15.0 <= nm.navigable_area <= 30.0
+    assert nm.island_areas == sorted(nm.island_areas, reverse=True)
+    main = nm.grid(0)
+    rows, cols = np.nonzero(main.island == 0)
+    pts = main.grid_to_world(np.stack([rows, cols], -1))
+    assert pts[:, 0].min() > 4.0  # the stray meshes float near x = 0.5
+    assert np.nanmax(np.abs(pts[:, 1])) < 0.05  # the floor, not a wall top
+
+
+def test_stairs_to_an_upper_floor_over_the_lower_one():
+    boxes = room_boxes(8.0, 4.0, height=5.0)
+    boxes += [((1.0 + 0.25 * k, 0, 0), (1.25 + 0.25 * k, 0.15 * (k + 1), 1.2)) for k in range(16)]
+    boxes += [((5.0, 2.3, 0), (8.0, 2.4, 4.0))]  # upper floor reached by the stairs
+    nm = NavMesh.build(box_scene(boxes, "two-storey"))
+    low, under, up = np.array([0.5, 0, 3.0]), np.array([6.5, 0, 2.0]), np.array([6.5, 2.4, 2.0])
+    assert nm.island_of(low) == nm.island_of(under) == nm.island_of(up) == 0
+    assert nm.floor_height(up) == pytest.approx(2.4, abs=0.011)
+    assert nm.floor_height(under) == pytest.approx(0.0, abs=0.011)
+    geo = nm.geodesic_distance(low, up)
+    assert geo > 4.0 + 2.0  # must climb the 4 m stairs, cannot go straight
+    assert nm.distance_field(up).distance(low) == pytest.approx(geo, rel=0.03)
+    assert nm.geodesic_distance(low, under) == pytest.approx(np.hypot(6.0, 1.0), rel=0.01)
+    path = nm.shortest_path(low, up)
+    assert (np.diff(path[:, 1]) >= -0.011).all() and path[-1, 1] == pytest.approx(2.4, abs=0.011)
