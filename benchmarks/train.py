@@ -1,0 +1,114 @@
+"""Figures of issue 6 (rvn-train): loader samples/s from the packed cache (2 workers),
+training samples/s on CPU per model (full size, batch 8; small size, batch 32), and
+per-decision latency on CPU of the ViNT, NoMaD (8 samples x 10 steps) and NoMaD-Neg (2 x 8)
+policies. Goals: loader >= 2,000 samples/s; a NoMaD decision <= 100 ms.
+
+    python benchmarks/train.py [--threads N] [--workers 2] [--quick]
+
+Runs on a synthetic GNM dataset written to a temporary folder; random-init weights (speed
+does not depend on them). The machine is shared: numbers are as measured.
+"""
+from __future__ import annotations
+
+import argparse
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+from torch.utils.data import BatchSampler, DataLoader
+
+from rvn_data.conventions import AgentConfig
+from rvn_il.data import BatchView, EpochSampler, make_dataset
+from rvn_il.data.synthetic import render_frame, write_synthetic_gnm
+from rvn_il.models import build_model, load_model_config
+from rvn_il.policies import ControlConfig, Member, NoMaDNegPolicy, PointGoalPolicy
+
+
+def loader_rate(root: Path, cfg: dict, workers: int, batch: int, batches: int) -> float:
+    ds = make_dataset(root, cfg, {"progress": False})
+    sampler = BatchSampler(EpochSampler(len(ds)), batch, drop_last=True)
+    dl = DataLoader(BatchView(ds), batch_size=None, sampler=sampler, num_workers=workers,
+                    persistent_workers=workers > 0, prefetch_factor=4 if workers else None)
+    it = iter(dl)
+    next(it)
+    t, n = time.perf_counter(), 0
+    for _ in range(batches):
+        n += len(next(it)["distance"])
+    rate = n / (time.perf_counter() - t)
+    del it, dl
+    return rate
+
+
+def train_rate(root: Path, cfg: dict, batch: int, steps: int) -> float:
+    ds = make_dataset(root, cfg, {"progress": False})
+    torch.manual_seed(0)
+    model = build_model(cfg).train()
+    opt = torch.optim.AdamW(model.parameters(), lr=1e-4)
+    gen = torch.Generator().manual_seed(0)
+    times = []
+    for s in range(steps + 1):
+        b = ds.get_batch(range(s * batch, (s + 1) * batch))
+        t = time.perf_counter()
+        loss = model(b, gen)["loss"]
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+        times.append(time.perf_counter() - t)
+    return batch / statistics.median(times[1:])
+
+
+def decision_ms(name: str, size: str, decisions: int) -> float:
+    cfg = load_model_config("nomad_pointgoal" if name == "nomad_neg" else name, size)
+    ctrl = ControlConfig.from_agent(AgentConfig())
+    torch.manual_seed(0)
+    members = [Member(build_model(cfg).eval(), 0.25) for _ in range(2 if name == "nomad_neg" else 1)]
+    policy = (NoMaDNegPolicy(members, ctrl, 8) if name == "nomad_neg"
+              else PointGoalPolicy(members, ctrl, 1 if name == "vint_pointgoal" else 8))
+    frames = [render_frame(np.array([0.25 * t, 0.0]), 0.05 * t, 256) for t in range(decisions + 3)]
+    policy.reset()
+    times = []
+    for f in frames:
+        t = time.perf_counter()
+        policy.act({"rgb": f, "pointgoal": np.array([4.0, 1.0], np.float32)})
+        times.append(time.perf_counter() - t)
+    return 1e3 * statistics.median(times[3:])
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--threads", type=int, default=1,
+                    help="torch intra-op threads (default 1: on a shared machine more threads spin-wait on each other)")
+    ap.add_argument("--workers", type=int, default=2, help="DataLoader workers for the loader figure")
+    ap.add_argument("--quick", action="store_true", help="fewer repetitions")
+    args = ap.parse_args()
+    torch.set_num_threads(args.threads)
+    reps = 3 if args.quick else 10
+    print(f"torch {torch.__version__}, {args.threads} thread(s), loader workers {args.workers}")
+    with tempfile.TemporaryDirectory() as tmp:
+        root = write_synthetic_gnm(Path(tmp) / "expert", 40, 40, image_size=256)
+        print("\nloader (packed HDF5 cache, batch 256):")
+        for name in ("vint_pointgoal", "nomad_pointgoal"):
+            cfg = load_model_config(name)
+            w, h = cfg["image_size"]
+            rate = loader_rate(root, cfg, args.workers, 256, reps)
+            print(f"  {name:16s} {w}x{h}, {cfg['context_size'] + 1} frames: {rate:8.0f} samples/s  (goal >= 2000)")
+        print("\ntraining on CPU (forward + backward + AdamW):")
+        for name in ("vint_pointgoal", "nomad_pointgoal"):
+            for size, batch in (("full", 8), ("small", 32)):
+                rate = train_rate(root, load_model_config(name, size), batch, reps)
+                print(f"  {name:16s} {size:5s} batch {batch:3d}: {rate:8.1f} samples/s")
+        print("  (nomad_neg trains two nomad_pointgoal models one after the other: half the nomad rate)")
+    print("\nper-decision latency on CPU (256x256 frame -> action; median):")
+    for name, what in (("vint_pointgoal", "1 pass"), ("nomad_pointgoal", "8 samples x 10 steps"),
+                       ("nomad_neg", "2 x 8 samples x 10 steps")):
+        for size in ("full", "small"):
+            ms = decision_ms(name, size, reps * 2)
+            goal = "  (goal <= 100 ms)" if name == "nomad_pointgoal" and size == "full" else ""
+            print(f"  {name:16s} {size:5s} {what:26s}: {ms:7.1f} ms{goal}")
+
+
+if __name__ == "__main__":
+    main()

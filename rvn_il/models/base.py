@@ -1,0 +1,61 @@
+"""Common trunk of the point-goal models: observation tokens from EfficientNet-B0, a goal token
+from a two-layer MLP, sinusoidal positions and a pre-norm Transformer.
+
+Contract used by training and policies:
+- ``encode_frames(images [N,3,H,W] in [0,1]) -> [N, D]`` (per frame, so a policy caches it);
+- ``forward(batch, generator=None) -> dict`` of scalar losses (``loss`` is optimised);
+- ``predict(tokens [B,C+1,D], goal [B,2], num_samples, generator) -> [B,S,len_traj_pred,2]``
+  waypoints in units of metric_waypoint_spacing, robot frame (x forward, y left).
+"""
+from __future__ import annotations
+
+from typing import Mapping
+
+import torch
+from torch import nn
+
+from .encoders import GoalMLP, ObsEncoder, PositionalEncoding, make_transformer
+
+
+class PointGoalModel(nn.Module):
+    name = "base"
+
+    def __init__(self, cfg: Mapping, group_norm: bool):
+        super().__init__()
+        self.cfg = dict(cfg)
+        self.context_size = int(cfg["context_size"])
+        self.len_traj_pred = int(cfg["len_traj_pred"])
+        self.image_size = tuple(int(v) for v in cfg["image_size"])  # (W, H)
+        d = int(cfg["encoding_size"])
+        self.encoding_size = d
+        self.obs_encoder = ObsEncoder(d, self.image_size, cfg.get("width_coefficient", 1.0),
+                                      cfg.get("depth_coefficient", 1.0), group_norm, cfg.get("imagenet_weights"))
+        self.goal_encoder = GoalMLP(d)
+        self.positional_encoding = PositionalEncoding(d, self.context_size + 2)
+        self.transformer = make_transformer(d, int(cfg["num_heads"]), int(cfg["num_layers"]),
+                                            int(cfg["ff_dim_factor"]), float(cfg["dropout"]))
+
+    def encode_frames(self, images: torch.Tensor) -> torch.Tensor:
+        return self.obs_encoder(images)
+
+    def batch_tokens(self, obs_image: torch.Tensor) -> torch.Tensor:
+        """obs_image [B,C+1,3,H,W] → tokens [B,C+1,D] (all frames through the encoder at once)."""
+        b, n = obs_image.shape[:2]
+        if n != self.context_size + 1:
+            raise ValueError(f"{self.name}: obs_image has {n} frames, expected context_size+1 = {self.context_size + 1}")
+        return self.encode_frames(obs_image.flatten(0, 1)).view(b, n, -1)
+
+    def sequence(self, tokens: torch.Tensor, goal: torch.Tensor, goal_mask: torch.Tensor | None = None) -> torch.Tensor:
+        """Transformer over [obs tokens..., goal token] → [B, C+2, D]; masked goals are hidden keys."""
+        x = torch.cat([tokens, self.goal_encoder(goal).unsqueeze(1)], dim=1)
+        x = self.positional_encoding(x)
+        kpm = None
+        if goal_mask is not None:
+            kpm = torch.zeros(x.shape[:2], dtype=torch.bool, device=x.device)
+            kpm[:, -1] = goal_mask > 0.5
+        return self.transformer(x, src_key_padding_mask=kpm)
+
+
+def masked_mean(loss: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+    """visualnav-transformer's reduction: per-sample loss [B] → mean(loss·mask)/(mean(mask)+1e-2)."""
+    return (loss * mask).mean() / (mask.mean() + 1e-2)

@@ -1,0 +1,121 @@
+"""Checkpoint directory of ``rvn-train`` (everything a policy needs, nothing else):
+
+    <out_dir>/config.yaml                     resolved config (model, data, train, agent)
+    <out_dir>/<member>/latest                 name of the newest complete checkpoint
+    <out_dir>/<member>/ckpt_<step>/weights.safetensors   raw weights
+                                  ema.safetensors       EMA weights (NoMaD; used for inference)
+                                  stats.json            normalisation statistics + model name
+                                  state.pt              optimizer/scheduler/EMA/step/RNG (resume)
+
+``member`` is ``model`` for one network, ``expert`` and ``negative`` for NoMaD-Neg. A
+checkpoint folder is filled under a temporary name and renamed, then ``latest`` is replaced:
+an interrupted save leaves the previous checkpoint intact.
+"""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from pathlib import Path
+from typing import Any, Mapping
+
+import torch
+import yaml
+from safetensors.torch import load_file, save_file
+
+
+def members_of(model_name: str) -> list[str]:
+    return ["expert", "negative"] if model_name == "nomad_neg" else ["model"]
+
+
+def atomic_write_text(path: Path, text: str) -> None:
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+
+
+def write_config(out_dir: Path, cfg: Mapping) -> None:
+    out_dir.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(out_dir / "config.yaml", yaml.safe_dump(dict(cfg), sort_keys=False))
+
+
+def read_config(out_dir: str | Path) -> dict:
+    path = Path(out_dir) / "config.yaml"
+    if not path.is_file():
+        raise ValueError(f"{out_dir} is not an rvn-train checkpoint directory (no config.yaml); pass the out_dir of rvn-train")
+    try:
+        cfg = yaml.safe_load(path.read_text())
+        cfg["model"]["name"]
+    except (yaml.YAMLError, TypeError, KeyError) as e:
+        raise ValueError(f"corrupt checkpoint config {path} ({type(e).__name__}: {e})") from None
+    return cfg
+
+
+def save_checkpoint(member_dir: Path, step: int, weights: Mapping[str, torch.Tensor], stats: Mapping[str, Any],
+                    state: Mapping[str, Any], ema: Mapping[str, torch.Tensor] | None = None, keep: int = 2) -> Path:
+    """Write ``ckpt_<step>`` atomically, point ``latest`` at it, keep the newest ``keep``."""
+    member_dir.mkdir(parents=True, exist_ok=True)
+    name = f"ckpt_{step:08d}"
+    tmp = member_dir / f".{name}.tmp-{os.getpid()}"
+    shutil.rmtree(tmp, ignore_errors=True)
+    tmp.mkdir()
+    meta = {"model": str(stats["model"]), "step": str(step)}
+    save_file({k: v.detach().cpu().contiguous() for k, v in weights.items()}, str(tmp / "weights.safetensors"), metadata=meta)
+    if ema is not None:
+        save_file({k: v.detach().cpu().contiguous() for k, v in ema.items()}, str(tmp / "ema.safetensors"), metadata=meta)
+    (tmp / "stats.json").write_text(json.dumps(dict(stats), indent=1))
+    torch.save(dict(state), tmp / "state.pt")
+    final = member_dir / name
+    if final.exists():
+        shutil.rmtree(final)
+    os.replace(tmp, final)
+    atomic_write_text(member_dir / "latest", name + "\n")
+    others = sorted(p for p in member_dir.glob("ckpt_*") if p.is_dir() and p != final)
+    for p in others[:max(0, len(others) - (max(1, keep) - 1))]:
+        shutil.rmtree(p, ignore_errors=True)
+    return final
+
+
+def latest_checkpoint(member_dir: Path) -> Path | None:
+    """The newest complete checkpoint folder of a member, or None."""
+    pointer = member_dir / "latest"
+    if not pointer.is_file():
+        return None
+    path = member_dir / pointer.read_text().strip()
+    if not (path / "weights.safetensors").is_file():
+        raise ValueError(f"checkpoint {path} named by {pointer} is missing or incomplete; delete {member_dir} to start over")
+    return path
+
+
+def read_stats(ckpt: Path) -> dict:
+    try:
+        return json.loads((ckpt / "stats.json").read_text())
+    except (OSError, json.JSONDecodeError) as e:
+        raise ValueError(f"corrupt checkpoint statistics {ckpt / 'stats.json'} ({e})") from None
+
+
+def read_weights(ckpt: Path, expected_model: str, prefer_ema: bool = True) -> dict[str, torch.Tensor]:
+    """Inference weights (EMA if present) after checking the checkpoint holds ``expected_model``."""
+    stats = read_stats(ckpt)
+    if stats.get("model") != expected_model:
+        raise ValueError(f"checkpoint {ckpt} holds a {stats.get('model')!r} model, not {expected_model!r}")
+    path = ckpt / "ema.safetensors"
+    if not (prefer_ema and path.is_file()):
+        path = ckpt / "weights.safetensors"
+    try:
+        return load_file(str(path))
+    except Exception as e:  # safetensors raises its own error types
+        raise ValueError(f"corrupt checkpoint weights {path} ({e})") from None
+
+
+def load_state_dict_checked(model: torch.nn.Module, weights: Mapping[str, torch.Tensor], source: Path) -> None:
+    """``load_state_dict`` with a one-line error naming the checkpoint when keys or shapes differ."""
+    own = model.state_dict()
+    missing = sorted(set(own) - set(weights))
+    unexpected = sorted(set(weights) - set(own))
+    wrong = sorted(k for k in set(own) & set(weights) if own[k].shape != weights[k].shape)
+    if missing or unexpected or wrong:
+        raise ValueError(f"checkpoint {source} does not fit a {getattr(model, 'name', type(model).__name__)} of this config "
+                         f"({len(missing)} missing, {len(unexpected)} unexpected, {len(wrong)} mis-shaped tensors, "
+                         f"e.g. {(missing + unexpected + wrong)[0]!r}); it was trained with another model or size")
+    model.load_state_dict(weights)

@@ -1,0 +1,64 @@
+"""Predicted waypoints → one discrete action (SPEC.md "Baselines": the action that best follows
+a lookahead point chosen on the predicted trajectory).
+
+Rule, with waypoints in metres in the robot frame (x forward, y left):
+1. STOP when the point goal is closer than ``stop_radius`` (2·r_robot: the success radius).
+2. Lookahead point: waypoint ``waypoint_index`` if set, else the first waypoint at least
+   ``lookahead_min_dist`` from the robot (default d_step/2: the first one a MOVE_FORWARD can
+   approach), else the point goal itself (the model predicts staying in place).
+3. Heading error e = atan2(y, x) of the lookahead: TURN_LEFT if e > θ_step/2, TURN_RIGHT if
+   e < -θ_step/2, else MOVE_FORWARD. This is the expert's own following rule (rvn-gen), so a
+   perfectly imitated trajectory reproduces the expert's actions.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from rvn_data.conventions import Action, AgentConfig
+
+
+@dataclass(frozen=True)
+class ControlConfig:
+    """Settings of the waypoint → action rule (``model.policy`` in the config)."""
+
+    theta_step: float = math.radians(30.0)  # rad
+    stop_radius: float = 0.36  # m, 2*r_robot
+    lookahead_min_dist: float = 0.125  # m, d_step/2
+    waypoint_index: int | None = None
+
+    @classmethod
+    def from_agent(cls, agent: AgentConfig, stop_radius: float | None = None, lookahead_min_dist: float | None = None,
+                   waypoint_index: int | None = None) -> "ControlConfig":
+        return cls(theta_step=agent.theta_step,
+                   stop_radius=2 * agent.r_robot if stop_radius is None else float(stop_radius),
+                   lookahead_min_dist=agent.d_step / 2 if lookahead_min_dist is None else float(lookahead_min_dist),
+                   waypoint_index=None if waypoint_index is None else int(waypoint_index))
+
+
+def lookahead_point(waypoints: np.ndarray, pointgoal: np.ndarray, cfg: ControlConfig) -> np.ndarray:
+    """The point [2] to steer to, chosen on ``waypoints`` [len,2] (metres, robot frame)."""
+    wp = np.asarray(waypoints, dtype=np.float64)
+    if cfg.waypoint_index is not None:
+        return wp[min(max(cfg.waypoint_index, 0), len(wp) - 1)]
+    far = np.flatnonzero(np.linalg.norm(wp, axis=1) >= cfg.lookahead_min_dist)
+    return wp[far[0]] if len(far) else np.asarray(pointgoal, dtype=np.float64)
+
+
+def steer(point: np.ndarray, theta_step: float) -> Action:
+    """Turn toward ``point`` while its bearing exceeds θ_step/2, else move forward."""
+    err = math.atan2(float(point[1]), float(point[0]))
+    if err > theta_step / 2:
+        return Action.TURN_LEFT
+    if err < -theta_step / 2:
+        return Action.TURN_RIGHT
+    return Action.MOVE_FORWARD
+
+
+def waypoints_to_action(waypoints: np.ndarray, pointgoal: np.ndarray, cfg: ControlConfig) -> Action:
+    """The discrete action following ``waypoints`` toward ``pointgoal`` (see module docstring)."""
+    if float(np.linalg.norm(pointgoal)) < cfg.stop_radius:
+        return Action.STOP
+    return steer(lookahead_point(waypoints, pointgoal, cfg), cfg.theta_step)

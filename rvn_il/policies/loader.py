@@ -1,0 +1,68 @@
+"""``load_policy``: rebuild a policy from an rvn-train checkpoint directory alone.
+
+Hydra: ``{_target_: rvn_il.policies.load_policy, checkpoint_path: <out_dir>, device: cpu,
+selection: argmin}`` — every keyword besides ``checkpoint_path``/``device``/``model`` overrides
+a ``model.policy`` setting (lookahead_min_dist, waypoint_index, num_samples, stop_radius,
+selection, cor_alpha), the seed or an agent setting (r_robot, d_step, theta_step_deg).
+"""
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Any
+
+import torch
+
+from rvn_data.conventions import AgentConfig
+
+from ..models import build_model, resolve_size
+from ..models.checkpoint import (latest_checkpoint, load_state_dict_checked, members_of, read_config, read_stats,
+                                 read_weights)
+from .control import ControlConfig
+from .policy import Member, NoMaDNegPolicy, PointGoalPolicy
+
+POLICY_KEYS = {"lookahead_min_dist", "waypoint_index", "num_samples", "stop_radius", "selection", "cor_alpha", "seed"}
+AGENT_KEYS = {f.name for f in dataclasses.fields(AgentConfig)}
+
+
+def resolve_device(device: str | torch.device) -> torch.device:
+    if str(device) == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    return torch.device(device)
+
+
+def load_member(out_dir: Path, member: str, model_cfg: dict, device: torch.device) -> Member:
+    """One trained network (EMA weights when present) and its statistics, in eval mode."""
+    ckpt = latest_checkpoint(out_dir / member)
+    if ckpt is None:
+        raise ValueError(f"no checkpoint for {member!r} in {out_dir}: rvn-train has not saved one yet")
+    model = build_model(model_cfg)
+    load_state_dict_checked(model, read_weights(ckpt, model_cfg["name"]), ckpt)
+    stats = read_stats(ckpt)
+    return Member(model.eval().to(device), float(stats["metric_waypoint_spacing"]), bool(stats.get("crop_to_aspect", True)))
+
+
+def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu", model: str | None = None,
+                **overrides: Any) -> PointGoalPolicy:
+    """Policy with ``reset()``/``act(obs)`` from an rvn-train ``out_dir``. ``model`` (optional)
+    asserts which model the checkpoint must hold."""
+    out_dir = Path(checkpoint_path).expanduser()
+    cfg = read_config(out_dir)
+    model_cfg = resolve_size(cfg["model"])
+    name = model_cfg["name"]
+    if model is not None and model != name:
+        raise ValueError(f"checkpoint {out_dir} holds a {name!r} model, not {model!r}")
+    unknown = set(overrides) - POLICY_KEYS - AGENT_KEYS
+    if unknown:
+        raise ValueError(f"unknown policy setting(s) {sorted(unknown)}; valid: {sorted(POLICY_KEYS | AGENT_KEYS)}")
+    pol = {**(model_cfg.get("policy") or {}), "seed": cfg.get("seed", 0)}
+    pol.update({k: v for k, v in overrides.items() if k in POLICY_KEYS})
+    agent = AgentConfig(**{**(cfg.get("agent") or {}), **{k: v for k, v in overrides.items() if k in AGENT_KEYS}})
+    control = ControlConfig.from_agent(agent, pol.get("stop_radius"), pol.get("lookahead_min_dist"), pol.get("waypoint_index"))
+    dev = resolve_device(device)
+    members = [load_member(out_dir, m, model_cfg, dev) for m in members_of(name)]
+    common = dict(num_samples=int(pol.get("num_samples", 8)), seed=int(pol["seed"]), device=dev)
+    if name == "nomad_neg":
+        return NoMaDNegPolicy(members, control, selection=pol.get("selection", "argmax"),
+                              cor_alpha=float(pol.get("cor_alpha", 1.0)), **common)
+    return PointGoalPolicy(members, control, **common)

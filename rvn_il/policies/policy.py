@@ -1,0 +1,111 @@
+"""Policies of the benchmark contract (docs/ARCHITECTURE.md): ``reset()`` and
+``act(obs) -> int`` with ``obs = {'rgb': uint8 [H,W,3], 'pointgoal': float32 [2]}``.
+
+Each decision: the current frame is preprocessed exactly as in training
+(:func:`rvn_il.data.images.preprocess_image`), encoded once and pushed onto a queue of the
+last C+1 per-frame tokens (filled with the first frame after ``reset()``; tokens are cached, so
+each frame goes through EfficientNet once); the point goal is divided by
+metric_waypoint_spacing; the model predicts waypoints which, back in metres, become an action
+through :mod:`rvn_il.policies.control`. Sampling uses a torch Generator re-seeded with ``seed``
+in every ``reset()``, so an episode's actions do not depend on which episodes ran before.
+"""
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from rvn_data.conventions import Action
+
+from ..data.images import preprocess_image
+from ..models import PointGoalModel
+from .control import ControlConfig, waypoints_to_action
+from .cor import SELECTIONS, select_expert
+
+
+@dataclass
+class Member:
+    """One network of a policy with its normalisation statistics."""
+
+    model: PointGoalModel
+    spacing: float  # metric_waypoint_spacing of its training data, metres
+    crop_to_aspect: bool = True
+
+
+class PointGoalPolicy:
+    """ViNT-/NoMaD-PointGoal policy: follows sample 0 of ``num_samples`` predictions."""
+
+    def __init__(self, members: list[Member], control: ControlConfig, num_samples: int = 8, seed: int = 0,
+                 device: str | torch.device = "cpu"):
+        self.members, self.control = members, control
+        self.num_samples, self.seed, self.device = int(num_samples), int(seed), torch.device(device)
+        self.last_waypoints: np.ndarray | None = None  # metres, robot frame (for plots/debugging)
+        self.reset()
+
+    def reset(self) -> None:
+        self.queues = [deque(maxlen=m.model.context_size + 1) for m in self.members]
+        self.generator = torch.Generator(device=self.device).manual_seed(self.seed)
+
+    def _push(self, rgb: np.ndarray) -> list[torch.Tensor]:
+        """Encode the frame for every member; return each member's context tokens [1,C+1,D]."""
+        out = []
+        for m, q in zip(self.members, self.queues):
+            img = preprocess_image(rgb, m.model.image_size, m.crop_to_aspect)
+            x = torch.from_numpy(img).to(self.device).permute(2, 0, 1).unsqueeze(0).float().div_(255.0)
+            tok = m.model.encode_frames(x)[0]
+            while len(q) < q.maxlen - 1:  # first frame after reset fills the context
+                q.append(tok)
+            q.append(tok)
+            out.append(torch.stack(list(q)).unsqueeze(0))
+        return out
+
+    def sample(self, tokens: list[torch.Tensor], pointgoal: np.ndarray) -> list[np.ndarray]:
+        """Every member's predicted trajectories in metres: [S,len,2] each."""
+        out = []
+        for m, tok in zip(self.members, tokens):
+            goal = torch.as_tensor(np.asarray(pointgoal, np.float32) / m.spacing, device=self.device).unsqueeze(0)
+            wp = m.model.predict(tok, goal, self.num_samples, self.generator)[0]
+            out.append(wp.double().cpu().numpy() * m.spacing)
+        return out
+
+    def choose(self, samples: list[np.ndarray]) -> np.ndarray:
+        return samples[0][0]
+
+    @staticmethod
+    def _check(obs) -> tuple[np.ndarray, np.ndarray]:
+        try:
+            rgb, pointgoal = obs["rgb"], np.asarray(obs["pointgoal"], dtype=np.float64).reshape(-1)
+        except (KeyError, TypeError) as e:
+            raise ValueError(f"policy observation must be a dict with 'rgb' and 'pointgoal' ({e!r})") from None
+        if pointgoal.shape != (2,) or not np.isfinite(pointgoal).all():
+            raise ValueError(f"obs['pointgoal'] must be 2 finite numbers (x forward, y left), got {obs['pointgoal']!r}")
+        return np.asarray(rgb), pointgoal
+
+    def act(self, obs) -> int:
+        rgb, pointgoal = self._check(obs)
+        with torch.inference_mode():
+            tokens = self._push(rgb)
+            if np.linalg.norm(pointgoal) < self.control.stop_radius:
+                return int(Action.STOP)
+            self.last_waypoints = self.choose(self.sample(tokens, pointgoal))
+        return int(waypoints_to_action(self.last_waypoints, pointgoal, self.control))
+
+
+class NoMaDNegPolicy(PointGoalPolicy):
+    """NoMaD-Neg: k samples from NoMaD_e (member 0) and NoMaD_n (member 1); follow the expert
+    sample selected by CoR (``selection`` argmax | argmin, Student-t parameter ``cor_alpha``)."""
+
+    def __init__(self, members: list[Member], control: ControlConfig, num_samples: int = 8, seed: int = 0,
+                 device: str | torch.device = "cpu", selection: str = "argmax", cor_alpha: float = 1.0):
+        if len(members) != 2:
+            raise ValueError("NoMaD-Neg needs two members: expert and negative")
+        if selection not in SELECTIONS:
+            raise ValueError(f"policy selection={selection!r}; choose argmax or argmin")
+        self.selection, self.cor_alpha = selection, float(cor_alpha)
+        super().__init__(members, control, num_samples, seed, device)
+
+    def choose(self, samples: list[np.ndarray]) -> np.ndarray:
+        expert, negative = samples
+        return expert[select_expert(expert, negative, self.cor_alpha, self.selection)]

@@ -1,0 +1,1 @@
+"""rvn-train: training loop, EMA and the Hydra CLI."""

@@ -1,0 +1,194 @@
+"""Training loop of rvn-train: AdamW, linear warm-up + cosine schedule (per step), EMA for
+NoMaD, TensorBoard scalars, tqdm, atomic checkpoints with exact resume, DDP under torchrun.
+
+Randomness: model init from ``[seed, member]``; data order and per-item draws from
+:class:`EpochSampler`/``GNMDataset`` (``[seed, epoch]``, ``[seed, index]``); diffusion noise,
+timesteps and dropout are re-seeded every step from ``[seed, member, rank, step]``. Nothing
+depends on process history, so a resumed run continues exactly as an uninterrupted one.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import os
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+import torch
+import torch.distributed as dist
+from torch.utils.data import BatchSampler, DataLoader
+from safetensors.torch import load_file
+from tqdm import tqdm
+
+from ..data import BatchView, EpochSampler, make_dataset
+from ..models import build_model, resolve_size
+from ..models.checkpoint import (latest_checkpoint, load_state_dict_checked, members_of, read_config, read_weights,
+                                 save_checkpoint, write_config)
+from ..models.encoders import IMAGENET_MEAN, IMAGENET_STD
+from ..policies.loader import resolve_device
+from .ema import EMA
+
+log = logging.getLogger(__name__)
+
+
+def derive_seed(*ints: int) -> int:
+    return int(np.random.SeedSequence([int(i) for i in ints]).generate_state(1, np.uint64)[0] >> 1)
+
+
+def lr_lambda(warmup: int, max_steps: int):
+    """Linear warm-up over ``warmup`` steps, then cosine decay to 0 at ``max_steps``."""
+    def f(step: int) -> float:
+        if step < warmup:
+            return (step + 1) / warmup
+        progress = (step - warmup) / max(1, max_steps - warmup)
+        return 0.5 * (1.0 + math.cos(math.pi * min(1.0, progress)))
+    return f
+
+
+def _dist_info() -> tuple[int, int, int]:
+    world = int(os.environ.get("WORLD_SIZE", 1))
+    if world > 1 and not dist.is_initialized():
+        dist.init_process_group("nccl" if torch.cuda.is_available() else "gloo")
+    rank = dist.get_rank() if world > 1 else 0
+    return rank, world, int(os.environ.get("LOCAL_RANK", 0))
+
+
+def data_roots(cfg: Mapping) -> dict[str, str]:
+    """Member → dataset folder: ``data.root`` (expert) and, for nomad_neg, ``data.negative_root``."""
+    members = members_of(cfg["model"]["name"])
+    if members == ["model"]:
+        return {"model": cfg["data"]["root"]}
+    neg = cfg["data"].get("negative_root")
+    if not neg:
+        raise ValueError("model=nomad_neg needs data.negative_root= (the negative GNM dataset for NoMaD_n) besides data.root=")
+    return {"expert": cfg["data"]["root"], "negative": neg}
+
+
+def run_training(cfg: Mapping[str, Any]) -> Path:
+    """Train every member of ``cfg['model']`` into ``cfg['out_dir']``; returns the out_dir."""
+    rank, world, local_rank = _dist_info()
+    device = resolve_device(cfg.get("device", "auto"))
+    if device.type == "cuda" and world > 1:
+        device = torch.device("cuda", local_rank)
+        torch.cuda.set_device(device)
+    out_dir = Path(cfg["out_dir"]).expanduser()
+    name = resolve_size(cfg["model"])["name"]  # validates model.size before anything is written
+    trained = any((out_dir / m / "latest").is_file() for m in ("model", "expert", "negative"))
+    if trained and (out_dir / "config.yaml").is_file():
+        old = read_config(out_dir)["model"]
+        if old["name"] != name or old.get("size", "full") != cfg["model"].get("size", "full"):
+            raise ValueError(f"{out_dir} holds a checkpoint of model {old['name']!r} (size {old.get('size', 'full')}), not "
+                             f"{name!r} (size {cfg['model'].get('size', 'full')}); choose another out_dir=")
+    roots = data_roots(cfg)
+    if rank == 0:
+        write_config(out_dir, cfg)
+    for index, (member, root) in enumerate(roots.items()):
+        train_member(cfg, member, index, root, out_dir, device, rank, world)
+    if world > 1:
+        dist.barrier()
+        dist.destroy_process_group()
+    return out_dir
+
+
+def train_member(cfg: Mapping, member: str, index: int, root: str, out_dir: Path, device: torch.device,
+                 rank: int, world: int) -> None:
+    model_cfg, data_cfg, tcfg, seed = resolve_size(cfg["model"]), dict(cfg["data"]), dict(cfg["train"]), int(cfg["seed"])
+    data_cfg["progress"] = rank == 0
+    if rank == 0:
+        dataset = make_dataset(root, model_cfg, data_cfg, seed)
+    if world > 1:
+        dist.barrier()
+    if rank != 0:
+        dataset = make_dataset(root, model_cfg, data_cfg, seed, build=False)
+    torch.manual_seed(derive_seed(seed, index))
+    model = build_model(model_cfg).to(device)
+    if model_cfg.get("action_stats") == "auto":  # NoMaD: delta range of this member's data
+        lo, hi = dataset.delta_range()
+        model.action_min.copy_(torch.from_numpy(lo).float())
+        model.action_max.copy_(torch.from_numpy(hi).float())
+    bs = int(tcfg.get("batch_size") or model_cfg["batch_size"])
+    lr = float(tcfg.get("lr") or model_cfg["lr"])
+    use_ema = model_cfg.get("ema", False) if tcfg.get("ema") is None else bool(tcfg["ema"])
+    steps_per_epoch = max(1, len(dataset) // (bs * world))
+    max_steps = int(tcfg["max_steps"] if tcfg.get("max_steps") is not None else int(tcfg["epochs"]) * steps_per_epoch)
+    warmup = int(tcfg.get("warmup_steps") or round(float(tcfg.get("warmup_frac", 0.04)) * max_steps))
+    for key, value in (("train.batch_size", bs), ("train.max_steps", max_steps), ("train.lr", lr)):
+        if not value > 0:
+            raise ValueError(f"{key}={value} must be positive")
+    opt = torch.optim.AdamW(model.parameters(), lr=lr, weight_decay=float(tcfg.get("weight_decay", 0.01)))
+    sched = torch.optim.lr_scheduler.LambdaLR(opt, lr_lambda(max(1, warmup), max_steps))
+    ema = EMA(model, float(model_cfg.get("ema_power", 0.75))) if use_ema else None
+    member_dir, step = out_dir / member, 0
+    ckpt = latest_checkpoint(member_dir) if tcfg.get("resume", True) else None
+    if ckpt is not None:
+        load_state_dict_checked(model, read_weights(ckpt, model_cfg["name"], prefer_ema=False), ckpt)
+        state = torch.load(ckpt / "state.pt", map_location=device, weights_only=False)
+        opt.load_state_dict(state["optimizer"])
+        sched.load_state_dict(state["scheduler"])
+        if ema is not None and state.get("ema"):
+            ema.load_state_dict(state["ema"], load_file(str(ckpt / "ema.safetensors"), device=str(device)))
+        step = int(state["step"])
+    if rank == 0:
+        log.info("%s/%s: %d samples from %s, batch %d x %d, steps %d/%d, device %s", model_cfg["name"], member,
+                 len(dataset), root, bs, world, step, max_steps, device)
+    if step >= max_steps:
+        return
+    net = model
+    if world > 1:
+        net = torch.nn.parallel.DistributedDataParallel(model, device_ids=[device.index] if device.type == "cuda" else None)
+    workers = int(data_cfg.get("num_workers", 2))
+    sampler = BatchSampler(EpochSampler(len(dataset), seed, rank, world, step * bs), bs, drop_last=True)
+    loader = DataLoader(BatchView(dataset), batch_size=None, sampler=sampler, num_workers=workers,
+                        pin_memory=device.type == "cuda", persistent_workers=workers > 0,
+                        prefetch_factor=4 if workers > 0 else None)
+    writer = None
+    if rank == 0:
+        from torch.utils.tensorboard import SummaryWriter
+        writer = SummaryWriter(str(out_dir / "tb" / member), purge_step=step)
+    stats = {"model": model_cfg["name"], "member": member, "metric_waypoint_spacing": dataset.spacing,
+             "action_stats": {"min": model.action_min.tolist(), "max": model.action_max.tolist()}
+             if hasattr(model, "action_min") else None, "image_size": list(model_cfg["image_size"]),
+             "crop_to_aspect": bool(model_cfg.get("crop_to_aspect", True)), "context_size": model_cfg["context_size"],
+             "len_traj_pred": model_cfg["len_traj_pred"], "imagenet_mean": IMAGENET_MEAN, "imagenet_std": IMAGENET_STD,
+             "dataset": str(Path(root).expanduser().resolve()), "num_samples": len(dataset)}
+    gen = torch.Generator(device=device)
+    log_every, ckpt_every = int(tcfg.get("log_every", 10)), int(tcfg.get("ckpt_every", 1000))
+    net.train()
+    bar = tqdm(total=max_steps, initial=step, desc=f"{model_cfg['name']}/{member}", disable=rank != 0,
+               mininterval=float(tcfg.get("tqdm_interval", 1.0)))
+    try:
+        for batch in loader:
+            batch = {k: v.to(device, non_blocking=True) for k, v in batch.items()}
+            gen.manual_seed(derive_seed(seed, index, rank, step))
+            torch.manual_seed(derive_seed(seed, index, rank, step, 1))
+            losses = net(batch, gen)
+            if not torch.isfinite(losses["loss"]):
+                raise ValueError(f"non-finite loss at step {step} of {model_cfg['name']}/{member}; lower train.lr or check the data")
+            opt.zero_grad(set_to_none=True)
+            losses["loss"].backward()
+            if tcfg.get("grad_clip"):
+                torch.nn.utils.clip_grad_norm_(model.parameters(), float(tcfg["grad_clip"]))
+            opt.step()
+            sched.step()
+            step += 1
+            if ema is not None:
+                ema.update(model)
+            bar.update(1)
+            if writer is not None and (step % log_every == 0 or step == max_steps):
+                for k, v in losses.items():
+                    writer.add_scalar(f"train/{k}", float(v.detach()), step)
+                writer.add_scalar("train/lr", sched.get_last_lr()[0], step)
+                bar.set_postfix(loss=f"{float(losses['loss'].detach()):.4f}")
+            if rank == 0 and (step % ckpt_every == 0 or step >= max_steps):
+                state = {"step": step, "optimizer": opt.state_dict(), "scheduler": sched.state_dict(),
+                         "ema": ema.state_dict() if ema is not None else None, "max_steps": max_steps}
+                save_checkpoint(out_dir / member, step, model.state_dict(), {**stats, "step": step}, state,
+                                ema.shadow if ema is not None else None, int(tcfg.get("keep_checkpoints", 2)))
+            if step >= max_steps:
+                break
+    finally:
+        bar.close()
+        if writer is not None:
+            writer.close()
+

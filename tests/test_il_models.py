@@ -1,0 +1,99 @@
+"""ViNT-PointGoal and NoMaD-PointGoal networks (issue 6, models part)."""
+from __future__ import annotations
+
+import pytest
+import torch
+
+from rvn_il.data import make_dataset
+from rvn_il.data.synthetic import write_synthetic_gnm
+from rvn_il.models import build_model, load_model_config
+from rvn_il.models.unet1d import ConditionalUnet1D
+
+torch.set_num_threads(1)
+
+
+@pytest.fixture(scope="module")
+def root(tmp_path_factory):
+    return write_synthetic_gnm(tmp_path_factory.mktemp("il_models") / "expert", 3, 24, image_size=64)
+
+
+@pytest.mark.parametrize("name", ["vint_pointgoal", "nomad_pointgoal"])
+def test_loss_falls_when_overfitting_8_samples(root, name):
+    cfg = load_model_config(name, "small")
+    batch = make_dataset(root, cfg, {"progress": False}).get_batch(range(8))
+    torch.manual_seed(0)
+    model = build_model(cfg)
+    opt = torch.optim.AdamW(model.parameters(), lr=1e-3)
+    gen = torch.Generator().manual_seed(0)
+    losses = []
+    for _ in range(30):
+        out = model(batch, gen)
+        opt.zero_grad()
+        out["loss"].backward()
+        opt.step()
+        losses.append(float(out["loss"].detach()))
+    first, last = sum(losses[:5]) / 5, sum(losses[-5:]) / 5
+    assert last < 0.7 * first, losses
+
+
+def test_nomad_actions_normalise_and_goal_mask_hides_goal():
+    model = build_model(load_model_config("nomad_pointgoal", "small")).eval()
+    wp = torch.tensor([[[1.0, 0.0], [2.0, 0.5], [2.0, 0.5], [2.5, 1.0], [3.0, 1.0], [4.0, 1.0], [5.0, 1.2], [5.0, 1.2]]])
+    n = model.normalize_actions(wp)
+    assert n.min() >= -1 and n.max() <= 1
+    torch.testing.assert_close(model.unnormalize_actions(n), wp)
+    tokens = torch.randn(2, 4, model.encoding_size)
+    goals = torch.tensor([[3.0, 1.0], [-5.0, 8.0]])
+    with torch.inference_mode():
+        hidden = model.condition(tokens[:1].expand(2, -1, -1), goals, torch.ones(2))
+        seen = model.condition(tokens[:1].expand(2, -1, -1), goals, torch.zeros(2))
+        a = model.predict(tokens, goals, 4, torch.Generator().manual_seed(1))
+        b = model.predict(tokens, goals, 4, torch.Generator().manual_seed(1))
+    torch.testing.assert_close(hidden[0], hidden[1])  # goal hidden: the condition ignores it
+    assert not torch.allclose(seen[0], seen[1])
+    assert a.shape == (2, 4, 8, 2) and torch.equal(a, b)
+
+
+def test_unet_film_bias_precompute_matches_plain_forward():
+    net = ConditionalUnet1D(2, 16, diffusion_step_embed_dim=32, down_dims=(16, 32, 64)).eval()
+    x, cond = torch.randn(5, 8, 2), torch.randn(1, 16)
+    with torch.inference_mode():
+        plain = net(x, 3, cond.expand(5, -1))
+        pre = net(x, biases=net.film_biases(3, cond))
+    assert plain.shape == (5, 8, 2)
+    torch.testing.assert_close(plain, pre)
+
+
+def test_vint_predicts_waypoints_and_bad_settings_are_named():
+    model = build_model(load_model_config("vint_pointgoal", "small")).eval()
+    with torch.inference_mode():
+        tokens = model.batch_tokens(torch.rand(2, 6, 3, 64, 64))
+        wp = model.predict(tokens, torch.zeros(2, 2))
+    assert wp.shape == (2, 1, 5, 2)
+    with pytest.raises(ValueError, match="expected context_size"):
+        model.batch_tokens(torch.rand(1, 4, 3, 64, 64))
+    with pytest.raises(ValueError, match="imagenet_weights=.*does not exist"):
+        build_model(load_model_config("vint_pointgoal", "small", imagenet_weights="/nonexistent/b0.pth"))
+    with pytest.raises(ValueError, match="model.size='huge'"):
+        load_model_config("nomad_pointgoal", "huge")
+    with pytest.raises(ValueError, match="len_traj_pred=6"):
+        build_model(load_model_config("nomad_pointgoal", "small", len_traj_pred=6))
+
+
+def test_ema_warms_up_like_diffusers_0_11():
+    from rvn_il.train.ema import EMA
+
+    net = torch.nn.Linear(2, 1)
+    ema = EMA(net, power=0.75)
+    with torch.no_grad():
+        net.weight.fill_(1.0)
+    ema.update(net)  # first update: decay 0, the shadow copies the weights
+    assert ema.decay() == 0.0 and torch.equal(ema.shadow["weight"], net.weight)
+    for _ in range(9):
+        ema.update(net)
+    assert ema.decay() == pytest.approx(1 - 10 ** -0.75)
+    with torch.no_grad():
+        net.weight.fill_(2.0)
+    ema.update(net)
+    d = ema.decay()
+    torch.testing.assert_close(ema.shadow["weight"], torch.full((1, 2), d * 1.0 + (1 - d) * 2.0))

@@ -1,0 +1,85 @@
+"""Waypoints → action rule and CoR selection of NoMaD-Neg (issue 6, policies part)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from rvn_data.conventions import Action, AgentConfig
+from rvn_il.models import build_model, load_model_config
+from rvn_il.policies import ControlConfig, Member, NoMaDNegPolicy, PointGoalPolicy, cor, select_expert, waypoints_to_action
+
+CTRL = ControlConfig.from_agent(AgentConfig())
+
+
+def test_control_rule():
+    far_goal = np.array([3.0, 0.0])
+    assert CTRL.stop_radius == pytest.approx(0.36) and CTRL.lookahead_min_dist == pytest.approx(0.125)
+    ahead = np.array([[0.25, 0.0], [0.5, 0.0]])
+    assert waypoints_to_action(ahead, far_goal, CTRL) == Action.MOVE_FORWARD
+    assert waypoints_to_action(ahead, np.array([0.3, 0.1]), CTRL) == Action.STOP
+    # first waypoint is (almost) in place: the lookahead is the next one, 45 deg left
+    left = np.array([[0.01, 0.0], [0.2, 0.2], [0.4, 0.4]])
+    assert waypoints_to_action(left, far_goal, CTRL) == Action.TURN_LEFT
+    assert waypoints_to_action(left * [1, -1], far_goal, CTRL) == Action.TURN_RIGHT
+    # within theta_step/2 = 15 deg: forward
+    small = np.array([[0.25, 0.25 * math.tan(math.radians(14))]])
+    assert waypoints_to_action(small, far_goal, CTRL) == Action.MOVE_FORWARD
+    # nothing beyond the lookahead distance: steer to the point goal itself
+    still = np.zeros((5, 2))
+    assert waypoints_to_action(still, np.array([0.0, -2.0]), CTRL) == Action.TURN_RIGHT
+    fixed = ControlConfig.from_agent(AgentConfig(), waypoint_index=0)
+    assert waypoints_to_action(left, far_goal, fixed) == Action.MOVE_FORWARD
+
+
+def hand_samples():
+    """Expert samples: straight ahead, slightly left, far left; negatives: to the right."""
+    straight = np.stack([np.arange(1, 9) * 0.25, np.zeros(8)], axis=1)
+    expert = np.stack([straight + [0, 0.0], straight + [0, 0.3], straight + [0, 1.2], straight + [0, -0.2]])
+    negative = np.stack([straight + [0, -0.6], straight + [0, -0.7], straight + [0, -0.5]])
+    return expert, negative
+
+
+def test_cor_selection_on_hand_made_samples():
+    expert, negative = hand_samples()
+    scores = cor(expert, negative, alpha=1.0).numpy()
+    assert np.all((scores > 0) & (scores < 1))
+    dist_to_neg = [np.sqrt(np.mean([np.sum((e - n) ** 2) for n in negative])) for e in expert]
+    assert select_expert(expert, negative, 1.0, "argmax") == int(np.argmax(dist_to_neg)) == 2
+    assert select_expert(expert, negative, 1.0, "argmin") == int(np.argmin(dist_to_neg)) == 3
+    # the equation by hand for sample 0 (d_E over the whole expert set, self included)
+    d_e = math.sqrt(np.mean([np.sum((expert[0] - x) ** 2) for x in expert]))
+    d_n = math.sqrt(np.mean([np.sum((expert[0] - x) ** 2) for x in negative]))
+    k = lambda d, a=1.0: (1 + d / a) ** (-(a + 1) / 2)  # noqa: E731
+    assert scores[0] == pytest.approx(k(d_e) / (k(d_e) + k(d_n)))
+    assert cor(expert, negative, 1.0, exclude_self=True)[0] != pytest.approx(scores[0])
+    with pytest.raises(ValueError, match="argmax or argmin"):
+        select_expert(expert, negative, 1.0, "max")
+    with pytest.raises(ValueError, match="alpha"):
+        cor(expert, negative, alpha=0.0)
+
+
+def test_policies_are_deterministic_and_validate_obs():
+    torch.manual_seed(0)
+    cfg = load_model_config("nomad_pointgoal", "small")
+    members = [Member(build_model(cfg).eval(), 0.25), Member(build_model(cfg).eval(), 0.25)]
+    rng = np.random.default_rng(0)
+    frames = rng.integers(0, 255, (6, 96, 128, 3), dtype=np.uint8)
+
+    def run(policy):
+        policy.reset()
+        return [policy.act({"rgb": f, "pointgoal": np.array([2.0, 0.5], np.float32)}) for f in frames]
+
+    for policy in (PointGoalPolicy(members[:1], CTRL, 8, seed=1), NoMaDNegPolicy(members, CTRL, 8, seed=1)):
+        first = run(policy)
+        assert first == run(policy) and all(a in (1, 2, 3) for a in first)
+        assert policy.last_waypoints.shape == (8, 2)
+        assert policy.act({"rgb": frames[0], "pointgoal": np.array([0.1, 0.0])}) == Action.STOP
+        with pytest.raises(ValueError, match="pointgoal"):
+            policy.act({"rgb": frames[0], "pointgoal": np.array([np.nan, 0.0])})
+        with pytest.raises(ValueError, match="uint8 RGB"):
+            policy.act({"rgb": frames[0].astype(np.float32), "pointgoal": np.array([2.0, 0.0])})
+    with pytest.raises(ValueError, match="selection"):
+        NoMaDNegPolicy(members, CTRL, selection="min")

@@ -1,0 +1,149 @@
+"""rvn-train end to end on a tiny GNM dataset: CLI, checkpoints, load_policy, resume, bad input."""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import torch
+import yaml
+from safetensors.torch import load_file
+
+from rvn_il.data.synthetic import render_frame, write_synthetic_gnm
+from rvn_il.models.checkpoint import latest_checkpoint
+from rvn_il.policies import NoMaDNegPolicy, load_policy
+from rvn_il.train.cli import main, train
+
+torch.set_num_threads(1)
+ENV = {**os.environ, "OMP_NUM_THREADS": "1"}
+SMALL = ["model.size=small", "train.batch_size=4", "train.log_every=1"]
+
+
+@pytest.fixture(scope="module")
+def data(tmp_path_factory):
+    base = tmp_path_factory.mktemp("il_train")
+    write_synthetic_gnm(base / "expert", 3, 24, image_size=64, seed=0)
+    write_synthetic_gnm(base / "negative", 3, 15, image_size=64, seed=1)
+    return base
+
+
+def rvn_train(*args):
+    return subprocess.run([sys.executable, "-m", "rvn_il.train.cli", *args], capture_output=True, text=True, env=ENV,
+                          timeout=300)
+
+
+@pytest.fixture(scope="module")
+def runs(data):
+    """One rvn-train run per model (3 steps, small size): ViNT's and NoMaD's call the CLI's main()
+    in this process (ViNT's with 2 loader workers), NoMaD-Neg's runs the console script in a
+    subprocess with data-derived action_stats."""
+    out = {}
+    common = [f"data.root={data / 'expert'}", f"data.negative_root={data / 'negative'}", "train.max_steps=3", *SMALL]
+    for name, workers in (("vint_pointgoal", 2), ("nomad_pointgoal", 0)):
+        out[name] = data / f"run_{name}"
+        argv = sys.argv
+        sys.argv = ["rvn-train", f"model={name}", f"out_dir={out[name]}", f"data.num_workers={workers}", *common]
+        try:
+            main()
+        finally:
+            sys.argv = argv
+    out["nomad_neg"] = data / "run_nomad_neg"
+    r = subprocess.run(["rvn-train", "model=nomad_neg", f"out_dir={out['nomad_neg']}", "data.num_workers=0",
+                        "model.action_stats=auto", *common], capture_output=True, text=True, env=ENV, timeout=300)
+    assert r.returncode == 0, r.stderr[-3000:]
+    return out
+
+
+@pytest.mark.parametrize("name", ["vint_pointgoal", "nomad_pointgoal", "nomad_neg"])
+def test_cli_trains_and_writes_a_self_contained_checkpoint(runs, name):
+    out_dir = runs[name]
+    cfg = yaml.safe_load((out_dir / "config.yaml").read_text())
+    assert cfg["model"]["name"] == name and cfg["train"]["max_steps"] == 3
+    members = ["expert", "negative"] if name == "nomad_neg" else ["model"]
+    for m in members:
+        ckpt = latest_checkpoint(out_dir / m)
+        assert ckpt.name == "ckpt_00000003"
+        assert (ckpt / "ema.safetensors").is_file() == name.startswith("nomad")
+        assert load_file(str(ckpt / "weights.safetensors"))
+        assert list((out_dir / "tb" / m).glob("events.out.tfevents.*"))
+        if name == "nomad_neg":  # action_stats=auto: the data's delta range, in the stats and the EMA weights
+            stats = json.loads((ckpt / "stats.json").read_text())["action_stats"]
+            assert -1.2 < stats["min"][0] < 0.1 and 0.9 < stats["max"][0] < 1.2
+            ema = load_file(str(ckpt / "ema.safetensors"))
+            assert ema["action_max"].tolist() == pytest.approx(stats["max"])
+    # the checkpoint alone rebuilds the policy; same seed → same actions
+    policy = load_policy(out_dir)
+    assert isinstance(policy, NoMaDNegPolicy) == (name == "nomad_neg")
+    frames = [render_frame(np.array([0.25 * t, 0.0]), 0.1 * t, 128) for t in range(5)]
+
+    def episode(p):
+        p.reset()
+        return [p.act({"rgb": f, "pointgoal": np.array([3.0, -1.0], np.float32)}) for f in frames]
+
+    actions = episode(policy)
+    assert actions == episode(load_policy(out_dir)) == episode(policy)
+    assert all(a in (1, 2, 3) for a in actions)
+    if name == "nomad_neg":  # as rvn-eval builds it from conf/policy/checkpoint.yaml
+        from hydra.utils import instantiate
+        p = instantiate({"_target_": "rvn_il.policies.load_policy", "checkpoint_path": str(out_dir), "device": "cpu",
+                         "selection": "argmin", "cor_alpha": 2.0})
+        assert (p.selection, p.cor_alpha) == ("argmin", 2.0) and len(episode(p)) == len(frames)
+
+
+def test_checkpoint_of_another_model_is_named(runs, data):
+    with pytest.raises(ValueError, match="holds a 'vint_pointgoal' model, not 'nomad_pointgoal'"):
+        load_policy(runs["vint_pointgoal"], model="nomad_pointgoal")
+    with pytest.raises(ValueError, match="unknown policy setting"):
+        load_policy(runs["vint_pointgoal"], lookahead=3)
+    with pytest.raises(ValueError, match="not an rvn-train checkpoint directory"):
+        load_policy(data)
+    # weights of a ViNT run copied into a NoMaD run: refused, naming the checkpoint
+    fake = data / "fake"
+    shutil.copytree(runs["nomad_pointgoal"], fake)
+    ckpt = latest_checkpoint(fake / "model")
+    shutil.copy(latest_checkpoint(runs["vint_pointgoal"] / "model") / "stats.json", ckpt / "stats.json")
+    with pytest.raises(ValueError, match=r"ckpt_00000003 holds a 'vint_pointgoal' model, not 'nomad_pointgoal'"):
+        load_policy(fake)
+    # resuming another model's out_dir is refused
+    with pytest.raises(ValueError, match="holds a checkpoint of model 'vint_pointgoal'"):
+        train(["model=nomad_pointgoal", f"data.root={data / 'expert'}", f"out_dir={runs['vint_pointgoal']}", *SMALL])
+
+
+def test_resume_continues_exactly(data, tmp_path):
+    args = [f"data.root={data / 'expert'}", "model=nomad_pointgoal", "train.max_steps=4", "train.ckpt_every=2",
+            "data.num_workers=0", *SMALL]
+    full = train([f"out_dir={tmp_path / 'full'}", *args])
+    # an interrupted run: only the step-2 checkpoint survived
+    part = tmp_path / "part"
+    (part / "model").mkdir(parents=True)
+    shutil.copy(full / "config.yaml", part / "config.yaml")
+    shutil.copytree(full / "model" / "ckpt_00000002", part / "model" / "ckpt_00000002")
+    (part / "model" / "latest").write_text("ckpt_00000002\n")
+    train([f"out_dir={part}", *args])
+    a = latest_checkpoint(full / "model")
+    b = latest_checkpoint(part / "model")
+    assert a.name == b.name == "ckpt_00000004"
+    assert torch.load(b / "state.pt", weights_only=False)["step"] == 4
+    for f in ("weights.safetensors", "ema.safetensors"):
+        wa, wb = load_file(str(a / f)), load_file(str(b / f))
+        for k in wa:
+            torch.testing.assert_close(wa[k], wb[k], rtol=0, atol=0, msg=f"{f}:{k}")
+    # nothing left to do: a rerun returns at once and keeps the checkpoint
+    train([f"out_dir={part}", *args])
+    assert latest_checkpoint(part / "model").name == "ckpt_00000004"
+
+
+def test_cli_bad_input_one_line(data, tmp_path):
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    r = rvn_train("model=vint_pointgoal", f"data.root={empty}", f"out_dir={tmp_path / 'o1'}", *SMALL)
+    assert r.returncode == 1 and "holds no trajectory" in r.stderr and "Traceback" not in r.stderr
+    with pytest.raises(ValueError, match="data.negative_root"):
+        train(["model=nomad_neg", f"data.root={data / 'expert'}", "data.negative_root=null", f"out_dir={tmp_path / 'o2'}"])
+    with pytest.raises(ValueError, match="fewer than context_size.*skip_short"):
+        train(["model=nomad_pointgoal", f"data.root={data / 'negative'}", f"out_dir={tmp_path / 'o3'}",
+               "model.context_size=14", *SMALL])
