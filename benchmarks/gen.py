@@ -1,0 +1,67 @@
+"""rvn-gen throughput: end-to-end frames/s written (expert, procedural default scenes,
+256x256 JPEG) with 1 and 2 processes, and the share of time in setup (scene, navmesh,
+renderer), planning (sampling, A*, following), rendering, encoding and writing.
+
+    python benchmarks/gen.py [--scenes 4] [--per-scene 10] [--renderer auto]
+
+Goals (issue 4): >= 200 frames/s per process, >= 1.7x with 2 processes. Wall time includes
+process start-up and per-scene setup, as a user sees it. LP_NUM_THREADS=1 (unless set)
+keeps Mesa's software GL on one core per process, so "per process" means one core.
+"""
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import os
+import tempfile
+from pathlib import Path
+
+from hydra import compose, initialize_config_dir
+from omegaconf import OmegaConf
+
+from rvn_data.dataset.scene_job import TIMERS
+from rvn_data.gen.cli import CONF_DIR
+from rvn_data.gen.run import generate
+
+
+def run(out_dir: Path, overrides: list[str]):
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        cfg = compose("gen", overrides=[f"out_dir={out_dir}", "progress=false", *overrides])
+    with contextlib.redirect_stdout(io.StringIO()):
+        report = generate(OmegaConf.to_container(cfg, resolve=True))
+    if report.status:
+        raise SystemExit(f"generation failed: {[r.error for r in report.results if r.error]}")
+    return report
+
+
+def main() -> None:
+    os.environ.setdefault("LP_NUM_THREADS", "1")
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scenes", type=int, default=4)
+    ap.add_argument("--per-scene", type=int, default=10)
+    ap.add_argument("--renderer", default="auto")
+    args = ap.parse_args()
+    common = [f"scenes.num_scenes={args.scenes}", f"trajectories_per_scene={args.per_scene}",
+              f"renderer={args.renderer}", "camera.width=256", "camera.height=256"]
+    with tempfile.TemporaryDirectory() as tmp:
+        run(Path(tmp) / "warmup", ["scenes.num_scenes=1", "trajectories_per_scene=1", f"renderer={args.renderer}"])
+        rates = {}
+        for workers in (1, 2):
+            rep = run(Path(tmp) / f"w{workers}", [*common, f"workers={workers}"])
+            rates[workers] = rep.frames / rep.seconds
+            timing = {k: sum(r.timing[k] for r in rep.results) for k in TIMERS}
+            total = sum(timing.values())
+            shares = ", ".join(f"{k} {100 * v / total:.0f}%" for k, v in timing.items())
+            backends = sorted({b for r in rep.results for b in r.record["renderers"]})
+            print(f"{workers} process{'es' if workers > 1 else ''}: {rep.frames} frames "
+                  f"({sum(r.written for r in rep.results)} trajectories, {args.scenes} scenes) in {rep.seconds:.1f} s "
+                  f"= {rates[workers]:.0f} frames/s; renderer {', '.join(backends)}")
+            print(f"  time share (summed over processes): {shares}")
+            print(f"  per frame: " + ", ".join(f"{k} {1000 * v / rep.frames:.2f} ms" for k, v in timing.items()))
+        print(f"speed-up with 2 processes: {rates[2] / rates[1]:.2f}x "
+              f"(goals: >= 200 frames/s per process, >= 1.7x with 2)")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,72 @@
+"""Renderer figures (issue 3): frames/s per process at 256² for the `gl` and `raycast`
+back-ends on a procedural apartment and on dream_apartment, and combined frames/s with
+2 worker processes (ratio vs one).
+
+Poses are navigable points from the scene's navmesh with random yaws (fixed seed). Each
+figure comes from `rvn_data.render.parallel.render_parallel`: workers build their
+renderer, render one warm-up frame, wait for each other, then render their share; the
+time runs from the first start to the last end. Software GL (llvmpipe) already uses every
+core in one process, so its 2-process ratio says little; raycast is single-threaded.
+"cpu share" = worker CPU time / (wall time x processes): for raycast, below 1 means other
+load on the machine took the cores (llvmpipe's threads can exceed 1).
+Goals (2-core CPU): gl >= 280 frames/s on a procedural scene; raycast >= 80 frames/s on
+dream_apartment; 2 processes >= 1.7 x one.
+Run: python benchmarks/render.py [--frames 300] [--size 256]
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+DREAM = Path(__file__).resolve().parents[2] / "shared" / "scenes" / "dream_apartment.glb"
+
+
+def poses_for(scene, n: int, seed: int = 0):
+    from rvn_data.navmesh import NavMesh, NavMeshSettings
+
+    nm = NavMesh.build(scene, NavMeshSettings())
+    rng = np.random.default_rng([seed, 3])
+    return [(nm.sample(rng), float(rng.uniform(-math.pi, math.pi))) for _ in range(n)]
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--frames", type=int, default=300, help="frames per measurement (split over workers)")
+    ap.add_argument("--size", type=int, default=256, help="image width = height")
+    ap.add_argument("--backends", nargs="+", default=["gl", "raycast"])
+    ap.add_argument("--scenes", nargs="+", default=["procedural:train/0", str(DREAM)])
+    args = ap.parse_args()
+
+    from rvn_data.render import CameraConfig, make_renderer
+    from rvn_data.render.parallel import render_parallel
+    from rvn_data.scenes.loader import load_scene
+
+    camera = CameraConfig(width=args.size, height=args.size)
+    print(f"Renderer frames/s at {args.size}x{args.size} (RGB + depth), {args.frames} frames per figure "
+          "(shared, noisy machine: figures as measured)")
+    for spec in args.scenes:
+        scene = load_scene(spec)
+        poses = poses_for(scene, args.frames)
+        print(f"\n{scene.scene_id}: {scene.num_triangles:,} triangles, {len(scene.parts)} parts")
+        for backend in args.backends:
+            try:
+                with make_renderer(scene, camera, backend) as r:
+                    info = r.info
+            except RuntimeError as e:
+                print(f"  {backend:8s}: unavailable ({e})")
+                continue
+            one = render_parallel(scene, camera, poses, backend, processes=1, return_images=False)
+            two = render_parallel(scene, camera, poses, backend, processes=2, return_images=False)
+            f1, f2 = one.frames_per_second, two.frames_per_second
+            print(f"  {backend:8s}: 1 process {f1:7.1f} frames/s ({1e3 / f1:5.2f} ms/frame, cpu share "
+                  f"{one.cpu_share:4.2f}) | 2 processes {f2:7.1f} frames/s combined, {f2 / f1:4.2f}x "
+                  f"(cpu share {two.cpu_share:4.2f})  [{info}]")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

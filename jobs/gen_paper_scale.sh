@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# Paper-scale expert + negative datasets (800 train scenes x 400 trajectories = 320k each)
+# on a Slurm cluster: 64 array tasks, 12-13 scenes each. Edit conf/hydra/launcher/slurm.yaml
+# (partition, account, setup) first. Re-running the same command resumes: finished
+# trajectories and scenes are skipped, and the result is byte-identical.
+set -euo pipefail
+OUT=${OUT:-/data/rvn}
+SHARDS=${SHARDS:-64}
+LAST=$((SHARDS - 1))
+
+for KIND in expert negative; do
+  rvn-gen -m hydra/launcher=slurm \
+    dataset=${KIND} out_dir=${OUT}/rvn_${KIND} \
+    scenes.num_scenes=800 trajectories_per_scene=400 split=train \
+    shard_index="range(0,${SHARDS})" num_shards=${SHARDS} workers=4 progress=false \
+    renderer=auto seed=0 "$@"
+  # the last shard to finish writes data_splits/, data_config.yaml and manifest.json;
+  # this is a no-op then, and lists the missing scenes if some shard failed
+  rvn-gen mode=merge dataset=${KIND} out_dir=${OUT}/rvn_${KIND} scenes.num_scenes=800 \
+    trajectories_per_scene=400 split=train seed=0 renderer=auto "$@"
+done

@@ -1,0 +1,238 @@
+"""Generate the trajectories of one scene: resume, plan, render, encode, write, map, record.
+
+Trajectory i of a scene is the first kept attempt a = 0 … max_attempts−1, each drawn
+from `attempt_rng(seed, kind, slug, i, a)`; folders already on disk are skipped, so a
+rerun only does what is missing. When trajectory i fails every attempt and no earlier
+index was kept, the scene is hopeless for these settings: `SceneError` with the reason.
+The scene's record (`.rvn/scenes/<slug>.json`, deterministic, no timings) is written last.
+"""
+from __future__ import annotations
+
+import time
+from collections import Counter
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from rvn_data.conventions import to_planar
+from rvn_data.dataset import naming, writer
+from rvn_data.dataset.settings import GenSettings
+from rvn_data.dataset.topdown import render_map
+from rvn_data.dataset.trajectory import Rollout, SceneContext, attempt
+from rvn_data.scenes.scene import SceneError
+
+TIMERS = ("setup", "planning", "rendering", "encoding", "writing")
+
+
+@dataclass
+class SceneResult:
+    """What a scene job reports back (timings and counts of this run, not persisted)."""
+
+    slug: str
+    spec: str
+    record: dict | None = None
+    error: str | None = None
+    timing: dict = field(default_factory=lambda: dict.fromkeys(TIMERS, 0.0))
+    written: int = 0  # trajectories written by this run
+    frames: int = 0  # frames written by this run
+    skipped: int = 0  # trajectories found complete on disk
+
+
+def record_path(out_dir: Path, slug: str) -> Path:
+    return Path(out_dir) / ".rvn" / "scenes" / f"{slug}.json"
+
+
+def _diagnose(s: GenSettings, scene_id: str, reasons: Counter, max_geodesic: float) -> str:
+    reason, _ = reasons.most_common(1)[0]
+    hint = {
+        "no_goal": f"no goal at a geodesic distance in [d_min={s.d_min}, d_max={s.d_max}] m "
+                   f"(largest distance seen {max_geodesic:.2f} m); lower dataset.d_min",
+        "start_blocked": f"no start outside the inflated obstacles with dataset.margin={s.margin} m; lower dataset.margin",
+        "no_path": f"no A* path between start and goal with obstacles inflated by dataset.margin={s.margin} m "
+                   "(the margin closes the passages); lower dataset.margin",
+        "path_length": f"every A* path is outside [d_min={s.d_min}, d_max={s.d_max}] m; widen the range",
+        "collided": f"the follower collides on every expert path (dataset.margin={s.margin} m); raise dataset.margin",
+        "no_collision": f"no negative attempt collides (dataset.margin={s.margin} m, max_steps={s.max_steps}); "
+                        "lower dataset.margin",
+        "timeout": f"the follower never finishes within dataset.max_steps={s.max_steps}; raise it",
+    }[reason]
+    counts = ", ".join(f"{k} {v}" for k, v in sorted(reasons.items()))
+    return f"scene {scene_id}: {hint} ({counts} of {sum(reasons.values())} attempts)"
+
+
+class _Scene:
+    """Lazily built scene resources (nothing is loaded when every trajectory exists)."""
+
+    def __init__(self, spec: str, settings: GenSettings, scene_cfg: dict, timing: dict):
+        from rvn_data.navmesh import NavMesh, NavMeshSettings
+        from rvn_data.render import CameraConfig, make_renderer
+        from rvn_data.scenes.loader import load_scene
+        from rvn_data.sim import Simulator
+
+        t0 = time.perf_counter()
+        self.scene = load_scene(spec, up_axis=scene_cfg.get("up_axis", "y"),
+                                unit_scale=float(scene_cfg.get("unit_scale", 1.0)),
+                                level=bool(scene_cfg.get("level", False)))
+        navmesh = NavMesh.build(self.scene, NavMeshSettings.from_config(settings.navmesh))
+        self.ctx = SceneContext(navmesh=navmesh, sim=Simulator(navmesh, settings.agent), scene=self.scene,
+                                settings=settings)
+        self._renderer = None
+        self._make_renderer = lambda: make_renderer(self.scene, CameraConfig(**settings.camera),
+                                                    backend=settings.renderer, device=settings.render_device)
+        timing["setup"] += time.perf_counter() - t0
+
+    @property
+    def renderer(self):
+        if self._renderer is None:
+            self._renderer = self._make_renderer()
+        return self._renderer
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+
+
+def _meta(s: GenSettings, scene_id: str, spec: str, split: str, name: str, index: int, a: int,
+          rejected: Counter, r: Rollout, backend: str) -> dict:
+    def vec(x):
+        return None if x is None else [float(v) for v in np.asarray(x).reshape(-1)]
+
+    return {
+        "name": name, "scene": scene_id, "spec": spec, "split": split, "kind": s.kind, "index": index,
+        "seed": s.seed, "attempt": a, "rejected": dict(sorted(rejected.items())),
+        "start": vec(r.start), "start_yaw": r.start_yaw, "goal": vec(r.goal), "goal_planar": vec(to_planar(r.goal)),
+        "geodesic": r.geodesic, "path_length": r.plan.length,
+        "waypoints_planar": to_planar(r.plan.waypoints).tolist(),
+        "frames": len(r.yaws), "actions": r.actions, "steps": r.steps,
+        "t_c": r.t_c, "t_c_episode": r.t_c_episode, "contact": vec(r.contact),
+        "collision_planar": None if r.t_c is None else vec(to_planar(r.positions[r.t_c])),
+        "renderer": backend, "settings": s.identity(),
+    }
+
+
+def run_scene(spec: str, settings: GenSettings, out_dir: Path, trajectories_per_scene: int, scene_cfg: dict,
+              on_trajectory=None) -> SceneResult:
+    """Generate (or resume) one scene's trajectories and its map and record."""
+    s, out_dir = settings, Path(out_dir)
+    slug = naming.scene_slug(spec)
+    res = SceneResult(slug=slug, spec=spec)
+    rec_file = record_path(out_dir, slug)
+    if rec_file.is_file():
+        import json
+        rec = json.loads(rec_file.read_text())
+        if rec.get("trajectories_per_scene") == trajectories_per_scene:
+            res.record, res.skipped = rec, len(rec["trajectories"])
+            if on_trajectory:
+                on_trajectory(trajectories_per_scene)
+            return res
+    split = str(scene_cfg.get("split", ""))
+    scene = None
+    kept, failed, reasons = [], [], Counter()
+    try:
+        for index in range(trajectories_per_scene):
+            name = naming.traj_name(slug, s.kind, index)
+            if writer.is_complete(out_dir, name):
+                meta = writer.read_meta(out_dir, name)
+                kept.append(meta)
+                reasons.update(meta["rejected"])
+                res.skipped += 1
+                if on_trajectory:
+                    on_trajectory(1)
+                continue
+            if scene is None:
+                scene = _Scene(spec, s, scene_cfg, res.timing)
+            rejected = Counter()
+            rollout = None
+            t0 = time.perf_counter()
+            for a in range(s.max_attempts):
+                out = attempt(scene.ctx, naming.attempt_rng(s.seed, s.kind, slug, index, a))
+                if isinstance(out, Rollout):
+                    rollout = out
+                    break
+                rejected[out] += 1
+            res.timing["planning"] += time.perf_counter() - t0
+            reasons.update(rejected)
+            if rollout is None:
+                if not kept:
+                    raise SceneError(_diagnose(s, scene.scene.scene_id, rejected, scene.ctx.stats["max_geodesic_seen"]))
+                failed.append({"index": index, "rejected": dict(sorted(rejected.items()))})
+                if on_trajectory:
+                    on_trajectory(1)
+                continue
+            jpegs = _render(scene.renderer, rollout, s, res.timing)
+            t0 = time.perf_counter()
+            meta = _meta(s, scene.scene.scene_id, spec, split, name, index, a, rejected, rollout,
+                         scene.renderer.backend)
+            writer.write_trajectory(out_dir, name, jpegs, rollout.planar, rollout.yaws, meta)
+            res.timing["writing"] += time.perf_counter() - t0
+            kept.append(meta)
+            res.written += 1
+            res.frames += len(jpegs)
+            if on_trajectory:
+                on_trajectory(1)
+        if scene is None:  # everything was on disk but the record was not: load for the map
+            scene = _Scene(spec, s, scene_cfg, res.timing)
+        t0 = time.perf_counter()
+        _write_map(out_dir, slug, scene, kept)
+        rec = {
+            "scene": scene.scene.scene_id, "spec": spec, "slug": slug, "split": split, "kind": s.kind,
+            "trajectories_per_scene": trajectories_per_scene,
+            "trajectories": [{"name": m["name"], "index": m["index"], "frames": m["frames"], "t_c": m["t_c"],
+                              "path_length": m["path_length"], "attempt": m["attempt"]} for m in kept],
+            "failed": failed, "rejected": dict(sorted(reasons.items())),
+            "attempts": int(sum(reasons.values()) + len(kept)),
+            "renderers": sorted({m["renderer"] for m in kept}),
+        }
+        writer.write_text_atomic(rec_file, writer.dumps_json(rec))
+        res.timing["writing"] += time.perf_counter() - t0
+        res.record = rec
+        return res
+    finally:
+        if scene is not None:
+            scene.close()
+
+
+def _render(renderer, r: Rollout, s: GenSettings, timing: dict) -> list[bytes]:
+    jpegs = []
+    for i in range(r.num_render):
+        t0 = time.perf_counter()
+        rgb, _ = renderer.render(r.positions[i], float(r.yaws[i]))
+        t1 = time.perf_counter()
+        jpegs.append(writer.encode_jpeg(rgb, s.jpeg_quality))
+        timing["rendering"] += t1 - t0
+        timing["encoding"] += time.perf_counter() - t1
+    jpegs += [jpegs[-1]] * (len(r.yaws) - r.num_render)  # I_t = I_{t_c} after the collision
+    return jpegs
+
+
+def _navigable_on(grid, navmesh) -> np.ndarray:
+    """The navmesh's main island resampled on the occupancy grid's cells."""
+    ng = navmesh.grid(0)
+    rows, cols = np.indices(grid.shape)
+    rc = ng.world_to_grid(grid.to_world(np.stack([rows, cols], -1)))
+    inside = ng.contains(rc)
+    out = np.zeros(grid.shape, bool)
+    out[inside] = ng.island[rc[inside][:, 0], rc[inside][:, 1]] == 0
+    return out
+
+
+def _write_map(out_dir: Path, slug: str, scene: _Scene, kept: list[dict]) -> None:
+    nav = scene.ctx.navmesh
+    y = kept[0]["start"][1] if kept else float(nav.sample(np.random.default_rng(0))[1])
+    grid, free = scene.ctx.grid_at(y)
+    trajs = []
+    for m in kept:
+        planar = _load_planar(out_dir, m["name"])
+        hit = None
+        if m["t_c"] is not None:
+            hit = m["contact"] or [planar[m["t_c"]][0], y, -planar[m["t_c"]][1]]
+        trajs.append({"planar": planar, "start": m["start"], "goal": m["goal"], "collision": hit})
+    png = render_map(grid, free, _navigable_on(grid, nav), trajs)
+    writer.write_text_atomic(out_dir / "maps" / f"{slug}.png", png)
+
+
+def _load_planar(out_dir: Path, name: str) -> np.ndarray:
+    import pickle
+    with open(out_dir / name / writer.TRAJ_DATA, "rb") as fh:
+        return np.asarray(pickle.load(fh)["position"], np.float64)

@@ -1,0 +1,101 @@
+"""Settings of a trajectory dataset (conf/dataset/*.yaml), validated, with its identity.
+
+A dataset's *identity* is everything that changes the bytes of a trajectory: the kind,
+margins, ranges, budgets, the agent, navmesh, camera, renderer request, JPEG quality and
+the seed. How much is generated (scenes, trajectories per scene, shards, workers) is not
+part of it, so a run can be extended or resumed into the same output directory.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from typing import Any, Mapping
+
+from rvn_data.conventions import AgentConfig
+
+KINDS = ("expert", "negative")
+
+
+@dataclass(frozen=True)
+class GenSettings:
+    """One dataset's generation settings (field names as in conf/dataset/*.yaml)."""
+
+    kind: str = "expert"
+    name: str = "rvn_expert"
+    seed: int = 0
+    margin: float = 0.28  # m, obstacle inflation for A* (expert > r_robot, negative < r_robot)
+    d_min: float = 4.0  # m, path length range
+    d_max: float = 8.0
+    k_pre: int = 8  # negative: steps kept before the collision
+    k_post: int = 6  # negative: steps kept after it
+    max_steps: int = 400  # step budget of one rollout
+    max_attempts: int = 40  # start/goal draws per trajectory before it is given up
+    goal_candidates: int = 32  # goal draws per start
+    resolution: float = 0.05  # m, occupancy grid cell
+    stop_radius: float = 0.36  # m, STOP this close to the goal (2·r_robot)
+    jpeg_quality: int = 90
+    train_fraction: float = 0.8  # scenes in the train split of data_splits/
+    renderer: str = "auto"
+    render_device: int = 0  # GPU index for the GL back-end (not part of the identity)
+    agent: AgentConfig = field(default_factory=AgentConfig)
+    navmesh: dict = field(default_factory=dict)
+    camera: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.kind not in KINDS:
+            raise ValueError(f"dataset.kind={self.kind!r} must be one of {KINDS}")
+        if not self.name or any(c in self.name for c in "/\\ \n"):
+            raise ValueError(f"dataset.name={self.name!r} must be a non-empty folder name")
+        for key in ("margin", "d_min", "d_max", "resolution", "stop_radius", "train_fraction"):
+            value = getattr(self, key)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
+                raise ValueError(f"dataset.{key}={value!r} must be a finite number >= 0")
+        if not 0 < self.d_min <= self.d_max:
+            raise ValueError(f"dataset.d_min={self.d_min} and dataset.d_max={self.d_max} need 0 < d_min <= d_max")
+        if self.resolution <= 0 or self.resolution > 0.5:
+            raise ValueError(f"dataset.resolution={self.resolution} must be in (0, 0.5] metres")
+        if self.train_fraction > 1:
+            raise ValueError(f"dataset.train_fraction={self.train_fraction} must be in [0, 1]")
+        for key in ("k_pre", "k_post", "max_steps", "max_attempts", "goal_candidates", "jpeg_quality", "seed"):
+            value = getattr(self, key)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+                raise ValueError(f"dataset.{key}={value!r} must be an integer >= 0")
+        for key in ("max_steps", "max_attempts", "goal_candidates"):
+            if getattr(self, key) < 1:
+                raise ValueError(f"dataset.{key}={getattr(self, key)} must be >= 1")
+        if not 1 <= self.jpeg_quality <= 100:
+            raise ValueError(f"dataset.jpeg_quality={self.jpeg_quality} must be in [1, 100]")
+
+    @property
+    def max_frames(self) -> int:
+        """Frames of one negative trajectory at most: k_pre + k_post + 1."""
+        return self.k_pre + self.k_post + 1
+
+    def identity(self) -> dict[str, Any]:
+        """JSON-able dict of everything that determines a trajectory's bytes."""
+        out = asdict(self)
+        out["agent"] = asdict(self.agent)
+        del out["render_device"]
+        return out
+
+    @classmethod
+    def from_config(cls, cfg: Mapping[str, Any]) -> "GenSettings":
+        """From the composed `rvn-gen` config (keys dataset, agent, navmesh, camera, renderer, seed)."""
+        ds = dict(cfg["dataset"])
+        agent = AgentConfig(**{k: v for k, v in dict(cfg["agent"]).items()})
+        offset = ds.pop("margin_offset", 0.1 if ds.get("kind") == "expert" else -0.1)
+        if ds.get("margin") is None:
+            ds["margin"] = round(agent.r_robot + float(offset), 6)
+        if ds.get("stop_radius") is None:
+            ds["stop_radius"] = 2.0 * agent.r_robot
+        renderer, device = cfg.get("renderer", "auto"), 0
+        if isinstance(renderer, Mapping):
+            renderer, device = renderer.get("backend", "auto"), int(renderer.get("device", 0) or 0)
+        known = {f for f in cls.__dataclass_fields__} - {"agent", "navmesh", "camera", "renderer", "render_device", "seed"}
+        unknown = sorted(set(ds) - known)
+        if unknown:
+            raise ValueError(f"unknown dataset setting(s) {unknown}; known: {sorted(known)}")
+        floats = {"margin", "d_min", "d_max", "resolution", "stop_radius", "train_fraction"}
+        ds = {k: (float(v) if k in floats and isinstance(v, int) and not isinstance(v, bool) else v) for k, v in ds.items()}
+        return cls(seed=cfg.get("seed", 0), renderer=str(renderer), render_device=device, agent=agent,
+                   navmesh=dict(cfg.get("navmesh", {})), camera=dict(cfg.get("camera", {})), **ds)

@@ -1,0 +1,153 @@
+"""One trajectory attempt: sample start and goal, plan, follow (SPEC.md "Trajectory datasets").
+
+An attempt is a pure function of its `numpy.random.Generator`. It returns a `Rollout`
+(poses to record, how many of them to render, the collision step) or the name of the
+reason it was discarded (`REASONS`). Nothing is rendered here.
+
+Time indices: frame t shows pose p_t; action a_t is issued at p_t. For a negative
+trajectory t_c is the frame whose MOVE_FORWARD collided: p_{t_c} and I_{t_c} are real,
+p_t for t > t_c are the poses the follower commands from there with no obstacle in the
+way (the intended motion through the obstacle), and I_t = I_{t_c}. The clip kept is
+t_i = max(0, t_c − k_pre) … t_f = min(T − 1, t_c + k_post).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from rvn_data.conventions import Action, to_planar, wrap_angle
+from rvn_data.dataset.settings import GenSettings
+from rvn_data.planning.astar import Plan, plan_path
+from rvn_data.planning.follower import PathFollower, integrate
+from rvn_data.planning.occupancy import OccupancyGrid
+
+REASONS = ("start_blocked", "no_goal", "no_path", "path_length", "collided", "timeout", "no_collision")
+
+
+@dataclass
+class Rollout:
+    """A kept trajectory before rendering. positions: world [T, 3]; yaws [T] wrapped;
+    `num_render` first frames are rendered, later ones repeat the last rendered image."""
+
+    positions: np.ndarray
+    yaws: np.ndarray
+    actions: list[int]
+    num_render: int
+    start: np.ndarray
+    start_yaw: float
+    goal: np.ndarray
+    geodesic: float
+    plan: Plan
+    t_c: int | None = None  # index of the collision frame within the clip
+    t_c_episode: int | None = None  # the same, counted from the start of the rollout
+    contact: np.ndarray | None = None
+    steps: int = 0  # actions taken by the follower before STOP / collision
+
+    @property
+    def planar(self) -> np.ndarray:
+        return to_planar(self.positions)
+
+
+@dataclass
+class SceneContext:
+    """What attempts in one scene share: navmesh, simulator, occupancy grids per floor."""
+
+    navmesh: object
+    sim: object
+    scene: object
+    settings: GenSettings
+    grids: dict = field(default_factory=dict)
+    stats: dict = field(default_factory=lambda: {"max_geodesic_seen": 0.0})
+
+    def grid_at(self, floor_y: float) -> tuple[OccupancyGrid, np.ndarray]:
+        """(grid, inflated free mask) at a floor height, cached per 5 cm level."""
+        from rvn_data.planning.occupancy import occupancy_grid
+
+        key = int(round(floor_y / 0.05))
+        if key not in self.grids:
+            s = self.settings
+            grid = occupancy_grid(self.scene, key * 0.05, s.resolution, s.agent.h_robot,
+                                  float(s.navmesh.get("max_climb", 0.2)), float(s.navmesh.get("max_slope_deg", 45.0)))
+            self.grids[key] = (grid, grid.inflate(s.margin))
+        return self.grids[key]
+
+
+def _free_at(grid: OccupancyGrid, free: np.ndarray, p: np.ndarray) -> bool:
+    cell = grid.to_cell(p)
+    return grid.contains(cell) and bool(free[cell[0], cell[1]])
+
+
+def attempt(ctx: SceneContext, rng: np.random.Generator) -> Rollout | str:
+    """One start/goal draw, plan and rollout; a `Rollout` or a reason from `REASONS`."""
+    s = ctx.settings
+    start = np.asarray(ctx.navmesh.sample(rng), dtype=np.float64)
+    start_yaw = float(rng.uniform(-math.pi, math.pi))
+    grid, free = ctx.grid_at(float(start[1]))
+    if not _free_at(grid, free, start):
+        return "start_blocked"
+    candidates = np.array([ctx.navmesh.sample(rng) for _ in range(s.goal_candidates)], dtype=np.float64)
+    dists = np.asarray(ctx.navmesh.distance_field(start).distance(candidates), dtype=np.float64).reshape(-1)
+    finite = dists[np.isfinite(dists)]
+    if finite.size:
+        ctx.stats["max_geodesic_seen"] = max(ctx.stats["max_geodesic_seen"], float(finite.max()))
+    goal, geodesic = None, math.inf
+    for g, d in zip(candidates, dists):  # the first candidate in range and free under the margin
+        if s.d_min <= d <= s.d_max and _free_at(grid, free, g):
+            goal, geodesic = g, float(d)
+            break
+    if goal is None:
+        return "no_goal"
+    plan = plan_path(grid, free, start, goal)
+    if plan is None:
+        return "no_path"
+    if not s.d_min <= plan.length <= s.d_max:
+        return "path_length"
+    return _follow(ctx, plan, start, start_yaw, goal, geodesic)
+
+
+def _follow(ctx: SceneContext, plan: Plan, start, start_yaw, goal, geodesic) -> Rollout | str:
+    s = ctx.settings
+    follower = PathFollower(plan.waypoints, s.agent, s.stop_radius)
+    ctx.sim.reset(start, start_yaw)
+    pos, yaw = np.array(start, dtype=np.float64), float(wrap_angle(start_yaw))
+    positions, yaws, actions = [], [], []
+    t_c = contact = None
+    for t in range(s.max_steps):
+        positions.append(pos)
+        yaws.append(yaw)
+        action = follower.act(pos, yaw)
+        actions.append(int(action))
+        if action == Action.STOP:
+            break
+        result = ctx.sim.step(action)
+        if result.collided:
+            t_c = t
+            contact = None if result.contact is None else np.asarray(result.contact, dtype=np.float64)
+            break
+        pos, yaw = np.asarray(result.position, dtype=np.float64), float(wrap_angle(result.yaw))
+    else:
+        return "timeout"
+    steps = len(actions) - 1 if actions[-1] == Action.STOP else len(actions)
+    common = dict(start=np.asarray(start, np.float64), start_yaw=float(start_yaw), goal=goal,
+                  geodesic=geodesic, plan=plan, contact=contact, steps=steps)
+    if s.kind == "expert":
+        if t_c is not None:
+            return "collided"
+        return Rollout(np.array(positions), np.array(yaws), actions, num_render=len(positions), **common)
+    if t_c is None:
+        return "no_collision"
+    # negative: continue the intended motion from p_{t_c} without the navmesh
+    for _ in range(s.k_post):
+        pos, yaw = integrate(pos, yaw, Action(actions[-1]), s.agent)
+        positions.append(pos)
+        yaws.append(yaw)
+        action = follower.act(pos, yaw)
+        actions.append(int(action))
+        if action == Action.STOP:
+            break
+    t_i = max(0, t_c - s.k_pre)
+    t_f = min(len(positions) - 1, t_c + s.k_post)
+    return Rollout(np.array(positions[t_i:t_f + 1]), np.array(yaws[t_i:t_f + 1]), actions[t_i:t_f + 1],
+                   num_render=t_c - t_i + 1, t_c=t_c - t_i, t_c_episode=t_c, **common)

@@ -1,0 +1,1 @@
+"""`rvn-gen`: trajectory dataset generation (CLI, sharding, workers, summary)."""

@@ -1,0 +1,182 @@
+"""Run `rvn-gen` for a composed config: shard the scene list, generate, finalise, summarise.
+
+Scenes of this shard run one after another (or on `workers` processes, one scene each at a
+time). A scene that fails is noted in ``.rvn/failed/<slug>.txt`` and the others go on;
+the exit status is non-zero when any scene failed. See `rvn_data.dataset.finalise` for
+how shards meet.
+"""
+from __future__ import annotations
+
+import json
+import multiprocessing as mp
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from rvn_data.dataset import naming, writer
+from rvn_data.dataset.finalise import failure_path, finalise, missing_scenes
+from rvn_data.dataset.scene_job import TIMERS, SceneResult, run_scene
+from rvn_data.dataset.settings import GenSettings
+from rvn_data.gen.summary import summary
+
+
+def check_writable(out_dir: Path) -> None:
+    """Raise ValueError naming `out_dir` when files cannot be created there."""
+    try:
+        (out_dir / ".rvn").mkdir(parents=True, exist_ok=True)
+        probe = out_dir / ".rvn" / f".probe{os.getpid()}"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as e:
+        raise ValueError(f"out_dir={out_dir}: cannot write there ({e.strerror or e}); choose a writable out_dir") from None
+
+
+def check_identity(out_dir: Path, settings: GenSettings) -> None:
+    """Record the dataset's settings; refuse to mix trajectories made with other settings."""
+    path = out_dir / ".rvn" / "settings.json"
+    mine = settings.identity()
+    if path.is_file():
+        theirs = json.loads(path.read_text())
+        if theirs != json.loads(writer.dumps_json(mine)):
+            diff = _diff(theirs, mine)
+            raise ValueError(f"out_dir={out_dir} holds a dataset made with other settings ({diff}); "
+                             "use another out_dir, or the same settings to resume or extend it")
+        return
+    writer.write_text_atomic(path, writer.dumps_json(mine))
+
+
+def _diff(a: Any, b: Any, prefix: str = "") -> str:
+    """Changed settings, named as on the command line (dataset.margin, agent.r_robot, seed)."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        def name(k: str) -> str:
+            top = prefix or ("" if k in ("agent", "navmesh", "camera", "seed", "renderer") else "dataset.")
+            return f"{top}{k}."
+        parts = [_diff(a.get(k), b.get(k), name(k)) for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)]
+        return ", ".join(p for p in parts if p)
+    return f"{prefix.rstrip('.')}: {a!r} -> {b!r}"
+
+
+def list_scenes(cfg: Any) -> list[str]:
+    from rvn_data.scenes.sets import scene_specs
+
+    sc = cfg["scenes"]
+    specs = scene_specs(sc["source"], sc["split"], root=sc.get("root"), num_scenes=sc.get("num_scenes"),
+                        first_scene=int(sc.get("first_scene") or 0))
+    naming.check_unique(list(specs))
+    return list(specs)
+
+
+def _init_worker() -> None:
+    """One core per worker process: Mesa's software GL (llvmpipe) would otherwise start a
+    thread per core in every process."""
+    os.environ.setdefault("LP_NUM_THREADS", "1")
+
+
+def _scene_worker(args: tuple) -> SceneResult:
+    spec, settings, out_dir, n, scene_cfg = args
+    try:
+        return run_scene(spec, settings, Path(out_dir), n, scene_cfg)
+    except Exception as e:  # one scene's failure must not stop the others
+        return SceneResult(slug=naming.scene_slug(spec), spec=spec, error=_message(spec, e))
+
+
+def _message(spec: str, e: Exception) -> str:
+    text = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+    if spec not in text and naming.scene_slug(spec) not in text:
+        text = f"scene {spec}: {text}"
+    return text if isinstance(e, ValueError) else f"{text} ({type(e).__name__})"
+
+
+@dataclass
+class GenReport:
+    """Outcome of `generate`: exit status, per-scene results, wall time (s), frames written."""
+
+    status: int
+    results: list[SceneResult] = field(default_factory=list)
+    seconds: float = 0.0
+
+    @property
+    def frames(self) -> int:
+        return sum(r.frames for r in self.results)
+
+
+def generate(cfg: Any) -> GenReport:
+    """Generate this shard's scenes and finalise when every shard is done."""
+    t_start = time.perf_counter()
+    settings = GenSettings.from_config(cfg)
+    out_dir = Path(cfg["out_dir"]).expanduser().resolve()
+    shard_index, num_shards = int(cfg["shard_index"]), int(cfg["num_shards"])
+    if not 0 <= shard_index < num_shards:
+        raise ValueError(f"shard_index={shard_index} must be in [0, num_shards={num_shards})")
+    n = int(cfg["trajectories_per_scene"])
+    if n < 0:
+        raise ValueError(f"trajectories_per_scene={n} must be >= 0")
+    specs = list_scenes(cfg)
+    check_writable(out_dir)
+    check_identity(out_dir, settings)
+    if cfg.get("mode", "generate") == "merge":
+        return GenReport(merge(out_dir, settings, specs, bool(cfg.get("allow_partial", False))))
+    if cfg.get("mode", "generate") != "generate":
+        raise ValueError(f"mode={cfg.get('mode')!r} must be generate or merge")
+    if settings.kind == "expert" and settings.margin <= settings.agent.r_robot:
+        print(f"warning: expert dataset.margin={settings.margin} m is not larger than r_robot={settings.agent.r_robot} m")
+    if settings.kind == "negative" and settings.margin >= settings.agent.r_robot:
+        print(f"warning: negative dataset.margin={settings.margin} m is not smaller than r_robot={settings.agent.r_robot} m")
+    mine = specs[shard_index::num_shards]
+    scene_cfg = {k: v for k, v in dict(cfg["scenes"]).items()}
+    jobs = [(spec, settings, str(out_dir), n, scene_cfg) for spec in mine]
+    results = _run(jobs, int(cfg.get("workers", 1)), n, bool(cfg.get("progress", True)))
+    for r in results:
+        note = failure_path(out_dir, r.slug)
+        if r.error is not None:
+            writer.write_text_atomic(note, r.error + "\n")
+        elif note.is_file():
+            note.unlink()
+    missing = finalise(out_dir, settings, specs)
+    seconds = time.perf_counter() - t_start
+    print(summary(settings, out_dir, results, specs, missing, shard_index, num_shards, seconds))
+    return GenReport(1 if any(r.error for r in results) else 0, results, seconds)
+
+
+def merge(out_dir: Path, settings: GenSettings, specs: list[str], allow_partial: bool) -> int:
+    """`mode=merge`: write splits, data_config and manifest from the scenes done so far."""
+    missing = missing_scenes(out_dir, specs)
+    if missing and not allow_partial:
+        raise ValueError(f"out_dir={out_dir}: {len(missing)} of {len(specs)} scenes are not generated yet "
+                         f"(first: {missing[0]}); run the missing shards, or merge with allow_partial=true")
+    finalise(out_dir, settings, specs, allow_missing=True)
+    print(f"rvn-gen merge: {out_dir}: wrote data_splits/{settings.name}/, data_config.yaml, manifest.json "
+          f"({len(specs) - len(missing)} of {len(specs)} scenes)")
+    return 0
+
+
+def _run(jobs: list[tuple], workers: int, n: int, progress: bool) -> list[SceneResult]:
+    from tqdm import tqdm
+
+    if workers < 1:
+        raise ValueError(f"workers={workers} must be >= 1")
+    if workers == 1 or len(jobs) <= 1:
+        bar = tqdm(total=len(jobs) * n, unit="traj", disable=not progress, dynamic_ncols=True)
+        out = []
+        for spec, settings, out_dir, n_, scene_cfg in jobs:
+            bar.set_postfix_str(naming.scene_slug(spec))
+            try:
+                out.append(run_scene(spec, settings, Path(out_dir), n_, scene_cfg, on_trajectory=bar.update))
+            except Exception as e:
+                out.append(SceneResult(slug=naming.scene_slug(spec), spec=spec, error=_message(spec, e)))
+        bar.close()
+        return out
+    ctx = mp.get_context("spawn")
+    with ctx.Pool(min(workers, len(jobs)), initializer=_init_worker) as pool:
+        bar = tqdm(total=len(jobs), unit="scene", disable=not progress, dynamic_ncols=True)
+        out = []
+        for r in pool.imap_unordered(_scene_worker, jobs):
+            out.append(r)
+            bar.update(1)
+        bar.close()
+    return sorted(out, key=lambda r: r.slug)
+
+
+__all__ = ["GenReport", "generate", "merge", "check_writable", "check_identity", "TIMERS"]

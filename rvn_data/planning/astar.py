@@ -1,0 +1,169 @@
+"""A* on an inflated occupancy grid (8-connected, compiled with numba) and path pruning.
+
+Moves: 4 straight (cost 1 cell) and 4 diagonal (cost √2, only when both straight
+neighbours are free, so a path never cuts an obstacle's corner). Heuristic: octile
+distance (admissible and consistent, so the path is a shortest 8-connected path).
+Pruning pulls the string: from each kept waypoint, the next one is the farthest later
+path cell still in line of sight on the free grid.
+"""
+from __future__ import annotations
+
+import heapq
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from rvn_data.planning.occupancy import OccupancyGrid
+
+SQRT2 = math.sqrt(2.0)
+
+
+@njit(cache=True)
+def _octile(r, c, gr, gc):
+    dr = abs(r - gr)
+    dc = abs(c - gc)
+    return max(dr, dc) + (SQRT2 - 1.0) * min(dr, dc)
+
+
+@njit(cache=True)
+def _astar(free, sr, sc, gr, gc):
+    """Shortest 8-connected path; returns (cells int64 [K, 2], length in cells) or ([], inf)."""
+    rows, cols = free.shape
+    n = rows * cols
+    g = np.full(n, np.inf)
+    parent = np.full(n, -1, np.int64)
+    closed = np.zeros(n, np.bool_)
+    start = sr * cols + sc
+    goal = gr * cols + gc
+    g[start] = 0.0
+    heap = [(_octile(sr, sc, gr, gc), start)]
+    drs = (-1, 1, 0, 0, -1, -1, 1, 1)
+    dcs = (0, 0, -1, 1, -1, 1, -1, 1)
+    while len(heap) > 0:
+        _, u = heapq.heappop(heap)
+        if closed[u]:
+            continue
+        closed[u] = True
+        if u == goal:
+            break
+        ur = u // cols
+        uc = u - ur * cols
+        for k in range(8):
+            vr = ur + drs[k]
+            vc = uc + dcs[k]
+            if vr < 0 or vr >= rows or vc < 0 or vc >= cols or not free[vr, vc]:
+                continue
+            step = 1.0
+            if k >= 4:
+                if not (free[ur, vc] and free[vr, uc]):
+                    continue
+                step = SQRT2
+            v = vr * cols + vc
+            if closed[v]:
+                continue
+            cand = g[u] + step
+            if cand < g[v]:
+                g[v] = cand
+                parent[v] = u
+                heapq.heappush(heap, (cand + _octile(vr, vc, gr, gc), v))
+    if not closed[goal]:
+        return np.zeros((0, 2), np.int64), np.inf
+    count = 1
+    v = goal
+    while v != start:
+        v = parent[v]
+        count += 1
+    out = np.empty((count, 2), np.int64)
+    v = goal
+    for i in range(count - 1, -1, -1):
+        out[i, 0] = v // cols
+        out[i, 1] = v - (v // cols) * cols
+        v = parent[v]
+    return out, g[goal]
+
+
+@njit(cache=True)
+def _line_of_sight(free, r0, c0, r1, c1):
+    """True when every cell the segment between two cell centres touches is free."""
+    dr = r1 - r0
+    dc = c1 - c0
+    steps = int(4 * max(abs(dr), abs(dc))) + 1
+    for s in range(steps + 1):
+        t = s / steps
+        r = r0 + 0.5 + t * dr
+        c = c0 + 0.5 + t * dc
+        # the segment's cells, plus a quarter-cell of slack on each side
+        for er in (-0.25, 0.25):
+            for ec in (-0.25, 0.25):
+                if not free[int(math.floor(r + er)), int(math.floor(c + ec))]:
+                    return False
+    return True
+
+
+@njit(cache=True)
+def _prune(free, cells):
+    keep = np.empty(cells.shape[0], np.int64)
+    keep[0] = 0
+    m = 1
+    i = 0
+    last = cells.shape[0] - 1
+    while i < last:
+        j = i + 1
+        while j + 1 <= last and _line_of_sight(free, cells[i, 0], cells[i, 1], cells[j + 1, 0], cells[j + 1, 1]):
+            j += 1
+        keep[m] = j
+        m += 1
+        i = j
+    return cells[keep[:m]]
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A planned path: `cells` of the A* path, pruned `waypoints` (world [K, 3], first =
+    start, last = goal), `length` (metres along the waypoints) and `grid_length` (metres
+    along the 8-connected A* cells)."""
+
+    cells: np.ndarray
+    waypoints: np.ndarray
+    length: float
+    grid_length: float
+
+
+def astar(free: np.ndarray, start: tuple[int, int], goal: tuple[int, int]) -> tuple[np.ndarray, float]:
+    """A* from cell `start` to cell `goal` on bool grid `free` → (cells [K, 2], length in
+    cells); ``(empty, inf)`` when no path exists or an end is not free."""
+    free = np.ascontiguousarray(free, dtype=np.bool_)
+    rows, cols = free.shape
+    for r, c in (start, goal):
+        if not (0 <= r < rows and 0 <= c < cols and free[r, c]):
+            return np.zeros((0, 2), np.int64), math.inf
+    return _astar(free, int(start[0]), int(start[1]), int(goal[0]), int(goal[1]))
+
+
+def prune_path(free: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """String-pulled subset of `cells` (first and last kept) with line of sight on `free`."""
+    if len(cells) <= 2:
+        return np.asarray(cells, np.int64)
+    padded = np.zeros((free.shape[0] + 2, free.shape[1] + 2), np.bool_)
+    padded[1:-1, 1:-1] = free
+    return _prune(padded, np.asarray(cells, np.int64) + 1) - 1
+
+
+def plan_path(grid: OccupancyGrid, free: np.ndarray, start: np.ndarray, goal: np.ndarray) -> Plan | None:
+    """Plan from world point `start` to `goal` on the inflated grid `free`; None when
+    either end is blocked or no path exists. Waypoints: exact start, pruned cell centres,
+    exact goal."""
+    s = grid.to_cell(start)
+    g = grid.to_cell(goal)
+    cells, length = astar(free, (int(s[0]), int(s[1])), (int(g[0]), int(g[1])))
+    if not np.isfinite(length):
+        return None
+    pruned = prune_path(free, cells)
+    pts = grid.to_world(pruned)
+    pts[0] = start
+    pts[-1] = goal
+    pts[:, 1] = grid.floor_height
+    polyline = float(np.linalg.norm(np.diff(pts[:, [0, 2]], axis=0), axis=1).sum())
+    return Plan(cells=cells, waypoints=pts, length=polyline, grid_length=float(length) * grid.resolution)

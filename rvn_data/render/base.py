@@ -1,0 +1,104 @@
+"""The `Renderer` interface, the shared lighting model and material preparation.
+
+Both back-ends shade a hit with the same formula (so their images agree)::
+
+    shade  = AMBIENT + KEY * |n . LIGHT_DIR|          (`face_shade`, one value per triangle)
+    colour = base_color.rgb * vertex_colour.rgb * texture(uv).rgb * shade
+
+with n the triangle's face normal (two-sided), textures sampled NEAREST with REPEAT wrap,
+and 0 (black, depth 0) where nothing is hit. The shade is a per-face constant so that
+software GL stays fast; floors, and walls of different orientations, differ in brightness.
+"""
+from __future__ import annotations
+
+import abc
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from rvn_data.render.camera import CameraConfig
+from rvn_data.scenes.scene import Part, Scene, SceneError
+
+log = logging.getLogger("rvn")
+
+AMBIENT = 0.5
+KEY = 0.5
+LIGHT_DIR = np.array([0.5, 0.75, 0.3]) / np.linalg.norm([0.5, 0.75, 0.3])
+
+
+class Renderer(abc.ABC):
+    """Renders RGB and planar depth from the robot's camera at a floor pose."""
+
+    backend: str = ""
+    info: str = ""
+    reason: str = ""  # why `make_renderer` picked this back-end
+
+    def __init__(self, scene: Scene, camera: CameraConfig) -> None:
+        self.scene = scene
+        self.camera = camera
+
+    @abc.abstractmethod
+    def render(self, position, yaw: float) -> tuple[np.ndarray, np.ndarray]:
+        """(rgb uint8 [H, W, 3], depth float32 [H, W] planar metres, 0 = no hit)."""
+
+    @abc.abstractmethod
+    def close(self) -> None:
+        """Release the back-end's resources; the renderer is unusable afterwards."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return f"<{type(self).__name__} backend={self.backend!r} info={self.info!r} scene={self.scene.scene_id!r}>"
+
+
+@dataclass
+class Material:
+    """A part's shading inputs, validated: base rgb, texture uint8 [H, W, 3] or None."""
+
+    base_rgb: np.ndarray
+    texture: np.ndarray | None
+
+
+def prepare_material(scene: Scene, part: Part) -> Material:
+    """Validate a part's material; an unusable texture is dropped with a warning naming it."""
+    base = np.clip(np.asarray(part.base_color[:3], dtype=np.float32), 0.0, 1.0)
+    tex = part.texture
+    if tex is not None:
+        problem = None
+        if part.uv is None:
+            problem = "it has no UV coordinates"
+        elif tex.ndim == 2:
+            tex = np.repeat(tex[:, :, None], 3, axis=2)
+        elif tex.ndim != 3 or tex.shape[2] not in (1, 2, 3, 4):
+            problem = f"its shape {tex.shape} is not [H, W, 3]"
+        if problem is None and (tex.shape[0] == 0 or tex.shape[1] == 0):
+            problem = f"it is empty ({tex.shape})"
+        if problem is None:
+            if tex.shape[2] in (1, 2):
+                tex = np.repeat(tex[:, :, :1], 3, axis=2)
+            tex = np.ascontiguousarray(tex[:, :, :3], dtype=np.uint8)
+        else:
+            log.warning("scene %s: texture of material %r ignored because %s; rendering its base colour",
+                        scene.scene_id, part.name, problem)
+            tex = None
+    return Material(base_rgb=base, texture=tex)
+
+
+def face_shade(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """float32 [M]: AMBIENT + KEY * |n . LIGHT_DIR| per triangle (AMBIENT if degenerate)."""
+    tri = np.asarray(vertices, np.float64)[faces]
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    length = np.linalg.norm(n, axis=1)
+    cos = np.abs(n @ LIGHT_DIR) / np.where(length > 0, length, 1.0)
+    return (AMBIENT + KEY * np.where(length > 0, cos, 0.0)).astype(np.float32)
+
+
+def check_scene(scene: Scene) -> None:
+    """Raise SceneError when the scene has nothing to render."""
+    if scene.num_triangles == 0:
+        raise SceneError(f"scene {scene.scene_id!r} has no triangles to render")

@@ -1,0 +1,149 @@
+"""The robot's forward camera: intrinsics, pose from (position, yaw), matrices, rays.
+
+Image convention: column u grows to the right, row v grows downwards, pixel (u, v) has its
+centre at (u + 0.5, v + 0.5); the principal point (cx, cy) is in the same pixel units.
+Camera frame (OpenGL): x right, y up, looking along -z. Depth is planar z-depth: the
+distance of the hit point along the optical axis, in metres.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from rvn_data.conventions import heading
+
+UP = np.array([0.0, 1.0, 0.0])
+
+
+def _number(name: str, value, allow_none: bool = False) -> None:
+    if value is None and allow_none:
+        return
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ValueError(f"camera setting {name}={value!r} must be a finite number")
+
+
+@dataclass(frozen=True)
+class CameraConfig:
+    """Camera settings (conf/camera/default.yaml). fx/fy (pixels) override hfov_deg."""
+
+    width: int = 256
+    height: int = 256
+    hfov_deg: float = 90.0
+    fx: float | None = None
+    fy: float | None = None
+    cx: float | None = None
+    cy: float | None = None
+    h_camera: float = 0.6
+    pitch_deg: float = 0.0
+    forward_offset: float = 0.0
+    near: float = 0.01
+    far: float = 50.0
+
+    def __post_init__(self) -> None:
+        for name in ("width", "height"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
+                raise ValueError(f"camera setting {name}={value!r} must be a positive integer (pixels)")
+        for name in ("hfov_deg", "h_camera", "pitch_deg", "forward_offset", "near", "far"):
+            _number(name, getattr(self, name))
+        for name in ("fx", "fy", "cx", "cy"):
+            _number(name, getattr(self, name), allow_none=True)
+        if not 0.0 < self.hfov_deg < 180.0:
+            raise ValueError(f"camera setting hfov_deg={self.hfov_deg!r} must be in (0, 180) degrees")
+        for name in ("fx", "fy"):
+            value = getattr(self, name)
+            if value is not None and value <= 0:
+                raise ValueError(f"camera setting {name}={value!r} must be a positive focal length in pixels")
+        if not abs(self.pitch_deg) < 90.0:
+            raise ValueError(f"camera setting pitch_deg={self.pitch_deg!r} must be in (-90, 90) degrees")
+        if not 0.0 < self.near < self.far:
+            raise ValueError(
+                f"camera settings near={self.near!r}, far={self.far!r} must satisfy 0 < near < far")
+
+    @classmethod
+    def from_dict(cls, cfg) -> "CameraConfig":
+        """Build from a mapping (dict or OmegaConf node); unknown keys raise ValueError."""
+        data = dict(cfg.items()) if hasattr(cfg, "items") else dict(cfg)
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise ValueError(f"unknown camera setting(s) {unknown}; known: {sorted(known)}")
+        for name in ("width", "height"):
+            if isinstance(data.get(name), float) and float(data[name]).is_integer():
+                data[name] = int(data[name])
+        return cls(**data)
+
+    # ---- intrinsics -------------------------------------------------------------------
+    @property
+    def focal(self) -> tuple[float, float]:
+        """(fx, fy) in pixels: given values, else from hfov (square pixels)."""
+        if self.fx is None and self.fy is None:
+            f = 0.5 * self.width / math.tan(math.radians(self.hfov_deg) / 2.0)
+            return f, f
+        fx = self.fx if self.fx is not None else self.fy
+        fy = self.fy if self.fy is not None else self.fx
+        return float(fx), float(fy)
+
+    @property
+    def principal(self) -> tuple[float, float]:
+        """(cx, cy) in pixels; default the image centre."""
+        cx = self.width / 2.0 if self.cx is None else float(self.cx)
+        cy = self.height / 2.0 if self.cy is None else float(self.cy)
+        return cx, cy
+
+    def intrinsics(self) -> np.ndarray:
+        """3x3 pinhole matrix K (pixels, v down)."""
+        (fx, fy), (cx, cy) = self.focal, self.principal
+        return np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
+
+    def ray_directions(self) -> np.ndarray:
+        """Camera-frame ray per pixel, float32 [H, W, 3], with z = -1 (so t = planar depth)."""
+        (fx, fy), (cx, cy) = self.focal, self.principal
+        x = (np.arange(self.width) + 0.5 - cx) / fx
+        y = -(np.arange(self.height) + 0.5 - cy) / fy
+        d = np.empty((self.height, self.width, 3), np.float64)
+        d[..., 0] = x[None, :]
+        d[..., 1] = y[:, None]
+        d[..., 2] = -1.0
+        return d.astype(np.float32)
+
+    # ---- extrinsics -------------------------------------------------------------------
+    def pose(self, position, yaw: float) -> tuple[np.ndarray, np.ndarray]:
+        """(eye [3], R [3,3]) with R's columns the camera's right, up and back axes in the world."""
+        h = heading(float(yaw))
+        p = math.radians(self.pitch_deg)
+        right = np.array([math.sin(yaw), 0.0, math.cos(yaw)])  # heading x up
+        forward = math.cos(p) * h + math.sin(p) * UP
+        up = -math.sin(p) * h + math.cos(p) * UP
+        eye = np.asarray(position, dtype=np.float64).reshape(3) + self.h_camera * UP + self.forward_offset * h
+        return eye, np.stack([right, up, -forward], axis=1)
+
+    def view_matrix(self, position, yaw: float) -> np.ndarray:
+        """4x4 world -> camera matrix."""
+        eye, rot = self.pose(position, yaw)
+        view = np.eye(4)
+        view[:3, :3] = rot.T
+        view[:3, 3] = -rot.T @ eye
+        return view
+
+    def projection_matrix(self, flip_y: bool = False) -> np.ndarray:
+        """4x4 OpenGL projection honouring fx, fy, cx, cy, near, far.
+
+        flip_y=True puts image row 0 (the top) at window row 0, so a framebuffer read
+        returns the image top-first.
+        """
+        (fx, fy), (cx, cy) = self.focal, self.principal
+        w, h, n, f = self.width, self.height, self.near, self.far
+        proj = np.zeros((4, 4))
+        proj[0, 0] = 2.0 * fx / w
+        proj[0, 2] = 1.0 - 2.0 * cx / w
+        proj[1, 1] = 2.0 * fy / h
+        proj[1, 2] = 2.0 * cy / h - 1.0
+        proj[2, 2] = -(f + n) / (f - n)
+        proj[2, 3] = -2.0 * f * n / (f - n)
+        proj[3, 2] = -1.0
+        if flip_y:
+            proj[1] *= -1.0
+        return proj

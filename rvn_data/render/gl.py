@@ -1,0 +1,207 @@
+"""Back-end `gl`: moderngl on a headless EGL context (NVIDIA GPU or Mesa llvmpipe).
+
+One vertex buffer per part, unindexed (three vertices per face, carrying the face's
+`base.face_shade`), with faces grouped in spatial chunks that are frustum-culled per frame;
+NEAREST/REPEAT textures; one reused framebuffer: RGBA8 colour and float32 planar depth
+written by the fragment shader (exact, no depth-buffer linearisation).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from rvn_data.render import base
+from rvn_data.render.camera import CameraConfig
+from rvn_data.render.chunks import build_chunks, order_faces, visible_runs
+from rvn_data.scenes.scene import Scene
+
+EGL_PACKAGES = "libegl1 libgl1-mesa-dri libegl-mesa0"
+SOFTWARE_NAMES = ("llvmpipe", "softpipe", "swrast", "software")
+
+_VERTEX = """
+#version 330
+uniform mat4 mvp;
+uniform vec3 eye;
+uniform vec3 axis;  // camera forward axis (world)
+in vec3 in_pos;
+in vec2 in_uv;
+in vec4 in_col;
+in float in_shade;
+out vec2 v_uv;
+out vec3 v_col;
+out float v_depth;
+void main() {
+    gl_Position = mvp * vec4(in_pos, 1.0);
+    v_uv = in_uv;
+    v_col = in_col.rgb * in_shade;
+    v_depth = dot(in_pos - eye, axis);  // planar depth, linear in the triangle
+}
+"""
+
+_FRAGMENT = """
+#version 330
+uniform vec3 base_rgb;
+uniform bool use_tex;
+uniform sampler2D tex;
+in vec2 v_uv;
+in vec3 v_col;
+in float v_depth;
+layout(location = 0) out vec4 f_rgb;
+layout(location = 1) out float f_depth;
+void main() {
+    vec3 c = base_rgb * v_col;
+    if (use_tex) c *= texture(tex, v_uv).rgb;
+    f_rgb = vec4(clamp(c, 0.0, 1.0), 1.0);
+    f_depth = v_depth;
+}
+"""
+
+
+def is_software(renderer_name: str) -> bool:
+    """True for CPU rasterisers (llvmpipe, softpipe, swrast)."""
+    name = renderer_name.lower()
+    return any(s in name for s in SOFTWARE_NAMES)
+
+
+def create_context(device: int = 0):
+    """A headless EGL moderngl context on EGL device `device`; RuntimeError if impossible."""
+    try:
+        import moderngl
+    except ImportError as e:  # pragma: no cover - moderngl is a hard dependency
+        raise RuntimeError(f"renderer backend 'gl' needs the Python package moderngl ({e})") from e
+    try:
+        ctx = moderngl.create_standalone_context(backend="egl", device_index=int(device))
+    except Exception as e:  # glcontext raises bare Exceptions
+        if "device index" in str(e):
+            raise RuntimeError(f"renderer backend 'gl': EGL device {device} does not exist ({e}); "
+                               "set renderer.device to an index below the device count") from e
+        raise RuntimeError(
+            f"renderer backend 'gl': no headless EGL OpenGL context on device {device} ({e}). "
+            f"Install the system libraries {EGL_PACKAGES} (apt-get install -y {EGL_PACKAGES}; "
+            "NVIDIA drivers ship EGL on GPU nodes) or use renderer backend=raycast.") from e
+    if ctx.version_code < 330:
+        ctx.release()
+        raise RuntimeError(f"renderer backend 'gl' needs OpenGL >= 3.3, EGL device {device} gives {ctx.version_code}")
+    return ctx
+
+
+def renderer_name(ctx) -> str:
+    """The GL_RENDERER string, e.g. 'llvmpipe (LLVM 15.0.6, 256 bits)' or a GPU name."""
+    return str(ctx.info.get("GL_RENDERER", "unknown"))
+
+
+class GLRenderer(base.Renderer):
+    """Rasterises the scene with OpenGL 3.3 on EGL; `info` names the GL renderer."""
+
+    backend = "gl"
+
+    def __init__(self, scene: Scene, camera: CameraConfig, device: int = 0, ctx=None) -> None:
+        super().__init__(scene, camera)
+        base.check_scene(scene)
+        import moderngl
+
+        self.ctx = ctx if ctx is not None else create_context(device)
+        name = renderer_name(self.ctx)
+        kind = "software" if is_software(name) else "GPU"
+        self.info = f"{name} ({kind}, EGL device {device})"
+        self.software = kind == "software"
+        self._mgl = moderngl
+        self._objects = []
+        try:
+            with self.ctx:  # make it current: other renderers may own other contexts
+                self._build(scene, camera)
+        except Exception:
+            self.close()
+            raise
+
+    def _build(self, scene: Scene, camera: CameraConfig) -> None:
+        ctx, mgl = self.ctx, self._mgl
+        self.prog = self._keep(ctx.program(vertex_shader=_VERTEX, fragment_shader=_FRAGMENT))
+        self._set("tex", 0)
+        self.parts, spans = [], []
+        for part in scene.parts:
+            if len(part.faces) == 0:
+                self.parts.append(None)
+                spans.append([])
+                continue
+            mat = base.prepare_material(scene, part)
+            faces, part_spans = order_faces(part.vertices, part.faces)
+            corners = faces.reshape(-1)
+            data = np.empty(len(corners), dtype=[("pos", "f4", 3), ("uv", "f4", 2), ("col", "u1", 4),
+                                                 ("shade", "f4")])
+            data["pos"] = part.vertices[corners]
+            data["uv"] = part.uv[corners] if part.uv is not None else 0.0
+            data["col"] = part.colors[corners] if part.colors is not None else 255
+            data["shade"] = np.repeat(base.face_shade(part.vertices, faces), 3)
+            vbo = self._keep(ctx.buffer(data.tobytes()))
+            vao = self._keep(ctx.vertex_array(
+                self.prog, [(vbo, "3f 2f 4f1 1f", "in_pos", "in_uv", "in_col", "in_shade")]))
+            tex = None
+            if mat.texture is not None:
+                h, w = mat.texture.shape[:2]
+                tex = self._keep(ctx.texture((w, h), 3, np.ascontiguousarray(mat.texture[::-1]).tobytes()))
+                tex.filter = (mgl.NEAREST, mgl.NEAREST)
+                tex.repeat_x = tex.repeat_y = True
+            self.parts.append((vao, tex, tuple(float(c) for c in mat.base_rgb)))
+            spans.append(part_spans)
+        self.chunks = build_chunks(spans)
+        size = (camera.width, camera.height)
+        self.fbo = self._keep(ctx.framebuffer(
+            color_attachments=[self._keep(ctx.renderbuffer(size, 4)),
+                               self._keep(ctx.renderbuffer(size, 1, dtype="f4"))],
+            depth_attachment=self._keep(ctx.depth_renderbuffer(size))))
+        self.proj = camera.projection_matrix(flip_y=True)  # read-back is then top row first
+
+    def _set(self, name: str, value) -> None:
+        if name in self.prog:  # the GLSL compiler may drop unused uniforms
+            self.prog[name].value = value
+
+    def _keep(self, obj):
+        self._objects.append(obj)
+        return obj
+
+    def render(self, position, yaw: float) -> tuple[np.ndarray, np.ndarray]:
+        if self.ctx is None:
+            raise RuntimeError("render() on a closed GL renderer")
+        with self.ctx:  # current for this frame, previous context restored after
+            return self._render(position, yaw)
+
+    def _render(self, position, yaw: float) -> tuple[np.ndarray, np.ndarray]:
+        cam, ctx = self.camera, self.ctx
+        eye, rot = cam.pose(position, yaw)
+        view = np.eye(4)
+        view[:3, :3] = rot.T
+        view[:3, 3] = -rot.T @ eye
+        mvp = self.proj @ view
+        self.fbo.use()
+        ctx.enable_only(self._mgl.DEPTH_TEST)
+        self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        prog = self.prog
+        prog["mvp"].write(mvp.T.astype("f4").tobytes())
+        prog["eye"].value = tuple(eye.tolist())
+        prog["axis"].value = tuple((-rot[:, 2]).tolist())  # camera forward
+        current = -1
+        for i, first, count in visible_runs(self.chunks, mvp):
+            vao, tex, base_rgb = self.parts[i]
+            if i != current:
+                prog["base_rgb"].value = base_rgb
+                prog["use_tex"].value = tex is not None
+                if tex is not None:
+                    tex.use(0)
+                current = i
+            vao.render(self._mgl.TRIANGLES, vertices=count, first=first)
+        rgb = np.empty((cam.height, cam.width, 3), np.uint8)
+        depth = np.empty((cam.height, cam.width), np.float32)
+        self.fbo.read_into(rgb, components=3, attachment=0)
+        self.fbo.read_into(depth, components=1, attachment=1, dtype="f4")
+        return rgb, depth
+
+    def close(self) -> None:
+        if getattr(self, "ctx", None) is None:
+            return
+        with self.ctx:
+            for obj in reversed(self._objects):
+                obj.release()
+        self._objects.clear()
+        self.parts = []
+        self.ctx.release()
+        self.ctx = None

@@ -1,0 +1,52 @@
+"""GNM writer and dataset finalisation pieces (fast, no scene)."""
+import pickle
+
+import cv2
+import numpy as np
+import pytest
+
+from rvn_data.dataset import naming
+from rvn_data.dataset.finalise import split_scenes
+from rvn_data.dataset.writer import encode_jpeg, is_complete, write_trajectory
+
+
+def test_jpeg_is_rgb_on_disk():
+    rgb = np.zeros((16, 16, 3), np.uint8)
+    rgb[..., 0] = 200  # red
+    bgr = cv2.imdecode(np.frombuffer(encode_jpeg(rgb, 95), np.uint8), cv2.IMREAD_COLOR)
+    assert bgr[..., 2].mean() > 190 and bgr[..., 0].mean() < 10  # OpenCV reads it back as red
+    assert encode_jpeg(rgb, 95) == encode_jpeg(rgb.copy(), 95)
+
+
+def test_write_trajectory_layout_and_atomicity(tmp_path):
+    jpeg = encode_jpeg(np.full((8, 8, 3), 128, np.uint8), 90)
+    pos, yaw = np.array([[0.0, 0.0], [0.25, 0.0]]), np.array([0.0, 0.0])
+    write_trajectory(tmp_path, "t_0000", [jpeg, jpeg], pos, yaw, {"k": 1})
+    assert is_complete(tmp_path, "t_0000")
+    assert sorted(p.name for p in (tmp_path / "t_0000").iterdir()) == ["0.jpg", "1.jpg", "rvn_meta.json", "traj_data.pkl"]
+    with open(tmp_path / "t_0000" / "traj_data.pkl", "rb") as f:
+        data = pickle.load(f)
+    assert data["position"].dtype == np.float64 and data["yaw"].shape == (2,)
+    with pytest.raises(ValueError):
+        write_trajectory(tmp_path, "t_0001", [jpeg], pos, yaw, {})
+    assert not (tmp_path / "t_0001").exists()
+
+
+def test_scene_split_is_seeded_disjoint_and_stable():
+    slugs = [f"proc_train_{i:04d}" for i in range(10)]
+    train, test = split_scenes(slugs, 0, 0.8)
+    assert len(test) == 2 and set(train).isdisjoint(test) and sorted(train + test) == slugs
+    assert split_scenes(list(reversed(slugs)), 0, 0.8) == (train, test)
+    assert split_scenes(slugs, 1, 0.8) != (train, test)
+    assert split_scenes(slugs[:2], 0, 0.8)[1] != [] and split_scenes(slugs[:1], 0, 0.8) == (slugs[:1], [])
+
+
+def test_names_and_seeds():
+    assert naming.scene_slug("procedural:train/12") == "proc_train_0012"
+    assert naming.scene_slug("/data/hm3d/train/00800-TEEsavR23oF/TEEsavR23oF.basis.glb") == "TEEsavR23oF.basis"
+    assert naming.traj_name("proc_train_0012", "negative", 3) == "proc_train_0012_negative_0003"
+    a = naming.attempt_rng(0, "expert", "proc_train_0001", 2, 0).random()
+    assert a == naming.attempt_rng(0, "expert", "proc_train_0001", 2, 0).random()
+    assert a != naming.attempt_rng(0, "negative", "proc_train_0001", 2, 0).random()
+    with pytest.raises(ValueError, match="share"):
+        naming.check_unique(["/a/x.glb", "/b/x.glb"])

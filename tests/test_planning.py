@@ -1,0 +1,120 @@
+"""Planning: occupancy grid from a mesh, inflation, A*, pruning, follower (synthetic data)."""
+import math
+
+import numpy as np
+import pytest
+
+from rvn_data.conventions import Action, AgentConfig, from_planar, to_planar
+from rvn_data.planning import PathFollower, astar, occupancy_grid, plan_path, prune_path
+from rvn_data.planning.follower import integrate
+from rvn_data.scenes.scene import Part, Scene
+
+
+def box(x0, x1, y0, y1, z0, z1):
+    v = np.array([[x, y, z] for x in (x0, x1) for y in (y0, y1) for z in (z0, z1)], np.float32)
+    f = [[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+         [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]]
+    return v, np.array(f, np.int32)
+
+
+def make_scene(boxes):
+    parts = [Part("floor", np.array([[0, 0, 0], [6, 0, 0], [6, 0, 4], [0, 0, 4]], np.float32),
+                  np.array([[0, 2, 1], [0, 3, 2]], np.int32))]
+    for i, b in enumerate(boxes):
+        v, f = box(*b)
+        parts.append(Part(f"box{i}", v, f))
+    return Scene("test:room", parts)
+
+
+# a 6 x 4 m room, 0.1 m walls, a dividing wall at x = 3 with a 0.6 m door at z in [1.7, 2.3],
+# a 0.7 m table (blocks the 1.0 m robot) and a 1.2 m overhang (does not)
+WALLS = [(0, 6, 0, 2.5, 0, 0.1), (0, 6, 0, 2.5, 3.9, 4), (0, 0.1, 0, 2.5, 0, 4), (5.9, 6, 0, 2.5, 0, 4),
+         (2.95, 3.05, 0, 2.5, 0, 1.7), (2.95, 3.05, 0, 2.5, 2.3, 4)]
+TABLE = (0.8, 1.6, 0.68, 0.72, 0.8, 1.6)
+OVERHANG = (4.0, 5.0, 1.2, 1.25, 2.5, 3.5)
+
+
+@pytest.fixture(scope="module")
+def grid():
+    return occupancy_grid(make_scene(WALLS + [TABLE, OVERHANG]), floor_height=0.0, resolution=0.05)
+
+
+def occ_at(grid, x, z):
+    r, c = grid.to_cell(np.array([x, 0.0, z]))
+    return bool(grid.occupied[r, c])
+
+
+def test_occupancy_walls_table_overhang(grid):
+    assert occ_at(grid, 3.0, 1.0)  # thin dividing wall (0.1 m = 2 cells)
+    assert not occ_at(grid, 3.0, 2.0)  # door
+    assert occ_at(grid, 1.2, 1.2)  # inside the table top: interior filled, not just its outline
+    assert not occ_at(grid, 4.5, 3.0)  # under the overhang
+    assert not occ_at(grid, 2.0, 3.0)
+    assert not grid.contains(grid.to_cell(np.array([7.0, 0, 2.0])))
+    # no floor outside the room: occupied
+    r, c = grid.to_cell(np.array([-0.02, 0.0, 2.0]))
+    assert grid.occupied[r, c]
+
+
+def test_inflation_closes_narrow_door(grid):
+    s, g = np.array([1.5, 0, 3.0]), np.array([4.5, 0, 1.0])
+    open_plan = plan_path(grid, grid.inflate(0.2), s, g)
+    assert open_plan is not None and math.hypot(3, 2) - 1e-6 <= open_plan.length < 3.8  # through the door
+    assert plan_path(grid, grid.inflate(0.35), s, g) is None  # 0.6 m door closed by 0.35 m margin
+
+
+def test_astar_optimal_and_pruned():
+    free = np.ones((50, 60), bool)
+    cells, length = astar(free, (5, 5), (45, 55))
+    dr, dc = 40, 50
+    assert math.isclose(length, max(dr, dc) + (math.sqrt(2) - 1) * min(dr, dc), rel_tol=1e-9)
+    assert (np.abs(np.diff(cells, axis=0)) <= 1).all()
+    assert len(prune_path(free, cells)) == 2  # open field: straight line
+    free[:, 30] = False
+    assert not np.isfinite(astar(free, (5, 5), (45, 55))[1])
+    free[25, 30] = True  # one-cell gap: reachable, but never across a corner diagonally
+    cells, length = astar(free, (5, 5), (45, 55))
+    assert np.isfinite(length) and [25, 30] in cells.tolist()
+    pruned = prune_path(free, cells)
+    assert 2 < len(pruned) <= 4
+    assert any(r == 25 and abs(c - 30) <= 1 for r, c in pruned.tolist())  # goes through the gap
+    for (r0, c0), (r1, c1) in zip(pruned[:-1], pruned[1:]):  # every pruned segment stays free
+        t = np.linspace(0, 1, 200)
+        assert free[np.floor(r0 + 0.5 + t * (r1 - r0)).astype(int), np.floor(c0 + 0.5 + t * (c1 - c0)).astype(int)].all()
+    assert astar(free, (5, 30), (45, 55))[0].size == 0  # start blocked
+
+
+def run_follower(plan_pts, start_yaw, agent, max_steps=300):
+    follower = PathFollower(plan_pts, agent)
+    p, yaw = plan_pts[0].copy(), start_yaw
+    actions = []
+    for _ in range(max_steps):
+        a = follower.act(p, yaw)
+        actions.append(a)
+        if a == Action.STOP:
+            break
+        p, yaw = integrate(p, yaw, a, agent)
+    return p, actions
+
+
+def test_follower_reaches_goal_without_zigzag():
+    agent = AgentConfig()
+    pts = from_planar(np.array([[0.0, 0.0], [3.0, 0.0], [3.0, 3.0]]))
+    p, actions = run_follower(pts, start_yaw=math.pi, agent=agent)
+    assert actions[-1] == Action.STOP
+    assert np.hypot(*(to_planar(p) - [3, 3])) <= 2 * agent.r_robot
+    # turn around (6 turns of 30 deg), go straight, one 90 deg corner: few turns in total
+    turns = sum(a in (Action.TURN_LEFT, Action.TURN_RIGHT) for a in actions)
+    assert turns <= 6 + 3 + 2
+    forward = sum(a == Action.MOVE_FORWARD for a in actions)
+    assert 20 <= forward <= 26
+    for a, b in zip(actions, actions[1:]):  # never undoes a turn
+        assert {a, b} != {Action.TURN_LEFT, Action.TURN_RIGHT}
+
+
+def test_integrate_planar_convention():
+    agent = AgentConfig()
+    p, yaw = integrate(np.zeros(3), math.radians(60), Action.MOVE_FORWARD, agent)
+    assert np.allclose(to_planar(p), 0.25 * np.array([math.cos(math.radians(60)), math.sin(math.radians(60))]))
+    _, yaw2 = integrate(p, yaw, Action.TURN_LEFT, agent)
+    assert math.isclose(yaw2, math.radians(90))
