@@ -33,7 +33,7 @@ def _parser() -> argparse.ArgumentParser:
     p = sub.add_parser("views", help="render sample views from random navigable poses")
     _add_scene_args(p)
     p.add_argument("-o", "--output", required=True, help="output folder")
-    p.add_argument("-n", type=int, default=8, help="number of views")
+    p.add_argument("-n", "--n", type=int, default=8, help="number of views")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--backend", choices=("auto", "gl", "raycast"), default="auto")
     return ap
@@ -91,8 +91,9 @@ def cmd_views(args) -> None:
 
     if args.n <= 0:
         raise ValueError(f"-n {args.n}: the number of views must be positive")
-    scene, _, _ = _load(args)
-    write_views(scene, args.output, args.n, args.seed, args.backend)
+    scene, settings, NavMesh = _load(args)
+    navmesh = NavMesh.build(scene, settings)  # poses honour --agent-radius / --agent-height
+    write_views(scene, args.output, args.n, args.seed, args.backend, navmesh=navmesh)
     print(f"wrote {args.n} view(s) to {args.output}")
 
 
@@ -102,7 +103,7 @@ def main(argv: list[str] | None = None) -> int:
 
     try:
         {"info": cmd_info, "map": cmd_map, "views": cmd_views}[args.command](args)
-    except (SceneError, ValueError, OSError) as exc:
+    except (SceneError, ValueError, OSError, RuntimeError) as exc:  # RuntimeError: no EGL for --backend gl
         msg = " ".join(str(exc).split())
         print(f"rvn-scene {args.command}: error: {msg}", file=sys.stderr)
         return 2
