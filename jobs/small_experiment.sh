@@ -1,0 +1,121 @@
+#!/usr/bin/env bash
+# Small-scale RVN experiment on a CPU machine, end to end (SPEC.md; issue 7):
+#   rvn-gen expert + negative on procedural train scenes
+#   -> rvn-train ViNT-PointGoal, NoMaD-PointGoal, NoMaD-Neg (model.size=small)
+#   -> rvn-eval on procedural val scenes (the three, NoMaD-Neg with argmin CoR, oracle, random)
+#   -> python -m rvn_il.eval.report -> OUT/report.md (+ plots, per-episode logs in OUT/eval/*/)
+#
+#   bash jobs/small_experiment.sh [OUT]              # SCALE=small: < 2 h on 2 CPU cores
+#   SCALE=tiny bash jobs/small_experiment.sh /tmp/x  # smoke test: 1 scene, 2 steps, 1 episode
+#
+# OUT defaults to runs/small_experiment_$SCALE. Every knob below can be set in the
+# environment (e.g. TRAIN_SCENES=40 NOMAD_EPOCHS=4 bash jobs/small_experiment.sh).
+# Rerunning resumes: a step whose exact command already succeeded is skipped (OUT/.done/),
+# and each tool resumes its own work (rvn-gen trajectories, rvn-train checkpoints, rvn-eval
+# episodes). Logs: OUT/logs/<step>.log; wall time per step: OUT/timings.tsv.
+set -euo pipefail
+
+SCALE=${SCALE:-small}
+OUT=${1:-${OUT:-runs/small_experiment_${SCALE}}}
+case "$SCALE" in
+  small)  # sized for ~1.5 h on a quiet 2-core machine (jobs/paper_scale.md, "Time budget")
+    : "${TRAIN_SCENES:=32}" "${TRAJ_PER_SCENE:=32}" "${IMAGE:=64}" "${VINT_EPOCHS:=2}" "${NOMAD_EPOCHS:=3}" "${MAX_STEPS:=}"
+    : "${EVAL_SCENES:=10}" "${EVAL_EPISODES:=2}" "${N_GOALS:=32}" "${T_MAX:=500}" ;;
+  tiny)   # smoke test of the whole chain (tests/test_experiment_smoke.py)
+    : "${TRAIN_SCENES:=1}" "${TRAJ_PER_SCENE:=2}" "${IMAGE:=64}" "${VINT_EPOCHS:=1}" "${NOMAD_EPOCHS:=1}" "${MAX_STEPS:=2}"
+    : "${EVAL_SCENES:=1}" "${EVAL_EPISODES:=1}" "${N_GOALS:=2}" "${T_MAX:=100}" "${BATCH:=4}" "${WORKERS:=1}" ;;
+  *) echo "small_experiment.sh: error: SCALE=$SCALE; choose small or tiny" >&2; exit 2 ;;
+esac
+: "${NEG_FRACTION:=0.0625}"   # NoMaD-Neg: share of expert trajectories replaced by negative ones (paper: 6.25 %)
+: "${WORKERS:=2}"             # processes for rvn-gen and rvn-eval
+: "${THREADS:=2}"             # torch threads for rvn-train
+: "${BATCH:=32}"              # model.size=small batch
+: "${LR:=}"                   # empty: the model's lr
+: "${NOMAD_SAMPLES:=8}"       # NoMaD-PointGoal samples per decision at eval (follows sample 0)
+: "${GOAL_OFFSET_MAX:=40}"     # point goals up to this many frames ahead (the whole 4-8 m path; official 20)
+: "${SEED:=0}"
+PY=${PYTHON:-python}
+
+# negatives per scene: round(TRAJ_PER_SCENE * NEG_FRACTION), at least 1
+NEG_PER_SCENE=$($PY -c "print(max(1, round($TRAJ_PER_SCENE * $NEG_FRACTION)))")
+EXPERT_KEEP=$((TRAJ_PER_SCENE > NEG_PER_SCENE ? TRAJ_PER_SCENE - NEG_PER_SCENE : TRAJ_PER_SCENE))
+mkdir -p "$OUT/logs" "$OUT/.done"
+STEPS_SECONDS=0
+OUT=$(cd "$OUT" && pwd)
+DATA=$OUT/data
+CAMERA=("camera.width=$IMAGE" "camera.height=$IMAGE")
+TRAIN_SIZE=("model.size=small" "train.batch_size=$BATCH" "data.num_workers=0" "data.goal_offset=[1,$GOAL_OFFSET_MAX]"
+            "train.tqdm_interval=30" "seed=$SEED" "device=cpu")
+[[ -n "$MAX_STEPS" ]] && TRAIN_SIZE+=("train.max_steps=$MAX_STEPS")
+[[ -n "$LR" ]] && TRAIN_SIZE+=("train.lr=$LR")
+EVAL=("split=val" "episodes.num_scenes=$EVAL_SCENES" "episodes.per_scene=$EVAL_EPISODES" "episodes.n_goals=$N_GOALS"
+      "env.t_max=$T_MAX" "episodes.dir=$OUT/episodes" "workers=$WORKERS" "progress=false" "seed=$SEED" "${CAMERA[@]}")
+
+# step NAME CMD...: run CMD unless OUT/.done/NAME holds the same command; log and time it
+step() {
+  local name=$1; shift
+  local cmd; cmd=$(printf '%q ' "$@")
+  if [[ -f "$OUT/.done/$name" && "$(cat "$OUT/.done/$name")" == "$cmd" ]]; then
+    echo "[$name] done before, skipped"; return 0
+  fi
+  echo "[$name] $cmd"
+  local t0=$SECONDS
+  if ! "$@" >"$OUT/logs/$name.log" 2>&1; then
+    echo "[$name] FAILED after $((SECONDS - t0)) s; last lines of $OUT/logs/$name.log:" >&2
+    tail -n 20 "$OUT/logs/$name.log" >&2
+    exit 1
+  fi
+  printf '%s\t%s\n' "$name" "$((SECONDS - t0))" >>"$OUT/timings.tsv"
+  STEPS_SECONDS=$((STEPS_SECONDS + SECONDS - t0))
+  printf '%s' "$cmd" >"$OUT/.done/$name"
+  echo "[$name] ok in $((SECONDS - t0)) s"
+}
+
+# NoMaD-Neg's splits: NoMaD_e on the first EXPERT_KEEP expert trajectories of each scene (the
+# other NEG_PER_SCENE are "replaced" by the negative dataset), NoMaD_n on the negatives.
+neg_splits() {
+  local dir=$OUT/splits_neg
+  mkdir -p "$dir/rvn_expert/train" "$dir/rvn_negative/train"
+  awk -F_ -v keep="$EXPERT_KEEP" '($NF + 0) < keep' "$DATA/rvn_expert/data_splits/rvn_expert/train/traj_names.txt" \
+    >"$dir/rvn_expert/train/.traj_names.txt.tmp"
+  mv "$dir/rvn_expert/train/.traj_names.txt.tmp" "$dir/rvn_expert/train/traj_names.txt"
+  cp "$DATA/rvn_negative/data_splits/rvn_negative/train/traj_names.txt" "$dir/rvn_negative/train/.traj_names.txt.tmp"
+  mv "$dir/rvn_negative/train/.traj_names.txt.tmp" "$dir/rvn_negative/train/traj_names.txt"
+}
+
+export OMP_NUM_THREADS=$THREADS MKL_NUM_THREADS=$THREADS
+echo "small_experiment: SCALE=$SCALE OUT=$OUT: $TRAIN_SCENES train scenes x $TRAJ_PER_SCENE expert (+ $NEG_PER_SCENE negative)," \
+     "${IMAGE}x$IMAGE images, epochs ViNT $VINT_EPOCHS / NoMaD $NOMAD_EPOCHS${MAX_STEPS:+ (max_steps $MAX_STEPS)}; eval $EVAL_SCENES val scenes x $EVAL_EPISODES episodes x $N_GOALS goals"
+
+GEN=("split=train" "scenes.num_scenes=$TRAIN_SCENES" "workers=$WORKERS" "progress=false" "seed=$SEED" "${CAMERA[@]}")
+step gen_expert rvn-gen dataset=expert out_dir="$DATA/rvn_expert" trajectories_per_scene="$TRAJ_PER_SCENE" "${GEN[@]}"
+step gen_negative rvn-gen dataset=negative out_dir="$DATA/rvn_negative" trajectories_per_scene="$NEG_PER_SCENE" "${GEN[@]}"
+neg_splits
+
+step train_vint rvn-train model=vint_pointgoal data.root="$DATA/rvn_expert" out_dir="$OUT/train/vint_pointgoal" \
+  train.epochs="$VINT_EPOCHS" "${TRAIN_SIZE[@]}"
+step train_nomad rvn-train model=nomad_pointgoal data.root="$DATA/rvn_expert" out_dir="$OUT/train/nomad_pointgoal" \
+  train.epochs="$NOMAD_EPOCHS" "${TRAIN_SIZE[@]}"
+step train_nomad_neg rvn-train model=nomad_neg data.root="$DATA/rvn_expert" data.negative_root="$DATA/rvn_negative" \
+  data.splits_dir="$OUT/splits_neg" data.skip_short=true out_dir="$OUT/train/nomad_neg" \
+  train.epochs="$NOMAD_EPOCHS" "${TRAIN_SIZE[@]}"
+
+# eval workers: one torch thread each
+export OMP_NUM_THREADS=1 MKL_NUM_THREADS=1
+step eval_random rvn-eval policy=random method=Random out_dir="$OUT/eval/random" "${EVAL[@]}"
+step eval_oracle rvn-eval policy=oracle method=Oracle out_dir="$OUT/eval/oracle" "${EVAL[@]}"
+step eval_vint rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/vint_pointgoal" method=ViNT-PointGoal \
+  out_dir="$OUT/eval/vint_pointgoal" "${EVAL[@]}"
+step eval_nomad rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_pointgoal" method=NoMaD-PointGoal \
+  +policy.num_samples="$NOMAD_SAMPLES" out_dir="$OUT/eval/nomad_pointgoal" "${EVAL[@]}"
+step eval_nomad_neg rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_neg" method=NoMaD-Neg \
+  out_dir="$OUT/eval/nomad_neg" "${EVAL[@]}"
+# the paper writes argmin CoR; by its equation argmax keeps away from the negatives (SPEC.md "Baselines")
+step eval_nomad_neg_argmin rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_neg" \
+  method=NoMaD-Neg-argmin +policy.selection=argmin out_dir="$OUT/eval/nomad_neg_argmin" "${EVAL[@]}"
+
+RUNS=("$OUT/eval/random" "$OUT/eval/oracle" "$OUT/eval/vint_pointgoal" "$OUT/eval/nomad_pointgoal" "$OUT/eval/nomad_neg"
+      "$OUT/eval/nomad_neg_argmin")
+$PY -m rvn_il.eval.report "${RUNS[@]}" -o "$OUT/report.md" \
+  --title "RVN small-scale experiment (SCALE=$SCALE: $TRAIN_SCENES train scenes x $TRAJ_PER_SCENE trajectories, val $EVAL_SCENES x $EVAL_EPISODES)"
+echo "small_experiment: this run took $SECONDS s ($STEPS_SECONDS s in steps run now); report: $OUT/report.md"

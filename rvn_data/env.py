@@ -1,0 +1,292 @@
+"""`RVNEnv`: the RVN task as a Gymnasium environment (SPEC.md "Task", "RL environment").
+
+Observation: ``rgb`` uint8 [H,W,3], ``pointgoal`` float32 [2] (x forward, y left,
+metres), ``depth`` float32 [H,W] when ``depth=True``. Actions: ``Discrete(4)``
+(`rvn_data.conventions.Action`).
+
+Per step: STOP with the goal within ``success_distance`` (default 2·r_robot, measured
+as the geodesic distance given by the goal's distance field, as Habitat's Success;
+``success_metric="euclidean"`` uses the straight-line floor distance) → reward +1.0 and
+the next goal (train: sampled from the current pose; eval: the episode's next goal),
+scene and pose kept; after N_goal goals the episode terminates (success). A collision
+(`Simulator` step with ``collided``) → reward −0.1, ``info["cost"] = 1.0``, terminated
+(failure). STOP farther away → a no-op step (or a terminating failure with
+``stop_far_is_failure``). Otherwise reward −Δ(geodesic distance to goal) − 0.01. No goal
+within ``t_max`` steps of being given → truncated (failure).
+
+Modes: ``train`` draws random episodes with the benchmark sampler from ``np_random``
+and switches scene every ``scene_switch_every`` resets; ``eval`` walks the fixed episode
+set of the split in order (scene, then episode); ``reset(seed=...)`` rewinds it to the
+first episode and ``options={"episode": k}`` (k-th of the set) or
+``{"scene_index": s, "episode_index": e}`` picks one.
+"""
+from __future__ import annotations
+
+import math
+import operator
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from rvn_data.conventions import Action, relative_goal, to_planar
+from rvn_data.episodes import sample_goal, sample_start
+from rvn_data.episodes_source import EnvConfig, SceneSlot, eval_schedule
+from rvn_data.metrics import EpisodeTracker
+from rvn_data.scenes import SceneError
+
+
+class RVNEnv(gym.Env):
+    """Collision-aware point-goal navigation; keyword arguments as `EnvConfig`."""
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+
+    def __init__(self, render_mode: str | None = None, **kwargs):
+        self.config = EnvConfig.from_kwargs(**kwargs)
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"render_mode={render_mode!r}: only 'rgb_array' is supported")
+        self.render_mode = render_mode
+        cam = self.config.camera
+        obs = {"rgb": spaces.Box(0, 255, (cam.height, cam.width, 3), np.uint8),
+               "pointgoal": spaces.Box(-np.inf, np.inf, (2,), np.float32)}
+        if self.config.depth:
+            obs["depth"] = spaces.Box(0.0, np.inf, (cam.height, cam.width), np.float32)
+        self.observation_space = spaces.Dict(obs)
+        self.action_space = spaces.Discrete(len(Action))
+        self.agent = self.config.agent
+        self.success_distance = self.config.success_distance
+        self._slots = self.config.scene_slots()
+        self._scene: SceneSlot | None = None
+        self._schedule = eval_schedule(self._slots, self.config.per_scene) if self.config.mode == "eval" else []
+        self._cursor = 0
+        self._resets = 0
+        self._scene_rng = None
+        self._episode = None
+        self._done = True
+        self._obs = None
+
+    # ---- privileged state (for `rvn_data.policies.OraclePolicy` and tools) ----------------
+    @property
+    def navmesh(self):
+        return self._scene.navmesh
+
+    @property
+    def simulator(self):
+        return self._scene.simulator
+
+    @property
+    def position(self) -> np.ndarray:
+        return self._pos
+
+    @property
+    def yaw(self) -> float:
+        return self._yaw
+
+    @property
+    def goal(self) -> np.ndarray:
+        return self._goal
+
+    @property
+    def goal_field(self):
+        """Geodesic distance field to the current goal (``.distance(p)``)."""
+        return self._field
+
+    @property
+    def episode_key(self) -> tuple[int, int, int]:
+        """(split code, scene index, episode index) of the current episode."""
+        return self._key
+
+    def distance_to_goal(self, position: np.ndarray | None = None) -> float:
+        """Geodesic distance (m) from ``position`` (default: the agent) to the goal."""
+        p = self._pos if position is None else position
+        d = float(self._field.distance(p))
+        return d if math.isfinite(d) else float(np.linalg.norm(to_planar(p) - to_planar(self._goal)))
+
+    def success_distance_now(self, position: np.ndarray | None = None) -> float:
+        """The distance (from ``position``, default the agent) that the success test compares
+        with ``success_distance``: geodesic, or planar straight-line with ``success_metric="euclidean"``."""
+        p = self._pos if position is None else position
+        if self.config.success_metric == "euclidean":
+            return float(np.linalg.norm(to_planar(p) - to_planar(self._goal)))
+        return self.distance_to_goal(p)
+
+    # ---- gymnasium API ------------------------------------------------------------------
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        options = dict(options or {})
+        if self.config.mode == "eval":
+            self._reset_eval(seed, options)
+        else:
+            self._reset_train(seed, options)
+        self._done = False
+        self._ended = None
+        self._goal_steps = 0
+        return self._observe(), self._info(collided=False, displacement=0.0)
+
+    def _load(self, pos: int) -> None:
+        if self._scene is None or self._scene.pos != pos:
+            if self._scene is not None:
+                self._scene.close()
+            self._scene = None
+            self._scene = SceneSlot.open(self.config, self._slots[pos], pos)
+
+    def _reset_eval(self, seed, options) -> None:
+        if seed is not None:
+            self._cursor = 0
+        if "episode" in options:
+            self._cursor = int(options["episode"])
+            if not 0 <= self._cursor < len(self._schedule):
+                raise ValueError(f"episode={self._cursor} out of range: this {self.config.split} set has "
+                                 f"{len(self._schedule)} episodes")
+        elif "scene_index" in options:
+            key = (int(options["scene_index"]), int(options.get("episode_index", 0)))
+            matches = [k for k, (pos, e) in enumerate(self._schedule) if (self._slots[pos][1], e) == key]
+            if not matches:
+                raise ValueError(f"no episode {key[1]} of scene index {key[0]} in this {self.config.split} set")
+            self._cursor = matches[0]
+        if not 0 <= self._cursor < len(self._schedule):
+            self._cursor %= max(1, len(self._schedule))
+        pos, e = self._schedule[self._cursor]
+        self._cursor += 1
+        self._load(pos)
+        ep = self._scene.episodes(self.config)[e]
+        self._episode = ep
+        self._begin(ep.scene_id, ep.scene_index, ep.episode_index, ep.start_position, ep.start_yaw)
+        self._next_goal()
+
+    def _reset_train(self, seed, options) -> None:
+        if seed is not None or self._scene_rng is None:
+            self._resets = 0  # scene draws: their own stream, a pure function of the reset seed
+            self._scene_rng = np.random.default_rng(int(self.np_random.integers(2**63)))
+        if "scene" in options:
+            pos = int(options["scene"]) % len(self._slots)
+        elif self._scene is None or seed is not None or self._resets % self.config.scene_switch_every == 0:
+            pos = int(self._scene_rng.integers(len(self._slots)))
+        else:
+            pos = self._scene.pos
+        self._resets += 1
+        self._load(pos)
+        ep_index = self._resets - 1
+        for _ in range(self.config.episodes.max_restarts):
+            start, yaw = sample_start(self.navmesh, self.np_random)
+            self._begin(self._scene.scene_id, self._scene.scene_index, ep_index, start, yaw)
+            if self._next_goal():
+                return
+        raise SceneError(f"scene {self._scene.scene_id}: no goal found {self.config.episodes.d_min}-"
+                           f"{self.config.episodes.d_max} m from {self.config.episodes.max_restarts} starts")
+
+    def _begin(self, scene_id, scene_index, episode_index, position, yaw) -> None:
+        self.simulator.reset(np.asarray(position, dtype=np.float64), float(yaw))
+        self._pos, self._yaw = self.simulator.position.copy(), float(self.simulator.yaw)
+        self._key = (self.config.split_code, int(scene_index), int(episode_index))
+        self._episode_id = f"{scene_id}#{episode_index}"
+        self._tracker = EpisodeTracker(scene_id, scene_index, episode_index, self._episode_id)
+        self._goals_reached = 0
+
+    def _next_goal(self) -> bool:
+        """Give the next goal; False when none could be sampled (train mode)."""
+        s = self.config.episodes
+        if self.config.mode == "eval":
+            goal = self._episode.goals[self._goals_reached]
+        else:
+            found = sample_goal(self.navmesh, self.navmesh.distance_field(self._pos), self.np_random,
+                                s.d_min, s.d_max, s.max_tries)
+            if found is None:
+                return False
+            goal = found[0]
+        self._goal = np.asarray(goal, dtype=np.float64)
+        self._field = self.navmesh.distance_field(self._goal)
+        self._dist = self.distance_to_goal()
+        self._goal_steps = 0
+        self._tracker.new_goal(self._dist)
+        return True
+
+    def step(self, action):
+        if self._done:
+            raise RuntimeError("RVNEnv.step() called on a finished episode; call reset() first")
+        try:
+            a = Action(operator.index(action))
+        except (ValueError, TypeError):
+            raise ValueError(f"invalid action {action!r}: expected one of "
+                             f"{[f'{x.value}={x.name}' for x in Action]}") from None
+        cfg = self.config
+        terminated = truncated = collided = False
+        displacement, reward = 0.0, -cfg.slack_penalty
+        if a == Action.STOP:
+            self._goal_steps += 1
+            self._tracker.step(0.0, False)
+            if self.success_distance_now() <= self.success_distance:
+                reward = cfg.reward_goal
+                self._goals_reached += 1
+                self._tracker.goal_reached()
+                if self._goals_reached >= cfg.episodes.n_goals:
+                    terminated, self._ended = True, "success"
+                elif not self._next_goal():
+                    raise SceneError(f"scene {self._tracker.record['scene_id']}: no goal found "
+                                     f"{cfg.episodes.d_min}-{cfg.episodes.d_max} m from {self._pos.tolist()}")
+            elif cfg.stop_far_is_failure:
+                terminated, self._ended = True, "stop_far"
+        else:
+            res = self.simulator.step(a)
+            self._pos, self._yaw = np.asarray(res.position, dtype=np.float64), float(res.yaw)
+            collided, displacement = bool(res.collided), float(res.displacement)
+            self._goal_steps += 1
+            self._tracker.step(displacement, collided)
+            if collided:
+                reward, terminated, self._ended = cfg.reward_collision, True, "collision"
+            else:
+                d = self.distance_to_goal()
+                reward = -(d - self._dist) - cfg.slack_penalty
+                self._dist = d
+        if not terminated and self._goal_steps >= cfg.t_max:
+            truncated, self._ended = True, "timeout"
+        self._done = terminated or truncated
+        obs = self._observe()
+        info = self._info(collided, displacement)
+        if self._done:
+            info["episode"] = self._tracker.finish(self._ended)
+        return obs, float(reward), terminated, truncated, info
+
+    def episode_record(self) -> dict:
+        """The per-episode record so far (`rvn_data.metrics`); final once the episode ended."""
+        return self._tracker.record
+
+    def _observe(self) -> dict:
+        rgb, depth = self._scene.renderer.render(self._pos, self._yaw)
+        obs = {"rgb": np.ascontiguousarray(rgb, dtype=np.uint8),
+               "pointgoal": relative_goal(self._pos, self._yaw, self._goal)}
+        if self.config.depth:
+            obs["depth"] = np.ascontiguousarray(depth, dtype=np.float32)
+        self._obs = obs
+        return obs
+
+    def _info(self, collided: bool, displacement: float) -> dict:
+        return {
+            "cost": 1.0 if collided else 0.0,
+            "collided": bool(collided),
+            "displacement": float(displacement),
+            "goals_reached": int(self._goals_reached),
+            "distance_to_goal": float(self.distance_to_goal()),
+            "goal_steps": int(self._goal_steps),
+            "episode_id": self._episode_id,
+            "scene_id": self._tracker.record["scene_id"],
+            "scene_index": int(self._key[1]),
+            "episode_index": int(self._key[2]),
+            "termination": self._ended,
+            "success": self._ended == "success",
+        }
+
+    def render(self):
+        if self.render_mode == "rgb_array" and self._obs is not None:
+            return self._obs["rgb"].copy()
+        return None
+
+    def close(self) -> None:
+        if self._scene is not None:
+            self._scene.close()
+            self._scene = None
+        super().close()
+
+
+if "RVN-v0" not in gym.registry:
+    gym.register(id="RVN-v0", entry_point="rvn_data.env:RVNEnv")

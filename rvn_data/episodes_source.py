@@ -1,0 +1,192 @@
+"""Where `RVNEnv` gets its scenes and episodes: the env settings (`EnvConfig`), one loaded
+scene with its navmesh, simulator, renderer and cached episodes (`SceneSlot`), and the
+order in which an evaluation walks a fixed episode set (`eval_schedule`)."""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field, fields, replace
+
+from rvn_data.conventions import AgentConfig
+from rvn_data.episodes import DEFAULT_PER_SCENE, EpisodeSettings, split_code
+from rvn_data.episodes_store import EpisodeStore, make_settings
+from rvn_data.navmesh.settings import NavMeshSettings
+from rvn_data.render.camera import CameraConfig
+
+DEFAULT_EPISODES_DIR = os.environ.get("RVN_EPISODES_DIR", "~/.cache/rvn/episodes")
+SCENE_DEFAULTS = {"source": "procedural", "root": None, "num_scenes": None, "first_scene": 0,
+                  "up_axis": "y", "unit_scale": 1.0, "level": False}
+
+
+def _mapping(obj) -> dict:
+    if obj is None:
+        return {}
+    return dict(obj.items()) if hasattr(obj, "items") else dict(obj)
+
+
+@dataclass
+class EnvConfig:
+    """`RVNEnv` settings. Nested settings may be given as dataclasses or mappings (the
+    Hydra groups ``agent``, ``navmesh``, ``camera``, ``scenes``, ``renderer``, ``episodes``).
+
+    scene_specs: explicit scene specs (overrides ``scenes``); per_scene: eval episodes per
+    scene (default 2 train / 20 val, test); scene_switch_every: train-mode resets per scene.
+    """
+
+    mode: str = "train"
+    split: str | None = None
+    scenes: dict = field(default_factory=dict)
+    scene_specs: list | None = None
+    agent: AgentConfig = field(default_factory=AgentConfig)
+    navmesh: NavMeshSettings | None = None
+    camera: CameraConfig = field(default_factory=CameraConfig)
+    renderer: dict = field(default_factory=dict)
+    episodes: EpisodeSettings = field(default_factory=EpisodeSettings)
+    episodes_dir: str = DEFAULT_EPISODES_DIR
+    per_scene: int | None = None
+    t_max: int = 500
+    success_distance: float | None = None
+    success_metric: str = "geodesic"
+    stop_far_is_failure: bool = False
+    depth: bool = False
+    scene_switch_every: int = 8
+    reward_goal: float = 1.0
+    reward_collision: float = -0.1
+    slack_penalty: float = 0.01
+
+    @classmethod
+    def from_kwargs(cls, **kw) -> "EnvConfig":
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(kw) - known)
+        if unknown:
+            raise ValueError(f"unknown RVNEnv setting(s) {unknown}; known: {sorted(known)}")
+        agent = kw.get("agent")
+        if not isinstance(agent, AgentConfig):
+            agent = AgentConfig(**_mapping(agent))
+        nav = kw.get("navmesh")
+        if not isinstance(nav, NavMeshSettings):
+            nav = NavMeshSettings.from_config({"agent_radius": agent.r_robot, "agent_height": agent.h_robot,
+                                               **_mapping(nav)})
+        cam = kw.get("camera")
+        if not isinstance(cam, CameraConfig):
+            cam = CameraConfig.from_dict(_mapping(cam))
+        eps = kw.get("episodes")
+        eps_map = {} if isinstance(eps, EpisodeSettings) else _mapping(eps)
+        if not isinstance(eps, EpisodeSettings):
+            eps = EpisodeSettings.from_dict(eps_map)
+        kw = dict(kw, agent=agent, navmesh=nav, camera=cam, episodes=eps,
+                  scenes={**SCENE_DEFAULTS, **_mapping(kw.get("scenes"))},
+                  renderer={"backend": "auto", "device": 0, **_mapping(kw.get("renderer"))})
+        for key in ("dir", "per_scene"):  # accepted inside the `episodes` mapping too
+            name = "episodes_dir" if key == "dir" else key
+            if eps_map.get(key) is not None and kw.get(name) is None:
+                kw[name] = eps_map[key]
+        if kw.get("episodes_dir") is None:
+            kw.pop("episodes_dir", None)
+        cfg = cls(**kw)
+        cfg._validate()
+        return cfg
+
+    def _validate(self) -> None:
+        if self.mode not in ("train", "eval"):
+            raise ValueError(f"RVNEnv mode={self.mode!r} must be 'train' or 'eval'")
+        if self.split is None:
+            self.split = "train" if self.mode == "train" else "val"
+        split_code(self.split)
+        if self.success_metric not in ("geodesic", "euclidean"):
+            raise ValueError(f"success_metric={self.success_metric!r} must be 'geodesic' or 'euclidean'")
+        if self.success_distance is None:
+            self.success_distance = 2.0 * self.agent.r_robot
+        if self.per_scene is None:
+            self.per_scene = DEFAULT_PER_SCENE[self.split]
+        for name in ("t_max", "per_scene", "scene_switch_every"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise ValueError(f"RVNEnv setting {name}={v!r} must be a positive integer")
+        if not self.success_distance > 0:
+            raise ValueError(f"RVNEnv setting success_distance={self.success_distance!r} must be > 0")
+
+    @property
+    def split_code(self) -> int:
+        return split_code(self.split)
+
+    def scene_slots(self) -> list[tuple[str, int]]:
+        """(spec, scene index within the split) of every scene this env uses."""
+        first = int(self.scenes.get("first_scene") or 0)
+        if self.scene_specs is not None:
+            specs = [str(s) for s in self.scene_specs]
+        else:
+            from rvn_data.scenes.sets import scene_specs
+            s = self.scenes
+            specs = list(scene_specs(s["source"], self.split, root=s.get("root"),
+                                     num_scenes=s.get("num_scenes"), first_scene=first))
+        if not specs:
+            raise ValueError(f"no scenes for split {self.split!r} (scenes={self.scenes})")
+        return [(spec, first + i) for i, spec in enumerate(specs)]
+
+    def store(self) -> EpisodeStore:
+        settings = make_settings(self.episodes, self.agent, self.navmesh, self.scenes, self.split)
+        return EpisodeStore(self.episodes_dir, self.split, settings)
+
+    def with_(self, **changes) -> "EnvConfig":
+        return replace(self, **changes)
+
+
+def open_scene(spec: str, scenes: dict, navmesh_settings: NavMeshSettings):
+    """(Scene, NavMesh) for a spec; raises SceneError naming the scene on failure."""
+    from rvn_data.navmesh import NavMesh
+    from rvn_data.scenes.loader import load_scene
+
+    scene = load_scene(spec, up_axis=scenes.get("up_axis", "y"), unit_scale=float(scenes.get("unit_scale", 1.0)),
+                       level=bool(scenes.get("level", False)))
+    return scene, NavMesh.build(scene, navmesh_settings)
+
+
+class SceneSlot:
+    """One loaded scene: navmesh, simulator, renderer and its episode list (eval)."""
+
+    def __init__(self, pos, spec, scene_index, scene, navmesh, simulator, renderer):
+        self.pos, self.spec, self.scene_index = pos, spec, scene_index
+        self.scene, self.navmesh, self.simulator, self.renderer = scene, navmesh, simulator, renderer
+        self._episodes = None
+
+    @property
+    def scene_id(self) -> str:
+        return self.scene.scene_id
+
+    @classmethod
+    def open(cls, config: EnvConfig, slot: tuple[str, int], pos: int) -> "SceneSlot":
+        from rvn_data.render import make_renderer
+        from rvn_data.sim import Simulator
+
+        spec, scene_index = slot
+        scene, navmesh = open_scene(spec, config.scenes, config.navmesh)
+        renderer = make_renderer(scene, config.camera, backend=config.renderer.get("backend", "auto"),
+                                 device=int(config.renderer.get("device", 0)))
+        return cls(pos, spec, scene_index, scene, navmesh, Simulator(navmesh, config.agent), renderer)
+
+    def episodes(self, config: EnvConfig) -> list:
+        """The scene's first ``config.per_scene`` episodes (generated and cached if missing)."""
+        if self._episodes is None:
+            store = config.store()
+            self._episodes = store.episodes_for(self.scene_index, self.spec, config.per_scene, None,
+                                                loaded=(self.scene, self.navmesh))
+        return self._episodes
+
+    def close(self) -> None:
+        if self.renderer is not None:
+            self.renderer.close()
+            self.renderer = None
+
+
+def eval_schedule(slots: list, per_scene: int) -> list[tuple[int, int]]:
+    """(scene position, episode index) pairs in evaluation order: scene by scene."""
+    return [(pos, e) for pos in range(len(slots)) for e in range(per_scene)]
+
+
+def ensure_scene_episodes(config: EnvConfig, slot: tuple[str, int]) -> int:
+    """Make sure the first ``config.per_scene`` episodes of a scene are cached; loads the
+    scene and builds its navmesh only when they must be generated. Returns the count."""
+    spec, scene_index = slot
+
+    return len(config.store().episodes_for(scene_index, spec, config.per_scene,
+                                           lambda: open_scene(spec, config.scenes, config.navmesh)))

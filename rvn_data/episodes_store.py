@@ -1,0 +1,220 @@
+"""Episode files: one gzip JSON per scene plus ``index.json``, generated on demand and cached.
+
+Layout: ``<dir>/<scene source>/<split>/<NNNNN>_<scene name>.json.gz`` and
+``<dir>/<scene source>/<split>/index.json``. Every file carries the settings that made
+it (generator version, episode settings, agent, navmesh settings, scene loading
+options, split); reading a file made with other settings raises ValueError naming the
+file and the first differing setting. Bytes are reproducible: JSON with sorted keys,
+gzip with mtime 0. Episode ``e`` does not depend on how many were asked for, so a file
+holding more episodes serves a request for fewer, and a short file is extended.
+"""
+from __future__ import annotations
+
+import gzip
+import hashlib
+import json
+import os
+import re
+import tempfile
+from dataclasses import asdict, is_dataclass
+from pathlib import Path
+
+import numpy as np
+
+from rvn_data.episodes import GENERATOR_VERSION, Episode, EpisodeSettings, sample_episodes
+
+FORMAT_SCENE = "rvn-episodes/scene"
+FORMAT_INDEX = "rvn-episodes/index"
+SCENE_OPTION_KEYS = ("source", "up_axis", "unit_scale", "level")
+
+
+_UMASK = os.umask(0)
+os.umask(_UMASK)
+_FILE_MODE = 0o666 & ~_UMASK  # what open() would give; mkstemp alone gives 0600
+
+
+def _plain(obj) -> dict:
+    if is_dataclass(obj):
+        return asdict(obj)
+    return {k: (v.item() if hasattr(v, "item") else v) for k, v in dict(obj).items()}
+
+
+def make_settings(episodes: EpisodeSettings, agent, navmesh, scenes: dict, split: str) -> dict:
+    """The settings recorded in (and checked against) every episode file."""
+    scene_opts = {k: scenes.get(k) for k in SCENE_OPTION_KEYS}
+    for k in ("unit_scale",):
+        if scene_opts[k] is not None:
+            scene_opts[k] = float(scene_opts[k])
+    nav = _plain(navmesh)
+    return {
+        "generator_version": GENERATOR_VERSION,
+        "split": split,
+        "episodes": episodes.as_dict(),
+        "agent": {k: (float(v) if isinstance(v, int) and not isinstance(v, bool) else v)
+                  for k, v in _plain(agent).items()},
+        "navmesh": {k: (float(v) if isinstance(v, int) and not isinstance(v, bool) else v)
+                    for k, v in nav.items()},
+        "scenes": scene_opts,
+    }
+
+
+def _flatten(d: dict, prefix: str = "") -> dict:
+    out = {}
+    for k, v in d.items():
+        key = f"{prefix}{k}"
+        if isinstance(v, dict):
+            out.update(_flatten(v, key + "."))
+        else:
+            out[key] = v
+    return out
+
+
+def check_settings(path: Path, stored: dict, wanted: dict, what: str = "episode file",
+                   hint: str = "use another episodes.dir or delete {dir}") -> None:
+    """ValueError naming ``path`` and the first setting that differs."""
+    a, b = _flatten(stored), _flatten(wanted)
+    for key in sorted(set(a) | set(b)):
+        if a.get(key, "<missing>") != b.get(key, "<missing>"):
+            raise ValueError(
+                f"{what} {path} was made with {key}={a.get(key, '<missing>')!r} but this run uses "
+                f"{key}={b.get(key, '<missing>')!r}; " + hint.format(dir=Path(path).parent))
+
+
+def dumps_gzip_json(obj: dict) -> bytes:
+    """Reproducible bytes: sorted-key JSON, gzip with mtime 0 and no file name."""
+    raw = json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=False).encode()
+    return gzip.compress(raw, compresslevel=6, mtime=0)
+
+
+def write_bytes_atomic(path: Path, data: bytes) -> None:
+    """Write bytes to ``path`` via a temp file and os.replace."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        os.fchmod(fd, _FILE_MODE)
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def scene_fingerprint(scene) -> str:
+    """Short digest of a scene's triangles: ties an episode file to the exact mesh."""
+    v, f = scene.triangles()
+    h = hashlib.sha1(np.ascontiguousarray(v, np.float32).tobytes())
+    h.update(np.ascontiguousarray(f, np.int32).tobytes())
+    return h.hexdigest()[:16]
+
+
+def scene_name(spec: str) -> str:
+    """A file-name-safe short name for a scene spec (``procedural:val/3`` → ``procedural_val_3``)."""
+    s = str(spec)
+    name = s.replace(":", "_").replace("/", "_") if s.startswith("procedural:") else Path(s).stem
+    return re.sub(r"[^A-Za-z0-9_.-]", "_", name) or "scene"
+
+
+class EpisodeStore:
+    """The cached episode set of one split under ``root`` (config ``episodes.dir``)."""
+
+    def __init__(self, root: str | Path, split: str, settings: dict):
+        self.split = split
+        self.settings = settings
+        source = settings["scenes"].get("source") or "scenes"
+        self.dir = Path(root).expanduser() / re.sub(r"[^A-Za-z0-9_.-]", "_", str(source)) / split
+        self.index_path = self.dir / "index.json"
+
+    def scene_path(self, scene_index: int, spec: str) -> Path:
+        return self.dir / f"{int(scene_index):05d}_{scene_name(spec)}.json.gz"
+
+    def check_index(self) -> None:
+        """Raise if an existing index was made with other settings."""
+        if self.index_path.exists():
+            try:
+                stored = json.loads(self.index_path.read_text())["settings"]
+            except (json.JSONDecodeError, KeyError) as err:
+                raise ValueError(f"episode index {self.index_path} is unreadable ({err}); delete it") from None
+            check_settings(self.index_path, stored, self.settings)
+
+    def read_scene(self, scene_index: int, spec: str) -> dict | None:
+        """The stored file of a scene (``scene_id``, ``fingerprint``, ``episodes``: list of
+        `Episode`), or None if there is none; raises if it was made with other settings."""
+        path = self.scene_path(scene_index, spec)
+        if not path.exists():
+            return None
+        try:
+            data = json.loads(gzip.decompress(path.read_bytes()))
+        except (OSError, EOFError, json.JSONDecodeError) as err:
+            raise ValueError(f"episode file {path} is unreadable ({err}); delete it to regenerate") from None
+        if data.get("format") != FORMAT_SCENE:
+            raise ValueError(f"episode file {path} is not an RVN episode file (format={data.get('format')!r})")
+        check_settings(path, data["settings"], self.settings)
+        if int(data["scene_index"]) != int(scene_index):
+            raise ValueError(f"episode file {path} holds scene index {data['scene_index']}, expected {scene_index}")
+        data["episodes"] = [Episode.from_json(e, data["scene_id"], scene_index) for e in data["episodes"]]
+        return data
+
+    def write_scene(self, scene_index: int, spec: str, scene_id: str, fingerprint: str,
+                    episodes: list[Episode]) -> Path:
+        path = self.scene_path(scene_index, spec)
+        payload = {
+            "format": FORMAT_SCENE,
+            "settings": self.settings,
+            "scene_id": scene_id,
+            "scene_index": int(scene_index),
+            "scene_name": scene_name(spec),
+            "fingerprint": fingerprint,
+            "episodes": [e.to_json() for e in episodes],
+        }
+        write_bytes_atomic(path, dumps_gzip_json(payload))
+        return path
+
+    def check_scene(self, stored: dict, scene_index: int, spec: str, scene_id: str, fingerprint: str) -> None:
+        """Raise if a stored file was made for another scene or another version of its mesh."""
+        path = self.scene_path(scene_index, spec)
+        if stored["scene_id"] != scene_id:
+            raise ValueError(f"episode file {path} is for scene {stored['scene_id']!r}, not {scene_id!r}; "
+                             "delete it to regenerate")
+        if stored.get("fingerprint") != fingerprint:
+            raise ValueError(f"episode file {path} was made for another version of scene {scene_id!r} (mesh "
+                             f"fingerprint {stored.get('fingerprint')} != {fingerprint}); delete it to regenerate")
+
+    def write_index(self) -> Path:
+        """(Re)write index.json from the scene files present."""
+        self.check_index()
+        scenes = []
+        for path in sorted(self.dir.glob("*.json.gz")):
+            data = json.loads(gzip.decompress(path.read_bytes()))
+            check_settings(path, data["settings"], self.settings)
+            scenes.append({"file": path.name, "scene_id": data["scene_id"], "scene_index": data["scene_index"],
+                           "fingerprint": data.get("fingerprint"), "episodes": len(data["episodes"])})
+        index = {"format": FORMAT_INDEX, "settings": self.settings, "split": self.split, "scenes": scenes}
+        text = json.dumps(index, sort_keys=True, indent=1, allow_nan=False) + "\n"
+        write_bytes_atomic(self.index_path, text.encode())
+        return self.index_path
+
+    def episodes_for(self, scene_index: int, spec: str, count: int, open_navmesh, loaded=None) -> list[Episode]:
+        """The first ``count`` episodes of a scene, generated and saved when missing.
+
+        ``open_navmesh()`` -> (scene, navmesh) is called only when generation is needed;
+        ``loaded`` = (scene, navmesh) already at hand is checked against the file's scene id
+        and mesh fingerprint (and used for generation).
+        """
+        self.check_index()
+        stored = self.read_scene(scene_index, spec)
+        have = stored["episodes"] if stored else []
+        if loaded is not None and stored:
+            self.check_scene(stored, scene_index, spec, loaded[0].scene_id, scene_fingerprint(loaded[0]))
+        if len(have) >= count:
+            return have[:count]
+        scene, navmesh = loaded if loaded is not None else open_navmesh()
+        fingerprint = scene_fingerprint(scene)
+        if stored:
+            self.check_scene(stored, scene_index, spec, scene.scene_id, fingerprint)
+        settings = EpisodeSettings(**self.settings["episodes"])
+        new = sample_episodes(navmesh, settings, self.split, scene.scene_id, scene_index, range(len(have), count))
+        episodes = have + new
+        self.write_scene(scene_index, spec, scene.scene_id, fingerprint, episodes)
+        return episodes

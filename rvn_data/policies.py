@@ -1,0 +1,169 @@
+"""Task-side reference policies for the benchmark (no model code).
+
+Policy contract (docs/ARCHITECTURE.md): ``reset()`` at every episode start and
+``act(obs) -> int`` (an `Action`). Optional: ``bind(env)``, called once by the
+evaluator after the environment is built, hands a policy the `RVNEnv` (its
+``unwrapped``) for privileged state: the oracle reads the navmesh, the agent pose and
+the goal's geodesic distance field; the random policy keys its random stream on the
+current episode so that results do not depend on how episodes are spread over workers.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from rvn_data.conventions import Action
+
+
+class OraclePolicy:
+    """Geodesic shortest-path follower with the discrete actions (privileged).
+
+    Far from the goal, greedy: for each heading reachable by turning (yaw + k·θ_step),
+    simulate one MOVE_FORWARD on a private `Simulator`, drop headings that collide, and
+    score the landing point by its geodesic distance to the goal (the goal's distance
+    field) + ``turn_cost``·|k| + ``revisit_cost``·(earlier visits of that point for this
+    goal); move forward when the best heading is the current one, else turn towards it.
+    Within ``near_radius`` of the goal: a breadth-first search over action sequences
+    (at most ``plan_depth`` actions, ``plan_nodes`` poses) for the shortest one that ends
+    where the env's success test passes, then STOP. Never takes a colliding step.
+    """
+
+    def __init__(self, turn_cost: float = 0.01, revisit_cost: float = 0.3, cell: float = 0.05,
+                 near_radius: float = 1.2, plan_depth: int = 12, plan_nodes: int = 4000):
+        self.turn_cost = float(turn_cost)
+        self.revisit_cost = float(revisit_cost)
+        self.cell = float(cell)
+        self.near_radius = float(near_radius)
+        self.plan_depth = int(plan_depth)
+        self.plan_nodes = int(plan_nodes)
+        self.env = None
+        self._sim = None
+        self._sim_navmesh = None
+        self._visits: dict = {}
+        self._goal_key = None
+        self._plan: list[int] = []
+        self._planned = False
+
+    def bind(self, env) -> None:
+        """Use ``env`` (an `RVNEnv` or a wrapper of one) for privileged state."""
+        self.env = env.unwrapped
+
+    def reset(self) -> None:
+        self._visits.clear()
+        self._goal_key = None
+        self._plan, self._planned = [], False
+
+    def _key(self, p) -> tuple[int, int]:
+        return int(round(p[0] / self.cell)), int(round(p[2] / self.cell))
+
+    def _forward(self, position, yaw):
+        """(landing position, collided) of a MOVE_FORWARD from a pose."""
+        self._sim.reset(position, yaw)
+        res = self._sim.step(Action.MOVE_FORWARD)
+        return np.asarray(res.position), bool(res.collided)
+
+    def act(self, obs) -> int:
+        env = self.env
+        if env is None:
+            raise RuntimeError("OraclePolicy needs privileged state: call policy.bind(env) first")
+        from rvn_data.sim import Simulator
+
+        goal_key = tuple(np.round(env.goal, 6))
+        if goal_key != self._goal_key:
+            self._goal_key = goal_key
+            self._visits.clear()
+            self._plan, self._planned = [], False
+        if env.success_distance_now() <= env.success_distance:
+            return int(Action.STOP)
+        if self._sim is None or self._sim_navmesh is not env.navmesh:
+            self._sim, self._sim_navmesh = Simulator(env.navmesh, env.agent), env.navmesh
+        if not self._planned and env.distance_to_goal() <= self.near_radius:
+            self._plan, self._planned = self._search(env), True
+        if self._plan:
+            return self._plan.pop(0)
+        return self._greedy(env)
+
+    def _greedy(self, env) -> int:
+        here = self._key(env.position)
+        self._visits[here] = self._visits.get(here, 0) + 1
+        theta = env.agent.theta_step
+        n = max(1, int(round(2 * math.pi / theta)))
+        ks, targets = [], []
+        for k in range(-((n - 1) // 2), n // 2 + 1):
+            target, collided = self._forward(env.position, env.yaw + k * theta)
+            if not collided:
+                ks.append(k)
+                targets.append(target)
+        best_k, best_score = None, math.inf
+        if targets:
+            dist = np.asarray(env.goal_field.distance(np.stack(targets)), dtype=np.float64).reshape(-1)
+            for k, target, d in zip(ks, targets, dist):
+                d = d if math.isfinite(d) else env.distance_to_goal(target)
+                score = d + self.turn_cost * abs(k) + self.revisit_cost * self._visits.get(self._key(target), 0)
+                if score < best_score:
+                    best_k, best_score = k, score
+        if best_k is None:
+            return int(Action.TURN_LEFT)  # every heading blocked here: turn and look again
+        if best_k == 0:
+            return int(Action.MOVE_FORWARD)
+        return int(Action.TURN_LEFT if best_k > 0 else Action.TURN_RIGHT)
+
+    def _search(self, env) -> list[int]:
+        """Shortest collision-free action list to a pose passing the success test ([] if none found)."""
+        theta, goal_ok = env.agent.theta_step, env.success_distance
+        start = (np.asarray(env.position, dtype=np.float64), float(env.yaw))
+        frontier = [(start, [])]
+        seen = {(*self._key(start[0]), round(math.remainder(start[1], 2 * math.pi), 3))}
+        expanded = 0
+        while frontier and expanded < self.plan_nodes:
+            nxt = []
+            for (p, yaw), acts in frontier:
+                if len(acts) >= self.plan_depth or expanded >= self.plan_nodes:
+                    continue
+                expanded += 1
+                for a in (Action.MOVE_FORWARD, Action.TURN_LEFT, Action.TURN_RIGHT):
+                    if a == Action.MOVE_FORWARD:
+                        q, collided = self._forward(p, yaw)
+                        if collided:
+                            continue
+                        y = yaw
+                    else:
+                        q, y = p, yaw + (theta if a == Action.TURN_LEFT else -theta)
+                    key = (*self._key(q), round(math.remainder(y, 2 * math.pi), 3))
+                    if key in seen:
+                        continue
+                    seen.add(key)
+                    plan = acts + [int(a)]
+                    if a == Action.MOVE_FORWARD and env.success_distance_now(q) <= goal_ok:
+                        return plan
+                    nxt.append(((q, y), plan))
+            frontier = nxt
+        return []
+
+
+class RandomPolicy:
+    """Uniformly random actions (``probs`` over STOP, MOVE_FORWARD, TURN_LEFT, TURN_RIGHT).
+
+    Its generator is ``default_rng([seed, *env.episode_key])`` at each ``reset()`` when
+    bound to an env, else one stream from ``seed``.
+    """
+
+    def __init__(self, seed: int = 0, probs: list[float] | None = None):
+        self.seed = int(seed)
+        p = np.full(len(Action), 1.0 / len(Action)) if probs is None else np.asarray(probs, dtype=np.float64)
+        if p.shape != (len(Action),) or np.any(p < 0) or not math.isclose(p.sum(), 1.0, abs_tol=1e-6):
+            raise ValueError(f"RandomPolicy probs={probs!r} must be {len(Action)} non-negative numbers summing to 1")
+        self.probs = p / p.sum()
+        self.env = None
+        self.rng = np.random.default_rng(self.seed)
+
+    def bind(self, env) -> None:
+        self.env = env.unwrapped
+
+    def reset(self) -> None:
+        if self.env is not None:
+            self.rng = np.random.default_rng([self.seed, *self.env.episode_key])
+
+    def act(self, obs) -> int:
+        return int(self.rng.choice(len(Action), p=self.probs))

@@ -1,0 +1,97 @@
+"""``rvn-eval``: closed-loop benchmark of a policy on a split's episode set (SPEC.md
+"Benchmark protocol"). Hydra config ``conf/eval.yaml``; e.g.
+
+    rvn-eval policy=oracle split=val episodes.num_scenes=5 episodes.per_scene=4 workers=2
+    rvn-eval policy=checkpoint policy.checkpoint=runs/nomad/last.pt method=NoMaD-PointGoal
+
+Writes ``out_dir/metrics.json``, ``out_dir/episodes.jsonl`` and ``out_dir/table.md``;
+an interrupted run resumes where it stopped (``resume=false`` starts over).
+"""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import hydra
+from omegaconf import DictConfig, OmegaConf
+from omegaconf.errors import OmegaConfBaseException
+
+import rvn_data
+from rvn_il.eval.results import RunDir, record_key, run_identity
+from rvn_il.eval.runner import env_kwargs, prepare_episodes, run_episodes
+from rvn_il.eval.table import render_table
+
+CONF_DIR = str(Path(rvn_data.__file__).resolve().parents[1] / "conf")
+
+
+def evaluate(cfg: dict) -> dict:
+    """Run the benchmark described by a resolved config dict; returns metrics.json's content."""
+    from tqdm import tqdm
+
+    from rvn_data.episodes_source import EnvConfig, eval_schedule
+    from rvn_data.metrics import compute_metrics
+
+    env_cfg = EnvConfig.from_kwargs(**env_kwargs(cfg))
+    slots = env_cfg.scene_slots()
+    keys = [(slots[pos][1], e) for pos, e in eval_schedule(slots, env_cfg.per_scene)]
+    run = RunDir(cfg["out_dir"], run_identity(cfg))
+    done = run.open(resume=bool(cfg.get("resume", True)))
+    todo = [k for k, key in enumerate(keys) if key not in done]
+    workers = max(1, int(cfg.get("workers", 1)))
+    show = bool(cfg.get("progress", True))
+    need = sorted({keys[k][0] for k in todo})
+    need_slots = [s for s in slots if s[1] in need]
+    with tqdm(total=len(need_slots), desc="episodes", unit="scene", disable=not show or not need_slots) as bar:
+        prepare_episodes(cfg, need_slots, workers, bar.update)
+    env_cfg.store().write_index()
+    with tqdm(total=len(keys), initial=len(keys) - len(todo), desc=f"eval {cfg['method']} {cfg['split']}",
+              unit="ep", disable=not show) as bar:
+        for _, rec in run_episodes(cfg, todo, workers):
+            run.append(rec)
+            done[record_key(rec)] = rec
+            bar.update(1)
+    records = [done[key] for key in keys]
+    metrics = compute_metrics(records)
+    metrics.update(split=cfg["split"], policy=cfg["policy_name"], method=cfg["method"],
+                   scenes=len(slots), per_scene=env_cfg.per_scene, n_goals=env_cfg.episodes.n_goals)
+    run.finish(records, metrics, render_table([metrics]))
+    return metrics
+
+
+def _plain_config(cfg: DictConfig) -> dict:
+    from hydra.core.hydra_config import HydraConfig
+
+    choice = "policy"
+    if HydraConfig.initialized():
+        choice = HydraConfig.get().runtime.choices.get("policy") or "policy"
+    out = OmegaConf.to_container(cfg, resolve=True, throw_on_missing=True)
+    out["policy_name"] = choice
+    out["method"] = out.get("method") or choice
+    return out
+
+
+@hydra.main(config_path=CONF_DIR, config_name="eval", version_base="1.3")
+def _main(cfg: DictConfig) -> None:
+    from rvn_data.scenes import SceneError
+
+    try:
+        plain = _plain_config(cfg)
+        metrics = evaluate(plain)
+    except (ValueError, TypeError, SceneError, OSError, OmegaConfBaseException) as err:
+        msg = (str(err).splitlines() or [type(err).__name__])[0]
+        if isinstance(err, OmegaConfBaseException) and getattr(err, "full_key", None):
+            msg = f"{msg} (config key {err.full_key}: set it on the command line, e.g. {err.full_key}=...)"
+        print(f"rvn-eval: error: {msg}", file=sys.stderr)
+        sys.exit(1)
+    keys = ("SR_1", "E_G", "CPK", "SPL_1", "episodes")
+    print(json.dumps({"method": plain["method"], "split": plain["split"], **{k: metrics[k] for k in keys}}))
+    print(f"wrote {Path(plain['out_dir']) / 'metrics.json'}")
+
+
+def main() -> None:
+    _main()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,159 @@
+"""Run a policy over an episode set, in this process or in worker processes.
+
+Each worker builds its own `RVNEnv` (eval mode) and policy from the same plain-dict
+config; episodes are addressed by their position in the set's schedule, so the records
+do not depend on the number of workers. The policy config is instantiated with
+``hydra.utils.instantiate``: any object with ``reset()`` and ``act(obs)`` is a policy;
+one with ``bind(env)`` gets the env (privileged state) once.
+"""
+from __future__ import annotations
+
+import multiprocessing as mp
+import operator
+import os
+import sys
+from collections.abc import Callable, Iterable, Iterator
+
+import numpy as np
+
+from rvn_data.conventions import Action
+
+ENV_KEYS = ("t_max", "success_distance", "success_metric", "stop_far_is_failure", "depth")
+
+
+class InvalidActionError(ValueError):
+    """A policy returned something that is not an `Action`."""
+
+
+def env_kwargs(cfg: dict) -> dict:
+    """`RVNEnv` keyword arguments (eval mode) from a resolved rvn-eval config dict."""
+    eps = dict(cfg["episodes"])
+    scenes = {k: v for k, v in dict(cfg["scenes"]).items() if k != "split"}
+    return {
+        "mode": "eval", "split": cfg["split"], "scenes": scenes, "agent": cfg["agent"],
+        "navmesh": cfg["navmesh"], "camera": cfg["camera"], "renderer": cfg.get("renderer") or {},
+        "episodes": {k: v for k, v in eps.items() if k not in ("dir", "per_scene", "num_scenes", "first_scene")},
+        "episodes_dir": eps.get("dir"), "per_scene": eps.get("per_scene"),
+        **{k: v for k, v in dict(cfg.get("env") or {}).items() if k in ENV_KEYS},
+    }
+
+
+def policy_name(cfg: dict) -> str:
+    return str(cfg.get("method") or cfg.get("policy_name") or dict(cfg["policy"]).get("_target_", "policy"))
+
+
+def make_policy(policy_cfg: dict, env, name: str):
+    """Instantiate a policy config and bind it to ``env`` when it has ``bind``."""
+    from hydra.utils import instantiate
+
+    policy = instantiate(dict(policy_cfg), _convert_="all")
+    for method in ("reset", "act"):
+        if not callable(getattr(policy, method, None)):
+            raise TypeError(f"policy {name!r} ({type(policy).__name__}) has no {method}() method; "
+                            "a policy needs reset() and act(obs) -> int")
+    if callable(getattr(policy, "bind", None)):
+        policy.bind(env)
+    return policy
+
+
+def check_action(action, name: str) -> int:
+    """The action as an int, or InvalidActionError naming the policy and the value."""
+    try:
+        a = operator.index(action.item() if isinstance(action, np.ndarray) and action.size == 1 else action)
+    except TypeError:
+        a = None
+    if a is None or isinstance(action, bool) or not 0 <= a < len(Action):
+        raise InvalidActionError(
+            f"policy {name!r} returned invalid action {action!r}; expected an int in 0..{len(Action) - 1} "
+            f"({', '.join(f'{x.value}={x.name}' for x in Action)})")
+    return a
+
+
+def seed_frameworks(key: Iterable[int]) -> None:
+    """Seed torch's global generator per episode (only if a policy imported torch)."""
+    torch = sys.modules.get("torch")
+    if torch is not None:
+        torch.manual_seed(int(np.random.default_rng(list(key)).integers(2**31 - 1)))
+
+
+def run_episode(env, policy, k: int, name: str, seed: int = 0) -> dict:
+    """Run episode ``k`` of the env's eval schedule to its end; returns its record."""
+    obs, _ = env.reset(options={"episode": int(k)})
+    seed_frameworks([seed, *env.unwrapped.episode_key])
+    policy.reset()
+    while True:
+        action = check_action(policy.act(obs), name)
+        obs, _, terminated, truncated, info = env.step(action)
+        if terminated or truncated:
+            return info["episode"]
+
+
+_WORKER: dict = {}
+
+
+def share_cpu_threads(workers: int) -> None:
+    """Give each of ``workers`` processes its share of the CPU cores for software GL
+    (Mesa llvmpipe's LP_NUM_THREADS; a GPU ignores it), unless the user set it."""
+    if workers > 1 and "LP_NUM_THREADS" not in os.environ:
+        os.environ["LP_NUM_THREADS"] = str(max(1, (os.cpu_count() or 1) // workers))
+
+
+def _init_worker(cfg: dict, workers: int = 1) -> None:
+    from rvn_data.env import RVNEnv
+
+    share_cpu_threads(workers)
+
+    env = RVNEnv(**env_kwargs(cfg))
+    name = policy_name(cfg)
+    _WORKER.update(env=env, policy=make_policy(cfg["policy"], env, name), name=name, seed=int(cfg.get("seed", 0)))
+
+
+def _run_task(k: int) -> tuple[int, dict]:
+    w = _WORKER
+    return k, run_episode(w["env"], w["policy"], k, w["name"], w["seed"])
+
+
+def _prepare_task(args) -> int:
+    from rvn_data.episodes_source import EnvConfig, ensure_scene_episodes
+
+    cfg, slot = args
+    return ensure_scene_episodes(EnvConfig.from_kwargs(**env_kwargs(cfg)), slot)
+
+
+def _pool(workers: int, cfg: dict | None = None):
+    ctx = mp.get_context("spawn")  # GL contexts and torch do not survive fork
+    if cfg is None:
+        return ctx.Pool(workers)
+    return ctx.Pool(workers, initializer=_init_worker, initargs=(cfg, workers))
+
+
+def prepare_episodes(cfg: dict, slots: list, workers: int, progress: Callable | None = None) -> None:
+    """Generate and cache the episode files of every scene (in parallel when workers > 1)."""
+    tasks = [(cfg, slot) for slot in slots]
+    if workers <= 1:
+        for t in tasks:
+            _prepare_task(t)
+            if progress:
+                progress(1)
+        return
+    with _pool(min(workers, len(tasks))) as pool:
+        for _ in pool.imap_unordered(_prepare_task, tasks):
+            if progress:
+                progress(1)
+
+
+def run_episodes(cfg: dict, todo: list[int], workers: int) -> Iterator[tuple[int, dict]]:
+    """Yield (k, record) for the schedule positions ``todo`` (completion order)."""
+    if not todo:
+        return
+    if workers <= 1:
+        _init_worker(cfg)
+        try:
+            for k in todo:
+                yield _run_task(k)
+        finally:
+            _WORKER.pop("env").close()
+            _WORKER.clear()
+        return
+    with _pool(min(workers, len(todo)), cfg) as pool:
+        yield from pool.imap_unordered(_run_task, todo)

@@ -1,0 +1,155 @@
+"""RVNEnv: Gymnasium API, reward / cost / termination semantics on hand-driven steps."""
+import warnings
+
+import gymnasium
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+from rvn_data.conventions import Action, relative_goal
+from rvn_data.env import RVNEnv
+from rvn_data.policies import OraclePolicy
+from rvn_data.wrappers import RGBFrameStack
+
+F, L, R, STOP = Action.MOVE_FORWARD, Action.TURN_LEFT, Action.TURN_RIGHT, Action.STOP
+
+
+def make_env(tmp_path, **kw):
+    base = dict(mode="eval", split="val", scenes={"num_scenes": 1}, per_scene=2,
+                camera={"width": 32, "height": 24}, episodes={"n_goals": 2, "dir": str(tmp_path)})
+    base.update(kw)
+    return RVNEnv(**base)
+
+
+@pytest.fixture
+def env(tmp_path):
+    e = make_env(tmp_path)
+    yield e
+    e.close()
+
+
+@pytest.mark.parametrize("mode", ["eval", "train"])
+def test_check_env(tmp_path, mode):
+    e = make_env(tmp_path, mode=mode, split="val", depth=True)
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=".*infinity.*")  # pointgoal is unbounded by design
+        check_env(e, skip_render_check=True)
+    obs, _ = e.reset(seed=1)
+    assert obs["rgb"].shape == (24, 32, 3) and obs["rgb"].dtype == np.uint8
+    assert obs["depth"].shape == (24, 32) and obs["depth"].dtype == np.float32
+    assert obs["pointgoal"].shape == (2,) and obs["pointgoal"].dtype == np.float32
+    e.close()
+
+
+def test_registered(tmp_path):
+    e = gymnasium.make("RVN-v0", mode="eval", split="val", scenes={"num_scenes": 1}, per_scene=1,
+                       camera={"width": 16, "height": 16}, episodes={"n_goals": 1, "dir": str(tmp_path)})
+    obs, info = e.reset(seed=0)
+    assert isinstance(e.unwrapped, RVNEnv) and info["episode_id"] == "procedural:val/0#0"
+    e.close()
+
+
+def test_wall_collision_terminates(env):
+    obs, info = env.reset(seed=0)
+    d = info["distance_to_goal"]
+    for _ in range(200):
+        obs, reward, terminated, truncated, info = env.step(F)
+        if terminated:
+            break
+        assert reward == pytest.approx(-(info["distance_to_goal"] - d) - 0.01, abs=1e-9)
+        assert info["cost"] == 0.0 and not info["collided"] and info["displacement"] == pytest.approx(0.25)
+        d = info["distance_to_goal"]
+    assert terminated and not truncated
+    assert reward == pytest.approx(-0.1) and info["cost"] == 1.0 and info["collided"]
+    assert info["termination"] == "collision" and not info["success"]
+    rec = info["episode"]
+    assert rec["collisions"] == 1 and rec["goals_reached"] == 0 and rec["termination"] == "collision"
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step(F)
+
+
+def test_far_stop_is_a_noop(env, tmp_path):
+    obs, info = env.reset(seed=0)
+    assert info["distance_to_goal"] > 4.0 - 1e-6
+    obs2, reward, terminated, truncated, info2 = env.step(STOP)
+    assert reward == pytest.approx(-0.01) and not terminated and not truncated
+    assert np.array_equal(obs2["pointgoal"], obs["pointgoal"]) and info2["goals_reached"] == 0
+    strict = make_env(tmp_path, stop_far_is_failure=True)
+    strict.reset(seed=0)
+    _, _, terminated, _, info = strict.step(STOP)
+    assert terminated and info["termination"] == "stop_far" and not info["success"]
+    strict.close()
+
+
+def test_stop_near_goal_gives_next_goal_then_success(env):
+    oracle = OraclePolicy()
+    oracle.bind(env)
+    obs, info = env.reset(seed=0)
+    oracle.reset()
+    episode = env.unwrapped._episode
+    rewards = []
+    for _ in range(500):
+        action = oracle.act(obs)
+        pos = env.position.copy()
+        obs, reward, terminated, truncated, info = env.step(action)
+        if action == STOP:
+            break
+        rewards.append(reward)
+    assert reward == 1.0 and info["goals_reached"] == 1 and not terminated
+    assert np.array_equal(env.position, pos)  # STOP does not move; the scene is not reset
+    assert np.array_equal(env.goal, episode.goals[1])
+    assert abs(info["distance_to_goal"] - episode.goal_distances[1]) <= 2 * 0.18 + 0.05
+    assert obs["pointgoal"] == pytest.approx(relative_goal(pos, env.yaw, episode.goals[1]))
+    assert all(r < 0.3 for r in rewards)
+    for _ in range(500):
+        obs, reward, terminated, truncated, info = env.step(oracle.act(obs))
+        if terminated or truncated:
+            break
+    assert terminated and info["success"] and info["termination"] == "success" and reward == 1.0
+    rec = info["episode"]
+    assert rec["goals_reached"] == 2 and rec["first_goal_success"] and rec["collisions"] == 0
+
+
+def test_timeout_truncates(tmp_path):
+    e = make_env(tmp_path, t_max=3)
+    e.reset(seed=0)
+    for i in range(3):
+        _, reward, terminated, truncated, info = e.step(L)
+        assert reward == pytest.approx(-0.01) and not terminated
+    assert truncated and info["termination"] == "timeout"
+    e.close()
+
+
+def test_invalid_action(env):
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="invalid action 7"):
+        env.step(7)
+    with pytest.raises(ValueError, match="invalid action 1.0"):
+        env.step(1.0)
+    assert env.step(np.int64(2))[4]["goal_steps"] == 1
+    with pytest.raises(ValueError, match="episode=5 out of range.*2 episodes"):
+        env.reset(options={"episode": 5})
+
+
+def test_frame_stack(env):
+    stacked = RGBFrameStack(env, context=3)
+    assert stacked.observation_space["rgb"].shape == (3, 24, 32, 3)
+    obs, _ = stacked.reset(seed=0)
+    assert obs["rgb"].shape == (3, 24, 32, 3)
+    assert np.array_equal(obs["rgb"][0], obs["rgb"][2])
+    obs2, *_ = stacked.step(L)
+    assert np.array_equal(obs2["rgb"][1], obs["rgb"][2]) and not np.array_equal(obs2["rgb"][2], obs["rgb"][2])
+    assert stacked.observation_space.contains(obs2)
+
+
+def test_train_mode_switches_scene(tmp_path):
+    e = make_env(tmp_path, mode="train", split="val", scene_specs=["procedural:val/0", "procedural:val/1"],
+                 scene_switch_every=2, episodes={"n_goals": 2})
+    scenes = []
+    for i in range(8):
+        _, info = e.reset() if i else e.reset(seed=4)
+        assert 4.0 - 1e-6 <= info["distance_to_goal"] <= 8.0 + 1e-6
+        scenes.append(info["scene_id"])
+    assert all(scenes[i] == scenes[i + 1] for i in range(0, 8, 2))  # K = 2 resets per scene
+    assert set(scenes) == {"procedural:val/0", "procedural:val/1"}
+    e.close()

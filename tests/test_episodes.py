@@ -1,0 +1,124 @@
+"""Episode sets: goal chains, determinism, reproducible files, settings checks."""
+import gzip
+import json
+
+import numpy as np
+import pytest
+
+from rvn_data.conventions import AgentConfig
+from rvn_data.episodes import EpisodeSettings, episode_rng, sample_episode, sample_episodes
+from rvn_data.episodes_source import EnvConfig, ensure_scene_episodes, open_scene
+from rvn_data.episodes_store import EpisodeStore, make_settings, scene_fingerprint
+from rvn_data.navmesh import NavMeshSettings
+from rvn_data.scenes import Part, Scene, SceneError
+
+SPEC = "procedural:val/0"
+SETTINGS = EpisodeSettings(n_goals=6, seed=3)
+
+
+@pytest.fixture(scope="module")
+def loaded():
+    return open_scene(SPEC, {}, NavMeshSettings())
+
+
+@pytest.fixture(scope="module")
+def navmesh(loaded):
+    return loaded[1]
+
+
+def store_for(root, settings=SETTINGS, agent=AgentConfig(), split="val"):
+    nav = NavMeshSettings(agent_radius=agent.r_robot, agent_height=agent.h_robot)
+    return EpisodeStore(root, split, make_settings(settings, agent, nav, {"source": "procedural"}, split))
+
+
+def test_goal_chain_geodesic_range(navmesh):
+    ep, fields = sample_episode(navmesh, SETTINGS, "val", SPEC, 0, 0)
+    assert ep.goals.shape == (6, 3) and len(ep.goal_distances) == 6 and len(fields) == 6
+    assert navmesh.island_of(ep.start_position) == 0
+    prev = ep.start_position
+    for goal, d in zip(ep.goals, ep.goal_distances):
+        assert navmesh.island_of(goal) == 0
+        assert 4.0 <= d <= 8.0
+        # an independent measure of the same distance (string-pulled path) agrees within 5 %
+        assert navmesh.geodesic_distance(prev, goal) == pytest.approx(d, rel=0.05)
+        prev = goal
+    assert -np.pi <= ep.start_yaw < np.pi
+
+
+def test_episode_determinism(navmesh):
+    a = sample_episodes(navmesh, SETTINGS, "val", SPEC, 0, range(3))
+    b = sample_episodes(navmesh, SETTINGS, "val", SPEC, 0, [2])
+    assert a[2].to_json() == b[0].to_json()  # episode e does not depend on how many were asked for
+    assert a[0].to_json() != a[1].to_json()
+    other_split = sample_episodes(navmesh, SETTINGS, "test", SPEC, 0, [0])[0]
+    assert other_split.to_json() != a[0].to_json()
+    r1, r2 = episode_rng(3, "val", 0, 1), episode_rng(3, "val", 0, 1)
+    assert r1.integers(1 << 30) == r2.integers(1 << 30)
+
+
+def test_store_bytes_reproducible_and_prefix(tmp_path, loaded):
+    open_nm = lambda: loaded  # noqa: E731
+    s1, s2 = store_for(tmp_path / "a"), store_for(tmp_path / "b")
+    eps = s1.episodes_for(0, SPEC, 3, open_nm)
+    s2.episodes_for(0, SPEC, 2, open_nm)
+    s2.episodes_for(0, SPEC, 3, open_nm)  # extended from 2 to 3
+    p1, p2 = s1.scene_path(0, SPEC), s2.scene_path(0, SPEC)
+    assert p1.name == "00000_procedural_val_0.json.gz"
+    assert p1.read_bytes() == p2.read_bytes()
+    assert p1.read_bytes()[4:8] == b"\0\0\0\0"  # gzip mtime 0
+    s1.write_index()
+    index = json.loads(s1.index_path.read_text())
+    assert index["scenes"] == [{"file": p1.name, "scene_id": SPEC, "scene_index": 0, "episodes": 3,
+                                "fingerprint": scene_fingerprint(loaded[0])}]
+    assert index["settings"]["episodes"]["n_goals"] == 6 and index["settings"]["generator_version"] == 1
+    data = json.loads(gzip.decompress(p1.read_bytes()))
+    assert data["settings"]["agent"]["r_robot"] == 0.18 and data["settings"]["navmesh"]["cell_size"] == 0.05
+    # fewer episodes are served from the file without regenerating (no navmesh needed)
+    again = s1.episodes_for(0, SPEC, 2, lambda: pytest.fail("should not regenerate"))
+    assert [e.to_json() for e in again] == [e.to_json() for e in eps[:2]]
+
+
+def test_settings_mismatch_is_an_error(tmp_path, loaded):
+    store_for(tmp_path).episodes_for(0, SPEC, 1, lambda: loaded)
+    path = store_for(tmp_path).scene_path(0, SPEC)
+    other = store_for(tmp_path, EpisodeSettings(n_goals=5, seed=3))
+    with pytest.raises(ValueError, match=rf"{path}.*episodes.n_goals=6.*episodes.n_goals=5"):
+        other.episodes_for(0, SPEC, 1, lambda: loaded)
+    store_for(tmp_path).write_index()
+    bigger = store_for(tmp_path, agent=AgentConfig(r_robot=0.2))
+    with pytest.raises(ValueError, match=r"index.json.*agent.r_robot=0.18.*agent.r_robot=0.2"):
+        bigger.episodes_for(0, SPEC, 1, lambda: loaded)
+
+
+def test_changed_scene_mesh_is_an_error(tmp_path, loaded):
+    scene, navmesh = loaded
+    store = store_for(tmp_path)
+    store.episodes_for(0, SPEC, 1, lambda: loaded)
+    assert store.episodes_for(0, SPEC, 1, None, loaded=loaded)  # same mesh: fine
+    parts = [Part(p.name, p.vertices + np.float32(0.01), p.faces) for p in scene.parts]
+    moved = Scene(scene.scene_id, parts, scene.source)
+    with pytest.raises(ValueError, match=r"00000_procedural_val_0.json.gz.*another version of scene"):
+        store.episodes_for(0, SPEC, 1, None, loaded=(moved, navmesh))
+
+
+def test_env_config_caches_episodes(tmp_path):
+    cfg = EnvConfig.from_kwargs(mode="eval", split="val", scenes={"num_scenes": 1}, per_scene=2,
+                                episodes={"n_goals": 3, "dir": str(tmp_path)})
+    assert cfg.scene_slots() == [(SPEC, 0)]
+    assert ensure_scene_episodes(cfg, (SPEC, 0)) == 2
+    assert (tmp_path / "procedural" / "val" / "00000_procedural_val_0.json.gz").exists()
+
+
+def test_scene_too_small_is_named(navmesh):
+    far = EpisodeSettings(d_min=60.0, d_max=80.0, n_goals=2, max_tries=20, max_restarts=2)
+    with pytest.raises(SceneError, match=r"procedural:val/0.*d_min"):
+        sample_episode(navmesh, far, "val", SPEC, 0, 0)
+
+
+def test_bad_settings():
+    with pytest.raises(ValueError, match="d_min"):
+        EpisodeSettings(d_min=8.0, d_max=4.0)
+    with pytest.raises(ValueError, match="n_goals"):
+        EpisodeSettings(n_goals=0)
+    with pytest.raises(ValueError, match="unknown split"):
+        episode_rng(0, "holdout", 0, 0)

@@ -1,0 +1,117 @@
+"""rvn-eval end to end on a small val set: oracle / random figures, workers, resume, errors, tables."""
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+from rvn_data.metrics import compute_metrics, read_records
+from rvn_il.eval.table import main as table_main
+from rvn_il.eval.table import render_table
+
+SMALL = ["split=val", "episodes.num_scenes=2", "episodes.per_scene=2", "episodes.n_goals=3",
+         "camera.width=32", "camera.height=32", "progress=false"]
+
+
+def rvn_eval(tmp_path, *overrides, env=None):
+    cmd = [sys.executable, "-c", "from rvn_il.eval.cli import main; main()", *SMALL,
+           f"episodes.dir={tmp_path / 'episodes'}", *overrides]
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=600, env=env, cwd=tmp_path)
+
+
+def ok(proc):
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return proc
+
+
+def load(out):
+    return json.loads((out / "metrics.json").read_text())
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    """One oracle run with 1 worker and one with 2, sharing an episode cache."""
+    tmp = tmp_path_factory.mktemp("eval")
+    ok(rvn_eval(tmp, "policy=oracle", f"out_dir={tmp / 'oracle1'}", "workers=1"))
+    ok(rvn_eval(tmp, "policy=oracle", f"out_dir={tmp / 'oracle2'}", "workers=2"))
+    return tmp
+
+
+def test_oracle_figures_and_files(runs):
+    out = runs / "oracle1"
+    m = load(out)
+    assert m["split"] == "val" and m["policy"] == "oracle" and m["episodes"] == 4
+    assert m["SR_1"] >= 0.95 and m["CPK"] is not None and m["CPK"] <= 1.0
+    assert m["E_G"] > 2.5 and 0.5 < m["SPL_1"] <= 1.0
+    recomputed = compute_metrics(read_records(out / "episodes.jsonl"))
+    assert {k: m[k] for k in recomputed} == recomputed
+    table = (out / "table.md").read_text()
+    assert "| RVN (ours) | oracle |  |  |  | 1.000 |" in table and "NoMaD-Neg" in table
+    index = json.loads((runs / "episodes" / "procedural" / "val" / "index.json").read_text())
+    assert [s["episodes"] for s in index["scenes"]] == [2, 2]
+
+
+def test_workers_do_not_change_results(runs):
+    for name in ("episodes.jsonl", "metrics.json"):
+        assert (runs / "oracle1" / name).read_bytes() == (runs / "oracle2" / name).read_bytes()
+
+
+def test_random_policy(runs):
+    out = runs / "random"
+    ok(rvn_eval(runs, "policy=random", f"out_dir={out}"))
+    m = load(out)
+    assert m["SR_1"] <= 0.05 and m["policy"] == "random" and m["CPK"] > 1.0
+
+
+def test_resume_skips_done_episodes(runs, tmp_path):
+    src, out = runs / "oracle1", tmp_path / "resumed"
+    out.mkdir()
+    (out / "run.json").write_bytes((src / "run.json").read_bytes())
+    lines = (src / "episodes.jsonl").read_text().splitlines()
+    first = json.loads(lines[0])
+    first["steps"] += 1000  # marks a record the resumed run must keep, not recompute
+    torn = lines[2][: len(lines[2]) // 2]  # an append cut short by the interruption
+    (out / "episodes.jsonl").write_text(json.dumps(first) + "\n" + lines[1] + "\n" + torn)
+    ok(rvn_eval(runs, "policy=oracle", f"out_dir={out}"))
+    got = read_records(out / "episodes.jsonl")
+    assert got[0]["steps"] == json.loads(lines[0])["steps"] + 1000
+    assert got[1:] == [json.loads(x) for x in lines[1:]]
+    assert load(out)["steps"] == load(src)["steps"] + 1000
+
+
+def test_resume_with_other_settings_is_an_error(runs):
+    proc = rvn_eval(runs, "policy=random", f"out_dir={runs / 'oracle1'}")
+    assert proc.returncode != 0
+    assert "run.json was made with method='oracle'" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_invalid_action_names_policy(runs, tmp_path):
+    (tmp_path / "badpol.py").write_text(
+        "class BadPolicy:\n    def __init__(self, **kw):\n        pass\n    def reset(self):\n        pass\n"
+        "    def act(self, obs):\n        return 7\n")
+    env = dict(os.environ, PYTHONPATH=f"{tmp_path}{os.pathsep}{os.environ.get('PYTHONPATH', '')}")
+    proc = rvn_eval(runs, "policy=random", "policy._target_=badpol.BadPolicy",
+                    "method=Bad", f"out_dir={tmp_path / 'bad'}", env=env)
+    assert proc.returncode != 0
+    assert "policy 'Bad' returned invalid action 7" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_missing_scene_is_named(runs, tmp_path):
+    missing = tmp_path / "no_such_scenes"
+    proc = rvn_eval(runs, "scenes=mesh_dir", f"scenes.root={missing}", f"out_dir={tmp_path / 'x'}")
+    assert proc.returncode != 0 and str(missing) in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_table_merges_metrics(tmp_path, capsys):
+    base = {"SR_1": 0.5, "E_G": 1.25, "CPK": 12.34, "SPL_1": 0.4, "episodes": 4, "policy": "checkpoint",
+            "method": "NoMaD-Neg (ours)"}
+    (tmp_path / "a.json").write_text(json.dumps({**base, "split": "val"}))
+    (tmp_path / "b.json").write_text(json.dumps({**base, "split": "test", "SR_1": 0.25, "CPK": None}))
+    assert table_main([str(tmp_path / "a.json"), str(tmp_path / "b.json"), "-o", str(tmp_path / "t.md")]) == 0
+    table = (tmp_path / "t.md").read_text()
+    assert "| RVN (ours) | NoMaD-Neg (ours) |  |  |  | 0.500 | 1.25 | 12.3 | 0.250 | 1.25 | – |" in table
+    assert "| RL (paper) | DD-PPO | 0.899 | 13.28 | 9.2 | 0.865 | 11.86 | 10.5 | 0.886 | 13.90 | 8.7 |" in table
+    assert "paper" not in render_table([{**base, "split": "val"}], reference=False)
+    assert table_main([str(tmp_path / "missing.json")]) == 1
+    assert "missing.json" in capsys.readouterr().err

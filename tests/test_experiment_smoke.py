@@ -1,0 +1,92 @@
+"""jobs/small_experiment.sh end to end at SCALE=tiny (1 train scene × 2 trajectories, 2 training
+steps per model, 1 val episode of 2 goals), its rerun (every step skipped), and
+jobs/experiment_slurm.sh's commands (DRY_RUN; the rvn-gen / rvn-eval / rvn-train overrides
+compose with Hydra)."""
+from __future__ import annotations
+
+import json
+import os
+import re
+import shlex
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+METHODS = ("Random", "Oracle", "ViNT-PointGoal", "NoMaD-PointGoal", "NoMaD-Neg", "NoMaD-Neg-argmin")
+
+
+def small_experiment(out: Path, **env) -> subprocess.CompletedProcess:
+    full = {**os.environ, "SCALE": "tiny", "PYTHON": sys.executable, **env}
+    return subprocess.run(["bash", str(REPO / "jobs" / "small_experiment.sh"), str(out)], capture_output=True,
+                          text=True, timeout=900, env=full, cwd=out.parent)
+
+
+@pytest.mark.slow
+def test_tiny_experiment_end_to_end_and_rerun(tmp_path):
+    out = tmp_path / "exp"
+    proc = small_experiment(out)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    report = (out / "report.md").read_text()
+    for method in METHODS:
+        assert re.search(rf"^\| RVN \(ours\) \| {re.escape(method)} \|  \|  \|  \| \d\.\d{{3}} \|", report, re.M), method
+        assert f"| {method} | Val |" in report
+    assert "| IL (paper) | NoMaD-Neg |" in report
+    for png in ("report_sr1.png", "report_cpk.png", "report_goals.png"):
+        assert (out / png).is_file()
+    oracle = json.loads((out / "eval" / "oracle" / "metrics.json").read_text())
+    assert oracle["episodes"] == 1 and oracle["n_goals"] == 2 and oracle["SR_1"] == 1.0
+    # NoMaD-Neg: NoMaD_e on the kept expert trajectories, NoMaD_n on the negatives
+    kept = (out / "splits_neg" / "rvn_expert" / "train" / "traj_names.txt").read_text().split()
+    assert kept == ["proc_train_0000_expert_0000"]
+    for member in ("expert", "negative"):
+        assert list((out / "train" / "nomad_neg" / member).glob("ckpt_*"))
+    steps = [ln.split("\t")[0] for ln in (out / "timings.tsv").read_text().splitlines()]
+    assert steps[:5] == ["gen_expert", "gen_negative", "train_vint", "train_nomad", "train_nomad_neg"] and len(steps) == 11
+    # a rerun skips every step and rewrites the same report
+    again = small_experiment(out)
+    assert again.returncode == 0, again.stderr[-3000:]
+    assert again.stdout.count("done before, skipped") == 11
+    assert (out / "report.md").read_text() == report
+
+
+def test_bad_scale_is_refused(tmp_path):
+    proc = small_experiment(tmp_path / "x", SCALE="huge")
+    assert proc.returncode == 2 and "SCALE=huge" in proc.stderr and not (tmp_path / "x").exists()
+
+
+def _compose_check(cmd: list[str]) -> None:
+    """Run a printed rvn-* command as one job with --cfg job (composition only, nothing runs)."""
+    module = {"rvn-gen": "rvn_data.gen.cli", "rvn-eval": "rvn_il.eval.cli", "rvn-train": "rvn_il.train.cli"}[cmd[0]]
+    args = []
+    for a in cmd[1:]:
+        if a == "-m" or a.startswith("hydra/launcher=") or a.startswith("hydra.launcher.") or a.startswith("hydra.sweep"):
+            continue
+        m = re.fullmatch(r"([\w.]+)=range\((\d+),.*\)", a)
+        args.append(f"{m.group(1)}={m.group(2)}" if m else a)
+    proc = subprocess.run([sys.executable, "-m", module, *args, "--cfg", "job"], capture_output=True, text=True,
+                          timeout=120)
+    assert proc.returncode == 0, f"{shlex.join(cmd)}\n{proc.stderr[-2000:]}"
+
+
+def test_slurm_recipe_commands_compose(tmp_path):
+    env = {**os.environ, "DRY_RUN": "1", "OUT": str(tmp_path / "rvn"), "PARTITION": "gpu"}
+    proc = subprocess.run(["bash", str(REPO / "jobs" / "experiment_slurm.sh")], capture_output=True, text=True,
+                          timeout=60, env=env)
+    assert proc.returncode == 0, proc.stderr
+    cmds = [shlex.split(ln[2:]) for ln in proc.stdout.splitlines() if ln.startswith("+ ")]
+    assert not (tmp_path / "rvn").exists()  # a dry run writes nothing
+    gens = [c for c in cmds if c[0] == "rvn-gen"]
+    assert "trajectories_per_scene=400" in gens[0] and "trajectories_per_scene=25" in gens[1]  # 6.25 % negatives
+    assert all("hydra.launcher.partition=gpu" in c for c in gens if "-m" in c)
+    evals = [c for c in cmds if c[0] == "rvn-eval"]
+    assert len(evals) == 3 * 6 and "episodes.first_scene=range(0,800,5)" in evals[0]
+    wraps = [c for c in cmds if c[0] == "sbatch"]
+    assert len(wraps) == 3 and all("train.epochs=100" in c[-1] for c in wraps)
+    assert cmds[-1][:3] == ["python", "-m", "rvn_il.eval.report"]
+    _compose_check(gens[0])
+    _compose_check(evals[-1])  # test split, NoMaD-Neg with argmin
+    train = shlex.split(wraps[2][-1].split("=", 1)[1])  # --wrap=torchrun ... -m rvn_il.train.cli ...
+    _compose_check(["rvn-train", *train[train.index("rvn_il.train.cli") + 1:]])

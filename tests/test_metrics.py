@@ -1,0 +1,103 @@
+"""Benchmark metrics from hand-written per-episode records."""
+import json
+import math
+
+import pytest
+
+from rvn_data.metrics import (EpisodeTracker, compute_metrics, metrics_from_jsonl, read_records, spl,
+                              write_records)
+
+
+def goal(d0, reached, steps, length, collisions=0):
+    return {"d0": d0, "reached": reached, "steps": steps, "path_length": length, "collisions": collisions}
+
+
+def record(i, goals, termination, collisions=0):
+    reached = sum(g["reached"] for g in goals)
+    return {
+        "scene_id": "procedural:val/0", "scene_index": 0, "episode_index": i, "episode_id": f"procedural:val/0#{i}",
+        "goals_reached": reached, "first_goal_success": bool(goals and goals[0]["reached"]),
+        "path_length": sum(g["path_length"] for g in goals), "collisions": collisions,
+        "steps": sum(g["steps"] for g in goals), "d0": goals[0]["d0"] if goals else None,
+        "termination": termination, "goals": goals,
+    }
+
+
+RECORDS = [
+    # 2 goals reached, then a collision after 1 m more: 10 m in all, 1 collision
+    record(0, [goal(5.0, True, 30, 5.0), goal(4.0, True, 20, 4.0), goal(6.0, False, 5, 1.0, 1)], "collision", 1),
+    # first goal reached on a detour (L = 8 > d0 = 4), then timeout
+    record(1, [goal(4.0, True, 40, 8.0), goal(7.0, False, 500, 2.0)], "timeout"),
+    # nothing reached: collision after 0.5 m
+    record(2, [goal(6.0, False, 3, 0.5, 1)], "collision", 1),
+    # stood still until timeout
+    record(3, [goal(5.0, False, 500, 0.0)], "timeout"),
+]
+
+
+def test_metrics_by_hand():
+    m = compute_metrics(RECORDS)
+    assert m["episodes"] == 4
+    assert m["SR_1"] == pytest.approx(2 / 4)
+    assert m["E_G"] == pytest.approx((2 + 1 + 0 + 0) / 4)
+    # 2 collisions over 10 + 10 + 0.5 + 0 m = 20.5 m
+    assert m["CPK"] == pytest.approx(2 / 0.0205)
+    assert m["SPL_1"] == pytest.approx((1.0 + 4.0 / 8.0 + 0 + 0) / 4)
+    assert m["path_length"] == pytest.approx(20.5 / 4)
+    assert m["collisions"] == 2 and m["success_all_goals"] == 0
+
+
+def test_spl_definition():
+    assert spl(True, 5.0, 5.0) == 1.0
+    assert spl(True, 5.0, 10.0) == 0.5
+    assert spl(True, 5.0, 4.0) == 1.0  # max(d0, L)
+    assert spl(False, 5.0, 5.0) == 0.0
+
+
+def test_cpk_edge_cases():
+    still = record(0, [goal(5.0, False, 500, 0.0)], "timeout")
+    assert compute_metrics([still])["CPK"] == 0.0
+    bumped = record(1, [goal(5.0, False, 1, 0.0, 1)], "collision", 1)
+    assert compute_metrics([bumped])["CPK"] is None  # a collision without travel has no rate
+    with pytest.raises(ValueError, match="no episode records"):
+        compute_metrics([])
+
+
+def test_bad_record_named():
+    bad = dict(RECORDS[0])
+    del bad["goals"]
+    with pytest.raises(ValueError, match=r"procedural:val/0#0.*goals"):
+        compute_metrics([bad])
+    bad = dict(RECORDS[0], termination="exploded")
+    with pytest.raises(ValueError, match="exploded"):
+        compute_metrics([bad])
+
+
+def test_jsonl_roundtrip_and_torn_tail(tmp_path):
+    path = tmp_path / "episodes.jsonl"
+    write_records(path, RECORDS)
+    assert metrics_from_jsonl(path) == compute_metrics(RECORDS)
+    with open(path, "a") as f:
+        f.write('{"scene_id": "procedural:val/0", "episo')  # an append cut short
+    with pytest.raises(ValueError, match=r"episodes.jsonl:5"):
+        read_records(path)
+    assert read_records(path, drop_partial_tail=True) == json.loads(json.dumps(RECORDS))
+
+
+def test_tracker_builds_records():
+    t = EpisodeTracker("procedural:val/1", 1, 3, "procedural:val/1#3")
+    t.new_goal(4.5)
+    for _ in range(4):
+        t.step(0.25, False)
+    t.step(0.0, False)
+    t.goal_reached()
+    t.new_goal(6.0)
+    t.step(0.1, True)
+    rec = t.finish("collision")
+    assert rec["goals_reached"] == 1 and rec["first_goal_success"] and rec["collisions"] == 1
+    assert rec["steps"] == 6 and math.isclose(rec["path_length"], 1.1) and rec["d0"] == 4.5
+    assert [g["reached"] for g in rec["goals"]] == [True, False]
+    m = compute_metrics([rec])
+    assert m["SPL_1"] == pytest.approx(1.0) and m["CPK"] == pytest.approx(1 / 0.0011)
+    with pytest.raises(ValueError, match="termination"):
+        EpisodeTracker("s", 0, 0, "s#0").finish("bored")

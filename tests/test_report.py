@@ -1,0 +1,115 @@
+"""`python -m rvn_il.eval.report` on outputs of the real rvn-eval CLI (random and oracle
+policies, val scenes × 2 episodes × 3 goals, 32×32 camera; the oracle in two shards)."""
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from PIL import Image
+
+from rvn_data.metrics import compute_metrics, read_records
+from rvn_il.eval.report import find_runs, load_run, main as report_main, merge_shards
+
+SMALL = ["split=val", "episodes.num_scenes=1", "episodes.per_scene=2", "episodes.n_goals=3", "camera.width=32",
+         "camera.height=32", "progress=false"]
+
+
+def rvn_eval(tmp: Path, *overrides: str) -> None:
+    proc = subprocess.run([sys.executable, "-m", "rvn_il.eval.cli", *SMALL, f"episodes.dir={tmp / 'episodes'}",
+                           *overrides], capture_output=True, text=True, timeout=600, cwd=tmp)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory) -> Path:
+    tmp = tmp_path_factory.mktemp("report")
+    rvn_eval(tmp, "policy=oracle", "method=Oracle", f"out_dir={tmp / 'eval' / 'oracle'}")
+    # a second shard of the oracle's evaluation: the next val scene
+    rvn_eval(tmp, "policy=oracle", "method=Oracle", "episodes.first_scene=1", f"out_dir={tmp / 'eval' / 'oracle_b'}")
+    # the random policy under a paper method's name exercises the paper-reference columns
+    rvn_eval(tmp, "policy=random", "method=NoMaD-PointGoal", f"out_dir={tmp / 'eval' / 'random'}")
+    return tmp
+
+
+def report(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "rvn_il.eval.report", *args], capture_output=True, text=True,
+                          timeout=300)
+
+
+def test_report_from_eval_outputs(runs, tmp_path):
+    out = tmp_path / "rep" / "report.md"
+    proc = report(str(runs / "eval" / "oracle"), str(runs / "eval" / "random"), "-o", str(out), "--title", "Tiny")
+    assert proc.returncode == 0, proc.stderr
+    text = out.read_text()
+    oracle = json.loads((runs / "eval" / "oracle" / "metrics.json").read_text())
+    rand = json.loads((runs / "eval" / "random" / "metrics.json").read_text())
+    assert text.startswith("# Tiny\n")
+    # paper layout: our rows (val columns filled) then the paper's rows
+    row = next(ln for ln in text.splitlines() if ln.startswith("| RVN (ours) | Oracle |"))
+    assert f"| {oracle['SR_1']:.3f} | {oracle['E_G']:.2f} | {oracle['CPK']:.1f} |" in row
+    assert "| IL (paper) | NoMaD-PointGoal | 0.758 | 4.01 | 32.5 | 0.752 | 3.69 | 35.7 | 0.751 | 4.52 | 31.0 |" in text
+    # ours beside the paper: same method and split; no paper numbers for the oracle
+    assert f"| NoMaD-PointGoal | Val | {rand['SR_1']:.3f} | 0.752 | {rand['E_G']:.2f} | 3.69 |" in text
+    assert re.search(r"\| Oracle \| Val \| [0-9.]+ \|  \| [0-9.]+ \|  \|", text)
+    # run details link the per-episode logs; every episode is listed
+    assert "| Oracle | oracle | val | 1 × 2 | 3 | 2 |" in text
+    links = re.findall(r"\]\(([^)]+)\)", text)
+    assert any(x.endswith("eval/oracle/episodes.jsonl") for x in links)
+    for link in links:
+        assert (out.parent / link).is_file(), link
+    for name in ("report_sr1.png", "report_cpk.png", "report_goals.png"):
+        assert f"]({name})" in text
+        with Image.open(out.parent / name) as im:
+            assert im.format == "PNG" and im.size[0] > 300
+    records = [json.loads(x) for x in (runs / "eval" / "oracle" / "episodes.jsonl").read_text().splitlines()]
+    for rec in records:
+        assert f"| {rec['episode_id']} | {rec['scene_id']} | {rec['goals_reached']} |" in text
+    assert not list(out.parent.glob(".*tmp*"))
+
+
+def test_folder_of_runs_and_load(runs):
+    found = find_runs([runs / "eval"])
+    assert [r.method for r in found] == ["Oracle", "Oracle", "NoMaD-PointGoal"]  # by folder: oracle, oracle_b, random
+    r = load_run(runs / "eval" / "random")
+    assert r.split == "val" and r.paper() == (0.752, 3.69, 35.7) and len(r.records) == r.metrics["episodes"] == 2
+    assert load_run(runs / "eval" / "oracle").paper() is None
+
+
+def test_bad_runs(runs, tmp_path):
+    unfinished = tmp_path / "unfinished"
+    shutil.copytree(runs / "eval" / "oracle", unfinished)
+    (unfinished / "metrics.json").unlink()
+    proc = report(str(unfinished), "-o", str(tmp_path / "r.md"))
+    assert proc.returncode == 1 and "unfinished" in proc.stderr and "Traceback" not in proc.stderr
+    assert not (tmp_path / "r.md").exists()
+    torn = tmp_path / "torn"
+    shutil.copytree(runs / "eval" / "oracle", torn)
+    lines = (torn / "episodes.jsonl").read_text().splitlines()
+    (torn / "episodes.jsonl").write_text(lines[0] + "\n")
+    with pytest.raises(ValueError, match="holds 1 episodes but"):
+        load_run(torn)
+    assert report_main([str(tmp_path / "missing"), "-o", str(tmp_path / "r.md")]) == 1
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    with pytest.raises(ValueError, match="holds no rvn-eval output"):
+        find_runs([empty])
+
+
+def test_shards_are_merged(runs, tmp_path):
+    shards = [runs / "eval" / "oracle", runs / "eval" / "oracle_b"]
+    merged = merge_shards(find_runs([*shards, runs / "eval" / "random"]))
+    assert [r.method for r in merged] == ["Oracle", "NoMaD-PointGoal"]
+    records = read_records(shards[0] / "episodes.jsonl") + read_records(shards[1] / "episodes.jsonl")
+    assert len({r["scene_id"] for r in records}) == 2 and len(merged[0].records) == 4
+    expected = compute_metrics(records)
+    assert {k: merged[0].metrics[k] for k in expected} == expected and merged[0].metrics["scenes"] == 2
+    out = tmp_path / "report.md"
+    assert report_main([*map(str, shards), "-o", str(out)]) == 0
+    text = out.read_text()
+    assert text.count("| RVN (ours) | Oracle |") == 1 and "| Oracle | oracle | val | 2 × 2 | 3 | 4 |" in text
+    assert "eval/oracle/episodes.jsonl" in text and "eval/oracle_b/episodes.jsonl" in text
