@@ -115,3 +115,12 @@ def test_table_merges_metrics(tmp_path, capsys):
     assert "paper" not in render_table([{**base, "split": "val"}], reference=False)
     assert table_main([str(tmp_path / "missing.json")]) == 1
     assert "missing.json" in capsys.readouterr().err
+
+
+def test_bad_checkpoint_is_one_line_error(runs, tmp_path):
+    ckpt = tmp_path / "not_a_checkpoint"
+    ckpt.mkdir()
+    proc = rvn_eval(runs, "policy=checkpoint", f"policy.checkpoint_path={ckpt}", f"out_dir={tmp_path / 'y'}")
+    assert proc.returncode == 1
+    assert "policy 'checkpoint'" in proc.stderr and str(ckpt) in proc.stderr and "rvn-train" in proc.stderr
+    assert "Traceback" not in proc.stderr and "Error executing job" not in proc.stderr

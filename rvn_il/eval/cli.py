@@ -2,7 +2,7 @@
 "Benchmark protocol"). Hydra config ``conf/eval.yaml``; e.g.
 
     rvn-eval policy=oracle split=val episodes.num_scenes=5 episodes.per_scene=4 workers=2
-    rvn-eval policy=checkpoint policy.checkpoint=runs/nomad/last.pt method=NoMaD-PointGoal
+    rvn-eval policy=checkpoint policy.checkpoint_path=runs/train/nomad method=NoMaD-PointGoal
 
 Writes ``out_dir/metrics.json``, ``out_dir/episodes.jsonl`` and ``out_dir/table.md``;
 an interrupted run resumes where it stopped (``resume=false`` starts over).

@@ -44,9 +44,14 @@ def policy_name(cfg: dict) -> str:
 
 def make_policy(policy_cfg: dict, env, name: str):
     """Instantiate a policy config and bind it to ``env`` when it has ``bind``."""
+    from hydra.errors import InstantiationException
     from hydra.utils import instantiate
 
-    policy = instantiate(dict(policy_cfg), _convert_="all")
+    try:
+        policy = instantiate(dict(policy_cfg), _convert_="all")
+    except InstantiationException as err:  # unwrap Hydra's wrapper: the cause names the problem
+        cause = err.__cause__ or err
+        raise ValueError(f"policy {name!r}: {cause}") from cause
     for method in ("reset", "act"):
         if not callable(getattr(policy, method, None)):
             raise TypeError(f"policy {name!r} ({type(policy).__name__}) has no {method}() method; "
