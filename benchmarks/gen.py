@@ -58,7 +58,7 @@ def main() -> None:
                   f"({sum(r.written for r in rep.results)} trajectories, {args.scenes} scenes) in {rep.seconds:.1f} s "
                   f"= {rates[workers]:.0f} frames/s; renderer {', '.join(backends)}")
             print(f"  time share (summed over processes): {shares}")
-            print(f"  per frame: " + ", ".join(f"{k} {1000 * v / rep.frames:.2f} ms" for k, v in timing.items()))
+            print("  per frame: " + ", ".join(f"{k} {1000 * v / rep.frames:.2f} ms" for k, v in timing.items()))
         print(f"speed-up with 2 processes: {rates[2] / rates[1]:.2f}x "
               f"(goals: >= 200 frames/s per process, >= 1.7x with 2)")
 

@@ -6,7 +6,6 @@ import json
 import logging
 import math
 from functools import lru_cache
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,9 +15,7 @@ from PIL import Image
 from rvn_data.render import CameraConfig, make_renderer
 from rvn_data.scenes import Part, Scene, SceneError
 
-DREAM = Path(__file__).resolve().parents[2] / "shared" / "scenes" / "dream_apartment.glb"
-if not DREAM.exists():
-    DREAM = Path("/work/shared/scenes/dream_apartment.glb")
+from conftest import DREAM_APARTMENT as DREAM  # tests/ is on sys.path (pytest's prepend import mode)
 
 
 @lru_cache(maxsize=1)

@@ -73,7 +73,7 @@ class GNMDataset(Dataset):
         ``__getitem__``)."""
         index = np.asarray(indices, dtype=np.int64).reshape(-1)
         n = index % len(self.curr)
-        g, e, end = self.curr[n], self.last[n], self.end[n]
+        g, e = self.curr[n], self.last[n]
         lo, hi = self.goal_offset
         ks, masked = np.empty(len(n), np.int64), np.zeros(len(n), np.float32)
         for j, (i, top) in enumerate(zip(index.tolist(), np.minimum(hi, e - g).tolist())):
