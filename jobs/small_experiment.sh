@@ -31,6 +31,7 @@ esac
 : "${THREADS:=2}"             # torch threads for rvn-train
 : "${BATCH:=32}"              # model.size=small batch
 : "${LR:=}"                   # empty: the model's lr
+: "${LOOKAHEAD:=-1}"         # IL policies steer to this predicted waypoint (-1 = last; rvn_il/policies/control.py)
 : "${NOMAD_SAMPLES:=8}"       # NoMaD-PointGoal samples per decision at eval (follows sample 0)
 : "${GOAL_OFFSET_MAX:=40}"     # point goals up to this many frames ahead (the whole 4-8 m path; official 20)
 : "${SEED:=0}"
@@ -104,15 +105,15 @@ step train_nomad_neg rvn-train model=nomad_neg data.root="$DATA/rvn_expert" data
 export OMP_NUM_THREADS=1 MKL_NUM_THREADS=1
 step eval_random rvn-eval policy=random method=Random out_dir="$OUT/eval/random" "${EVAL[@]}"
 step eval_oracle rvn-eval policy=oracle method=Oracle out_dir="$OUT/eval/oracle" "${EVAL[@]}"
-step eval_vint rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/vint_pointgoal" method=ViNT-PointGoal \
+step eval_vint rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/vint_pointgoal" method=ViNT-PointGoal +policy.waypoint_index="$LOOKAHEAD" \
   out_dir="$OUT/eval/vint_pointgoal" "${EVAL[@]}"
-step eval_nomad rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_pointgoal" method=NoMaD-PointGoal \
+step eval_nomad rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_pointgoal" method=NoMaD-PointGoal +policy.waypoint_index="$LOOKAHEAD" \
   +policy.num_samples="$NOMAD_SAMPLES" out_dir="$OUT/eval/nomad_pointgoal" "${EVAL[@]}"
-step eval_nomad_neg rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_neg" method=NoMaD-Neg \
+step eval_nomad_neg rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_neg" method=NoMaD-Neg +policy.waypoint_index="$LOOKAHEAD" \
   out_dir="$OUT/eval/nomad_neg" "${EVAL[@]}"
 # the paper writes argmin CoR; by its equation argmax keeps away from the negatives (SPEC.md "Baselines")
 step eval_nomad_neg_argmin rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_neg" \
-  method=NoMaD-Neg-argmin +policy.selection=argmin out_dir="$OUT/eval/nomad_neg_argmin" "${EVAL[@]}"
+  method=NoMaD-Neg-argmin +policy.waypoint_index="$LOOKAHEAD" +policy.selection=argmin out_dir="$OUT/eval/nomad_neg_argmin" "${EVAL[@]}"
 
 RUNS=("$OUT/eval/random" "$OUT/eval/oracle" "$OUT/eval/vint_pointgoal" "$OUT/eval/nomad_pointgoal" "$OUT/eval/nomad_neg"
       "$OUT/eval/nomad_neg_argmin")

@@ -34,6 +34,21 @@ def test_control_rule():
     assert waypoints_to_action(left, far_goal, fixed) == Action.MOVE_FORWARD
 
 
+def test_lookahead_at_the_last_waypoint():
+    """waypoint_index=-1 (the default): a blurred "turn, then go" whose first waypoints creep
+    straight ahead but whose end bends 60 deg left turns left; a prediction that stays in
+    place steers to the point goal."""
+    last = ControlConfig.from_agent(AgentConfig(), waypoint_index=-1)
+    first = ControlConfig.from_agent(AgentConfig())
+    bend = np.array([[0.15, 0.0], [0.25, 0.05], [0.3, 0.3], [0.35, 0.6]])
+    far_goal = np.array([5.0, 0.0])
+    assert waypoints_to_action(bend, far_goal, first) == Action.MOVE_FORWARD
+    assert waypoints_to_action(bend, far_goal, last) == Action.TURN_LEFT
+    assert waypoints_to_action(bend * [1, -1], far_goal, last) == Action.TURN_RIGHT
+    assert waypoints_to_action(np.zeros((8, 2)), np.array([-1.0, -3.0]), last) == Action.TURN_RIGHT
+    assert waypoints_to_action(bend, np.array([0.2, 0.1]), last) == Action.STOP
+
+
 def hand_samples():
     """Expert samples: straight ahead, slightly left, far left; negatives: to the right."""
     straight = np.stack([np.arange(1, 9) * 0.25, np.zeros(8)], axis=1)
