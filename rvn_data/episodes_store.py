@@ -13,24 +13,18 @@ from __future__ import annotations
 import gzip
 import hashlib
 import json
-import os
 import re
-import tempfile
 from dataclasses import asdict, is_dataclass
 from pathlib import Path
 
 import numpy as np
 
+from rvn_data.atomic import write_bytes_atomic
 from rvn_data.episodes import GENERATOR_VERSION, Episode, EpisodeSettings, sample_episodes
 
 FORMAT_SCENE = "rvn-episodes/scene"
 FORMAT_INDEX = "rvn-episodes/index"
 SCENE_OPTION_KEYS = ("source", "up_axis", "unit_scale", "level")
-
-
-_UMASK = os.umask(0)
-os.umask(_UMASK)
-_FILE_MODE = 0o666 & ~_UMASK  # what open() would give; mkstemp alone gives 0600
 
 
 def _plain(obj) -> dict:
@@ -84,21 +78,6 @@ def dumps_gzip_json(obj: dict) -> bytes:
     """Reproducible bytes: sorted-key JSON, gzip with mtime 0 and no file name."""
     raw = json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=False).encode()
     return gzip.compress(raw, compresslevel=6, mtime=0)
-
-
-def write_bytes_atomic(path: Path, data: bytes) -> None:
-    """Write bytes to ``path`` via a temp file and os.replace."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        os.fchmod(fd, _FILE_MODE)
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
 
 
 def scene_fingerprint(scene) -> str:

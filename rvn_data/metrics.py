@@ -27,6 +27,7 @@ import json
 import math
 from collections.abc import Iterable, Sequence
 from pathlib import Path
+from rvn_data.atomic import write_text_atomic  # noqa: F401 (re-exported: eval code imports it from here)
 
 RECORD_KEYS = (
     "scene_id", "scene_index", "episode_index", "episode_id", "goals_reached",
@@ -158,13 +159,6 @@ def write_records(path: str | Path, records: Iterable[dict]) -> None:
     """Write a JSONL file atomically (temp file then os.replace)."""
     text = "".join(dumps_record(r) + "\n" for r in records)
     write_text_atomic(path, text)
-
-
-def write_text_atomic(path: str | Path, text: str) -> None:
-    """Write text to path atomically (temp file then os.replace)."""
-    from rvn_data.episodes_store import write_bytes_atomic
-
-    write_bytes_atomic(Path(path), text.encode())
 
 
 def metrics_from_jsonl(path: str | Path) -> dict:

@@ -119,7 +119,7 @@ def test_cache_rebuilt_when_source_changes(tmp_path):
     path2 = ensure_cache(load_gnm(root), size, progress=False)
     assert path2 == path and path2.stat().st_mtime_ns != mtime
     assert np.asarray(PackedCache(path2).images[3]).min() > 240  # the new white frame is in the cache
-    assert not list(path.parent.glob("*.tmp-*"))
+    assert not list(path.parent.glob("*.tmp*"))  # no temporary file left (rvn_data.atomic: .<name>.*.tmp<suffix>)
     assert ensure_cache(load_gnm(root), (8, 8), progress=False) != path  # other image size, other file
 
 

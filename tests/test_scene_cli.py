@@ -45,7 +45,7 @@ def test_map_png(room_glb, tmp_path):
     assert main(["map", str(room_glb), "-o", str(out)]) == 0
     img = cv2.imread(str(out))
     assert img is not None and img.shape[0] > 100 and img.shape[1] > 100
-    assert not list(tmp_path.glob(".tmp-map-*"))
+    assert not list(tmp_path.glob(".*.tmp*"))
 
 
 def _run(*args):

@@ -2,11 +2,11 @@
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from rvn_data.atomic import atomic_path
 from rvn_data.navmesh.heightfield import rasterize
 
 
@@ -61,11 +61,9 @@ def write_map(scene, navmesh, path: str | Path) -> None:
     ax.set_title(f"{scene.scene_id}: main island {navmesh.navigable_area:.1f} m²")
     ax.legend(handles=[Patch(color=c, label=t) for t, c in legend], loc="upper left",
               bbox_to_anchor=(1.01, 1.0), fontsize=8)
-    fd, tmp = tempfile.mkstemp(suffix=".png", dir=str(path.parent or "."), prefix=".tmp-map-")
-    os.close(fd)
     try:
-        fig.savefig(tmp, format="png", bbox_inches="tight")
-        os.replace(tmp, path)
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, format="png", bbox_inches="tight")
     finally:
         plt.close(fig)
         if os.path.exists(tmp):

@@ -18,6 +18,8 @@ from typing import Any
 import cv2
 import numpy as np
 
+from rvn_data.atomic import write_text_atomic  # noqa: F401 (used as writer.write_text_atomic)
+
 PICKLE_PROTOCOL = 4
 META_NAME = "rvn_meta.json"
 TRAJ_DATA = "traj_data.pkl"
@@ -34,16 +36,6 @@ def encode_jpeg(rgb: np.ndarray, quality: int) -> bytes:
 def dumps_json(obj: Any) -> str:
     """Stable JSON text (sorted keys, fixed float repr) for files compared byte for byte."""
     return json.dumps(obj, indent=1, sort_keys=True, allow_nan=False) + "\n"
-
-
-def write_text_atomic(path: Path, text: str | bytes) -> None:
-    """Write a file under a temporary name, then `os.replace` it into place."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    with open(tmp, "wb") as fh:
-        fh.write(text.encode() if isinstance(text, str) else text)
-    os.replace(tmp, path)
 
 
 def is_complete(out_dir: Path, name: str) -> bool:

@@ -9,7 +9,6 @@
 """
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import cv2
@@ -17,6 +16,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
+from rvn_data.atomic import atomic_path
 from rvn_data.inspect.clips import Clip
 from rvn_data.inspect.maps import SceneMap, draw_clip
 
@@ -101,23 +101,21 @@ def write_animation(frames: list[np.ndarray], path: str | Path, fps: float = 3.0
         raise ValueError(f"animation {path}: use a .gif or .mp4 file name")
     if not frames:
         raise ValueError(f"animation {path}: no frames")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.tmp{os.getpid()}{suffix}")
-    if suffix == ".gif":
-        from PIL import Image
+    with atomic_path(path) as tmp:
+        if suffix == ".gif":
+            from PIL import Image
 
-        images = [Image.fromarray(f) for f in frames]
-        images[0].save(tmp, format="GIF", save_all=True, append_images=images[1:], duration=int(1000 / fps),
-                       loop=0)
-    else:
-        h, w = frames[0].shape[:2]
-        writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*"mp4v"), float(fps), (w - w % 2, h - h % 2))
-        if not writer.isOpened():
-            raise ValueError(f"animation {path}: OpenCV cannot write MP4 here; use a .gif name")
-        for f in frames:
-            writer.write(np.ascontiguousarray(f[: h - h % 2, : w - w % 2, ::-1]))
-        writer.release()
-    os.replace(tmp, path)
+            images = [Image.fromarray(f) for f in frames]
+            images[0].save(tmp, format="GIF", save_all=True, append_images=images[1:], duration=int(1000 / fps),
+                           loop=0)
+        else:
+            h, w = frames[0].shape[:2]
+            writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*"mp4v"), float(fps), (w - w % 2, h - h % 2))
+            if not writer.isOpened():
+                raise ValueError(f"animation {path}: OpenCV cannot write MP4 here; use a .gif name")
+            for f in frames:
+                writer.write(np.ascontiguousarray(f[: h - h % 2, : w - w % 2, ::-1]))
+            writer.release()
     return path
 
 

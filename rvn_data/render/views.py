@@ -4,13 +4,13 @@ from __future__ import annotations
 import json
 import math
 import os
-import tempfile
 from dataclasses import asdict
 from pathlib import Path
 
 import cv2
 import numpy as np
 
+from rvn_data.atomic import write_bytes_atomic
 from rvn_data.render.camera import CameraConfig
 from rvn_data.scenes.scene import Scene
 
@@ -25,22 +25,11 @@ def depth_to_color(depth: np.ndarray, max_depth: float = DEPTH_VIS_MAX) -> np.nd
     return bgr[:, :, ::-1].copy()
 
 
-def _write_atomic(path: Path, data: bytes) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def _write_png(path: Path, rgb: np.ndarray) -> None:
     ok, buf = cv2.imencode(".png", np.ascontiguousarray(rgb[:, :, ::-1]))
     if not ok:
         raise OSError(f"could not encode {path}")
-    _write_atomic(path, buf.tobytes())
+    write_bytes_atomic(path, buf.tobytes())
 
 
 def write_views(scene: Scene | str, out_dir, n: int = 8, seed: int = 0, backend: str = "auto",
@@ -81,5 +70,5 @@ def write_views(scene: Scene | str, out_dir, n: int = 8, seed: int = 0, backend:
         meta = {"scene": scene.scene_id, "seed": int(seed), "backend": renderer.backend,
                 "renderer": renderer.info, "camera": asdict(camera), "depth_png_max_m": DEPTH_VIS_MAX,
                 "poses": [{"position": [float(x) for x in p], "yaw": y} for p, y in poses]}
-    _write_atomic(out / "views.json", json.dumps(meta, indent=1).encode())
+    write_bytes_atomic(out / "views.json", json.dumps(meta, indent=1).encode())
     return paths

@@ -10,7 +10,6 @@ change, and written atomically (temporary file, then ``os.replace``).
 from __future__ import annotations
 
 import logging
-import os
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Sequence
@@ -18,6 +17,8 @@ from typing import Sequence
 import h5py
 import numpy as np
 from tqdm import tqdm
+
+from rvn_data.atomic import atomic_path
 
 from .gnm import GNMSource, fingerprint
 from .images import preprocess_image, read_rgb
@@ -56,8 +57,7 @@ def build_cache(source: GNMSource, path: Path, image_size: Sequence[int], crop_t
         path.parent.mkdir(parents=True, exist_ok=True)
     except OSError as e:
         raise ValueError(f"cannot create cache folder {path.parent} ({e}); set data.cache_dir= to a writable folder") from None
-    tmp = path.with_name(f"{path.name}.tmp-{os.getpid()}")
-    try:
+    with atomic_path(path) as tmp:
         with h5py.File(tmp, "w") as f:
             images = f.create_dataset("images", shape=(n, 3, h, w), dtype=np.uint8)  # contiguous
             f["position"] = np.concatenate(source.positions).astype(np.float64)
@@ -72,10 +72,6 @@ def build_cache(source: GNMSource, path: Path, image_size: Sequence[int], crop_t
                 jobs = pool.map(lambda i: _load_traj_images(source, i, (w, h), crop_to_aspect), range(len(lengths)))
                 for i, arr in enumerate(tqdm(jobs, total=len(lengths), desc=f"cache {path.name}", disable=not progress, leave=False)):
                     images[starts[i]:starts[i] + lengths[i]] = arr
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
 
 
 def ensure_cache(source: GNMSource, image_size: Sequence[int], crop_to_aspect: bool = True,

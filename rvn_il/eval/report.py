@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rvn_data.atomic import atomic_path
 from rvn_data.metrics import TERMINATIONS, format_metric, read_records, write_text_atomic
 from rvn_il.eval.table import PAPER_RESULTS, SPLIT_TITLES, render_table
 
@@ -172,9 +173,8 @@ def episode_tables(runs: list[Run]) -> str:
 
 
 def _save(fig, path: Path) -> None:
-    tmp = path.with_name(f".{path.stem}.tmp{os.getpid()}.png")
-    fig.savefig(tmp, dpi=110)
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110)
 
 
 def _bars(runs: list[Run], key: str, index: int, title: str, ylabel: str, digits: int, path: Path,

@@ -23,20 +23,16 @@ import torch
 import yaml
 from safetensors.torch import load_file, save_file
 
+from rvn_data.atomic import write_text_atomic
+
 
 def members_of(model_name: str) -> list[str]:
     return ["expert", "negative"] if model_name == "nomad_neg" else ["model"]
 
 
-def atomic_write_text(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    tmp.write_text(text)
-    os.replace(tmp, path)
-
-
 def write_config(out_dir: Path, cfg: Mapping) -> None:
     out_dir.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(out_dir / "config.yaml", yaml.safe_dump(dict(cfg), sort_keys=False))
+    write_text_atomic(out_dir / "config.yaml", yaml.safe_dump(dict(cfg), sort_keys=False))
 
 
 def read_config(out_dir: str | Path) -> dict:
@@ -69,7 +65,7 @@ def save_checkpoint(member_dir: Path, step: int, weights: Mapping[str, torch.Ten
     if final.exists():
         shutil.rmtree(final)
     os.replace(tmp, final)
-    atomic_write_text(member_dir / "latest", name + "\n")
+    write_text_atomic(member_dir / "latest", name + "\n")
     others = sorted(p for p in member_dir.glob("ckpt_*") if p.is_dir() and p != final)
     for p in others[:max(0, len(others) - (max(1, keep) - 1))]:
         shutil.rmtree(p, ignore_errors=True)
