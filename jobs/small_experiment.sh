@@ -19,21 +19,25 @@ SCALE=${SCALE:-small}
 OUT=${1:-${OUT:-runs/small_experiment_${SCALE}}}
 case "$SCALE" in
   small)  # sized for ~1.5 h on a quiet 2-core machine (jobs/paper_scale.md, "Time budget")
-    : "${TRAIN_SCENES:=32}" "${TRAJ_PER_SCENE:=32}" "${IMAGE:=64}" "${VINT_EPOCHS:=2}" "${NOMAD_EPOCHS:=3}" "${MAX_STEPS:=}"
-    : "${EVAL_SCENES:=10}" "${EVAL_EPISODES:=2}" "${N_GOALS:=32}" "${T_MAX:=500}" ;;
+    : "${TRAIN_SCENES:=64}" "${TRAJ_PER_SCENE:=32}" "${IMAGE:=64}" "${VINT_EPOCHS:=1}" "${NOMAD_EPOCHS:=3}" "${MAX_STEPS:=}"
+    : "${VINT_MAX_STEPS:=900}"  # ViNT: 900 of its 2,200 steps per epoch (~15 min); NoMaD gets the time budget
+    : "${EVAL_SCENES:=20}" "${EVAL_EPISODES:=3}" "${N_GOALS:=32}" "${T_MAX:=500}" "${LR:=1e-3}" ;;
   tiny)   # smoke test of the whole chain (tests/test_experiment_smoke.py)
     : "${TRAIN_SCENES:=1}" "${TRAJ_PER_SCENE:=2}" "${IMAGE:=64}" "${VINT_EPOCHS:=1}" "${NOMAD_EPOCHS:=1}" "${MAX_STEPS:=2}"
     : "${EVAL_SCENES:=1}" "${EVAL_EPISODES:=1}" "${N_GOALS:=2}" "${T_MAX:=100}" "${BATCH:=4}" "${WORKERS:=1}" ;;
   *) echo "small_experiment.sh: error: SCALE=$SCALE; choose small or tiny" >&2; exit 2 ;;
 esac
+[[ "${NEG_EXPERT:-reuse}" =~ ^(reuse|train)$ ]] || { echo "small_experiment.sh: error: NEG_EXPERT=$NEG_EXPERT; choose reuse or train" >&2; exit 2; }
 : "${NEG_FRACTION:=0.0625}"   # NoMaD-Neg: share of expert trajectories replaced by negative ones (paper: 6.25 %)
 : "${WORKERS:=2}"             # processes for rvn-gen and rvn-eval
 : "${THREADS:=2}"             # torch threads for rvn-train
 : "${BATCH:=32}"              # model.size=small batch
-: "${LR:=}"                   # empty: the model's lr
-: "${LOOKAHEAD:=-1}"         # IL policies steer to this predicted waypoint (-1 = last; rvn_il/policies/control.py)
+: "${LR:=}"                   # empty: the model's lr (official 1e-4 at batch 256, 100 epochs); small: 1e-3, which
+                              # learns about 6x faster in steps (jobs/paper_scale.md, "Small-scale learning rate")
+: "${LOOKAHEAD:=null}"       # IL policies steer to this predicted waypoint (null: the first beyond d_step/2; -1: last)
 : "${NOMAD_SAMPLES:=8}"       # NoMaD-PointGoal samples per decision at eval (follows sample 0)
 : "${GOAL_OFFSET_MAX:=40}"     # point goals up to this many frames ahead (the whole 4-8 m path; official 20)
+: "${NEG_EXPERT:=reuse}"     # reuse: NoMaD_e = the NoMaD-PointGoal checkpoint; train: train NoMaD_e on 93.75 % of the experts
 : "${SEED:=0}"
 PY=${PYTHON:-python}
 
@@ -88,23 +92,32 @@ export OMP_NUM_THREADS=$THREADS MKL_NUM_THREADS=$THREADS
 echo "small_experiment: SCALE=$SCALE OUT=$OUT: $TRAIN_SCENES train scenes x $TRAJ_PER_SCENE expert (+ $NEG_PER_SCENE negative)," \
      "${IMAGE}x$IMAGE images, epochs ViNT $VINT_EPOCHS / NoMaD $NOMAD_EPOCHS${MAX_STEPS:+ (max_steps $MAX_STEPS)}; eval $EVAL_SCENES val scenes x $EVAL_EPISODES episodes x $N_GOALS goals"
 
-GEN=("split=train" "scenes.num_scenes=$TRAIN_SCENES" "workers=$WORKERS" "progress=false" "seed=$SEED" "${CAMERA[@]}")
+GEN=("split=train" "scenes.num_scenes=$TRAIN_SCENES" "dataset.train_fraction=1.0" "workers=$WORKERS" "progress=false" "seed=$SEED" "${CAMERA[@]}")
 step gen_expert rvn-gen dataset=expert out_dir="$DATA/rvn_expert" trajectories_per_scene="$TRAJ_PER_SCENE" "${GEN[@]}"
 step gen_negative rvn-gen dataset=negative out_dir="$DATA/rvn_negative" trajectories_per_scene="$NEG_PER_SCENE" "${GEN[@]}"
 neg_splits
 
+VINT_TRAIN=()
+if [[ -n "${VINT_MAX_STEPS:-}" && -z "$MAX_STEPS" ]]; then VINT_TRAIN=("train.max_steps=$VINT_MAX_STEPS"); fi
 step train_vint rvn-train model=vint_pointgoal data.root="$DATA/rvn_expert" out_dir="$OUT/train/vint_pointgoal" \
-  train.epochs="$VINT_EPOCHS" "${TRAIN_SIZE[@]}"
+  train.epochs="$VINT_EPOCHS" "${TRAIN_SIZE[@]}" "${VINT_TRAIN[@]}"
 step train_nomad rvn-train model=nomad_pointgoal data.root="$DATA/rvn_expert" out_dir="$OUT/train/nomad_pointgoal" \
   train.epochs="$NOMAD_EPOCHS" "${TRAIN_SIZE[@]}"
+# NEG_EXPERT=reuse: NoMaD_e is the NoMaD-PointGoal run (train.expert_from; rvn_il/train/adopt.py), so
+# NoMaD-Neg and NoMaD-PointGoal differ only by CoR and the second expert training is saved
+NEG_TRAIN=()
+if [[ "$NEG_EXPERT" == reuse ]]; then NEG_TRAIN=("train.expert_from=$OUT/train/nomad_pointgoal"); fi
 step train_nomad_neg rvn-train model=nomad_neg data.root="$DATA/rvn_expert" data.negative_root="$DATA/rvn_negative" \
   data.splits_dir="$OUT/splits_neg" data.skip_short=true out_dir="$OUT/train/nomad_neg" \
-  train.epochs="$NOMAD_EPOCHS" "${TRAIN_SIZE[@]}"
+  train.epochs="$NOMAD_EPOCHS" "${TRAIN_SIZE[@]}" "${NEG_TRAIN[@]}"
 
 # eval workers: one torch thread each
 export OMP_NUM_THREADS=1 MKL_NUM_THREADS=1
 step eval_random rvn-eval policy=random method=Random out_dir="$OUT/eval/random" "${EVAL[@]}"
 step eval_oracle rvn-eval policy=oracle method=Oracle out_dir="$OUT/eval/oracle" "${EVAL[@]}"
+# the action adapter's ceiling: the expert's own next poses through the IL policies' waypoint -> action rule
+step eval_trajectory_oracle rvn-eval policy=trajectory_oracle "method=Trajectory oracle" policy.waypoint_index="$LOOKAHEAD" \
+  out_dir="$OUT/eval/trajectory_oracle" "${EVAL[@]}"
 step eval_vint rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/vint_pointgoal" method=ViNT-PointGoal +policy.waypoint_index="$LOOKAHEAD" \
   out_dir="$OUT/eval/vint_pointgoal" "${EVAL[@]}"
 step eval_nomad rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_pointgoal" method=NoMaD-PointGoal +policy.waypoint_index="$LOOKAHEAD" \
@@ -115,7 +128,7 @@ step eval_nomad_neg rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/trai
 step eval_nomad_neg_argmin rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_neg" \
   method=NoMaD-Neg-argmin +policy.waypoint_index="$LOOKAHEAD" +policy.selection=argmin out_dir="$OUT/eval/nomad_neg_argmin" "${EVAL[@]}"
 
-RUNS=("$OUT/eval/random" "$OUT/eval/oracle" "$OUT/eval/vint_pointgoal" "$OUT/eval/nomad_pointgoal" "$OUT/eval/nomad_neg"
+RUNS=("$OUT/eval/random" "$OUT/eval/oracle" "$OUT/eval/trajectory_oracle" "$OUT/eval/vint_pointgoal" "$OUT/eval/nomad_pointgoal" "$OUT/eval/nomad_neg"
       "$OUT/eval/nomad_neg_argmin")
 $PY -m rvn_il.eval.report "${RUNS[@]}" -o "$OUT/report.md" \
   --title "RVN small-scale experiment (SCALE=$SCALE: $TRAIN_SCENES train scenes x $TRAJ_PER_SCENE trajectories, val $EVAL_SCENES x $EVAL_EPISODES)"

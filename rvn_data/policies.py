@@ -167,3 +167,44 @@ class RandomPolicy:
 
     def act(self, obs) -> int:
         return int(self.rng.choice(len(Action), p=self.probs))
+
+
+class GoalFollowerPolicy:
+    """Blind goal follower (habitat-baselines' ``GoalFollower``): only the point goal, no image.
+
+    Turn toward ``obs["pointgoal"]`` while its bearing exceeds θ_step/2, else move forward;
+    STOP once it is closer than ``stop_radius`` (default 2·r_robot, the success radius).
+    The same steering rule as the IL policies' action adapter, fed the straight line to the
+    goal instead of predicted waypoints: the score a policy gets without looking.
+    """
+
+    def __init__(self, stop_radius: float | None = None, theta_step_deg: float | None = None):
+        self.stop_radius = None if stop_radius is None else float(stop_radius)
+        self.theta_step = None if theta_step_deg is None else math.radians(float(theta_step_deg))
+        for name, value in (("stop_radius", self.stop_radius), ("theta_step_deg", self.theta_step)):
+            if value is not None and not (math.isfinite(value) and value > 0):
+                raise ValueError(f"GoalFollowerPolicy {name} must be a positive number (got {value!r})")
+
+    def bind(self, env) -> None:
+        """Take r_robot and θ_step from the env's agent unless given."""
+        agent = env.unwrapped.agent
+        if self.stop_radius is None:
+            self.stop_radius = 2 * float(agent.r_robot)
+        if self.theta_step is None:
+            self.theta_step = float(agent.theta_step)
+
+    def reset(self) -> None:
+        pass
+
+    def act(self, obs) -> int:
+        goal = np.asarray(obs["pointgoal"], dtype=np.float64)
+        stop_radius = 0.36 if self.stop_radius is None else self.stop_radius
+        theta = math.radians(30.0) if self.theta_step is None else self.theta_step
+        if float(np.hypot(goal[0], goal[1])) < stop_radius:
+            return int(Action.STOP)
+        bearing = math.atan2(goal[1], goal[0])
+        if bearing > theta / 2:
+            return int(Action.TURN_LEFT)
+        if bearing < -theta / 2:
+            return int(Action.TURN_RIGHT)
+        return int(Action.MOVE_FORWARD)

@@ -124,3 +124,36 @@ def test_bad_checkpoint_is_one_line_error(runs, tmp_path):
     assert proc.returncode == 1
     assert "policy 'checkpoint'" in proc.stderr and str(ckpt) in proc.stderr and "rvn-train" in proc.stderr
     assert "Traceback" not in proc.stderr and "Error executing job" not in proc.stderr
+
+
+def test_trajectory_oracle_measures_the_action_adapter(runs, tmp_path):
+    """policy=trajectory_oracle: the expert's own next poses through the IL adapter. The default
+    rule (first waypoint beyond d_step/2) reproduces the expert and reaches goals; steering to
+    the last of 8 waypoints cuts corners into walls."""
+    first = runs / "traj_first"
+    ok(rvn_eval(runs, "policy=trajectory_oracle", f"out_dir={first}", "method=Trajectory oracle"))
+    last = runs / "traj_last"
+    ok(rvn_eval(runs, "policy=trajectory_oracle", "policy.waypoint_index=-1", f"out_dir={last}"))
+    m_first, m_last = load(first), load(last)
+    assert m_first["episodes"] == m_last["episodes"] == 4
+    assert m_first["SR_1"] >= 0.5 and m_first["E_G"] >= 1.5, m_first  # 0.5 / 1.5 of 3 goals here; 0.68 / 3.0 of 32 on 60 val episodes
+    assert m_last["E_G"] < m_first["E_G"], (m_first, m_last)
+
+
+def test_goal_follower_drives_straight_at_the_goal(runs):
+    """policy=goal_follower (blind baseline): turns toward the point goal, drives at it, stops
+    inside the success radius; in apartments a wall soon stands in the way."""
+    from rvn_data.conventions import Action
+    from rvn_data.policies import GoalFollowerPolicy
+
+    pol = GoalFollowerPolicy()
+    assert pol.act({"pointgoal": [3.0, 0.2]}) == Action.MOVE_FORWARD
+    assert pol.act({"pointgoal": [1.0, 1.0]}) == Action.TURN_LEFT
+    assert pol.act({"pointgoal": [-1.0, -0.1]}) == Action.TURN_RIGHT
+    assert pol.act({"pointgoal": [0.2, 0.1]}) == Action.STOP
+    out = runs / "goal_follower"
+    ok(rvn_eval(runs, "policy=goal_follower", f"out_dir={out}", "method=Goal follower"))
+    records = read_records(out / "episodes.jsonl")
+    assert len(records) == 4 and load(out)["method"] == "Goal follower"
+    for r in records:  # it moves (forward steps, not turning on the spot) and ends at a wall or a goal
+        assert r["path_length"] > 0.5 and (r["termination"] == "collision" or r["goals_reached"] > 0), r

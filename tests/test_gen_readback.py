@@ -208,3 +208,28 @@ def test_settings_change_is_refused(expert):
     proc = rvn_gen(f"out_dir={out}", *TINY, "dataset.margin=0.3", check=False)
     assert proc.returncode != 0
     assert "dataset.margin" in proc.stderr and "Traceback" not in proc.stderr
+
+
+@pytest.mark.parametrize("anywhere", [True, False])
+def test_expert_starts_anywhere_on_the_navmesh(tmp_path, anywhere):
+    """Benchmark starts are any navigable pose, also inside the expert margin (next to a wall):
+    with dataset.start_anywhere (default) expert trajectories start there too and first leave
+    the margin; with false every start clears the margin."""
+    from rvn_data.planning import occupancy_grid
+    from rvn_data.scenes.loader import load_scene
+
+    out = tmp_path / "ds"
+    rvn_gen(f"out_dir={out}", "scenes.num_scenes=1", "trajectories_per_scene=24", "camera.width=16",
+            "camera.height=16", "progress=false", f"dataset.start_anywhere={str(anywhere).lower()}")
+    metas = [json.loads(p.read_text()) for p in sorted(out.glob("*/rvn_meta.json"))]
+    assert len(metas) == 24
+    grid = occupancy_grid(load_scene("procedural:train/0"), metas[0]["start"][1], 0.05)
+    clearance = grid.clearance()
+    margin = AGENT.r_robot + 0.1
+    inside = 0
+    for m in metas:
+        r, c = grid.to_cell(np.asarray(m["start"]))
+        assert clearance[r, c] > AGENT.r_robot - 0.05  # navigable: never closer than r_robot (± a cell)
+        inside += clearance[r, c] <= margin
+        assert m["actions"][-1] == Action.STOP  # reached the goal without collision all the same
+    assert (inside > 0) == anywhere, inside

@@ -35,9 +35,9 @@ def test_control_rule():
 
 
 def test_lookahead_at_the_last_waypoint():
-    """waypoint_index=-1 (the default): a blurred "turn, then go" whose first waypoints creep
-    straight ahead but whose end bends 60 deg left turns left; a prediction that stays in
-    place steers to the point goal."""
+    """waypoint_index=-1 (an option; the default is null, the first waypoint): a blurred "turn,
+    then go" whose first waypoints creep straight ahead but whose end bends 60 deg left turns
+    left; a prediction that stays in place steers to the point goal."""
     last = ControlConfig.from_agent(AgentConfig(), waypoint_index=-1)
     first = ControlConfig.from_agent(AgentConfig())
     bend = np.array([[0.15, 0.0], [0.25, 0.05], [0.3, 0.3], [0.35, 0.6]])

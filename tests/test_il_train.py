@@ -147,3 +147,25 @@ def test_cli_bad_input_one_line(data, tmp_path):
     with pytest.raises(ValueError, match="fewer than context_size.*skip_short"):
         train(["model=nomad_pointgoal", f"data.root={data / 'negative'}", f"out_dir={tmp_path / 'o3'}",
                "model.context_size=14", *SMALL])
+
+
+def test_nomad_neg_adopts_a_nomad_pointgoal_run_as_nomad_e(runs, data, tmp_path):
+    """train.expert_from: NoMaD_e is the NoMaD-PointGoal run's checkpoint (not trained again),
+    NoMaD_n is trained; a rerun keeps it; a run of another model is refused by name."""
+    common = [f"data.root={data / 'expert'}", f"data.negative_root={data / 'negative'}", "train.max_steps=2",
+              "data.num_workers=0", *SMALL]
+    out = tmp_path / "neg"
+    train(["model=nomad_neg", f"out_dir={out}", f"train.expert_from={runs['nomad_pointgoal']}", *common])
+    src = latest_checkpoint(runs["nomad_pointgoal"] / "model")
+    mine = latest_checkpoint(out / "expert")
+    assert mine.name == src.name  # the source's step, not this run's max_steps
+    a, b = load_file(str(mine / "ema.safetensors")), load_file(str(src / "ema.safetensors"))
+    assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
+    assert json.loads((mine / "stats.json").read_text())["adopted_from"] == str(src.resolve())
+    assert latest_checkpoint(out / "negative").name == "ckpt_00000002"
+    assert isinstance(load_policy(out), NoMaDNegPolicy)
+    train(["model=nomad_neg", f"out_dir={out}", f"train.expert_from={runs['nomad_pointgoal']}", *common])  # rerun: kept
+    assert latest_checkpoint(out / "expert") == mine
+    r = rvn_train("model=nomad_neg", f"out_dir={tmp_path / 'bad'}", f"train.expert_from={runs['vint_pointgoal']}", *common)
+    assert r.returncode != 0 and "train.expert_from" in r.stderr and "'vint_pointgoal' run" in r.stderr
+    assert "Traceback" not in r.stderr

@@ -28,6 +28,7 @@ class GenSettings:
     d_max: float = 8.0
     k_pre: int = 8  # negative: steps kept before the collision
     k_post: int = 6  # negative: steps kept after it
+    start_anywhere: bool = True  # starts anywhere on the navmesh (as the benchmark's); False: only outside the margin
     max_steps: int = 400  # step budget of one rollout
     max_attempts: int = 40  # start/goal draws per trajectory before it is given up
     goal_candidates: int = 32  # goal draws per start
@@ -56,6 +57,8 @@ class GenSettings:
             raise ValueError(f"dataset.resolution={self.resolution} must be in (0, 0.5] metres")
         if self.train_fraction > 1:
             raise ValueError(f"dataset.train_fraction={self.train_fraction} must be in [0, 1]")
+        if not isinstance(self.start_anywhere, bool):
+            raise ValueError(f"dataset.start_anywhere={self.start_anywhere!r} must be true or false")
         for key in ("k_pre", "k_post", "max_steps", "max_attempts", "goal_candidates", "jpeg_quality", "seed"):
             value = getattr(self, key)
             if isinstance(value, bool) or not isinstance(value, int) or value < 0:

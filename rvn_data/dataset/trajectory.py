@@ -9,6 +9,12 @@ trajectory t_c is the frame whose MOVE_FORWARD collided: p_{t_c} and I_{t_c} are
 p_t for t > t_c are the poses the follower commands from there with no obstacle in the
 way (the intended motion through the obstacle), and I_t = I_{t_c}. The clip kept is
 t_i = max(0, t_c − k_pre) … t_f = min(T − 1, t_c + k_post).
+
+Starts are drawn like the benchmark's: any navigable pose, any yaw. A start inside the
+expert margin (closer to an obstacle than `margin`, e.g. facing a wall at 0.2 m) is planned
+from the nearest cell outside it, so the trajectory first leaves the margin; such states
+are where a learned policy most often collides, and without them the expert data never
+shows them (`start_anywhere=False` restores "start_blocked" rejection).
 """
 from __future__ import annotations
 
@@ -19,7 +25,7 @@ import numpy as np
 
 from rvn_data.conventions import Action, to_planar, wrap_angle
 from rvn_data.dataset.settings import GenSettings
-from rvn_data.planning.astar import Plan, plan_path
+from rvn_data.planning.astar import Plan, exit_point, plan_path, prepend_start
 from rvn_data.planning.follower import PathFollower, integrate
 from rvn_data.planning.occupancy import OccupancyGrid
 
@@ -85,7 +91,9 @@ def attempt(ctx: SceneContext, rng: np.random.Generator) -> Rollout | str:
     start = np.asarray(ctx.navmesh.sample(rng), dtype=np.float64)
     start_yaw = float(rng.uniform(-math.pi, math.pi))
     grid, free = ctx.grid_at(float(start[1]))
-    if not _free_at(grid, free, start):
+    reach = max(s.margin - s.agent.r_robot, 0.0) + 2.0 * s.resolution
+    plan_start = start if _free_at(grid, free, start) else exit_point(grid, free, start, reach) if s.start_anywhere else None
+    if plan_start is None:
         return "start_blocked"
     candidates = np.array([ctx.navmesh.sample(rng) for _ in range(s.goal_candidates)], dtype=np.float64)
     dists = np.asarray(ctx.navmesh.distance_field(start).distance(candidates), dtype=np.float64).reshape(-1)
@@ -99,9 +107,11 @@ def attempt(ctx: SceneContext, rng: np.random.Generator) -> Rollout | str:
             break
     if goal is None:
         return "no_goal"
-    plan = plan_path(grid, free, start, goal)
+    plan = plan_path(grid, free, plan_start, goal)
     if plan is None:
         return "no_path"
+    if plan_start is not start:
+        plan = prepend_start(plan, start)
     if not s.d_min <= plan.length <= s.d_max:
         return "path_length"
     return _follow(ctx, plan, start, start_yaw, goal, geodesic)

@@ -1,6 +1,7 @@
 """Planning for dataset generation: occupancy grid, A*, path follower."""
-from rvn_data.planning.astar import Plan, astar, plan_path, prune_path
+from rvn_data.planning.astar import Plan, astar, exit_point, plan_path, prepend_start, prune_path
 from rvn_data.planning.follower import PathFollower
 from rvn_data.planning.occupancy import OccupancyGrid, occupancy_grid
 
-__all__ = ["OccupancyGrid", "PathFollower", "Plan", "astar", "occupancy_grid", "plan_path", "prune_path"]
+__all__ = ["OccupancyGrid", "PathFollower", "Plan", "astar", "exit_point", "occupancy_grid", "plan_path", "prepend_start",
+           "prune_path"]

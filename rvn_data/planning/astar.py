@@ -167,3 +167,34 @@ def plan_path(grid: OccupancyGrid, free: np.ndarray, start: np.ndarray, goal: np
     pts[:, 1] = grid.floor_height
     polyline = float(np.linalg.norm(np.diff(pts[:, [0, 2]], axis=0), axis=1).sum())
     return Plan(cells=cells, waypoints=pts, length=polyline, grid_length=float(length) * grid.resolution)
+
+
+def exit_point(grid: OccupancyGrid, free: np.ndarray, start: np.ndarray, reach: float) -> np.ndarray | None:
+    """Centre of the free cell nearest to a ``start`` that lies inside the inflation (a pose on
+    the navmesh but closer to an obstacle than the margin), at most ``reach`` metres away (keep
+    it below a wall's thickness plus both clearances, so it is never behind a wall); None if
+    there is none. Ties go to the first cell in row-major order (deterministic)."""
+    k = int(math.ceil(reach / grid.resolution))
+    r0, c0 = (int(v) for v in grid.to_cell(start))
+    rows = np.arange(max(r0 - k, 0), min(r0 + k + 1, free.shape[0]))
+    cols = np.arange(max(c0 - k, 0), min(c0 + k + 1, free.shape[1]))
+    if rows.size == 0 or cols.size == 0:
+        return None
+    rr, cc = np.meshgrid(rows, cols, indexing="ij")
+    centres = grid.to_world(np.stack([rr, cc], axis=-1))
+    d = np.hypot(centres[..., 0] - start[0], centres[..., 2] - start[2])
+    d[~free[rr, cc]] = np.inf
+    best = np.unravel_index(int(np.argmin(d)), d.shape)
+    if not d[best] <= reach:
+        return None
+    out = centres[best].copy()
+    out[1] = start[1]
+    return out
+
+
+def prepend_start(plan: Plan, start: np.ndarray) -> Plan:
+    """``plan`` (made from an `exit_point`) with the true ``start`` in front of it."""
+    pts = np.concatenate([np.asarray(start, np.float64)[None], plan.waypoints], axis=0)
+    pts[0, 1] = plan.waypoints[0, 1]
+    lead = float(np.hypot(*(pts[1, [0, 2]] - pts[0, [0, 2]])))
+    return Plan(cells=plan.cells, waypoints=pts, length=plan.length + lead, grid_length=plan.grid_length + lead)

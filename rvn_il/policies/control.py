@@ -3,17 +3,19 @@ a lookahead point chosen on the predicted trajectory).
 
 Rule, with waypoints in metres in the robot frame (x forward, y left):
 1. STOP when the point goal is closer than ``stop_radius`` (2·r_robot: the success radius).
-2. Lookahead point: waypoint ``waypoint_index`` if set (negative counts from the end: -1,
-   the default in conf/model/*.yaml, is the last predicted waypoint), else the first waypoint
-   at least ``lookahead_min_dist`` from the robot (d_step/2: the first one a MOVE_FORWARD can
-   approach). When the chosen point is closer than ``lookahead_min_dist`` (the model predicts
-   staying in place), the point goal itself.
-   Why the last waypoint: turning in place is a zero displacement in the labels, so a model
-   that is not fully trained blurs "turn, then go" into a short step straight ahead; the
-   first waypoints then almost always say MOVE_FORWARD, while the end of the predicted
-   trajectory carries the turn. On the small-scale experiment's training frames, recall of
-   the expert's (forward, left, right) went from (.77, .12, .18) to (.55, .48, .51) for
-   NoMaD and from (.97, .15, .26) to (.73, .39, .69) for ViNT.
+2. Lookahead point: the first waypoint at least ``lookahead_min_dist`` from the robot
+   (d_step/2: the first one a MOVE_FORWARD can approach; ``waypoint_index: null``, the
+   default), or waypoint ``waypoint_index`` if set (negative counts from the end). When
+   no waypoint is that far (the model predicts staying in place), the point goal itself.
+   Why the first: with the true future poses (`trajectory_oracle.py`: the expert's next 8
+   poses, replanned every step) this rule reproduces every expert action, and on the
+   benchmark it reaches SR_1 0.68, E(G) 3.0, CPK 50 (procedural val, 20 scenes x 3
+   episodes). The last waypoint (-1) cuts corners toward a point 2 m ahead: SR_1 0.07,
+   CPK 334 with the same perfect predictions; waypoint 1: 0.75 on 20 episodes, 0 (a turn
+   has no displacement, so it falls back to the point goal): 0.10. An under-trained model
+   blurs "turn, then go" into a short step straight ahead, so its first waypoint says
+   MOVE_FORWARD too often; that is the model's shortfall, and no lookahead choice repairs
+   it without breaking the perfect case (`python -m rvn_il.eval.agreement` measures both).
 3. Heading error e = atan2(y, x) of the lookahead: TURN_LEFT if e > θ_step/2, TURN_RIGHT if
    e < -θ_step/2, else MOVE_FORWARD. This is the expert's own following rule (rvn-gen), so a
    perfectly imitated trajectory reproduces the expert's actions.

@@ -27,6 +27,7 @@ from ..models.checkpoint import (latest_checkpoint, load_state_dict_checked, mem
                                  save_checkpoint, write_config)
 from ..models.encoders import IMAGENET_MEAN, IMAGENET_STD
 from ..policies.loader import resolve_device
+from .adopt import adopt_expert
 from .ema import EMA
 
 log = logging.getLogger(__name__)
@@ -94,6 +95,15 @@ def run_training(cfg: Mapping[str, Any]) -> Path:
 def train_member(cfg: Mapping, member: str, index: int, root: str, out_dir: Path, device: torch.device,
                  rank: int, world: int) -> None:
     model_cfg, data_cfg, tcfg, seed = resolve_size(cfg["model"]), dict(cfg["data"]), dict(cfg["train"]), int(cfg["seed"])
+    if member == "expert" and tcfg.get("expert_from"):  # NoMaD_e = a finished NoMaD-PointGoal run (adopt.py)
+        if rank == 0:
+            adopt_expert(tcfg["expert_from"], out_dir / member, model_cfg,
+                         {"model": model_cfg["name"], "image_size": list(model_cfg["image_size"]),
+                          "crop_to_aspect": bool(model_cfg.get("crop_to_aspect", True)),
+                          "context_size": model_cfg["context_size"], "len_traj_pred": model_cfg["len_traj_pred"]})
+        if world > 1:
+            dist.barrier()
+        return
     data_cfg["progress"] = rank == 0
     if rank == 0:
         dataset = make_dataset(root, model_cfg, data_cfg, seed)

@@ -1,0 +1,123 @@
+"""Open-loop check of a trained policy: does it pick the expert's action on expert frames?
+
+    python -m rvn_il.eval.agreement CHECKPOINT_DIR DATASET_ROOT [--split test] [--max-trajectories 40]
+        [--waypoint-index -1|none] [--num-samples 1] [--json out.json]
+
+Replays expert trajectories written by ``rvn-gen`` (GNM frames + the ``rvn_meta.json``
+sidecar: actions and goal). At every frame the policy sees the frame (its context grows as
+in an episode) and the trajectory's goal relative to the recorded pose, exactly as
+``rvn-eval`` feeds it, and its action is compared with the expert's. Printed: agreement,
+recall per action, the confusion matrix, and the *adapter ceiling*: the agreement of the
+same waypoint → action rule fed the ground-truth future poses (the best a perfect
+trajectory predictor could reach with these policy settings).
+
+Closed-loop success needs far more than this (errors compound), but it is minutes cheaper
+than ``rvn-eval``, and a policy that disagrees with the expert on its own data is not yet
+worth evaluating: use it to choose learning rates, steps and adapter settings.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import pickle
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from rvn_data.atomic import write_text_atomic
+from rvn_data.conventions import Action, from_planar, relative_goal
+from rvn_il.data.dataset import to_local
+from rvn_il.data.images import read_rgb
+from rvn_il.policies.control import waypoints_to_action
+
+NAMES = [a.name for a in Action]
+
+
+def expert_trajectories(root: Path, split: str | None, limit: int | None) -> list[Path]:
+    """Trajectory folders of ``split`` (data_splits/<name>/<split>/traj_names.txt) or all,
+    evenly thinned to at most ``limit``."""
+    lists = sorted(root.glob(f"data_splits/*/{split}/traj_names.txt")) if split else []
+    if split and not lists:
+        raise ValueError(f"{root} has no data_splits/*/{split}/traj_names.txt; pass --split all or another split")
+    names = [n for f in lists for n in f.read_text().split()] if lists else \
+        sorted(p.parent.name for p in root.glob("*/rvn_meta.json"))
+    dirs = [root / n for n in names if (root / n / "rvn_meta.json").is_file()]
+    dirs = [d for d in dirs if json.loads((d / "rvn_meta.json").read_text()).get("kind") == "expert"]
+    if not dirs:
+        raise ValueError(f"no expert trajectory with an rvn_meta.json sidecar in {root}; pass a dataset written by rvn-gen")
+    if limit and len(dirs) > limit:
+        dirs = [dirs[i] for i in np.linspace(0, len(dirs) - 1, limit).round().astype(int)]
+    return dirs
+
+
+def agreement(policy, dirs: list[Path], len_traj_pred: int) -> dict:
+    """Confusion matrices [expert, chosen] of the policy and of the adapter ceiling."""
+    conf, ceiling = np.zeros((4, 4), np.int64), np.zeros((4, 4), np.int64)
+    for d in dirs:
+        meta = json.loads((d / "rvn_meta.json").read_text())
+        with open(d / "traj_data.pkl", "rb") as f:
+            data = pickle.load(f)
+        pos, yaw = np.asarray(data["position"], np.float64), np.asarray(data["yaw"], np.float64)
+        goal = np.asarray(meta["goal"], np.float64)
+        policy.reset()
+        for t, expert in enumerate(meta["actions"][:len(pos)]):
+            pointgoal = relative_goal(from_planar(pos[t]), float(yaw[t]), goal)
+            chosen = int(policy.act({"rgb": read_rgb(d / f"{t}.jpg"), "pointgoal": pointgoal}))
+            conf[expert, chosen] += 1
+            future = pos[np.minimum(np.arange(t + 1, t + 1 + len_traj_pred), len(pos) - 1)]
+            ideal = waypoints_to_action(to_local(future, pos[t], yaw[t]), pointgoal, policy.control)
+            ceiling[expert, int(ideal)] += 1
+    return {"confusion": conf, "ceiling": ceiling}
+
+
+def summary(conf: np.ndarray) -> dict:
+    total = int(conf.sum())
+    recall = {NAMES[a]: round(float(conf[a, a] / conf[a].sum()), 4) for a in range(4) if conf[a].sum()}
+    return {"steps": total, "agreement": round(float(np.trace(conf) / max(total, 1)), 4), "recall": recall}
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m rvn_il.eval.agreement", description=__doc__.split("\n\n")[0])
+    ap.add_argument("checkpoint", help="rvn-train out_dir")
+    ap.add_argument("dataset", help="expert GNM dataset written by rvn-gen (e.g. on val scenes)")
+    ap.add_argument("--split", default="all", help="data_splits split to replay (train|test), or all (default)")
+    ap.add_argument("--max-trajectories", type=int, default=40)
+    ap.add_argument("--waypoint-index", default=None, help="policy lookahead override: an index, or none (first "
+                    "waypoint beyond lookahead_min_dist); default: the checkpoint's")
+    ap.add_argument("--num-samples", type=int, default=1, help="samples per decision (NoMaD; sample 0 is followed)")
+    ap.add_argument("--json", default=None, help="also write the figures to this JSON file")
+    args = ap.parse_args(argv)
+    try:
+        import torch
+
+        from rvn_il.policies import load_policy
+
+        torch.set_num_threads(max(1, torch.get_num_threads()))
+        overrides = {"num_samples": args.num_samples}
+        if args.waypoint_index is not None:
+            overrides["waypoint_index"] = None if args.waypoint_index.lower() in ("none", "null") else int(args.waypoint_index)
+        policy = load_policy(args.checkpoint, **overrides)
+        dirs = expert_trajectories(Path(args.dataset), None if args.split == "all" else args.split, args.max_trajectories)
+        len_pred = int(policy.members[0].model.len_traj_pred)
+        result = agreement(policy, dirs, len_pred)
+    except (ValueError, OSError) as e:
+        print(f"agreement: error: {e}", file=sys.stderr)
+        return 2
+    out = {"checkpoint": str(args.checkpoint), "dataset": str(args.dataset), "trajectories": len(dirs),
+           "policy": summary(result["confusion"]), "adapter_ceiling": summary(result["ceiling"]),
+           "confusion": result["confusion"].tolist()}
+    p, c = out["policy"], out["adapter_ceiling"]
+    print(f"{args.checkpoint}: {len(dirs)} expert trajectories, {p['steps']} steps")
+    print(f"  agreement with the expert's action: {p['agreement']:.3f}   (adapter ceiling {c['agreement']:.3f})")
+    print("  recall  " + "  ".join(f"{k} {v:.2f}" for k, v in p["recall"].items()))
+    print("  confusion (rows expert, columns policy: " + " ".join(NAMES) + ")")
+    for a in range(4):
+        print(f"    {NAMES[a]:<13}" + " ".join(f"{v:6d}" for v in result["confusion"][a]))
+    if args.json:
+        write_text_atomic(Path(args.json), json.dumps(out, indent=1) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,88 @@
+"""The action adapter's ceiling: perfect trajectory predictions through the IL control rule.
+
+`TrajectoryOraclePolicy` replaces the network of an IL policy by the expert that made its
+training labels: every step it replans the expert path (A* on the occupancy grid inflated by
+the expert margin, leaving the margin first when the agent is inside it, as ``rvn-gen``
+does), rolls the path follower forward ``len_traj_pred`` steps without obstacles, and feeds
+those future positions (robot frame, exactly the training labels' waypoints) to the same
+waypoint → action rule as the learned policies (`control.py`). Its benchmark score is what a
+model that predicts its labels perfectly would get with these adapter settings, so it tells
+a weak adapter from a weak model. Privileged (bound to the env); evaluation only:
+
+    rvn-eval policy=trajectory_oracle method="Trajectory oracle" [policy.waypoint_index=-1]
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from rvn_data.conventions import Action, AgentConfig, to_planar
+from rvn_data.planning import PathFollower, exit_point, occupancy_grid, plan_path, prepend_start
+from rvn_data.planning.follower import integrate
+
+from ..data.dataset import to_local
+from .control import ControlConfig, waypoints_to_action
+
+
+class TrajectoryOraclePolicy:
+    """Expert's next ``len_traj_pred`` poses → `waypoints_to_action` (see module docstring)."""
+
+    def __init__(self, waypoint_index: int | None = None, len_traj_pred: int = 8, margin_offset: float = 0.1,
+                 resolution: float = 0.05, lookahead_min_dist: float | None = None):
+        self.waypoint_index = None if waypoint_index is None else int(waypoint_index)
+        self.len_traj_pred, self.margin_offset = int(len_traj_pred), float(margin_offset)
+        self.resolution, self.lookahead_min_dist = float(resolution), lookahead_min_dist
+        if self.len_traj_pred < 1 or self.resolution <= 0:
+            raise ValueError(f"trajectory_oracle: len_traj_pred={len_traj_pred} must be >= 1 and resolution={resolution} > 0")
+        self.env = None
+        self._grids: dict = {}
+        self.last_waypoints: np.ndarray | None = None
+
+    def bind(self, env) -> None:
+        self.env = env.unwrapped
+        agent = self.env.agent
+        self.agent = agent if isinstance(agent, AgentConfig) else AgentConfig(**dict(agent))
+        self.margin = self.agent.r_robot + self.margin_offset
+        self.control = ControlConfig.from_agent(self.agent, lookahead_min_dist=self.lookahead_min_dist,
+                                                waypoint_index=self.waypoint_index)
+
+    def reset(self) -> None:
+        self.last_waypoints = None
+
+    def _grid(self, floor_y: float):
+        scene = self.env._scene.scene
+        key = (scene.scene_id, int(round(floor_y / 0.05)))
+        if key not in self._grids:
+            if len(self._grids) > 4:
+                self._grids.clear()
+            grid = occupancy_grid(scene, key[1] * 0.05, self.resolution, self.agent.h_robot)
+            self._grids[key] = (grid, grid.inflate(self.margin))
+        return self._grids[key]
+
+    def predict(self, position: np.ndarray, yaw: float, goal: np.ndarray) -> np.ndarray:
+        """The expert's next ``len_traj_pred`` positions in the robot frame [len, 2] (metres);
+        zeros when no expert path exists from here."""
+        grid, free = self._grid(float(position[1]))
+        cell = grid.to_cell(position)
+        inside = grid.contains(cell) and bool(free[cell[0], cell[1]])
+        start = position if inside else exit_point(grid, free, position, self.margin - self.agent.r_robot + 2 * self.resolution)
+        plan = None if start is None else plan_path(grid, free, start, goal)
+        if plan is None:
+            return np.zeros((self.len_traj_pred, 2))
+        if start is not position:
+            plan = prepend_start(plan, position)
+        follower = PathFollower(plan.waypoints, self.agent)
+        p, y, future = np.asarray(position, np.float64), float(yaw), []
+        for _ in range(self.len_traj_pred):
+            action = follower.act(p, y)
+            if action != Action.STOP:
+                p, y = integrate(p, y, action, self.agent)
+            future.append(to_planar(p))
+        return to_local(np.asarray(future), to_planar(position), float(yaw))
+
+    def act(self, obs) -> int:
+        if self.env is None:
+            raise RuntimeError("TrajectoryOraclePolicy needs privileged state: call policy.bind(env) first")
+        pointgoal = np.asarray(obs["pointgoal"], np.float64)
+        self.last_waypoints = self.predict(np.asarray(self.env.position, np.float64), float(self.env.yaw),
+                                           np.asarray(self.env.goal, np.float64))
+        return int(waypoints_to_action(self.last_waypoints, pointgoal, self.control))

@@ -1,0 +1,56 @@
+"""NoMaD-Neg's NoMaD_e taken from a trained NoMaD-PointGoal run (``train.expert_from``).
+
+NoMaD_e is a NoMaD-PointGoal network trained on expert data (SPEC.md "Baselines"), so a
+finished NoMaD-PointGoal run can serve as NoMaD_e instead of a second expert training (the
+longest step of a small experiment). The paper's NoMaD_e sees 93.75 % of the expert
+trajectories (the rest are replaced by negatives); an adopted one saw all of them. The
+adoption is recorded in the copied checkpoint's ``stats.json`` (``adopted_from``).
+"""
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Mapping
+
+from safetensors.torch import load_file
+
+from ..models import build_model
+from ..models.checkpoint import (latest_checkpoint, load_state_dict_checked, read_config, read_stats, read_weights,
+                                 save_checkpoint)
+
+log = logging.getLogger(__name__)
+SAME = ("image_size", "crop_to_aspect", "context_size", "len_traj_pred", "metric_waypoint_spacing")
+
+
+def adopt_expert(source: str | Path, member_dir: Path, model_cfg: Mapping, stats: Mapping) -> Path:
+    """Copy the latest checkpoint of the NoMaD-PointGoal run ``source`` into ``member_dir``
+    (NoMaD-Neg's ``expert``) unless that already holds it; returns the adopted checkpoint."""
+    src_dir = Path(source).expanduser()
+    name = read_config(src_dir)["model"]["name"]
+    if name != "nomad_pointgoal":
+        raise ValueError(f"train.expert_from={source} holds a {name!r} run; NoMaD_e must come from a nomad_pointgoal run")
+    ckpt = latest_checkpoint(src_dir / "model")
+    if ckpt is None:
+        raise ValueError(f"train.expert_from={source} has no finished checkpoint (no {src_dir / 'model' / 'latest'}); "
+                         "train it first")
+    mine = latest_checkpoint(member_dir)
+    if mine is not None:
+        if read_stats(mine).get("adopted_from") == str(ckpt.resolve()):
+            return mine
+        raise ValueError(f"{member_dir} already holds a NoMaD_e checkpoint that is not {ckpt}; choose another out_dir= "
+                         "or remove train.expert_from")
+    src_stats = read_stats(ckpt)
+    for key in SAME:
+        if key in stats and src_stats.get(key) != stats[key]:
+            raise ValueError(f"train.expert_from={source}: its {key}={src_stats.get(key)} differs from this run's "
+                             f"{stats[key]}; train it with the same model and data settings")
+    weights = read_weights(ckpt, "nomad_pointgoal", prefer_ema=False)
+    load_state_dict_checked(build_model(dict(model_cfg)), weights, ckpt)  # same architecture and size
+    ema_path = ckpt / "ema.safetensors"
+    ema = load_file(str(ema_path)) if ema_path.is_file() else None
+    step = int(src_stats.get("step", 0))
+    out_stats = {**src_stats, "model": stats["model"], "member": "expert", "adopted_from": str(ckpt.resolve())}
+    out = save_checkpoint(member_dir, step, weights, out_stats, {"step": step, "adopted_from": str(ckpt.resolve())}, ema)
+    log.info("nomad_neg/expert: adopted %s (step %d) as NoMaD_e", ckpt, step)
+    return out
+
