@@ -2,7 +2,8 @@
 # Small-scale RVN experiment on a CPU machine, end to end (SPEC.md; issue 7):
 #   rvn-gen expert + negative on procedural train scenes
 #   -> rvn-train ViNT-PointGoal, NoMaD-PointGoal, NoMaD-Neg (model.size=small)
-#   -> rvn-eval on procedural val scenes (the three, NoMaD-Neg with argmin CoR, oracle, random)
+#   -> rvn-eval on procedural val scenes (the three, NoMaD-Neg with argmin CoR; oracle, trajectory oracle,
+#      blind goal follower, random)
 #   -> python -m rvn_il.eval.report -> OUT/report.md (+ plots, per-episode logs in OUT/eval/*/)
 #
 #   bash jobs/small_experiment.sh [OUT]              # SCALE=small: < 2 h on 2 CPU cores
@@ -115,6 +116,8 @@ step train_nomad_neg rvn-train model=nomad_neg data.root="$DATA/rvn_expert" data
 export OMP_NUM_THREADS=1 MKL_NUM_THREADS=1
 step eval_random rvn-eval policy=random method=Random out_dir="$OUT/eval/random" "${EVAL[@]}"
 step eval_oracle rvn-eval policy=oracle method=Oracle out_dir="$OUT/eval/oracle" "${EVAL[@]}"
+# blind baseline: drives straight at the point goal (what a policy scores without looking)
+step eval_goal_follower rvn-eval policy=goal_follower "method=Goal follower" out_dir="$OUT/eval/goal_follower" "${EVAL[@]}"
 # the action adapter's ceiling: the expert's own next poses through the IL policies' waypoint -> action rule
 step eval_trajectory_oracle rvn-eval policy=trajectory_oracle "method=Trajectory oracle" policy.waypoint_index="$LOOKAHEAD" \
   out_dir="$OUT/eval/trajectory_oracle" "${EVAL[@]}"
@@ -128,7 +131,7 @@ step eval_nomad_neg rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/trai
 step eval_nomad_neg_argmin rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_neg" \
   method=NoMaD-Neg-argmin +policy.waypoint_index="$LOOKAHEAD" +policy.selection=argmin out_dir="$OUT/eval/nomad_neg_argmin" "${EVAL[@]}"
 
-RUNS=("$OUT/eval/random" "$OUT/eval/oracle" "$OUT/eval/trajectory_oracle" "$OUT/eval/vint_pointgoal" "$OUT/eval/nomad_pointgoal" "$OUT/eval/nomad_neg"
+RUNS=("$OUT/eval/random" "$OUT/eval/oracle" "$OUT/eval/goal_follower" "$OUT/eval/trajectory_oracle" "$OUT/eval/vint_pointgoal" "$OUT/eval/nomad_pointgoal" "$OUT/eval/nomad_neg"
       "$OUT/eval/nomad_neg_argmin")
 $PY -m rvn_il.eval.report "${RUNS[@]}" -o "$OUT/report.md" \
   --title "RVN small-scale experiment (SCALE=$SCALE: $TRAIN_SCENES train scenes x $TRAJ_PER_SCENE trajectories, val $EVAL_SCENES x $EVAL_EPISODES)"
