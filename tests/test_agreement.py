@@ -40,7 +40,11 @@ def test_agreement_replays_every_expert_frame(trained):
     # the first-waypoint rule is the expert follower's own rule: the true future gives its actions back
     assert result["adapter_ceiling"]["agreement"] >= 0.99, result["adapter_ceiling"]
     assert "agreement with the expert's action" in proc.stdout
-    # the last-waypoint rule (the default) cannot reproduce every turn even from the true future
+    # the blind goal follower is compared on every frame; the policy is scored apart where it is wrong
+    blind, needs_image = result["blind_goal_follower"], result["policy_where_blind_is_wrong"]
+    assert blind["steps"] == frames and 0 < needs_image["steps"] < frames
+    assert needs_image["steps"] == round(frames * (1 - blind["agreement"]))
+    # the last-waypoint rule cannot reproduce every turn even from the true future
     last = run("-m", "rvn_il.eval.agreement", str(trained / "run"), str(trained / "data"), "--waypoint-index", "-1")
     assert "adapter ceiling 1.000" not in last.stdout
 

@@ -9,7 +9,10 @@ in an episode) and the trajectory's goal relative to the recorded pose, exactly 
 ``rvn-eval`` feeds it, and its action is compared with the expert's. Printed: agreement,
 recall per action, the confusion matrix, and the *adapter ceiling*: the agreement of the
 same waypoint → action rule fed the ground-truth future poses (the best a perfect
-trajectory predictor could reach with these policy settings).
+trajectory predictor could reach with these policy settings), and the *blind* baseline: the
+agreement of the goal follower (``rvn_data.policies.GoalFollowerPolicy``: steer straight at
+the point goal, no image), with the policy's agreement on the frames where the blind rule is
+wrong: the frames where only the image tells the expert's action (a wall, a detour).
 
 Closed-loop success needs far more than this (errors compound), but it is minutes cheaper
 than ``rvn-eval``, and a policy that disagrees with the expert on its own data is not yet
@@ -27,6 +30,7 @@ import numpy as np
 
 from rvn_data.atomic import write_text_atomic
 from rvn_data.conventions import Action, from_planar, relative_goal
+from rvn_data.policies import GoalFollowerPolicy
 from rvn_il.data.dataset import to_local
 from rvn_il.data.images import read_rgb
 from rvn_il.policies.control import waypoints_to_action
@@ -52,8 +56,11 @@ def expert_trajectories(root: Path, split: str | None, limit: int | None) -> lis
 
 
 def agreement(policy, dirs: list[Path], len_traj_pred: int) -> dict:
-    """Confusion matrices [expert, chosen] of the policy and of the adapter ceiling."""
-    conf, ceiling = np.zeros((4, 4), np.int64), np.zeros((4, 4), np.int64)
+    """Confusion matrices [expert, chosen] of the policy, of the adapter ceiling, of the blind goal
+    follower, and of the policy on the frames where the blind goal follower is wrong."""
+    conf, ceiling, blind, needs_image = (np.zeros((4, 4), np.int64) for _ in range(4))
+    follower = GoalFollowerPolicy(stop_radius=policy.control.stop_radius,
+                                  theta_step_deg=np.degrees(policy.control.theta_step))
     for d in dirs:
         meta = json.loads((d / "rvn_meta.json").read_text())
         with open(d / "traj_data.pkl", "rb") as f:
@@ -65,10 +72,14 @@ def agreement(policy, dirs: list[Path], len_traj_pred: int) -> dict:
             pointgoal = relative_goal(from_planar(pos[t]), float(yaw[t]), goal)
             chosen = int(policy.act({"rgb": read_rgb(d / f"{t}.jpg"), "pointgoal": pointgoal}))
             conf[expert, chosen] += 1
+            blind_action = follower.act({"pointgoal": pointgoal})
+            blind[expert, blind_action] += 1
+            if blind_action != expert:
+                needs_image[expert, chosen] += 1
             future = pos[np.minimum(np.arange(t + 1, t + 1 + len_traj_pred), len(pos) - 1)]
             ideal = waypoints_to_action(to_local(future, pos[t], yaw[t]), pointgoal, policy.control)
             ceiling[expert, int(ideal)] += 1
-    return {"confusion": conf, "ceiling": ceiling}
+    return {"confusion": conf, "ceiling": ceiling, "blind": blind, "needs_image": needs_image}
 
 
 def summary(conf: np.ndarray) -> dict:
@@ -106,10 +117,15 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     out = {"checkpoint": str(args.checkpoint), "dataset": str(args.dataset), "trajectories": len(dirs),
            "policy": summary(result["confusion"]), "adapter_ceiling": summary(result["ceiling"]),
+           "blind_goal_follower": summary(result["blind"]), "policy_where_blind_is_wrong": summary(result["needs_image"]),
            "confusion": result["confusion"].tolist()}
     p, c = out["policy"], out["adapter_ceiling"]
     print(f"{args.checkpoint}: {len(dirs)} expert trajectories, {p['steps']} steps")
     print(f"  agreement with the expert's action: {p['agreement']:.3f}   (adapter ceiling {c['agreement']:.3f})")
+    b, n = out["blind_goal_follower"], out["policy_where_blind_is_wrong"]
+    print(f"  blind goal follower: {b['agreement']:.3f}; on the {n['steps']} steps where it is wrong (the image must "
+          f"tell), the policy agrees on {n['agreement']:.3f}\n    there, recall  " +
+          "  ".join(f"{k} {v:.2f}" for k, v in n["recall"].items()))
     print("  recall  " + "  ".join(f"{k} {v:.2f}" for k, v in p["recall"].items()))
     print("  confusion (rows expert, columns policy: " + " ".join(NAMES) + ")")
     for a in range(4):
