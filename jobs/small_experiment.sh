@@ -40,6 +40,8 @@ esac
 : "${GOAL_OFFSET_MAX:=40}"     # point goals up to this many frames ahead (the whole 4-8 m path; official 20)
 : "${NEG_EXPERT:=reuse}"     # reuse: NoMaD_e = the NoMaD-PointGoal checkpoint; train: train NoMaD_e on 93.75 % of the experts
 : "${SEED:=0}"
+: "${DEVICE:=cpu}"            # rvn-train device (cpu | cuda | auto); rvn-eval's policies stay on the CPU
+: "${RENDERER:=auto}"         # rvn-gen / rvn-eval renderer: auto | gl | raycast
 PY=${PYTHON:-python}
 
 # negatives per scene: round(TRAJ_PER_SCENE * NEG_FRACTION), at least 1
@@ -51,11 +53,11 @@ OUT=$(cd "$OUT" && pwd)
 DATA=$OUT/data
 CAMERA=("camera.width=$IMAGE" "camera.height=$IMAGE")
 TRAIN_SIZE=("model.size=small" "train.batch_size=$BATCH" "data.num_workers=0" "data.goal_offset=[1,$GOAL_OFFSET_MAX]"
-            "train.tqdm_interval=30" "seed=$SEED" "device=cpu")
+            "train.tqdm_interval=30" "seed=$SEED" "device=$DEVICE")
 [[ -n "$MAX_STEPS" ]] && TRAIN_SIZE+=("train.max_steps=$MAX_STEPS")
 [[ -n "$LR" ]] && TRAIN_SIZE+=("train.lr=$LR")
 EVAL=("split=val" "episodes.num_scenes=$EVAL_SCENES" "episodes.per_scene=$EVAL_EPISODES" "episodes.n_goals=$N_GOALS"
-      "env.t_max=$T_MAX" "episodes.dir=$OUT/episodes" "workers=$WORKERS" "progress=false" "seed=$SEED" "${CAMERA[@]}")
+      "env.t_max=$T_MAX" "episodes.dir=$OUT/episodes" "workers=$WORKERS" "progress=false" "seed=$SEED" "renderer=$RENDERER" "${CAMERA[@]}")
 
 # step NAME CMD...: run CMD unless OUT/.done/NAME holds the same command; log and time it
 step() {
@@ -93,17 +95,18 @@ export OMP_NUM_THREADS=$THREADS MKL_NUM_THREADS=$THREADS
 echo "small_experiment: SCALE=$SCALE OUT=$OUT: $TRAIN_SCENES train scenes x $TRAJ_PER_SCENE expert (+ $NEG_PER_SCENE negative)," \
      "${IMAGE}x$IMAGE images, epochs ViNT $VINT_EPOCHS / NoMaD $NOMAD_EPOCHS${MAX_STEPS:+ (max_steps $MAX_STEPS)}; eval $EVAL_SCENES val scenes x $EVAL_EPISODES episodes x $N_GOALS goals"
 
-GEN=("split=train" "scenes.num_scenes=$TRAIN_SCENES" "dataset.train_fraction=1.0" "workers=$WORKERS" "progress=false" "seed=$SEED" "${CAMERA[@]}")
+GEN=("split=train" "scenes.num_scenes=$TRAIN_SCENES" "dataset.train_fraction=1.0" "workers=$WORKERS" "progress=false" "seed=$SEED"
+     "renderer=$RENDERER" "${CAMERA[@]}")
 step gen_expert rvn-gen dataset=expert out_dir="$DATA/rvn_expert" trajectories_per_scene="$TRAJ_PER_SCENE" "${GEN[@]}"
 step gen_negative rvn-gen dataset=negative out_dir="$DATA/rvn_negative" trajectories_per_scene="$NEG_PER_SCENE" "${GEN[@]}"
 neg_splits
 
+step train_nomad rvn-train model=nomad_pointgoal data.root="$DATA/rvn_expert" out_dir="$OUT/train/nomad_pointgoal" \
+  train.epochs="$NOMAD_EPOCHS" "${TRAIN_SIZE[@]}"
 VINT_TRAIN=()
 if [[ -n "${VINT_MAX_STEPS:-}" && -z "$MAX_STEPS" ]]; then VINT_TRAIN=("train.max_steps=$VINT_MAX_STEPS"); fi
 step train_vint rvn-train model=vint_pointgoal data.root="$DATA/rvn_expert" out_dir="$OUT/train/vint_pointgoal" \
   train.epochs="$VINT_EPOCHS" "${TRAIN_SIZE[@]}" "${VINT_TRAIN[@]}"
-step train_nomad rvn-train model=nomad_pointgoal data.root="$DATA/rvn_expert" out_dir="$OUT/train/nomad_pointgoal" \
-  train.epochs="$NOMAD_EPOCHS" "${TRAIN_SIZE[@]}"
 # NEG_EXPERT=reuse: NoMaD_e is the NoMaD-PointGoal run (train.expert_from; rvn_il/train/adopt.py), so
 # NoMaD-Neg and NoMaD-PointGoal differ only by CoR and the second expert training is saved
 NEG_TRAIN=()

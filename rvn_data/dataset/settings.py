@@ -24,6 +24,8 @@ class GenSettings:
     name: str = "rvn_expert"
     seed: int = 0
     margin: float = 0.28  # m, obstacle inflation for A* (expert > r_robot, negative < r_robot)
+    clearance_pref: float | None = None  # m, soft clearance: moves closer to an obstacle cost more (planning/astar.py)
+    clearance_weight: float = 0.0  # extra cost factor at zero clearance (linear in the shortfall)
     d_min: float = 4.0  # m, path length range
     d_max: float = 8.0
     k_pre: int = 8  # negative: steps kept before the collision
@@ -57,6 +59,13 @@ class GenSettings:
             raise ValueError(f"dataset.resolution={self.resolution} must be in (0, 0.5] metres")
         if self.train_fraction > 1:
             raise ValueError(f"dataset.train_fraction={self.train_fraction} must be in [0, 1]")
+        if self.clearance_pref is not None and not (isinstance(self.clearance_pref, (int, float))
+                                                    and math.isfinite(self.clearance_pref) and self.clearance_pref > self.margin):
+            raise ValueError(f"dataset.clearance_pref={self.clearance_pref!r} must be null or a distance in metres "
+                             f"larger than the margin ({self.margin} m)")
+        if isinstance(self.clearance_weight, bool) or not isinstance(self.clearance_weight, (int, float)) \
+                or not math.isfinite(self.clearance_weight) or self.clearance_weight < 0:
+            raise ValueError(f"dataset.clearance_weight={self.clearance_weight!r} must be a finite number >= 0")
         if not isinstance(self.start_anywhere, bool):
             raise ValueError(f"dataset.start_anywhere={self.start_anywhere!r} must be true or false")
         for key in ("k_pre", "k_post", "max_steps", "max_attempts", "goal_candidates", "jpeg_quality", "seed"):
@@ -79,6 +88,8 @@ class GenSettings:
         out = asdict(self)
         out["agent"] = asdict(self.agent)
         del out["render_device"]
+        if self.clearance_pref is None or self.clearance_weight == 0:  # off: datasets made before it keep their identity
+            del out["clearance_pref"], out["clearance_weight"]
         return out
 
     @classmethod
@@ -98,7 +109,7 @@ class GenSettings:
         unknown = sorted(set(ds) - known)
         if unknown:
             raise ValueError(f"unknown dataset setting(s) {unknown}; known: {sorted(known)}")
-        floats = {"margin", "d_min", "d_max", "resolution", "stop_radius", "train_fraction"}
+        floats = {"margin", "clearance_pref", "clearance_weight", "d_min", "d_max", "resolution", "stop_radius", "train_fraction"}
         ds = {k: (float(v) if k in floats and isinstance(v, int) and not isinstance(v, bool) else v) for k, v in ds.items()}
         return cls(seed=cfg.get("seed", 0), renderer=str(renderer), render_device=device, agent=agent,
                    navmesh=dict(cfg.get("navmesh", {})), camera=dict(cfg.get("camera", {})), **ds)

@@ -107,7 +107,7 @@ def attempt(ctx: SceneContext, rng: np.random.Generator) -> Rollout | str:
             break
     if goal is None:
         return "no_goal"
-    plan = plan_path(grid, free, plan_start, goal)
+    plan = plan_path(grid, free, plan_start, goal, s.clearance_pref, s.clearance_weight)
     if plan is None:
         return "no_path"
     if plan_start is not start:

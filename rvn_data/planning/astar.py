@@ -5,6 +5,15 @@ neighbours are free, so a path never cuts an obstacle's corner). Heuristic: octi
 distance (admissible and consistent, so the path is a shortest 8-connected path).
 Pruning pulls the string: from each kept waypoint, the next one is the farthest later
 path cell still in line of sight on the free grid.
+
+Soft clearance (``clearance_pref``, off by default): the inflation margin is a hard limit,
+and on top of it each move costs ``1 + clearance_weight * (clearance_pref - c) / clearance_pref``
+times its length where the clearance c (metres to the nearest obstacle) is below
+``clearance_pref``: the cost-decaying inflation of ROS costmaps. Paths then keep to the
+middle of corridors and round corners widely instead of grazing the margin, and pruning
+never shortcuts closer to an obstacle than the path it replaces (or ``clearance_pref``).
+A discrete-action follower drifts up to d_step·sin(θ_step/2) ≈ 6.5 cm sideways per step, so
+paths that graze the margin are the ones that collide (rvn-gen's "collided" rejections).
 """
 from __future__ import annotations
 
@@ -28,8 +37,9 @@ def _octile(r, c, gr, gc):
 
 
 @njit(cache=True)
-def _astar(free, sr, sc, gr, gc):
-    """Shortest 8-connected path; returns (cells int64 [K, 2], length in cells) or ([], inf)."""
+def _astar(free, cost, sr, sc, gr, gc):
+    """Cheapest 8-connected path, a move costing its length times the mean ``cost`` (>= 1) of
+    its two cells; returns (cells int64 [K, 2], cost in cells) or ([], inf)."""
     rows, cols = free.shape
     n = rows * cols
     g = np.full(n, np.inf)
@@ -63,7 +73,7 @@ def _astar(free, sr, sc, gr, gc):
             v = vr * cols + vc
             if closed[v]:
                 continue
-            cand = g[u] + step
+            cand = g[u] + step * 0.5 * (cost[ur, uc] + cost[vr, vc])
             if cand < g[v]:
                 g[v] = cand
                 parent[v] = u
@@ -85,8 +95,8 @@ def _astar(free, sr, sc, gr, gc):
 
 
 @njit(cache=True)
-def _line_of_sight(free, r0, c0, r1, c1):
-    """True when every cell the segment between two cell centres touches is free."""
+def _line_of_sight(level, thresh, r0, c0, r1, c1):
+    """True when every cell the segment between two cell centres touches has ``level >= thresh``."""
     dr = r1 - r0
     dc = c1 - c0
     steps = int(4 * max(abs(dr), abs(dc))) + 1
@@ -97,13 +107,15 @@ def _line_of_sight(free, r0, c0, r1, c1):
         # the segment's cells, plus a quarter-cell of slack on each side
         for er in (-0.25, 0.25):
             for ec in (-0.25, 0.25):
-                if not free[int(math.floor(r + er)), int(math.floor(c + ec))]:
+                if level[int(math.floor(r + er)), int(math.floor(c + ec))] < thresh:
                     return False
     return True
 
 
 @njit(cache=True)
-def _prune(free, cells):
+def _prune(level, cells, cap):
+    """Keep a cell when the segment to the next kept one stays at ``level`` >= the smaller of
+    ``cap`` and the lowest level of the path cells it replaces."""
     keep = np.empty(cells.shape[0], np.int64)
     keep[0] = 0
     m = 1
@@ -111,7 +123,12 @@ def _prune(free, cells):
     last = cells.shape[0] - 1
     while i < last:
         j = i + 1
-        while j + 1 <= last and _line_of_sight(free, cells[i, 0], cells[i, 1], cells[j + 1, 0], cells[j + 1, 1]):
+        low = min(level[cells[i, 0], cells[i, 1]], level[cells[j, 0], cells[j, 1]])
+        while j + 1 <= last:
+            low_next = min(low, level[cells[j + 1, 0], cells[j + 1, 1]])
+            if not _line_of_sight(level, min(cap, low_next), cells[i, 0], cells[i, 1], cells[j + 1, 0], cells[j + 1, 1]):
+                break
+            low = low_next
             j += 1
         keep[m] = j
         m += 1
@@ -131,36 +148,60 @@ class Plan:
     grid_length: float
 
 
-def astar(free: np.ndarray, start: tuple[int, int], goal: tuple[int, int]) -> tuple[np.ndarray, float]:
-    """A* from cell `start` to cell `goal` on bool grid `free` → (cells [K, 2], length in
-    cells); ``(empty, inf)`` when no path exists or an end is not free."""
+def clearance_cost(clearance: np.ndarray, clearance_pref: float | None, clearance_weight: float) -> np.ndarray | None:
+    """Per-cell move-cost factor (>= 1) of the soft clearance (module docstring); None when off."""
+    if clearance_pref is None or clearance_weight <= 0:
+        return None
+    if not clearance_pref > 0:
+        raise ValueError(f"clearance_pref={clearance_pref} must be positive (metres) or null")
+    short = np.clip((clearance_pref - np.asarray(clearance, np.float64)) / clearance_pref, 0.0, None)
+    return 1.0 + clearance_weight * short
+
+
+def astar(free: np.ndarray, start: tuple[int, int], goal: tuple[int, int],
+          cost: np.ndarray | None = None) -> tuple[np.ndarray, float]:
+    """A* from cell `start` to cell `goal` on bool grid `free` → (cells [K, 2], cost in
+    cells: the length when ``cost`` is None, else the length weighted by the per-cell factor
+    ``cost`` >= 1); ``(empty, inf)`` when no path exists or an end is not free."""
     free = np.ascontiguousarray(free, dtype=np.bool_)
+    cost = np.ones(free.shape) if cost is None else np.ascontiguousarray(cost, dtype=np.float64)
     rows, cols = free.shape
     for r, c in (start, goal):
         if not (0 <= r < rows and 0 <= c < cols and free[r, c]):
             return np.zeros((0, 2), np.int64), math.inf
-    return _astar(free, int(start[0]), int(start[1]), int(goal[0]), int(goal[1]))
+    return _astar(free, cost, int(start[0]), int(start[1]), int(goal[0]), int(goal[1]))
 
 
-def prune_path(free: np.ndarray, cells: np.ndarray) -> np.ndarray:
-    """String-pulled subset of `cells` (first and last kept) with line of sight on `free`."""
+def prune_path(free: np.ndarray, cells: np.ndarray, clearance: np.ndarray | None = None,
+               clearance_pref: float | None = None) -> np.ndarray:
+    """String-pulled subset of `cells` (first and last kept) with line of sight on `free`;
+    with ``clearance`` and ``clearance_pref``, a shortcut may not pass closer to an obstacle
+    than the path cells it replaces (nor than ``clearance_pref``)."""
     if len(cells) <= 2:
         return np.asarray(cells, np.int64)
-    padded = np.zeros((free.shape[0] + 2, free.shape[1] + 2), np.bool_)
-    padded[1:-1, 1:-1] = free
-    return _prune(padded, np.asarray(cells, np.int64) + 1) - 1
+    level = np.zeros((free.shape[0] + 2, free.shape[1] + 2), np.float64)
+    if clearance is None or clearance_pref is None:
+        level[1:-1, 1:-1] = free
+        cap = 1.0
+    else:
+        level[1:-1, 1:-1] = np.where(free, clearance, 0.0)
+        cap = float(clearance_pref)
+    return _prune(level, np.asarray(cells, np.int64) + 1, cap) - 1
 
 
-def plan_path(grid: OccupancyGrid, free: np.ndarray, start: np.ndarray, goal: np.ndarray) -> Plan | None:
+def plan_path(grid: OccupancyGrid, free: np.ndarray, start: np.ndarray, goal: np.ndarray,
+              clearance_pref: float | None = None, clearance_weight: float = 0.0) -> Plan | None:
     """Plan from world point `start` to `goal` on the inflated grid `free`; None when
     either end is blocked or no path exists. Waypoints: exact start, pruned cell centres,
-    exact goal."""
+    exact goal. ``clearance_pref``/``clearance_weight``: the soft clearance (module docstring)."""
     s = grid.to_cell(start)
     g = grid.to_cell(goal)
-    cells, length = astar(free, (int(s[0]), int(s[1])), (int(g[0]), int(g[1])))
-    if not np.isfinite(length):
+    cost = clearance_cost(grid.clearance(), clearance_pref, clearance_weight)
+    cells, _ = astar(free, (int(s[0]), int(s[1])), (int(g[0]), int(g[1])), cost)
+    if len(cells) == 0:
         return None
-    pruned = prune_path(free, cells)
+    length = float(np.linalg.norm(np.diff(cells, axis=0), axis=1).sum())
+    pruned = prune_path(free, cells, grid.clearance() if cost is not None else None, clearance_pref)
     pts = grid.to_world(pruned)
     pts[0] = start
     pts[-1] = goal

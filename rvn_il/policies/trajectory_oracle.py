@@ -27,10 +27,13 @@ class TrajectoryOraclePolicy:
     """Expert's next ``len_traj_pred`` poses → `waypoints_to_action` (see module docstring)."""
 
     def __init__(self, waypoint_index: int | None = None, len_traj_pred: int = 8, margin_offset: float = 0.1,
-                 resolution: float = 0.05, lookahead_min_dist: float | None = None):
+                 resolution: float = 0.05, lookahead_min_dist: float | None = None,
+                 clearance_pref: float | None = None, clearance_weight: float = 0.0):
         self.waypoint_index = None if waypoint_index is None else int(waypoint_index)
         self.len_traj_pred, self.margin_offset = int(len_traj_pred), float(margin_offset)
         self.resolution, self.lookahead_min_dist = float(resolution), lookahead_min_dist
+        self.clearance_pref = None if clearance_pref is None else float(clearance_pref)
+        self.clearance_weight = float(clearance_weight)
         if self.len_traj_pred < 1 or self.resolution <= 0:
             raise ValueError(f"trajectory_oracle: len_traj_pred={len_traj_pred} must be >= 1 and resolution={resolution} > 0")
         self.env = None
@@ -65,7 +68,7 @@ class TrajectoryOraclePolicy:
         cell = grid.to_cell(position)
         inside = grid.contains(cell) and bool(free[cell[0], cell[1]])
         start = position if inside else exit_point(grid, free, position, self.margin - self.agent.r_robot + 2 * self.resolution)
-        plan = None if start is None else plan_path(grid, free, start, goal)
+        plan = None if start is None else plan_path(grid, free, start, goal, self.clearance_pref, self.clearance_weight)
         if plan is None:
             return np.zeros((self.len_traj_pred, 2))
         if start is not position:
