@@ -233,3 +233,30 @@ def test_expert_starts_anywhere_on_the_navmesh(tmp_path, anywhere):
         inside += clearance[r, c] <= margin
         assert m["actions"][-1] == Action.STOP  # reached the goal without collision all the same
     assert (inside > 0) == anywhere, inside
+
+
+def test_heading_perturbations_keep_the_expert_labels(tmp_path):
+    """dataset.perturb_prob: the expert is made to turn off its heading now and then and turns
+    back by itself; turns never move the robot, so the positions (the GNM labels) are the
+    unperturbed expert's path, frame for frame, with the perturbed frames added in place."""
+    runs = {}
+    for p in (0.0, 0.3):
+        out = tmp_path / f"p{p}"
+        rvn_gen(f"out_dir={out}", "scenes.num_scenes=1", "trajectories_per_scene=6", "camera.width=16",
+                "camera.height=16", "progress=false", f"dataset.perturb_prob={p}")
+        runs[p] = [json.loads(m.read_text()) for m in sorted(out.glob("*/rvn_meta.json"))]
+        for m in runs[p]:
+            assert m["actions"][-1] == Action.STOP  # the goal is reached without a collision all the same
+    plain, perturbed = runs[0.0], runs[0.3]
+    assert [m["start"] for m in plain] == [m["start"] for m in perturbed]  # same draws, same plans
+    extra = 0
+    for a, b in zip(plain, perturbed):
+        pa = pickle.loads((tmp_path / "p0.0" / a["name"] / "traj_data.pkl").read_bytes())["position"]
+        pb = pickle.loads((tmp_path / "p0.3" / b["name"] / "traj_data.pkl").read_bytes())["position"]
+        moved_a = pa[np.r_[True, np.any(np.diff(pa, axis=0) != 0, axis=1)]]
+        moved_b = pb[np.r_[True, np.any(np.diff(pb, axis=0) != 0, axis=1)]]
+        np.testing.assert_allclose(moved_a, moved_b, atol=1e-9)  # the same places visited, in order
+        extra += len(b["actions"]) - len(a["actions"])
+    assert extra >= 6  # turns away and back were added
+    bad = rvn_gen(f"out_dir={tmp_path / 'bad'}", "scenes.num_scenes=1", "dataset.perturb_prob=1.5", check=False)
+    assert bad.returncode != 0 and "dataset.perturb_prob=1.5" in bad.stderr, bad.stderr

@@ -98,3 +98,21 @@ def test_policies_are_deterministic_and_validate_obs():
             policy.act({"rgb": frames[0].astype(np.float32), "pointgoal": np.array([2.0, 0.0])})
     with pytest.raises(ValueError, match="selection"):
         NoMaDNegPolicy(members, CTRL, selection="min")
+
+
+def test_vote_follows_the_action_most_samples_lead_to():
+    """aggregate=vote: of 5 samples, 3 lead to TURN_LEFT, one forward, one right: the majority
+    action wins and its first sample is followed; a tie goes to the earliest sample's action."""
+    straight = np.stack([np.arange(1, 9) * 0.25, np.zeros(8)], axis=1)
+    left = np.stack([np.full(8, 0.1), np.arange(1, 9) * 0.25], axis=1)
+    right = left * [1, -1]
+    policy = PointGoalPolicy.__new__(PointGoalPolicy)
+    policy.control, policy.aggregate = CTRL, "vote"
+    goal = np.array([4.0, 0.0])
+    samples = np.stack([straight, left, right, left, left])
+    np.testing.assert_array_equal(policy.choose([samples], goal), left)
+    np.testing.assert_array_equal(policy.choose([np.stack([right, straight, straight, right])], goal), right)
+    policy.aggregate = "first"
+    np.testing.assert_array_equal(policy.choose([samples], goal), straight)
+    with pytest.raises(ValueError, match="aggregate"):
+        PointGoalPolicy([], CTRL, aggregate="mean")

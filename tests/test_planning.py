@@ -118,3 +118,32 @@ def test_integrate_planar_convention():
     assert np.allclose(to_planar(p), 0.25 * np.array([math.cos(math.radians(60)), math.sin(math.radians(60))]))
     _, yaw2 = integrate(p, yaw, Action.TURN_LEFT, agent)
     assert math.isclose(yaw2, math.radians(90))
+
+
+def path_clearance(grid, plan):
+    """Clearance (m) of the occupancy grid sampled every 1 cm along a plan's waypoints."""
+    pts = plan.waypoints[:, [0, 2]]
+    dense = np.concatenate([np.linspace(a, b, max(2, int(np.hypot(*(b - a)) / 0.01))) for a, b in zip(pts[:-1], pts[1:])])
+    cells = grid.to_cell(np.stack([dense[:, 0], np.zeros(len(dense)), dense[:, 1]], axis=1))
+    return grid.clearance()[cells[:, 0], cells[:, 1]]
+
+
+def test_soft_clearance_keeps_paths_off_the_margin(grid):
+    """With clearance_pref the path passes the table and the door jambs farther than the margin
+    that the plain shortest path grazes, for a little more length; the hard margin is unchanged."""
+    free = grid.inflate(0.2)
+    s, g = np.array([1.2, 0, 3.5]), np.array([2.5, 0, 0.4])  # past the table's corner
+    plain, soft = plan_path(grid, free, s, g), plan_path(grid, free, s, g, clearance_pref=0.5, clearance_weight=4.0)
+    c_plain, c_soft = path_clearance(grid, plain).min(), path_clearance(grid, soft).min()
+    assert c_plain < 0.23 and c_soft > c_plain + 0.05, (c_plain, c_soft)
+    assert plain.length <= soft.length < 1.05 * plain.length
+    s, g = np.array([1.5, 0, 3.4]), np.array([4.5, 0, 0.6])  # through the 0.6 m door
+    plain, soft = plan_path(grid, free, s, g), plan_path(grid, free, s, g, clearance_pref=0.5, clearance_weight=4.0)
+    c_plain, c_soft = path_clearance(grid, plain), path_clearance(grid, soft)
+    assert c_soft.min() > c_plain.min() and c_soft.mean() > c_plain.mean() + 0.05
+    assert plain.length <= soft.length < 1.1 * plain.length
+    # weight 0 or no preference: the plain plan
+    assert np.array_equal(plan_path(grid, free, s, g, 0.5, 0.0).waypoints, plain.waypoints)
+    assert plan_path(grid, grid.inflate(0.35), s, g, 0.5, 4.0) is None  # still closed by the hard margin
+    with pytest.raises(ValueError, match="clearance_pref"):
+        plan_path(grid, free, s, g, clearance_pref=-1.0, clearance_weight=4.0)

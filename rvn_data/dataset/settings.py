@@ -30,6 +30,8 @@ class GenSettings:
     d_max: float = 8.0
     k_pre: int = 8  # negative: steps kept before the collision
     k_post: int = 6  # negative: steps kept after it
+    perturb_prob: float = 0.0  # expert: chance per step of a perturbing turn (DART-style; dataset/trajectory.py)
+    perturb_max_turns: int = 2  # a perturbation turns 1..this many times theta_step to one side
     start_anywhere: bool = True  # starts anywhere on the navmesh (as the benchmark's); False: only outside the margin
     max_steps: int = 400  # step budget of one rollout
     max_attempts: int = 40  # start/goal draws per trajectory before it is given up
@@ -68,11 +70,14 @@ class GenSettings:
             raise ValueError(f"dataset.clearance_weight={self.clearance_weight!r} must be a finite number >= 0")
         if not isinstance(self.start_anywhere, bool):
             raise ValueError(f"dataset.start_anywhere={self.start_anywhere!r} must be true or false")
-        for key in ("k_pre", "k_post", "max_steps", "max_attempts", "goal_candidates", "jpeg_quality", "seed"):
+        if isinstance(self.perturb_prob, bool) or not isinstance(self.perturb_prob, (int, float)) \
+                or not 0 <= self.perturb_prob < 1:
+            raise ValueError(f"dataset.perturb_prob={self.perturb_prob!r} must be a probability in [0, 1)")
+        for key in ("k_pre", "k_post", "perturb_max_turns", "max_steps", "max_attempts", "goal_candidates", "jpeg_quality", "seed"):
             value = getattr(self, key)
             if isinstance(value, bool) or not isinstance(value, int) or value < 0:
                 raise ValueError(f"dataset.{key}={value!r} must be an integer >= 0")
-        for key in ("max_steps", "max_attempts", "goal_candidates"):
+        for key in ("perturb_max_turns", "max_steps", "max_attempts", "goal_candidates"):
             if getattr(self, key) < 1:
                 raise ValueError(f"dataset.{key}={getattr(self, key)} must be >= 1")
         if not 1 <= self.jpeg_quality <= 100:
@@ -90,6 +95,8 @@ class GenSettings:
         del out["render_device"]
         if self.clearance_pref is None or self.clearance_weight == 0:  # off: datasets made before it keep their identity
             del out["clearance_pref"], out["clearance_weight"]
+        if self.perturb_prob == 0:
+            del out["perturb_prob"], out["perturb_max_turns"]
         return out
 
     @classmethod
@@ -109,7 +116,7 @@ class GenSettings:
         unknown = sorted(set(ds) - known)
         if unknown:
             raise ValueError(f"unknown dataset setting(s) {unknown}; known: {sorted(known)}")
-        floats = {"margin", "clearance_pref", "clearance_weight", "d_min", "d_max", "resolution", "stop_radius", "train_fraction"}
+        floats = {"margin", "clearance_pref", "clearance_weight", "perturb_prob", "d_min", "d_max", "resolution", "stop_radius", "train_fraction"}
         ds = {k: (float(v) if k in floats and isinstance(v, int) and not isinstance(v, bool) else v) for k, v in ds.items()}
         return cls(seed=cfg.get("seed", 0), renderer=str(renderer), render_device=device, agent=agent,
                    navmesh=dict(cfg.get("navmesh", {})), camera=dict(cfg.get("camera", {})), **ds)

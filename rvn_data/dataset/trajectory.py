@@ -15,6 +15,14 @@ expert margin (closer to an obstacle than `margin`, e.g. facing a wall at 0.2 m)
 from the nearest cell outside it, so the trajectory first leaves the margin; such states
 are where a learned policy most often collides, and without them the expert data never
 shows them (`start_anywhere=False` restores "start_blocked" rejection).
+
+Heading perturbations (expert, ``perturb_prob`` > 0; off by default): before a step the
+follower would move or turn, with probability ``perturb_prob`` it is made to turn 1 to
+``perturb_max_turns`` times θ_step to a random side instead, and then recovers by itself
+(DART-style noise injection, Laskey et al. 2017). A turn does not move the robot, so the
+recorded positions, the labels of every frame, stay those of the expert's path; the frames
+show it off-heading, often facing a wall or furniture, with the path going elsewhere: the
+states a learned policy drifts into and the expert data otherwise never shows.
 """
 from __future__ import annotations
 
@@ -114,20 +122,33 @@ def attempt(ctx: SceneContext, rng: np.random.Generator) -> Rollout | str:
         plan = prepend_start(plan, start)
     if not s.d_min <= plan.length <= s.d_max:
         return "path_length"
-    return _follow(ctx, plan, start, start_yaw, goal, geodesic)
+    return _follow(ctx, plan, start, start_yaw, goal, geodesic, rng)
 
 
-def _follow(ctx: SceneContext, plan: Plan, start, start_yaw, goal, geodesic) -> Rollout | str:
+def _perturbed(follower: PathFollower, pos, yaw, s: GenSettings, rng: np.random.Generator, queue: list) -> Action:
+    """The follower's action, or a perturbing turn (module docstring); ``queue`` holds the
+    turns still to come of a perturbation."""
+    if queue:
+        return queue.pop()
+    action = follower.act(pos, yaw)
+    if s.kind == "expert" and s.perturb_prob > 0 and action != Action.STOP and rng.random() < s.perturb_prob:
+        turn = Action.TURN_LEFT if rng.random() < 0.5 else Action.TURN_RIGHT
+        queue.extend([turn] * int(rng.integers(0, s.perturb_max_turns)))
+        return turn
+    return action
+
+
+def _follow(ctx: SceneContext, plan: Plan, start, start_yaw, goal, geodesic, rng: np.random.Generator) -> Rollout | str:
     s = ctx.settings
     follower = PathFollower(plan.waypoints, s.agent, s.stop_radius)
     ctx.sim.reset(start, start_yaw)
     pos, yaw = np.array(start, dtype=np.float64), float(wrap_angle(start_yaw))
-    positions, yaws, actions = [], [], []
+    positions, yaws, actions, queue = [], [], [], []
     t_c = contact = None
     for t in range(s.max_steps):
         positions.append(pos)
         yaws.append(yaw)
-        action = follower.act(pos, yaw)
+        action = _perturbed(follower, pos, yaw, s, rng, queue)
         actions.append(int(action))
         if action == Action.STOP:
             break

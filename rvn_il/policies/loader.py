@@ -2,7 +2,7 @@
 
 Hydra: ``{_target_: rvn_il.policies.load_policy, checkpoint_path: <out_dir>, device: cpu,
 selection: argmin}`` — every keyword besides ``checkpoint_path``/``device``/``model`` overrides
-a ``model.policy`` setting (lookahead_min_dist, waypoint_index, num_samples, stop_radius,
+a ``model.policy`` setting (lookahead_min_dist, waypoint_index, num_samples, aggregate, stop_radius,
 selection, cor_alpha), the seed or an agent setting (r_robot, d_step, theta_step_deg).
 """
 from __future__ import annotations
@@ -21,7 +21,8 @@ from ..models.checkpoint import (latest_checkpoint, load_state_dict_checked, mem
 from .control import ControlConfig
 from .policy import Member, NoMaDNegPolicy, PointGoalPolicy
 
-POLICY_KEYS = {"lookahead_min_dist", "waypoint_index", "num_samples", "stop_radius", "selection", "cor_alpha", "seed"}
+POLICY_KEYS = {"lookahead_min_dist", "waypoint_index", "num_samples", "aggregate", "stop_radius", "selection", "cor_alpha",
+               "seed"}
 AGENT_KEYS = {f.name for f in dataclasses.fields(AgentConfig)}
 
 
@@ -63,6 +64,8 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
     members = [load_member(out_dir, m, model_cfg, dev) for m in members_of(name)]
     common = dict(num_samples=int(pol.get("num_samples", 8)), seed=int(pol["seed"]), device=dev)
     if name == "nomad_neg":
+        if pol.get("aggregate", "first") != "first":
+            raise ValueError(f"policy aggregate={pol['aggregate']!r}: NoMaD-Neg chooses its sample by CoR (policy.selection)")
         return NoMaDNegPolicy(members, control, selection=pol.get("selection", "argmax"),
                               cor_alpha=float(pol.get("cor_alpha", 1.0)), **common)
-    return PointGoalPolicy(members, control, **common)
+    return PointGoalPolicy(members, control, aggregate=str(pol.get("aggregate", "first")), **common)

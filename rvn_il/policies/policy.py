@@ -35,10 +35,19 @@ class Member:
 
 
 class PointGoalPolicy:
-    """ViNT-/NoMaD-PointGoal policy: follows sample 0 of ``num_samples`` predictions."""
+    """ViNT-/NoMaD-PointGoal policy over ``num_samples`` predicted trajectories: ``aggregate``
+    ``first`` follows sample 0 (as NoMaD's deployment code); ``vote`` turns every sample into
+    an action and takes the most frequent one (ties: the earliest sample's), which cancels the
+    sampling noise of an under-trained diffusion head while keeping a multi-modal choice (left or
+    right around an obstacle) whole, where the mean trajectory would run between the two."""
+
+    AGGREGATES = ("first", "vote")
 
     def __init__(self, members: list[Member], control: ControlConfig, num_samples: int = 8, seed: int = 0,
-                 device: str | torch.device = "cpu"):
+                 device: str | torch.device = "cpu", aggregate: str = "first"):
+        if aggregate not in self.AGGREGATES:
+            raise ValueError(f"policy aggregate={aggregate!r}; choose one of {self.AGGREGATES}")
+        self.aggregate = aggregate
         self.members, self.control = members, control
         self.num_samples, self.seed, self.device = int(num_samples), int(seed), torch.device(device)
         self.last_waypoints: np.ndarray | None = None  # metres, robot frame (for plots/debugging)
@@ -70,8 +79,14 @@ class PointGoalPolicy:
             out.append(wp.double().cpu().numpy() * m.spacing)
         return out
 
-    def choose(self, samples: list[np.ndarray]) -> np.ndarray:
-        return samples[0][0]
+    def choose(self, samples: list[np.ndarray], pointgoal: np.ndarray) -> np.ndarray:
+        """The trajectory to follow, of the first member's samples [S,len,2]."""
+        if self.aggregate == "first":
+            return samples[0][0]
+        actions = [int(waypoints_to_action(wp, pointgoal, self.control)) for wp in samples[0]]
+        counts = np.bincount(actions, minlength=len(Action))
+        best = max(actions, key=lambda a: (counts[a], -actions.index(a)))
+        return samples[0][actions.index(best)]
 
     @staticmethod
     def _check(obs) -> tuple[np.ndarray, np.ndarray]:
@@ -89,7 +104,7 @@ class PointGoalPolicy:
             tokens = self._push(rgb)
             if np.linalg.norm(pointgoal) < self.control.stop_radius:
                 return int(Action.STOP)
-            self.last_waypoints = self.choose(self.sample(tokens, pointgoal))
+            self.last_waypoints = self.choose(self.sample(tokens, pointgoal), pointgoal)
         return int(waypoints_to_action(self.last_waypoints, pointgoal, self.control))
 
 
@@ -106,6 +121,6 @@ class NoMaDNegPolicy(PointGoalPolicy):
         self.selection, self.cor_alpha = selection, float(cor_alpha)
         super().__init__(members, control, num_samples, seed, device)
 
-    def choose(self, samples: list[np.ndarray]) -> np.ndarray:
+    def choose(self, samples: list[np.ndarray], pointgoal: np.ndarray) -> np.ndarray:
         expert, negative = samples
         return expert[select_expert(expert, negative, self.cor_alpha, self.selection)]
