@@ -51,7 +51,7 @@ def test_tiny_experiment_end_to_end_and_rerun(tmp_path):
     adopted, source = latest(out / "train" / "nomad_neg" / "expert"), latest(out / "train" / "nomad_pointgoal" / "model")
     assert adopted.keys() == source.keys() and all(bool((adopted[k] == source[k]).all()) for k in source)
     steps = [ln.split("\t")[0] for ln in (out / "timings.tsv").read_text().splitlines()]
-    assert steps[:5] == ["gen_expert", "gen_negative", "train_vint", "train_nomad", "train_nomad_neg"] and len(steps) == 13
+    assert steps[:5] == ["gen_expert", "gen_negative", "train_nomad", "train_vint", "train_nomad_neg"] and len(steps) == 13
     # a rerun skips every step and rewrites the same report
     again = small_experiment(out)
     assert again.returncode == 0, again.stderr[-3000:]

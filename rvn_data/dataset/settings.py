@@ -61,10 +61,10 @@ class GenSettings:
             raise ValueError(f"dataset.resolution={self.resolution} must be in (0, 0.5] metres")
         if self.train_fraction > 1:
             raise ValueError(f"dataset.train_fraction={self.train_fraction} must be in [0, 1]")
-        if self.clearance_pref is not None and not (isinstance(self.clearance_pref, (int, float))
-                                                    and math.isfinite(self.clearance_pref) and self.clearance_pref > self.margin):
-            raise ValueError(f"dataset.clearance_pref={self.clearance_pref!r} must be null or a distance in metres "
-                             f"larger than the margin ({self.margin} m)")
+        if self.clearance_pref is not None and (isinstance(self.clearance_pref, bool) or not isinstance(
+                self.clearance_pref, (int, float)) or not math.isfinite(self.clearance_pref) or self.clearance_pref <= 0):
+            raise ValueError(f"dataset.clearance_pref={self.clearance_pref!r} must be null or a positive distance in metres "
+                             f"(at or below the margin, {self.margin} m, it changes nothing)")
         if isinstance(self.clearance_weight, bool) or not isinstance(self.clearance_weight, (int, float)) \
                 or not math.isfinite(self.clearance_weight) or self.clearance_weight < 0:
             raise ValueError(f"dataset.clearance_weight={self.clearance_weight!r} must be a finite number >= 0")
