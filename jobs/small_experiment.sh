@@ -2,7 +2,8 @@
 # Small-scale RVN experiment on a CPU machine, end to end (SPEC.md; issue 7):
 #   rvn-gen expert + negative on procedural train scenes
 #   -> rvn-train ViNT-PointGoal, NoMaD-PointGoal, NoMaD-Neg (model.size=small)
-#   -> rvn-eval on procedural val scenes (the three, NoMaD-Neg with argmin CoR; oracle, trajectory oracle,
+#   -> rvn-eval on procedural val scenes (the three, NoMaD-PointGoal voting over its samples, NoMaD-Neg with
+#      argmin CoR; oracle, trajectory oracle,
 #      blind goal follower, random)
 #   -> python -m rvn_il.eval.report -> OUT/report.md (+ plots, per-episode logs in OUT/eval/*/)
 #
@@ -128,13 +129,17 @@ step eval_vint rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/vin
   out_dir="$OUT/eval/vint_pointgoal" "${EVAL[@]}"
 step eval_nomad rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_pointgoal" method=NoMaD-PointGoal +policy.waypoint_index="$LOOKAHEAD" \
   +policy.num_samples="$NOMAD_SAMPLES" out_dir="$OUT/eval/nomad_pointgoal" "${EVAL[@]}"
+# NoMaD-PointGoal with policy.aggregate=vote: the action most of its 8 samples lead to (rvn_il/policies/policy.py)
+step eval_nomad_vote rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_pointgoal" method=NoMaD-PointGoal-vote \
+  +policy.aggregate=vote out_dir="$OUT/eval/nomad_pointgoal_vote" "${EVAL[@]}"
 step eval_nomad_neg rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_neg" method=NoMaD-Neg +policy.waypoint_index="$LOOKAHEAD" \
   out_dir="$OUT/eval/nomad_neg" "${EVAL[@]}"
 # the paper writes argmin CoR; by its equation argmax keeps away from the negatives (SPEC.md "Baselines")
 step eval_nomad_neg_argmin rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_neg" \
   method=NoMaD-Neg-argmin +policy.waypoint_index="$LOOKAHEAD" +policy.selection=argmin out_dir="$OUT/eval/nomad_neg_argmin" "${EVAL[@]}"
 
-RUNS=("$OUT/eval/random" "$OUT/eval/oracle" "$OUT/eval/goal_follower" "$OUT/eval/trajectory_oracle" "$OUT/eval/vint_pointgoal" "$OUT/eval/nomad_pointgoal" "$OUT/eval/nomad_neg"
+RUNS=("$OUT/eval/random" "$OUT/eval/oracle" "$OUT/eval/goal_follower" "$OUT/eval/trajectory_oracle" "$OUT/eval/vint_pointgoal" "$OUT/eval/nomad_pointgoal"
+      "$OUT/eval/nomad_pointgoal_vote" "$OUT/eval/nomad_neg"
       "$OUT/eval/nomad_neg_argmin")
 $PY -m rvn_il.eval.report "${RUNS[@]}" -o "$OUT/report.md" \
   --title "RVN small-scale experiment (SCALE=$SCALE: $TRAIN_SCENES train scenes x $TRAJ_PER_SCENE trajectories, val $EVAL_SCENES x $EVAL_EPISODES)"

@@ -78,6 +78,10 @@ def test_resume_skips_done_episodes(runs, tmp_path):
     assert got[0]["steps"] == json.loads(lines[0])["steps"] + 1000
     assert got[1:] == [json.loads(x) for x in lines[1:]]
     assert load(out)["steps"] == load(src)["steps"] + 1000
+    # a rerun of a finished run, with workers: nothing left to do, the same files
+    before = {n: (out / n).read_bytes() for n in ("episodes.jsonl", "metrics.json")}
+    ok(rvn_eval(runs, "policy=oracle", f"out_dir={out}", "workers=2"))
+    assert {n: (out / n).read_bytes() for n in before} == before
 
 
 def test_resume_with_other_settings_is_an_error(runs):

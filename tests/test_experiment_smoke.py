@@ -15,7 +15,8 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
-METHODS = ("Random", "Oracle", "Goal follower", "Trajectory oracle", "ViNT-PointGoal", "NoMaD-PointGoal", "NoMaD-Neg", "NoMaD-Neg-argmin")
+METHODS = ("Random", "Oracle", "Goal follower", "Trajectory oracle", "ViNT-PointGoal", "NoMaD-PointGoal", "NoMaD-PointGoal-vote", "NoMaD-Neg",
+           "NoMaD-Neg-argmin")
 
 
 def small_experiment(out: Path, **env) -> subprocess.CompletedProcess:
@@ -51,11 +52,11 @@ def test_tiny_experiment_end_to_end_and_rerun(tmp_path):
     adopted, source = latest(out / "train" / "nomad_neg" / "expert"), latest(out / "train" / "nomad_pointgoal" / "model")
     assert adopted.keys() == source.keys() and all(bool((adopted[k] == source[k]).all()) for k in source)
     steps = [ln.split("\t")[0] for ln in (out / "timings.tsv").read_text().splitlines()]
-    assert steps[:5] == ["gen_expert", "gen_negative", "train_nomad", "train_vint", "train_nomad_neg"] and len(steps) == 13
+    assert steps[:5] == ["gen_expert", "gen_negative", "train_nomad", "train_vint", "train_nomad_neg"] and len(steps) == 14
     # a rerun skips every step and rewrites the same report
     again = small_experiment(out)
     assert again.returncode == 0, again.stderr[-3000:]
-    assert again.stdout.count("done before, skipped") == 13
+    assert again.stdout.count("done before, skipped") == 14
     assert (out / "report.md").read_text() == report
 
 

@@ -135,6 +135,8 @@ def _pool(workers: int, cfg: dict | None = None):
 def prepare_episodes(cfg: dict, slots: list, workers: int, progress: Callable | None = None) -> None:
     """Generate and cache the episode files of every scene (in parallel when workers > 1)."""
     tasks = [(cfg, slot) for slot in slots]
+    if not tasks:  # every episode already done (a resumed run): no pool of zero processes
+        return
     if workers <= 1:
         for t in tasks:
             _prepare_task(t)
