@@ -37,9 +37,9 @@ def _octile(r, c, gr, gc):
 
 
 @njit(cache=True)
-def _astar(free, cost, sr, sc, gr, gc):
-    """Cheapest 8-connected path, a move costing its length times the mean ``cost`` (>= 1) of
-    its two cells; returns (cells int64 [K, 2], cost in cells) or ([], inf)."""
+def _astar(free, cost, weighted, sr, sc, gr, gc):
+    """Cheapest 8-connected path, a move costing its length (times the mean ``cost`` >= 1 of its
+    two cells when ``weighted``); returns (cells int64 [K, 2], cost in cells) or ([], inf)."""
     rows, cols = free.shape
     n = rows * cols
     g = np.full(n, np.inf)
@@ -73,7 +73,9 @@ def _astar(free, cost, sr, sc, gr, gc):
             v = vr * cols + vc
             if closed[v]:
                 continue
-            cand = g[u] + step * 0.5 * (cost[ur, uc] + cost[vr, vc])
+            if weighted:
+                step *= 0.5 * (cost[ur, uc] + cost[vr, vc])
+            cand = g[u] + step
             if cand < g[v]:
                 g[v] = cand
                 parent[v] = u
@@ -148,28 +150,19 @@ class Plan:
     grid_length: float
 
 
-def clearance_cost(clearance: np.ndarray, clearance_pref: float | None, clearance_weight: float) -> np.ndarray | None:
-    """Per-cell move-cost factor (>= 1) of the soft clearance (module docstring); None when off."""
-    if clearance_pref is None or clearance_weight <= 0:
-        return None
-    if not clearance_pref > 0:
-        raise ValueError(f"clearance_pref={clearance_pref} must be positive (metres) or null")
-    short = np.clip((clearance_pref - np.asarray(clearance, np.float64)) / clearance_pref, 0.0, None)
-    return 1.0 + clearance_weight * short
-
-
 def astar(free: np.ndarray, start: tuple[int, int], goal: tuple[int, int],
           cost: np.ndarray | None = None) -> tuple[np.ndarray, float]:
     """A* from cell `start` to cell `goal` on bool grid `free` → (cells [K, 2], cost in
     cells: the length when ``cost`` is None, else the length weighted by the per-cell factor
     ``cost`` >= 1); ``(empty, inf)`` when no path exists or an end is not free."""
     free = np.ascontiguousarray(free, dtype=np.bool_)
-    cost = np.ones(free.shape) if cost is None else np.ascontiguousarray(cost, dtype=np.float64)
+    weighted = cost is not None
+    cost = np.ascontiguousarray(cost, dtype=np.float64) if weighted else np.ones((1, 1))
     rows, cols = free.shape
     for r, c in (start, goal):
         if not (0 <= r < rows and 0 <= c < cols and free[r, c]):
             return np.zeros((0, 2), np.int64), math.inf
-    return _astar(free, cost, int(start[0]), int(start[1]), int(goal[0]), int(goal[1]))
+    return _astar(free, cost, weighted, int(start[0]), int(start[1]), int(goal[0]), int(goal[1]))
 
 
 def prune_path(free: np.ndarray, cells: np.ndarray, clearance: np.ndarray | None = None,
@@ -196,7 +189,7 @@ def plan_path(grid: OccupancyGrid, free: np.ndarray, start: np.ndarray, goal: np
     exact goal. ``clearance_pref``/``clearance_weight``: the soft clearance (module docstring)."""
     s = grid.to_cell(start)
     g = grid.to_cell(goal)
-    cost = clearance_cost(grid.clearance(), clearance_pref, clearance_weight)
+    cost = grid.move_cost(clearance_pref, clearance_weight)
     cells, _ = astar(free, (int(s[0]), int(s[1])), (int(g[0]), int(g[1])), cost)
     if len(cells) == 0:
         return None

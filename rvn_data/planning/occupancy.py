@@ -123,6 +123,7 @@ class OccupancyGrid:
     resolution: float
     floor_height: float
     _clearance: np.ndarray | None = field(default=None, repr=False)
+    _move_costs: dict = field(default_factory=dict, repr=False)
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -133,6 +134,19 @@ class OccupancyGrid:
         if self._clearance is None:
             self._clearance = (distance_transform_edt(~self.occupied) * self.resolution).astype(np.float32)
         return self._clearance
+
+    def move_cost(self, clearance_pref: float | None, clearance_weight: float) -> np.ndarray | None:
+        """Per-cell A* move-cost factor (>= 1) of the soft clearance (planning/astar.py), computed
+        once per setting and kept; None when it is off."""
+        if clearance_pref is None or clearance_weight <= 0:
+            return None
+        if not clearance_pref > 0:
+            raise ValueError(f"clearance_pref={clearance_pref} must be positive (metres) or null")
+        key = (float(clearance_pref), float(clearance_weight))
+        if key not in self._move_costs:
+            short = np.clip((clearance_pref - self.clearance().astype(np.float64)) / clearance_pref, 0.0, None)
+            self._move_costs[key] = 1.0 + clearance_weight * short
+        return self._move_costs[key]
 
     def inflate(self, margin: float) -> np.ndarray:
         """Free cells (bool) once obstacles are inflated by `margin` metres."""
