@@ -1,5 +1,6 @@
 """Figures of issue 6 (rvn-train): loader samples/s from the packed cache (2 workers),
-training samples/s on CPU per model (full size, batch 8; small size, batch 32), and
+training samples/s on CPU per model (full size, batch 8; small size, batch 32; rvn-train's NHWC
+encoder against NCHW), and
 per-decision latency on CPU of the ViNT, NoMaD (8 samples x 10 steps) and NoMaD-Neg (2 x 8)
 policies. Goals: loader >= 2,000 samples/s; a NoMaD decision <= 100 ms.
 
@@ -42,10 +43,13 @@ def loader_rate(root: Path, cfg: dict, workers: int, batch: int, batches: int) -
     return rate
 
 
-def train_rate(root: Path, cfg: dict, batch: int, steps: int) -> float:
+def train_rate(root: Path, cfg: dict, batch: int, steps: int, channels_last: bool = True) -> float:
+    """Samples/s of training steps; ``channels_last`` as rvn-train (NHWC encoder weights), else NCHW."""
     ds = make_dataset(root, cfg, {"progress": False})
     torch.manual_seed(0)
     model = build_model(cfg).train()
+    if channels_last:
+        model.use_channels_last()
     opt = torch.optim.AdamW(model.parameters(), lr=1e-4)
     gen = torch.Generator().manual_seed(0)
     times = []
@@ -99,7 +103,9 @@ def main() -> None:
         for name in ("vint_pointgoal", "nomad_pointgoal"):
             for size, batch in (("full", 8), ("small", 32)):
                 rate = train_rate(root, load_model_config(name, size), batch, reps)
-                print(f"  {name:16s} {size:5s} batch {batch:3d}: {rate:8.1f} samples/s")
+                nchw = train_rate(root, load_model_config(name, size), batch, reps, channels_last=False)
+                print(f"  {name:16s} {size:5s} batch {batch:3d}: {rate:8.1f} samples/s  (NCHW encoder: {nchw:6.1f}, "
+                      f"x{rate / nchw:.2f})")
         print("  (nomad_neg trains two nomad_pointgoal models one after the other: half the nomad rate)")
     print("\nper-decision latency on CPU (256x256 frame -> action; median):")
     for name, what in (("vint_pointgoal", "1 pass"), ("nomad_pointgoal", "8 samples x 10 steps"),

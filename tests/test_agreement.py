@@ -47,10 +47,17 @@ def test_agreement_replays_every_expert_frame(trained):
     # the last-waypoint rule cannot reproduce every turn even from the true future
     last = run("-m", "rvn_il.eval.agreement", str(trained / "run"), str(trained / "data"), "--waypoint-index", "-1")
     assert "adapter ceiling 1.000" not in last.stdout
+    # vote over NoMaD's samples: the same frames, scored as rvn-eval's policy.aggregate=vote
+    vote = trained / "vote.json"
+    run("-m", "rvn_il.eval.agreement", str(trained / "run"), str(trained / "data"), "--num-samples", "4",
+        "--aggregate", "vote", "--json", str(vote))
+    assert json.loads(vote.read_text())["policy"]["steps"] == frames
 
 
 def test_agreement_bad_input_is_one_line(trained):
     proc = run("-m", "rvn_il.eval.agreement", str(trained / "run"), str(trained), "--split", "test", check=False)
     assert proc.returncode == 2 and "data_splits" in proc.stderr and "Traceback" not in proc.stderr
+    proc = run("-m", "rvn_il.eval.agreement", str(trained / "run"), str(trained / "data"), "--aggregate", "mean", check=False)
+    assert proc.returncode == 2 and "aggregate='mean'" in proc.stderr and "Traceback" not in proc.stderr
     proc = run("-m", "rvn_il.eval.agreement", str(trained / "data"), str(trained / "data"), check=False)
     assert proc.returncode == 2 and "not an rvn-train checkpoint directory" in proc.stderr

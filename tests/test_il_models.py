@@ -97,3 +97,23 @@ def test_ema_warms_up_like_diffusers_0_11():
     ema.update(net)
     d = ema.decay()
     torch.testing.assert_close(ema.shadow["weight"], torch.full((1, 2), d * 1.0 + (1 - d) * 2.0))
+
+
+@pytest.mark.parametrize("name", ["vint_pointgoal", "nomad_pointgoal"])
+def test_channels_last_training_layout_keeps_values_and_checkpoints(name):
+    """rvn-train's NHWC encoder (use_channels_last) computes what NCHW computes; its state dict
+    loads into an NCHW model (a policy) and gives the same tokens."""
+    cfg = load_model_config(name, "small")
+    torch.manual_seed(0)
+    nchw = build_model(cfg).eval()
+    nhwc = build_model(cfg).eval()
+    nhwc.load_state_dict(nchw.state_dict())
+    nhwc.use_channels_last()
+    conv = next(p for p in nhwc.obs_encoder.parameters() if p.dim() == 4)
+    assert conv.is_contiguous(memory_format=torch.channels_last) and not conv.is_contiguous()
+    images = torch.rand(6, 3, 64, 64, generator=torch.Generator().manual_seed(2))
+    with torch.inference_mode():
+        torch.testing.assert_close(nhwc.encode_frames(images), nchw.encode_frames(images), rtol=1e-4, atol=1e-5)
+        back = build_model(cfg).eval()
+        back.load_state_dict({k: v.contiguous() for k, v in nhwc.state_dict().items()})  # as save_checkpoint writes
+        torch.testing.assert_close(back.encode_frames(images), nchw.encode_frames(images), rtol=1e-4, atol=1e-5)

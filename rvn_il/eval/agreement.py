@@ -1,7 +1,7 @@
 """Open-loop check of a trained policy: does it pick the expert's action on expert frames?
 
     python -m rvn_il.eval.agreement CHECKPOINT_DIR DATASET_ROOT [--split test] [--max-trajectories 40]
-        [--waypoint-index -1|none] [--num-samples 1] [--json out.json]
+        [--waypoint-index -1|none] [--num-samples 1] [--aggregate first|vote] [--json out.json]
 
 Replays expert trajectories written by ``rvn-gen`` (GNM frames + the ``rvn_meta.json``
 sidecar: actions and goal). At every frame the policy sees the frame (its context grows as
@@ -96,7 +96,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--max-trajectories", type=int, default=40)
     ap.add_argument("--waypoint-index", default=None, help="policy lookahead override: an index, or none (first "
                     "waypoint beyond lookahead_min_dist); default: the checkpoint's")
-    ap.add_argument("--num-samples", type=int, default=1, help="samples per decision (NoMaD; sample 0 is followed)")
+    ap.add_argument("--num-samples", type=int, default=1, help="samples per decision (NoMaD)")
+    ap.add_argument("--aggregate", default=None, help="NoMaD-PointGoal: first (follow sample 0) | vote (the action most "
+                    "samples lead to); default: the checkpoint's")
     ap.add_argument("--json", default=None, help="also write the figures to this JSON file")
     args = ap.parse_args(argv)
     try:
@@ -106,6 +108,8 @@ def main(argv: list[str] | None = None) -> int:
 
         torch.set_num_threads(max(1, torch.get_num_threads()))
         overrides = {"num_samples": args.num_samples}
+        if args.aggregate is not None:
+            overrides["aggregate"] = args.aggregate
         if args.waypoint_index is not None:
             overrides["waypoint_index"] = None if args.waypoint_index.lower() in ("none", "null") else int(args.waypoint_index)
         policy = load_policy(args.checkpoint, **overrides)

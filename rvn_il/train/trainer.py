@@ -112,7 +112,7 @@ def train_member(cfg: Mapping, member: str, index: int, root: str, out_dir: Path
     if rank != 0:
         dataset = make_dataset(root, model_cfg, data_cfg, seed, build=False)
     torch.manual_seed(derive_seed(seed, index))
-    model = build_model(model_cfg).to(device)
+    model = build_model(model_cfg).to(device).use_channels_last()
     if model_cfg.get("action_stats") == "auto":  # NoMaD: delta range of this member's data
         lo, hi = dataset.delta_range()
         model.action_min.copy_(torch.from_numpy(lo).float())
