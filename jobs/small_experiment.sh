@@ -20,9 +20,9 @@ set -euo pipefail
 SCALE=${SCALE:-small}
 OUT=${1:-${OUT:-runs/small_experiment_${SCALE}}}
 case "$SCALE" in
-  small)  # sized for ~1.7 h on a quiet 2-core machine (jobs/paper_scale.md, "Time budget"); NoMaD: 5 epochs, because
+  small)  # sized for ~1.5 h on a quiet 2-core machine (jobs/paper_scale.md, "Time budget"); NoMaD: 4 epochs, because
           # it under-fits at this size and 6 epochs doubled its SR_1 over 3 (docs/results/2026-11-23_small_experiment_2/diagnosis.md)
-    : "${TRAIN_SCENES:=64}" "${TRAJ_PER_SCENE:=32}" "${IMAGE:=64}" "${VINT_EPOCHS:=1}" "${NOMAD_EPOCHS:=5}" "${MAX_STEPS:=}"
+    : "${TRAIN_SCENES:=64}" "${TRAJ_PER_SCENE:=32}" "${IMAGE:=64}" "${VINT_EPOCHS:=1}" "${NOMAD_EPOCHS:=4}" "${MAX_STEPS:=}"
     : "${VINT_MAX_STEPS:=900}"  # ViNT: 900 of its 2,200 steps per epoch (~15 min); NoMaD gets the time budget
     : "${EVAL_SCENES:=20}" "${EVAL_EPISODES:=3}" "${N_GOALS:=32}" "${T_MAX:=500}" "${LR:=1e-3}" ;;
   tiny)   # smoke test of the whole chain (tests/test_experiment_smoke.py)
