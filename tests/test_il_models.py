@@ -7,6 +7,7 @@ import torch
 from rvn_il.data import make_dataset
 from rvn_il.data.synthetic import write_synthetic_gnm
 from rvn_il.models import build_model, load_model_config
+from rvn_il.models.checkpoint import load_state_dict_checked, read_weights, save_checkpoint
 from rvn_il.models.unet1d import ConditionalUnet1D
 
 torch.set_num_threads(1)
@@ -100,9 +101,9 @@ def test_ema_warms_up_like_diffusers_0_11():
 
 
 @pytest.mark.parametrize("name", ["vint_pointgoal", "nomad_pointgoal"])
-def test_channels_last_training_layout_keeps_values_and_checkpoints(name):
-    """rvn-train's NHWC encoder (use_channels_last) computes what NCHW computes; its state dict
-    loads into an NCHW model (a policy) and gives the same tokens."""
+def test_channels_last_training_layout_keeps_values_and_checkpoints(name, tmp_path):
+    """rvn-train's NHWC encoder (use_channels_last) computes what NCHW computes; its checkpoint
+    (save_checkpoint) loads into an NCHW model (a policy) and gives the same tokens."""
     cfg = load_model_config(name, "small")
     torch.manual_seed(0)
     nchw = build_model(cfg).eval()
@@ -114,6 +115,7 @@ def test_channels_last_training_layout_keeps_values_and_checkpoints(name):
     images = torch.rand(6, 3, 64, 64, generator=torch.Generator().manual_seed(2))
     with torch.inference_mode():
         torch.testing.assert_close(nhwc.encode_frames(images), nchw.encode_frames(images), rtol=1e-4, atol=1e-5)
+        ckpt = save_checkpoint(tmp_path / "model", 1, nhwc.state_dict(), {"model": name}, {"step": 1})
         back = build_model(cfg).eval()
-        back.load_state_dict({k: v.contiguous() for k, v in nhwc.state_dict().items()})  # as save_checkpoint writes
+        load_state_dict_checked(back, read_weights(ckpt, name), ckpt)
         torch.testing.assert_close(back.encode_frames(images), nchw.encode_frames(images), rtol=1e-4, atol=1e-5)
