@@ -2,9 +2,14 @@
 training samples/s on CPU per model (full size, batch 8; small size, batch 32; rvn-train's NHWC
 encoder against NCHW), and
 per-decision latency on CPU of the ViNT, NoMaD (8 samples x 10 steps) and NoMaD-Neg (2 x 8)
-policies. Goals: loader >= 2,000 samples/s; a NoMaD decision <= 100 ms.
+policies, NoMaD's beside the reference sampling path (``predict(fast=False)``: module forward
+and diffusers' ``DDPMScheduler.step``, the implementation before issue 15) as a ratio. Goals:
+loader >= 2,000 samples/s; a NoMaD decision <= 100 ms; a NoMaD-Neg decision <= 200 ms.
 
-    python benchmarks/train.py [--threads N] [--workers 2] [--quick]
+    python benchmarks/train.py [--threads N] [--policy-threads 1] [--workers 2] [--quick] [--latency-only]
+
+``--threads`` sets torch's intra-op threads; a policy decision runs with at most
+``--policy-threads`` of them (the policies' ``threads`` setting, default 1; 0: torch's setting).
 
 Runs on a synthetic GNM dataset written to a temporary folder; random-init weights (speed
 does not depend on them). The machine is shared: numbers are as measured.
@@ -64,40 +69,42 @@ def train_rate(root: Path, cfg: dict, batch: int, steps: int, channels_last: boo
     return batch / statistics.median(times[1:])
 
 
-def decision_ms(name: str, size: str, decisions: int) -> float:
+def decision_ms(name: str, size: str, decisions: int, threads: int | None = 1) -> tuple[float, float | None]:
+    """Median ms per ``act`` of the policy and, for NoMaD models, of the same policy on the
+    reference sampling path (same weights and frames, the two timed alternately)."""
     cfg = load_model_config("nomad_pointgoal" if name == "nomad_neg" else name, size)
     ctrl = ControlConfig.from_agent(AgentConfig())
-    torch.manual_seed(0)
-    members = [Member(build_model(cfg).eval(), 0.25) for _ in range(2 if name == "nomad_neg" else 1)]
-    policy = (NoMaDNegPolicy(members, ctrl, 8) if name == "nomad_neg"
-              else PointGoalPolicy(members, ctrl, 1 if name == "vint_pointgoal" else 8))
+    paths = (True, False) if name != "vint_pointgoal" else (True,)
+    policies = []
+    for fast in paths:
+        torch.manual_seed(0)
+        members = [Member(build_model(cfg).eval(), 0.25) for _ in range(2 if name == "nomad_neg" else 1)]
+        for m in members:
+            m.model.fast_sampling = fast
+        policies.append(NoMaDNegPolicy(members, ctrl, 8, threads=threads) if name == "nomad_neg"
+                        else PointGoalPolicy(members, ctrl, 1 if name == "vint_pointgoal" else 8, threads=threads))
     frames = [render_frame(np.array([0.25 * t, 0.0]), 0.05 * t, 256) for t in range(decisions + 3)]
-    policy.reset()
-    times = []
+    times = [[] for _ in policies]
+    for policy in policies:
+        policy.reset()
     for f in frames:
-        t = time.perf_counter()
-        policy.act({"rgb": f, "pointgoal": np.array([4.0, 1.0], np.float32)})
-        times.append(time.perf_counter() - t)
-    return 1e3 * statistics.median(times[3:])
+        for policy, ts in zip(policies, times):
+            t = time.perf_counter()
+            policy.act({"rgb": f, "pointgoal": np.array([4.0, 1.0], np.float32)})
+            ts.append(time.perf_counter() - t)
+    ms = [1e3 * statistics.median(ts[3:]) for ts in times]
+    return ms[0], ms[1] if len(ms) > 1 else None
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--threads", type=int, default=1,
-                    help="torch intra-op threads (default 1: on a shared machine more threads spin-wait on each other)")
-    ap.add_argument("--workers", type=int, default=2, help="DataLoader workers for the loader figure")
-    ap.add_argument("--quick", action="store_true", help="fewer repetitions")
-    args = ap.parse_args()
-    torch.set_num_threads(args.threads)
-    reps = 3 if args.quick else 10
-    print(f"torch {torch.__version__}, {args.threads} thread(s), loader workers {args.workers}")
+def data_figures(workers: int, reps: int) -> None:
+    """Loader and training rates on a synthetic GNM dataset in a temporary folder."""
     with tempfile.TemporaryDirectory() as tmp:
         root = write_synthetic_gnm(Path(tmp) / "expert", 40, 40, image_size=256)
         print("\nloader (packed HDF5 cache, batch 256):")
         for name in ("vint_pointgoal", "nomad_pointgoal"):
             cfg = load_model_config(name)
             w, h = cfg["image_size"]
-            rate = loader_rate(root, cfg, args.workers, 256, reps)
+            rate = loader_rate(root, cfg, workers, 256, reps)
             print(f"  {name:16s} {w}x{h}, {cfg['context_size'] + 1} frames: {rate:8.0f} samples/s  (goal >= 2000)")
         print("\ntraining on CPU (forward + backward + AdamW):")
         for name in ("vint_pointgoal", "nomad_pointgoal"):
@@ -107,13 +114,33 @@ def main() -> None:
                 print(f"  {name:16s} {size:5s} batch {batch:3d}: {rate:8.1f} samples/s  (NCHW encoder: {nchw:6.1f}, "
                       f"x{rate / nchw:.2f})")
         print("  (nomad_neg trains two nomad_pointgoal models one after the other: half the nomad rate)")
-    print("\nper-decision latency on CPU (256x256 frame -> action; median):")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--threads", type=int, default=1,
+                    help="torch intra-op threads (default 1: on a shared machine more threads spin-wait on each other)")
+    ap.add_argument("--policy-threads", type=int, default=1,
+                    help="intra-op threads of a policy decision (the policies' threads setting; 0: as --threads)")
+    ap.add_argument("--workers", type=int, default=2, help="DataLoader workers for the loader figure")
+    ap.add_argument("--quick", action="store_true", help="fewer repetitions")
+    ap.add_argument("--latency-only", action="store_true", help="only the per-decision latency figures")
+    args = ap.parse_args()
+    torch.set_num_threads(args.threads)
+    reps = 3 if args.quick else 10
+    print(f"torch {torch.__version__}, {args.threads} thread(s), loader workers {args.workers}")
+    if not args.latency_only:
+        data_figures(args.workers, reps)
+    policy_threads = args.policy_threads or None
+    print(f"\nper-decision latency on CPU (256x256 frame -> action; median; policy threads "
+          f"{policy_threads or args.threads}; NoMaD: beside the reference sampling path):")
+    goals = {("nomad_pointgoal", "full"): "  (goal <= 100 ms)", ("nomad_neg", "full"): "  (goal <= 200 ms)"}
     for name, what in (("vint_pointgoal", "1 pass"), ("nomad_pointgoal", "8 samples x 10 steps"),
                        ("nomad_neg", "2 x 8 samples x 10 steps")):
         for size in ("full", "small"):
-            ms = decision_ms(name, size, reps * 2)
-            goal = "  (goal <= 100 ms)" if name == "nomad_pointgoal" and size == "full" else ""
-            print(f"  {name:16s} {size:5s} {what:26s}: {ms:7.1f} ms{goal}")
+            ms, ref = decision_ms(name, size, reps * 2, policy_threads)
+            old = f"; reference path {ref:7.1f} ms, x{ref / ms:.2f}" if ref is not None else ""
+            print(f"  {name:16s} {size:5s} {what:26s}: {ms:7.1f} ms{goals.get((name, size), '')}{old}")
 
 
 if __name__ == "__main__":

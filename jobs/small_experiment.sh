@@ -24,13 +24,16 @@ case "$SCALE" in
           # it under-fits at this size and 6 epochs doubled its SR_1 over 3 (docs/results/2026-11-23_small_experiment_2/diagnosis.md)
     : "${TRAIN_SCENES:=64}" "${TRAJ_PER_SCENE:=32}" "${IMAGE:=64}" "${VINT_EPOCHS:=1}" "${NOMAD_EPOCHS:=4}" "${MAX_STEPS:=}"
     : "${VINT_MAX_STEPS:=900}"  # ViNT: 900 of its 2,200 steps per epoch (~15 min); NoMaD gets the time budget
-    : "${EVAL_SCENES:=20}" "${EVAL_EPISODES:=3}" "${N_GOALS:=32}" "${T_MAX:=500}" "${LR:=1e-3}" ;;
+    : "${EVAL_SCENES:=50}" "${EVAL_EPISODES:=4}" "${N_GOALS:=32}" "${T_MAX:=500}" "${LR:=1e-3}"  # 200 val episodes a row
+    : "${VAL_SCENES:=10}" "${VAL_TRAJ:=4}" ;;
   tiny)   # smoke test of the whole chain (tests/test_experiment_smoke.py)
     : "${TRAIN_SCENES:=1}" "${TRAJ_PER_SCENE:=2}" "${IMAGE:=64}" "${VINT_EPOCHS:=1}" "${NOMAD_EPOCHS:=1}" "${MAX_STEPS:=2}"
-    : "${EVAL_SCENES:=1}" "${EVAL_EPISODES:=1}" "${N_GOALS:=2}" "${T_MAX:=100}" "${BATCH:=4}" "${WORKERS:=1}" ;;
+    : "${EVAL_SCENES:=1}" "${EVAL_EPISODES:=1}" "${N_GOALS:=2}" "${T_MAX:=100}" "${BATCH:=4}" "${WORKERS:=1}"
+    : "${VAL_SCENES:=1}" "${VAL_TRAJ:=2}" ;;
   *) echo "small_experiment.sh: error: SCALE=$SCALE; choose small or tiny" >&2; exit 2 ;;
 esac
 [[ "${NEG_EXPERT:-reuse}" =~ ^(reuse|train)$ ]] || { echo "small_experiment.sh: error: NEG_EXPERT=$NEG_EXPERT; choose reuse or train" >&2; exit 2; }
+[[ "${PREDICTION:-sample}" =~ ^(epsilon|sample|v_prediction)$ ]] || { echo "small_experiment.sh: error: PREDICTION=$PREDICTION; choose epsilon, sample or v_prediction" >&2; exit 2; }
 : "${NEG_FRACTION:=0.0625}"   # NoMaD-Neg: share of expert trajectories replaced by negative ones (paper: 6.25 %)
 : "${WORKERS:=2}"             # processes for rvn-gen and rvn-eval
 : "${THREADS:=2}"             # torch threads for rvn-train
@@ -41,6 +44,7 @@ esac
 : "${NOMAD_SAMPLES:=8}"       # NoMaD-PointGoal samples per decision at eval (follows sample 0)
 : "${GOAL_OFFSET_MAX:=40}"     # point goals up to this many frames ahead (the whole 4-8 m path; official 20)
 : "${NEG_EXPERT:=reuse}"     # reuse: NoMaD_e = the NoMaD-PointGoal checkpoint; train: train NoMaD_e on 93.75 % of the experts
+: "${PREDICTION:=sample}"    # NoMaD denoiser target: sample (x0; measured best at this scale, docs/results) | epsilon (the paper's) | v_prediction
 : "${SEED:=0}"
 : "${DEVICE:=cpu}"            # rvn-train device (cpu | cuda | auto); rvn-eval's policies stay on the CPU
 : "${RENDERER:=auto}"         # rvn-gen / rvn-eval renderer: auto | gl | raycast
@@ -55,7 +59,7 @@ OUT=$(cd "$OUT" && pwd)
 DATA=$OUT/data
 CAMERA=("camera.width=$IMAGE" "camera.height=$IMAGE")
 TRAIN_SIZE=("model.size=small" "train.batch_size=$BATCH" "data.num_workers=0" "data.goal_offset=[1,$GOAL_OFFSET_MAX]"
-            "train.tqdm_interval=30" "seed=$SEED" "device=$DEVICE")
+            "train.tqdm_interval=30" "seed=$SEED" "device=$DEVICE" "data.val_root=$DATA/val_expert")
 [[ -n "$MAX_STEPS" ]] && TRAIN_SIZE+=("train.max_steps=$MAX_STEPS")
 [[ -n "$LR" ]] && TRAIN_SIZE+=("train.lr=$LR")
 EVAL=("split=val" "episodes.num_scenes=$EVAL_SCENES" "episodes.per_scene=$EVAL_EPISODES" "episodes.n_goals=$N_GOALS"
@@ -101,10 +105,14 @@ GEN=("split=train" "scenes.num_scenes=$TRAIN_SCENES" "dataset.train_fraction=1.0
      "renderer=$RENDERER" "${CAMERA[@]}")
 step gen_expert rvn-gen dataset=expert out_dir="$DATA/rvn_expert" trajectories_per_scene="$TRAJ_PER_SCENE" "${GEN[@]}"
 step gen_negative rvn-gen dataset=negative out_dir="$DATA/rvn_negative" trajectories_per_scene="$NEG_PER_SCENE" "${GEN[@]}"
+# held-out expert trajectories on val scenes: rvn-train logs its val loss and open-loop agreement on them
+VAL_GEN=("split=val" "scenes.num_scenes=$VAL_SCENES" "dataset.train_fraction=1.0" "workers=$WORKERS" "progress=false" "seed=$SEED"
+         "renderer=$RENDERER" "${CAMERA[@]}")
+step gen_val rvn-gen dataset=expert out_dir="$DATA/val_expert" trajectories_per_scene="$VAL_TRAJ" "${VAL_GEN[@]}"
 neg_splits
 
-step train_nomad rvn-train model=nomad_pointgoal data.root="$DATA/rvn_expert" out_dir="$OUT/train/nomad_pointgoal" \
-  train.epochs="$NOMAD_EPOCHS" "${TRAIN_SIZE[@]}"
+step train_nomad rvn-train model=nomad_pointgoal model.prediction_type="$PREDICTION" data.root="$DATA/rvn_expert" \
+  out_dir="$OUT/train/nomad_pointgoal" train.epochs="$NOMAD_EPOCHS" "${TRAIN_SIZE[@]}"
 VINT_TRAIN=()
 if [[ -n "${VINT_MAX_STEPS:-}" && -z "$MAX_STEPS" ]]; then VINT_TRAIN=("train.max_steps=$VINT_MAX_STEPS"); fi
 step train_vint rvn-train model=vint_pointgoal data.root="$DATA/rvn_expert" out_dir="$OUT/train/vint_pointgoal" \
@@ -113,7 +121,7 @@ step train_vint rvn-train model=vint_pointgoal data.root="$DATA/rvn_expert" out_
 # NoMaD-Neg and NoMaD-PointGoal differ only by CoR and the second expert training is saved
 NEG_TRAIN=()
 if [[ "$NEG_EXPERT" == reuse ]]; then NEG_TRAIN=("train.expert_from=$OUT/train/nomad_pointgoal"); fi
-step train_nomad_neg rvn-train model=nomad_neg data.root="$DATA/rvn_expert" data.negative_root="$DATA/rvn_negative" \
+step train_nomad_neg rvn-train model=nomad_neg model.prediction_type="$PREDICTION" data.root="$DATA/rvn_expert" data.negative_root="$DATA/rvn_negative" \
   data.splits_dir="$OUT/splits_neg" data.skip_short=true out_dir="$OUT/train/nomad_neg" \
   train.epochs="$NOMAD_EPOCHS" "${TRAIN_SIZE[@]}" "${NEG_TRAIN[@]}"
 
@@ -142,6 +150,10 @@ step eval_nomad_neg_argmin rvn-eval policy=checkpoint policy.checkpoint_path="$O
 RUNS=("$OUT/eval/random" "$OUT/eval/oracle" "$OUT/eval/goal_follower" "$OUT/eval/trajectory_oracle" "$OUT/eval/vint_pointgoal" "$OUT/eval/nomad_pointgoal"
       "$OUT/eval/nomad_pointgoal_vote" "$OUT/eval/nomad_neg"
       "$OUT/eval/nomad_neg_argmin")
-$PY -m rvn_il.eval.report "${RUNS[@]}" -o "$OUT/report.md" \
+# significance (Fisher's exact test on SR_1, two Poisson rates on CPK) of the comparisons the experiment is about
+COMPARE=("NoMaD-PointGoal=Goal follower" "NoMaD-PointGoal=Random" "NoMaD-PointGoal=Trajectory oracle"
+         "NoMaD-PointGoal-vote=NoMaD-PointGoal" "NoMaD-Neg=NoMaD-PointGoal" "NoMaD-Neg-argmin=NoMaD-Neg"
+         "ViNT-PointGoal=Goal follower" "Goal follower=Random")
+$PY -m rvn_il.eval.report "${RUNS[@]}" -o "$OUT/report.md" "${COMPARE[@]/#/--compare=}" \
   --title "RVN small-scale experiment (SCALE=$SCALE: $TRAIN_SCENES train scenes x $TRAJ_PER_SCENE trajectories, val $EVAL_SCENES x $EVAL_EPISODES)"
 echo "small_experiment: this run took $SECONDS s ($STEPS_SECONDS s in steps run now); report: $OUT/report.md"

@@ -61,3 +61,34 @@ def test_agreement_bad_input_is_one_line(trained):
     assert proc.returncode == 2 and "aggregate='mean'" in proc.stderr and "Traceback" not in proc.stderr
     proc = run("-m", "rvn_il.eval.agreement", str(trained / "data"), str(trained / "data"), check=False)
     assert proc.returncode == 2 and "not an rvn-train checkpoint directory" in proc.stderr
+
+
+def test_training_logs_val_loss_and_the_agreement_tool_figure(trained):
+    """rvn-train data.val_root=...: held-out loss and open-loop agreement at every val_every step and the
+    last, in val.json; the last agreement is what the agreement tool reports for the saved checkpoint."""
+    out = trained / "run_val"
+    run("-m", "rvn_il.train.cli", "model=nomad_pointgoal", "model.size=small", f"data.root={trained / 'data'}",
+        f"data.val_root={trained / 'data'}", "train.val_every=2", "train.val_trajectories=2", "train.val_batches=2",
+        f"out_dir={out}", "train.max_steps=3", "train.batch_size=4", "data.num_workers=0", "device=cpu",
+        "train.precision=bf16")
+    history = json.loads((out / "model" / "val.json").read_text())
+    assert list(history) == ["2", "3"]
+    for figures in history.values():
+        assert figures["loss"] > 0 and 0.0 <= figures["agreement"] <= 1.0 and figures["steps"] > 0
+        assert set(figures) >= {"diffusion_loss", "dist_loss", "agreement_blind", "agreement_image"}
+    tool = trained / "val_agreement.json"
+    run("-m", "rvn_il.eval.agreement", str(out), str(trained / "data"), "--max-trajectories", "2", "--json", str(tool))
+    result = json.loads(tool.read_text())
+    assert history["3"]["steps"] == result["policy"]["steps"]
+    assert history["3"]["agreement"] == pytest.approx(result["policy"]["agreement"], abs=1e-4)
+    assert history["3"]["agreement_blind"] == pytest.approx(result["blind_goal_follower"]["agreement"], abs=1e-4)
+
+
+def test_training_settings_fail_before_any_work(trained):
+    base = ["-m", "rvn_il.train.cli", "model=nomad_pointgoal", "model.size=small", f"data.root={trained / 'data'}",
+            "data.num_workers=0", "device=cpu"]
+    proc = run(*base, f"out_dir={trained / 'bad1'}", f"data.val_root={trained / 'nowhere'}", check=False)
+    assert proc.returncode == 1 and "data.val_root" in proc.stderr and "does not exist" in proc.stderr
+    assert not (trained / "bad1" / "model").exists()
+    proc = run(*base, f"out_dir={trained / 'bad2'}", "train.precision=fp16", check=False)
+    assert proc.returncode == 1 and "train.precision='fp16'" in proc.stderr and "Traceback" not in proc.stderr

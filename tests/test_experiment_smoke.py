@@ -52,11 +52,18 @@ def test_tiny_experiment_end_to_end_and_rerun(tmp_path):
     adopted, source = latest(out / "train" / "nomad_neg" / "expert"), latest(out / "train" / "nomad_pointgoal" / "model")
     assert adopted.keys() == source.keys() and all(bool((adopted[k] == source[k]).all()) for k in source)
     steps = [ln.split("\t")[0] for ln in (out / "timings.tsv").read_text().splitlines()]
-    assert steps[:5] == ["gen_expert", "gen_negative", "train_nomad", "train_vint", "train_nomad_neg"] and len(steps) == 14
+    assert steps[:6] == ["gen_expert", "gen_negative", "gen_val", "train_nomad", "train_vint", "train_nomad_neg"]
+    assert len(steps) == 15
+    # training validated on the held-out val-scene expert data; the report tests the compared rows
+    history = json.loads((out / "train" / "nomad_pointgoal" / "model" / "val.json").read_text())
+    assert list(history) == ["2"] and 0.0 <= history["2"]["agreement"] <= 1.0
+    config = (out / "train" / "nomad_pointgoal" / "config.yaml").read_text()
+    assert "prediction_type: sample" in config
+    assert "| NoMaD-Neg | NoMaD-PointGoal |" in report and "| NoMaD-PointGoal | Goal follower |" in report
     # a rerun skips every step and rewrites the same report
     again = small_experiment(out)
     assert again.returncode == 0, again.stderr[-3000:]
-    assert again.stdout.count("done before, skipped") == 14
+    assert again.stdout.count("done before, skipped") == 15
     assert (out / "report.md").read_text() == report
 
 

@@ -16,6 +16,7 @@ from safetensors.torch import load_file
 from rvn_il.data.synthetic import render_frame, write_synthetic_gnm
 from rvn_il.models.checkpoint import latest_checkpoint
 from rvn_il.policies import NoMaDNegPolicy, load_policy
+from rvn_il.policies.loader import resolve_device
 from rvn_il.train.cli import main, train
 
 torch.set_num_threads(1)
@@ -147,6 +148,18 @@ def test_cli_bad_input_one_line(data, tmp_path):
     with pytest.raises(ValueError, match="fewer than context_size.*skip_short"):
         train(["model=nomad_pointgoal", f"data.root={data / 'negative'}", f"out_dir={tmp_path / 'o3'}",
                "model.context_size=14", *SMALL])
+    with pytest.raises(ValueError, match="model.prediction_type='x0'; choose one of epsilon, sample, v_prediction"):
+        train(["model=nomad_pointgoal", f"data.root={data / 'expert'}", f"out_dir={tmp_path / 'o4'}",
+               "model.prediction_type=x0", *SMALL])
+    assert not (tmp_path / "o4").exists()
+    if not torch.cuda.is_available():  # a CPU build of torch: one line naming the setting, nothing written
+        r = rvn_train("model=vint_pointgoal", f"data.root={data / 'expert'}", f"out_dir={tmp_path / 'o5'}", "device=cuda",
+                      *SMALL)
+        assert r.returncode == 1 and "Traceback" not in r.stderr
+        assert "device=cuda" in r.stderr and "use device=cpu" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+        assert not (tmp_path / "o5" / "model").exists()
+        with pytest.raises(ValueError, match="policy.device=cuda"):
+            resolve_device("cuda", "policy.device")
 
 
 def test_nomad_neg_adopts_a_nomad_pointgoal_run_as_nomad_e(runs, data, tmp_path):

@@ -113,3 +113,34 @@ def test_shards_are_merged(runs, tmp_path):
     text = out.read_text()
     assert text.count("| RVN (ours) | Oracle |") == 1 and "| Oracle | oracle | val | 2 × 2 | 3 | 4 |" in text
     assert "eval/oracle/episodes.jsonl" in text and "eval/oracle_b/episodes.jsonl" in text
+
+
+def test_significance_between_rows(runs, tmp_path):
+    """Fisher's exact test on SR_1 and the exact two-Poisson-rate test on CPK, from the episode records."""
+    from scipy.stats import binomtest, fisher_exact
+
+    from rvn_il.eval.significance import Row, cpk_p, sr1_p
+
+    out = tmp_path / "report.md"
+    proc = report(str(runs / "eval" / "oracle"), str(runs / "eval" / "random"), "-o", str(out),
+                  "--compare", "Oracle=NoMaD-PointGoal")
+    assert proc.returncode == 0, proc.stderr
+    text = out.read_text()
+    rows = []
+    for name in ("oracle", "random"):
+        m = json.loads((runs / "eval" / name / "metrics.json").read_text())
+        recs = read_records(runs / "eval" / name / "episodes.jsonl")
+        rows.append((sum(r["first_goal_success"] for r in recs), len(recs), m["collisions"], m["distance_km"]))
+    (ka, na, ca, da), (kb, nb, cb, db) = rows
+    p_sr = fisher_exact([[ka, na - ka], [kb, nb - kb]]).pvalue
+    p_cpk = binomtest(ca, ca + cb, da / (da + db)).pvalue if ca + cb else 1.0
+    line = next(ln for ln in text.splitlines() if ln.startswith("| Oracle | NoMaD-PointGoal |"))
+    assert f"({ka}/{na})" in line and f"({kb}/{nb})" in line
+    assert line.split("|")[5].strip() == f"{p_sr:.2g}" and line.split("|")[8].strip() == f"{p_cpk:.2g}"
+    # the tests themselves, on counts where the answer is known
+    a, b = Row("a", 30, 200, 10, 1.0), Row("b", 30, 200, 10, 1.0)
+    assert sr1_p(a, b) == pytest.approx(1.0) and cpk_p(a, b) == pytest.approx(1.0)
+    assert cpk_p(Row("a", 0, 1, 10, 1.0), Row("b", 0, 1, 0, 1.0)) == pytest.approx(2 * 0.5 ** 10)
+    assert sr1_p(Row("a", 100, 200, 0, 1.0), Row("b", 10, 200, 0, 1.0)) < 1e-10
+    bad = report(str(runs / "eval" / "oracle"), "-o", str(tmp_path / "r.md"), "--compare", "Oracle=PPO")
+    assert bad.returncode == 1 and "'PPO'" in bad.stderr and "Traceback" not in bad.stderr

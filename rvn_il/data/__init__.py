@@ -7,17 +7,18 @@ from typing import Mapping
 from .cache import PackedCache, cache_path, ensure_cache
 from .dataset import BatchView, EpochSampler, GNMDataset
 from .gnm import GNMSource, load_gnm
-from .images import preprocess_image
+from .images import crop_setting, preprocess_image
 
 
 def make_dataset(root: str | Path, model_cfg: Mapping, data_cfg: Mapping | None = None, seed: int = 0,
                  build: bool = True) -> GNMDataset:
     """GNM folder → (cached) GNMDataset for a size-resolved model config. ``data_cfg`` keys:
-    split, splits_dir, name, metric_waypoint_spacing, cache_dir, cache_threads, goal_offset,
-    end_slack, skip_short. ``build=False`` only opens an existing cache (DDP non-zero ranks)."""
+    split, splits_dir, name, metric_waypoint_spacing, crop (aspect | official | none; see
+    :mod:`.images`), cache_dir, cache_threads, goal_offset, end_slack, skip_short.
+    ``build=False`` only opens an existing cache (DDP non-zero ranks)."""
     d = dict(data_cfg or {})
+    crop = crop_setting(d, model_cfg)  # checked before anything is read
     source = load_gnm(root, d.get("split", "train"), d.get("splits_dir"), d.get("name"), d.get("metric_waypoint_spacing"))
-    crop = bool(model_cfg.get("crop_to_aspect", True))
     if build:
         path = ensure_cache(source, model_cfg["image_size"], crop, d.get("cache_dir"), int(d.get("cache_threads", 4)),
                             progress=bool(d.get("progress", True)))
@@ -29,4 +30,4 @@ def make_dataset(root: str | Path, model_cfg: Mapping, data_cfg: Mapping | None 
 
 
 __all__ = ["make_dataset", "BatchView", "load_gnm", "ensure_cache", "PackedCache", "GNMDataset", "EpochSampler",
-           "GNMSource", "preprocess_image"]
+           "GNMSource", "preprocess_image", "crop_setting"]

@@ -1,11 +1,12 @@
 """Packed HDF5 cache of a GNM split: every frame resized once to the model's image size.
 
-File ``<cache_dir>/<name>_<split>_<W>x<H>[_crop].h5`` holds ``images`` uint8 [N,3,H,W]
+File ``<cache_dir>/<name>_<split>_<W>x<H><suffix>.h5`` (suffix of ``data.crop``: ``_crop`` for
+aspect, ``_official`` for official, none for none) holds ``images`` uint8 [N,3,H,W]
 (channel-first as the models take them; contiguous, so workers read it through ``np.memmap`` and share the page cache),
 ``position`` float64 [N,2], ``yaw`` float64 [N], ``traj_index`` int32 [N], ``traj_start`` and
 ``traj_len`` int64 [M], ``names`` and attributes (fingerprint, spacing, image size). It is
 rebuilt when the fingerprint of the source files (names, sizes, mtimes) or the image settings
-change, and written atomically (temporary file, then ``os.replace``).
+(size, crop) change, and written atomically (temporary file, then ``os.replace``).
 """
 from __future__ import annotations
 
@@ -21,16 +22,23 @@ from tqdm import tqdm
 from rvn_data.atomic import atomic_path
 
 from .gnm import GNMSource, fingerprint
-from .images import preprocess_image, read_rgb
+from .images import check_crop, preprocess_image, read_rgb
 
 CACHE_VERSION = 2
+SUFFIX = {"aspect": "_crop", "official": "_official", "none": ""}  # one file per crop
 log = logging.getLogger(__name__)
 
 
-def cache_path(source: GNMSource, image_size: Sequence[int], crop_to_aspect: bool, cache_dir: str | Path | None) -> Path:
+def cache_path(source: GNMSource, image_size: Sequence[int], crop: str | bool, cache_dir: str | Path | None) -> Path:
     d = Path(cache_dir) if cache_dir else source.root / ".rvn_cache"
     w, h = int(image_size[0]), int(image_size[1])
-    return d / f"{source.name}_{source.split}_{w}x{h}{'_crop' if crop_to_aspect else ''}.h5"
+    return d / f"{source.name}_{source.split}_{w}x{h}{SUFFIX[check_crop(crop)]}.h5"
+
+
+def _crop_key(crop: str) -> object:
+    """The crop as it enters the fingerprint: the former boolean for aspect/none (caches built
+    before the official crop stay valid), the name otherwise."""
+    return {"aspect": True, "none": False}.get(crop, crop)
 
 
 def _stored_fingerprint(path: Path) -> str | None:
@@ -41,14 +49,15 @@ def _stored_fingerprint(path: Path) -> str | None:
         return None  # missing or truncated: rebuild
 
 
-def _load_traj_images(source: GNMSource, i: int, image_size, crop: bool) -> np.ndarray:
+def _load_traj_images(source: GNMSource, i: int, image_size, crop: str) -> np.ndarray:
     frames = [preprocess_image(read_rgb(source.frame_path(i, t)), image_size, crop) for t in range(len(source.positions[i]))]
     return np.stack(frames).transpose(0, 3, 1, 2)  # [T,3,H,W]
 
 
-def build_cache(source: GNMSource, path: Path, image_size: Sequence[int], crop_to_aspect: bool,
+def build_cache(source: GNMSource, path: Path, image_size: Sequence[int], crop: str | bool,
                 fp: str, num_threads: int = 4, progress: bool = True) -> None:
-    """Decode, resize and pack every frame of ``source`` into ``path`` (atomic write)."""
+    """Decode, crop, resize and pack every frame of ``source`` into ``path`` (atomic write)."""
+    crop = check_crop(crop)
     w, h = int(image_size[0]), int(image_size[1])
     lengths = source.lengths
     starts = np.concatenate([[0], np.cumsum(lengths)[:-1]]).astype(np.int64)
@@ -66,22 +75,24 @@ def build_cache(source: GNMSource, path: Path, image_size: Sequence[int], crop_t
             f["traj_start"] = starts
             f["traj_len"] = lengths
             f["names"] = np.array(source.names, dtype=h5py.string_dtype())
-            f.attrs.update(fingerprint=fp, version=CACHE_VERSION, image_size=[w, h], crop_to_aspect=bool(crop_to_aspect),
+            f.attrs.update(fingerprint=fp, version=CACHE_VERSION, image_size=[w, h], crop=crop, crop_to_aspect=crop == "aspect",
                            spacing=source.spacing, root=str(source.root), split=source.split, name=source.name)
             with ThreadPoolExecutor(max(1, num_threads)) as pool:
-                jobs = pool.map(lambda i: _load_traj_images(source, i, (w, h), crop_to_aspect), range(len(lengths)))
+                jobs = pool.map(lambda i: _load_traj_images(source, i, (w, h), crop), range(len(lengths)))
                 for i, arr in enumerate(tqdm(jobs, total=len(lengths), desc=f"cache {path.name}", disable=not progress, leave=False)):
                     images[starts[i]:starts[i] + lengths[i]] = arr
 
 
-def ensure_cache(source: GNMSource, image_size: Sequence[int], crop_to_aspect: bool = True,
+def ensure_cache(source: GNMSource, image_size: Sequence[int], crop: str | bool = "aspect",
                  cache_dir: str | Path | None = None, num_threads: int = 4, progress: bool = True) -> Path:
-    """Path of an up-to-date cache for ``source``, building it if missing or stale."""
-    path = cache_path(source, image_size, crop_to_aspect, cache_dir)
-    fp = fingerprint(source, CACHE_VERSION, tuple(int(s) for s in image_size), bool(crop_to_aspect), source.spacing)
+    """Path of an up-to-date cache for ``source`` with frames cropped by ``crop`` (aspect |
+    official | none), building it if missing or stale."""
+    crop = check_crop(crop)
+    path = cache_path(source, image_size, crop, cache_dir)
+    fp = fingerprint(source, CACHE_VERSION, tuple(int(s) for s in image_size), _crop_key(crop), source.spacing)
     if _stored_fingerprint(path) != fp:
         log.info("building GNM cache %s from %s (%d trajectories)", path, source.root, len(source.names))
-        build_cache(source, path, image_size, crop_to_aspect, fp, num_threads, progress)
+        build_cache(source, path, image_size, crop, fp, num_threads, progress)
     return path
 
 

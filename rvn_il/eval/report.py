@@ -25,6 +25,7 @@ import numpy as np
 
 from rvn_data.atomic import atomic_path
 from rvn_data.metrics import TERMINATIONS, format_metric, read_records, write_text_atomic
+from rvn_il.eval.significance import Row, significance_table
 from rvn_il.eval.table import PAPER_RESULTS, SPLIT_TITLES, render_table
 
 PAPER_BY_METHOD = {method: by_split for (_, method), by_split in PAPER_RESULTS.items()}
@@ -157,6 +158,26 @@ def run_details(runs: list[Run], base: Path) -> str:
     return "\n".join(lines) + "\n"
 
 
+def tests(runs: list[Run], compare: list[tuple[str, str]] | None = None) -> str:
+    """Significance of the differences between rows of the same split (rvn_il.eval.significance)."""
+    out = []
+    for split in dict.fromkeys(r.split for r in runs):
+        rows = [Row(r.method, sum(bool(e["first_goal_success"]) for e in r.records), len(r.records),
+                    int(r.metrics.get("collisions", 0)), float(r.metrics.get("distance_km", 0.0)))
+                for r in runs if r.split == split]
+        wanted = None if compare is None else [(a, b) for a, b in compare if {a, b} <= {row.label for row in rows}]
+        if compare is not None and not wanted:
+            continue
+        if len(rows) > 1:
+            out += [f"{SPLIT_TITLES.get(split, split)}:\n", significance_table(rows, wanted)]
+    methods = {r.method for r in runs}
+    for pair in compare or []:
+        missing = [m for m in pair if m not in methods]
+        if missing:
+            raise ValueError(f"--compare names {missing[0]!r}, which is not a method of these runs: {', '.join(sorted(methods))}")
+    return "\n".join(out)
+
+
 def episode_tables(runs: list[Run]) -> str:
     """Every episode of every run, one collapsible table per run."""
     out = []
@@ -224,10 +245,11 @@ def _goals(runs: list[Run], path: Path) -> None:
 
 
 def write_report(runs: list[Run], output: str | Path, title: str = "RVN benchmark results",
-                 command: str | None = None) -> Path:
+                 command: str | None = None, compare: list[tuple[str, str]] | None = None) -> Path:
     """Write the markdown report and its plots (next to it); returns the report's path."""
     if not runs:
         raise ValueError("no rvn-eval runs to report")
+    significance = tests(runs, compare)
     out = Path(output)
     out.parent.mkdir(parents=True, exist_ok=True)
     base, stem = out.parent, out.stem
@@ -242,6 +264,10 @@ def write_report(runs: list[Run], output: str | Path, title: str = "RVN benchmar
              "\nRows *RVN (ours)* are the runs below; *(paper)* rows are the paper's table (HM3D scenes, "
              "full-scale training), for reference.\n",
              "## Ours beside the paper\n", beside_paper(runs),
+             "\n## Significance\n",
+             "Two-sided p-values: Fisher's exact test on first-goal successes (SR_1); the exact conditional test of "
+             "two Poisson rates on collisions per km driven (CPK). Rows of the same split; a p below 0.05 marks a "
+             "difference unlikely under equal rates.\n", significance,
              "\n## Runs\n", run_details(runs, base),
              "\n## Plots\n",
              f"![SR_1]({plots['sr1'].name})\n", f"![CPK]({plots['cpk'].name})\n", f"![Goals reached]({plots['goals'].name})\n",
@@ -255,13 +281,23 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("runs", nargs="+", help="rvn-eval out_dirs (or folders holding them)")
     ap.add_argument("-o", "--output", default="report.md", help="markdown file; plots go next to it (default: report.md)")
     ap.add_argument("--title", default="RVN benchmark results")
+    ap.add_argument("--compare", action="append", metavar="A=B", default=None,
+                    help="test only these pairs of methods (repeatable), e.g. --compare 'NoMaD-PointGoal=Goal follower'; "
+                    "default: every pair of rows of a split")
     args = ap.parse_args(argv)
     try:
         import matplotlib
         matplotlib.use("Agg")
+        compare = None
+        if args.compare:
+            bad = [c for c in args.compare if c.count("=") != 1]
+            if bad:
+                raise ValueError(f"--compare {bad[0]!r}: write two method names as A=B")
+            compare = [tuple(x.strip() for x in c.split("=")) for c in args.compare]
         runs = merge_shards(find_runs(args.runs))
         path = write_report(runs, args.output, args.title,
-                            command="python -m rvn_il.eval.report " + " ".join(sys.argv[1:] if argv is None else argv))
+                            command="python -m rvn_il.eval.report " + " ".join(sys.argv[1:] if argv is None else argv),
+                            compare=compare)
     except (ValueError, KeyError, OSError) as err:
         print(f"report: error: {err}", file=sys.stderr)
         return 1

@@ -3,11 +3,18 @@ MLP on (x_g, y_g). EfficientNet-B0 with GroupNorm → C+1 observation tokens + 1
 Transformer (goal token hidden as a padded key when ``goal_mask`` = 1) → mean over the visible
 tokens = the condition [B, D]. A ConditionalUnet1D predicts the noise of the waypoint deltas,
 min-max scaled to [-1, 1] with ``action_stats``; diffusers' DDPMScheduler (10 steps,
-squaredcos_cap_v2, clip_sample, epsilon). Distance head 256→64→16→1 on visible goals only.
-Loss: alpha·MSE(distance) + (1-alpha)·MSE(ε)."""
+squaredcos_cap_v2, clip_sample). Distance head 256→64→16→1 on visible goals only.
+Loss: alpha·MSE(distance) + (1-alpha)·MSE(denoiser target).
+
+``prediction_type`` picks what the denoiser (still called ``noise_pred_net``, as in the
+official code) predicts: ``epsilon`` (the noise; the paper's and official NoMaD's choice),
+``sample`` (the clean normalised action sequence, "x0") or ``v_prediction`` (the velocity
+√ᾱ·ε − √(1−ᾱ)·x0). With 10 steps of this schedule the last steps keep almost no signal
+(ᾱ ≈ 2e-5 at t=9), so an ε-loss there teaches nothing about the action, while an x0-loss
+still asks which way to go: see docs/results for the measured effect."""
 from __future__ import annotations
 
-from typing import Mapping
+from typing import Mapping, NamedTuple
 
 import torch
 import torch.nn.functional as F
@@ -15,6 +22,8 @@ from torch import nn
 
 from .base import PointGoalModel, masked_mean
 from .unet1d import ConditionalUnet1D
+
+PREDICTION_TYPES = ("epsilon", "sample", "v_prediction")
 
 
 class NoMaDPointGoal(PointGoalModel):
@@ -30,9 +39,12 @@ class NoMaDPointGoal(PointGoalModel):
                                                 int(cfg.get("kernel_size", 3)), int(cfg.get("n_groups", 8)))
         self.dist_pred_net = nn.Sequential(nn.Linear(d, d // 4), nn.ReLU(), nn.Linear(d // 4, d // 16), nn.ReLU(), nn.Linear(d // 16, 1))
         self.num_diffusion_iters = int(cfg["num_diffusion_iters"])
+        self.prediction_type = str(cfg.get("prediction_type", "epsilon"))
+        if self.prediction_type not in PREDICTION_TYPES:
+            raise ValueError(f"model.prediction_type={self.prediction_type!r}; choose one of {', '.join(PREDICTION_TYPES)}")
         from diffusers import DDPMScheduler  # imported here: diffusers takes ~2 s to import
         self.scheduler = DDPMScheduler(num_train_timesteps=self.num_diffusion_iters, beta_schedule="squaredcos_cap_v2",
-                                       clip_sample=True, prediction_type="epsilon")
+                                       clip_sample=True, prediction_type=self.prediction_type)
         stats = cfg["action_stats"]  # "auto": set from the data by the trainer, saved in the weights
         if stats == "auto":
             stats = {"min": [-1.0, -1.0], "max": [1.0, 1.0]}
@@ -74,27 +86,122 @@ class NoMaDPointGoal(PointGoalModel):
         t = torch.randint(0, self.num_diffusion_iters, (b,), generator=generator, device=naction.device)
         noisy = self.scheduler.add_noise(naction, noise, t)
         pred = self.noise_pred_net(noisy, t, cond)
-        diffusion_loss = masked_mean(F.mse_loss(pred, noise, reduction="none").mean(dim=(1, 2)), batch["action_mask"])
+        diffusion_loss = masked_mean(F.mse_loss(pred, self.target(naction, noise, t), reduction="none").mean(dim=(1, 2)),
+                                     batch["action_mask"])
         loss = self.alpha * dist_loss + (1 - self.alpha) * diffusion_loss
         return {"loss": loss, "dist_loss": dist_loss, "diffusion_loss": diffusion_loss}
 
-    @torch.no_grad()
+    def target(self, naction: torch.Tensor, noise: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
+        """What the denoiser is trained to output for ``prediction_type``."""
+        if self.prediction_type == "epsilon":
+            return noise
+        if self.prediction_type == "sample":
+            return naction
+        return self.scheduler.get_velocity(naction, noise, t)
+
+    fast_sampling = True  # predict's default path; False: module forward + diffusers' DDPMScheduler.step
+
+    @torch.inference_mode()
     def predict(self, tokens: torch.Tensor, goal: torch.Tensor, num_samples: int = 8,
-                generator: torch.Generator | None = None, goal_mask: torch.Tensor | None = None) -> torch.Tensor:
+                generator: torch.Generator | None = None, goal_mask: torch.Tensor | None = None,
+                fast: bool | None = None) -> torch.Tensor:
         """Draw ``num_samples`` trajectories per batch item: [B,S,len,2]. The condition is
-        computed once and reused by every denoising step; all samples denoise as one batch."""
+        computed once and reused by every denoising step; all samples denoise as one batch; the
+        FiLM biases of every step come from one call before the loop.
+
+        ``fast`` (default ``self.fast_sampling``) runs the denoiser's packed inference form
+        (:meth:`ConditionalUnet1D.forward_packed`, with the FiLM biases of all steps from
+        :meth:`~ConditionalUnet1D.packed_film_biases`) and :func:`ddpm_plan`'s precomputed DDPM
+        update; ``fast=False`` (the reference path) runs the module's ``forward`` and diffusers'
+        ``DDPMScheduler.step``. Both draw the same noise from ``generator`` in the same order, so
+        for a given seed they give the same trajectories up to float rounding."""
+        fast = self.fast_sampling if fast is None else bool(fast)
+        plan = self._ddpm_plan() if fast else None  # None: a scheduler setting it does not reproduce
         b = tokens.shape[0]
         cond = self.condition(tokens, goal, goal_mask)
         if b > 1:
             cond = cond.repeat_interleave(num_samples, dim=0)
         x = torch.randn((b * num_samples, self.len_traj_pred, 2), generator=generator, device=tokens.device)
-        self.scheduler.set_timesteps(self.num_diffusion_iters)
-        timesteps = self.scheduler.timesteps
-        steps = len(timesteps)
-        biases = self.noise_pred_net.film_biases(timesteps.to(x.device).repeat_interleave(cond.shape[0]),
-                                                 cond.repeat(steps, 1))  # [steps*Bc, C, 1] per block
-        bc = cond.shape[0]
-        for k, t in enumerate(timesteps):
-            eps = self.noise_pred_net(x, biases=[bias[k * bc:(k + 1) * bc] for bias in biases])
-            x = self.scheduler.step(eps, int(t), x, generator=generator).prev_sample
+        net = self.noise_pred_net
+        if plan is None:
+            self.scheduler.set_timesteps(self.num_diffusion_iters)
+            timesteps, bc = self.scheduler.timesteps, cond.shape[0]
+            biases = net.film_biases(timesteps.to(x.device).repeat_interleave(bc),
+                                     cond.repeat(len(timesteps), 1))  # [steps*Bc, C, 1] per block
+            for k, t in enumerate(timesteps):
+                out = net(x, biases=[bias[k * bc:(k + 1) * bc] for bias in biases])
+                x = self.scheduler.step(out, int(t), x, generator=generator).prev_sample
+        else:
+            packed = net.packed_weights()
+            biases = net.packed_film_biases(torch.tensor([s.t for s in plan]), cond, packed)
+            for step, step_biases in zip(plan, biases):
+                x = step.update(net.forward_packed(x, step_biases, packed), x, generator)
         return self.unnormalize_actions(x).view(b, num_samples, self.len_traj_pred, 2)
+
+    def _ddpm_plan(self) -> list[DDPMStep] | None:
+        """:func:`ddpm_plan` of this model's scheduler, computed once (again if either changes)."""
+        cache = getattr(self, "_plan_cache", None)
+        if cache is None or cache[0] is not self.scheduler or cache[1] != self.num_diffusion_iters:
+            cache = self._plan_cache = (self.scheduler, self.num_diffusion_iters,
+                                        ddpm_plan(self.scheduler, self.num_diffusion_iters))
+        return cache[2]
+
+
+class DDPMStep(NamedTuple):
+    """One reverse step of diffusers' DDPMScheduler as plain numbers: the predicted x0 from the
+    model output, clipped, then the posterior mean ``c_x0·x0 + c_xt·x_t`` plus ``std`` times
+    fresh noise (none on the last step)."""
+
+    t: int
+    kind: str  # prediction_type
+    sqrt_a: float  # √ᾱ_t
+    sqrt_b: float  # √(1-ᾱ_t)
+    clip: float | None  # clip_sample_range, or None without clipping
+    c_x0: float
+    c_xt: float
+    std: float  # 0 on the last step
+
+    def update(self, out: torch.Tensor, x: torch.Tensor, generator: torch.Generator | None) -> torch.Tensor:
+        """x_{t-1} from the model output ``out`` and x_t, in the operation order of
+        ``DDPMScheduler.step`` (so the floats match it)."""
+        if self.kind == "epsilon":
+            x0 = (x - self.sqrt_b * out) / self.sqrt_a
+        elif self.kind == "sample":
+            x0 = out
+        else:  # v_prediction
+            x0 = self.sqrt_a * x - self.sqrt_b * out
+        if self.clip is not None:
+            x0 = x0.clamp(-self.clip, self.clip)
+        prev = self.c_x0 * x0 + self.c_xt * x
+        if self.std:
+            gen_device = generator.device if generator is not None else out.device
+            noise = torch.randn(out.shape, generator=generator, device=gen_device, dtype=out.dtype).to(out.device)
+            prev = prev + self.std * noise
+        return prev
+
+
+def ddpm_plan(scheduler, num_steps: int) -> list[DDPMStep] | None:
+    """The reverse steps of ``scheduler`` (a diffusers DDPMScheduler) over ``num_steps`` inference
+    steps, with every coefficient computed once, as ``DDPMScheduler.step`` computes it (float32
+    tensors, then Python floats). None when the scheduler uses a feature this update does not
+    reproduce (thresholding, a variance type other than fixed_small): predict then calls
+    ``scheduler.step``."""
+    cfg = scheduler.config
+    if cfg.thresholding or cfg.variance_type != "fixed_small" or cfg.prediction_type not in PREDICTION_TYPES:
+        return None
+    scheduler.set_timesteps(num_steps)
+    ts = [int(t) for t in scheduler.timesteps]
+    acp, one = scheduler.alphas_cumprod.cpu(), scheduler.one.cpu()
+    plan = []
+    for i, t in enumerate(ts):
+        prev_t = ts[i + 1] if i + 1 < len(ts) else -1
+        a_t, a_prev = acp[t], acp[prev_t] if prev_t >= 0 else one
+        b_t, b_prev = 1 - a_t, 1 - a_prev
+        cur_a = a_t / a_prev
+        cur_b = 1 - cur_a
+        var = torch.clamp(b_prev / b_t * cur_b, min=1e-20)
+        plan.append(DDPMStep(t, cfg.prediction_type, float(a_t ** 0.5), float(b_t ** 0.5),
+                             float(cfg.clip_sample_range) if cfg.clip_sample else None,
+                             float(a_prev ** 0.5 * cur_b / b_t), float(cur_a ** 0.5 * b_prev / b_t),
+                             float(var ** 0.5) if t > 0 else 0.0))
+    return plan

@@ -1,13 +1,22 @@
 """Conditional 1-D U-Net noise predictor, as ConditionalUnet1D of real-stanford/diffusion_policy
 (the one NoMaD uses): residual Conv1d blocks with GroupNorm and Mish, a bias-only FiLM term
 from [sinusoidal timestep embedding → MLP, global condition], stride-2 down/up sampling with
-skip connections. Input and output are [B, horizon, input_dim]."""
+skip connections. Input and output are [B, horizon, input_dim].
+
+:meth:`ConditionalUnet1D.forward_packed` computes the same function for inference: every
+convolution becomes one matrix product over all B·horizon positions (im2col on the
+[B, horizon, C] rows) with weights repacked once and cached until a parameter changes. On a
+CPU this avoids most of ``nn.Conv1d``'s per-call cost, which dominates for the short sequences
+and small batches of a policy's sampling loop; the values agree with ``forward`` to float
+rounding.
+"""
 from __future__ import annotations
 
 import math
 from typing import Sequence
 
 import torch
+import torch.nn.functional as F
 from torch import nn
 
 
@@ -43,6 +52,63 @@ class ConditionalResidualBlock1D(nn.Module):
         """x [B,C_in,T], bias [B or 1, C_out, 1] = ``cond_encoder(cond)[..., None]`` (FiLM)."""
         out = self.blocks[0](x) + bias
         return self.blocks[1](out) + self.residual_conv(x)
+
+
+def _bias(conv: nn.Module, n: int) -> torch.Tensor:
+    return conv.bias.detach() if conv.bias is not None else conv.weight.new_zeros(n)
+
+
+def _pack_conv(conv: nn.Conv1d) -> tuple:
+    """(weight [k·C_in, C_out] with row kk·C_in + c, bias, kernel, stride, padding) of a Conv1d."""
+    w = conv.weight.detach()
+    k = w.shape[2]
+    if conv.dilation[0] != 1 or conv.groups != 1 or not isinstance(conv.padding[0], int):
+        raise ValueError(f"forward_packed supports plain Conv1d only, not {conv}")
+    return (w.permute(2, 1, 0).reshape(k * w.shape[1], w.shape[0]).contiguous(), _bias(conv, w.shape[0]), k,
+            conv.stride[0], conv.padding[0])
+
+
+def _conv_rows(x: torch.Tensor, packed: tuple) -> torch.Tensor:
+    """Conv1d on rows x [B,T,C] (any strides) → [B,T',C_out], as one matrix product."""
+    w, b, k, s, p = packed
+    n, t, c = x.shape
+    if k == 1 and s == 1 and p == 0:
+        return torch.addmm(b, x.reshape(n * t, c), w).view(n, t, -1)
+    xp = F.pad(x, (0, 0, p, p))
+    t_out = (t + 2 * p - k) // s + 1
+    cols = torch.cat([xp[:, i:i + s * (t_out - 1) + 1:s] for i in range(k)], dim=-1)
+    return torch.addmm(b, cols.view(n * t_out, k * c), w).view(n, t_out, -1)
+
+
+def _pack_conv_transpose(conv: nn.ConvTranspose1d) -> tuple:
+    """(weight [C_in, k·C_out] with column kk·C_out + o, bias, kernel, stride, padding)."""
+    w = conv.weight.detach()  # [C_in, C_out, k]
+    k, s = w.shape[2], conv.stride[0]
+    if k % s or conv.output_padding[0] or conv.dilation[0] != 1 or conv.groups != 1:
+        raise ValueError(f"forward_packed supports ConvTranspose1d with kernel a multiple of stride only, not {conv}")
+    packed = w.permute(0, 2, 1).reshape(w.shape[0], k * w.shape[1]).contiguous()
+    return packed, _bias(conv, w.shape[1]), k, s, conv.padding[0]
+
+
+def _conv_transpose_rows(x: torch.Tensor, packed: tuple) -> torch.Tensor:
+    """ConvTranspose1d on rows x [B,T,C]: one product gives every input position's k output
+    taps; tap kk = j·s + r of position i lands on output s·(i+j) + r (overlap-add, then crop)."""
+    w, b, k, s, p = packed
+    n, t, c = x.shape
+    m = k // s
+    z = torch.mm(x.reshape(n * t, c), w).view(n, t, m, s, -1)
+    full = sum(F.pad(z[:, :, j], (0, 0, 0, 0, j, m - 1 - j)) for j in range(m))  # [B, T+m-1, s, O]
+    t_out = (t - 1) * s - 2 * p + k
+    return full.reshape(n, (t + m - 1) * s, -1)[:, p:p + t_out] + b
+
+
+def _pack_norm(gn: nn.GroupNorm) -> tuple:
+    return gn.num_groups, *(None if p is None else p.detach() for p in (gn.weight, gn.bias)), gn.eps
+
+
+def _norm_act(y: torch.Tensor, norm: tuple) -> torch.Tensor:
+    """GroupNorm → Mish of rows y [B,T,C]; returns channel-first [B,C,T]."""
+    return F.mish(F.group_norm(y.transpose(1, 2), *norm), inplace=True)
 
 
 class ConditionalUnet1D(nn.Module):
@@ -105,3 +171,75 @@ class ConditionalUnet1D(nn.Module):
             x = torch.cat([x, skips.pop()], dim=1)
             x = up(res2(res1(x, next(it)), next(it)))
         return self.final_conv(x).transpose(1, 2)
+
+    def packed_weights(self) -> dict:
+        """Repacked weights for :meth:`forward_packed` in execution order, cached and rebuilt when
+        any parameter is replaced or changed in place (a sampling loop gets them once)."""
+        mods = self.__dict__.get("_packed_modules") or self.__dict__.setdefault("_packed_modules", list(self.modules()))
+        key = tuple((p.data_ptr(), p._version) for m in mods for p in m._parameters.values() if p is not None)
+        cache = getattr(self, "_packed_cache", None)
+        if cache is not None and cache[0] == key:
+            return cache[1]
+
+        def blk(b: ConditionalResidualBlock1D) -> tuple:
+            (c0, g0, _), (c1, g1, _) = b.blocks
+            res = None if isinstance(b.residual_conv, nn.Identity) else _pack_conv(b.residual_conv)
+            return _pack_conv(c0), _pack_norm(g0), _pack_conv(c1), _pack_norm(g1), res
+
+        with torch.no_grad():
+            (fc, fg, _), fout = self.final_conv
+            film = [blk.cond_encoder[1] for blk in self._blocks()]  # Linear on [Mish(t_emb), Mish(cond)]
+            dsed = self.diffusion_step_encoder[-1].out_features
+            w = torch.cat([lin.weight.detach() for lin in film]).t()  # [dsed + G, ΣC]
+            b = torch.cat([_bias(lin, lin.out_features) for lin in film])
+            packed = {"film": (w[:dsed].contiguous(), w[dsed:].contiguous(), b, [lin.out_features for lin in film]),
+                      "down": [(blk(r1), blk(r2), None if isinstance(d, nn.Identity) else _pack_conv(d))
+                               for r1, r2, d in self.down_modules],
+                      "mid": [blk(m) for m in self.mid_modules],
+                      "up": [(blk(r1), blk(r2), _pack_conv_transpose(u)) for r1, r2, u in self.up_modules],
+                      "final": (_pack_conv(fc), _pack_norm(fg), _pack_conv(fout))}
+        self._packed_cache = (key, packed)
+        return packed
+
+    def packed_film_biases(self, timesteps: torch.Tensor, global_cond: torch.Tensor,
+                           packed: dict) -> list[list[torch.Tensor]]:
+        """:meth:`film_biases` of every timestep [S] with every condition [N, G]: per step, every
+        block's [N, C, 1]. The blocks' FiLM layers act on [Mish(t_emb), Mish(cond)], so the
+        timestep half (kept in ``packed``) and the condition half are two products, one each for
+        all blocks."""
+        w_t, w_c, b, sizes = packed["film"]
+        key = ("film_t", tuple(timesteps.tolist()))
+        part_t = packed.get(key)
+        if part_t is None:
+            with torch.no_grad():
+                temb = self.diffusion_step_encoder(timesteps.to(global_cond.device))
+                part_t = packed[key] = torch.addmm(b, F.mish(temb), w_t)  # [S, ΣC]
+        total = part_t[:, None] + torch.mm(F.mish(global_cond), w_c)  # [S, N, ΣC]
+        chunks = [c.unsqueeze(-1) for c in total.split(sizes, dim=-1)]  # [S, N, C, 1] per block
+        return [[c[k] for c in chunks] for k in range(len(timesteps))]
+
+    def forward_packed(self, sample: torch.Tensor, biases: list[torch.Tensor],
+                       packed: dict | None = None) -> torch.Tensor:
+        """``forward(sample, biases=biases)`` for inference (no autograd), each convolution as one
+        matrix product over the rows [B·horizon, C]; ``packed``: :meth:`packed_weights`."""
+        packed = self.packed_weights() if packed is None else packed
+        it = iter(biases)
+
+        def res_block(x: torch.Tensor, blk: tuple) -> torch.Tensor:
+            c0, g0, c1, g1, res = blk
+            h = _norm_act(_conv_rows(x, c0), g0) + next(it)  # [B,C,T]
+            h = _norm_act(_conv_rows(h.transpose(1, 2), c1), g1)
+            return h.transpose(1, 2) + (x if res is None else _conv_rows(x, res))  # rows [B,T,C]
+
+        x, skips = sample, []
+        for blk1, blk2, down in packed["down"]:
+            x = res_block(res_block(x, blk1), blk2)
+            skips.append(x)
+            x = x if down is None else _conv_rows(x, down)
+        for blk in packed["mid"]:
+            x = res_block(x, blk)
+        for blk1, blk2, up in packed["up"]:
+            x = res_block(res_block(torch.cat([x, skips.pop()], dim=-1), blk1), blk2)
+            x = _conv_transpose_rows(x, up)
+        conv, norm, out = packed["final"]
+        return _conv_rows(_norm_act(_conv_rows(x, conv), norm).transpose(1, 2), out)

@@ -3,7 +3,8 @@
 Hydra: ``{_target_: rvn_il.policies.load_policy, checkpoint_path: <out_dir>, device: cpu,
 selection: argmin}`` — every keyword besides ``checkpoint_path``/``device``/``model`` overrides
 a ``model.policy`` setting (lookahead_min_dist, waypoint_index, num_samples, aggregate, stop_radius,
-selection, cor_alpha), the seed or an agent setting (r_robot, d_step, theta_step_deg).
+selection, cor_alpha), the seed, ``threads`` (torch intra-op threads of a decision on CPU, default
+1, null: torch's setting; see :mod:`.policy`) or an agent setting (r_robot, d_step, theta_step_deg).
 """
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ import torch
 
 from rvn_data.conventions import AgentConfig
 
+from ..data.images import crop_setting
 from ..models import build_model, resolve_size
 from ..models.checkpoint import (latest_checkpoint, load_state_dict_checked, members_of, read_config, read_stats,
                                  read_weights)
@@ -22,25 +24,43 @@ from .control import ControlConfig
 from .policy import Member, NoMaDNegPolicy, PointGoalPolicy
 
 POLICY_KEYS = {"lookahead_min_dist", "waypoint_index", "num_samples", "aggregate", "stop_radius", "selection", "cor_alpha",
-               "seed"}
+               "seed", "threads"}
 AGENT_KEYS = {f.name for f in dataclasses.fields(AgentConfig)}
 
 
-def resolve_device(device: str | torch.device) -> torch.device:
+def resolve_device(device: str | torch.device, setting: str = "device") -> torch.device:
+    """``auto`` (CUDA when there is one), ``cpu``, ``cuda`` or ``cuda:N``; a ValueError naming
+    ``setting`` when the device does not exist here."""
     if str(device) == "auto":
         return torch.device("cuda" if torch.cuda.is_available() else "cpu")
-    return torch.device(device)
+    try:
+        dev = torch.device(device)
+    except (RuntimeError, TypeError):
+        raise ValueError(f"{setting}={device!r} is not a device; choose auto, cpu, cuda or cuda:N") from None
+    if dev.type == "cuda":
+        if not torch.cuda.is_available():
+            build = "has no CUDA" if torch.version.cuda is None else "finds no GPU"
+            raise ValueError(f"{setting}={device}: this torch ({torch.__version__}) {build}; use {setting}=cpu or auto, "
+                             "or install a CUDA build of torch on a GPU machine")
+        if dev.index is not None and dev.index >= torch.cuda.device_count():
+            raise ValueError(f"{setting}={device}: only {torch.cuda.device_count()} GPU(s) here")
+    return dev
 
 
 def load_member(out_dir: Path, member: str, model_cfg: dict, device: torch.device) -> Member:
-    """One trained network (EMA weights when present) and its statistics, in eval mode."""
+    """One trained network (EMA weights when present) and its statistics, in eval mode; its
+    crop is the checkpoint's ``crop`` (older stats: ``crop_to_aspect``, true → aspect, false → none)."""
     ckpt = latest_checkpoint(out_dir / member)
     if ckpt is None:
         raise ValueError(f"no checkpoint for {member!r} in {out_dir}: rvn-train has not saved one yet")
     model = build_model(model_cfg)
     load_state_dict_checked(model, read_weights(ckpt, model_cfg["name"]), ckpt)
     stats = read_stats(ckpt)
-    return Member(model.eval().to(device), float(stats["metric_waypoint_spacing"]), bool(stats.get("crop_to_aspect", True)))
+    crop = crop_setting(stats, setting=f"crop in {ckpt / 'stats.json'}")
+    model = model.eval().to(device)
+    if device.type == "cuda":  # cuDNN runs NHWC convolutions faster; on a CPU one frame is faster in NCHW
+        model.use_channels_last()
+    return Member(model, float(stats["metric_waypoint_spacing"]), crop)
 
 
 def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu", model: str | None = None,
@@ -60,9 +80,10 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
     pol.update({k: v for k, v in overrides.items() if k in POLICY_KEYS})
     agent = AgentConfig(**{**(cfg.get("agent") or {}), **{k: v for k, v in overrides.items() if k in AGENT_KEYS}})
     control = ControlConfig.from_agent(agent, pol.get("stop_radius"), pol.get("lookahead_min_dist"), pol.get("waypoint_index"))
-    dev = resolve_device(device)
+    dev = resolve_device(device, "policy.device")
     members = [load_member(out_dir, m, model_cfg, dev) for m in members_of(name)]
-    common = dict(num_samples=int(pol.get("num_samples", 8)), seed=int(pol["seed"]), device=dev)
+    common = dict(num_samples=int(pol.get("num_samples", 8)), seed=int(pol["seed"]), device=dev,
+                  threads=pol.get("threads", 1))
     if name == "nomad_neg":
         if pol.get("aggregate", "first") != "first":
             raise ValueError(f"policy aggregate={pol['aggregate']!r}: NoMaD-Neg chooses its sample by CoR (policy.selection)")

@@ -2,16 +2,23 @@
 ``act(obs) -> int`` with ``obs = {'rgb': uint8 [H,W,3], 'pointgoal': float32 [2]}``.
 
 Each decision: the current frame is preprocessed exactly as in training
-(:func:`rvn_il.data.images.preprocess_image`), encoded once and pushed onto a queue of the
+(:func:`rvn_il.data.images.preprocess_image` with the member's crop, the ``data.crop`` its
+checkpoint was trained with), encoded once and pushed onto a queue of the
 last C+1 per-frame tokens (filled with the first frame after ``reset()``; tokens are cached, so
 each frame goes through EfficientNet once); the point goal is divided by
 metric_waypoint_spacing; the model predicts waypoints which, back in metres, become an action
 through :mod:`rvn_il.policies.control`. Sampling uses a torch Generator re-seeded with ``seed``
 in every ``reset()``, so an episode's actions do not depend on which episodes ran before.
+
+On a CPU a decision runs with at most ``threads`` torch intra-op threads (default 1; None keeps
+torch's setting): one frame and a few small denoiser batches gain little from more, and on a
+machine whose cores are busy, threads that wait for each other at every operation make a
+decision many times slower.
 """
 from __future__ import annotations
 
 from collections import deque
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -19,10 +26,24 @@ import torch
 
 from rvn_data.conventions import Action
 
-from ..data.images import preprocess_image
+from ..data.images import check_crop, preprocess_image
 from ..models import PointGoalModel
 from .control import ControlConfig, waypoints_to_action
 from .cor import SELECTIONS, select_expert
+
+
+@contextmanager
+def intra_op_threads(n: int | None):
+    """torch's intra-op thread count lowered to ``n`` inside the block (unchanged for None)."""
+    old = torch.get_num_threads()
+    if n is None or n >= old:
+        yield
+        return
+    torch.set_num_threads(n)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(old)
 
 
 @dataclass
@@ -31,7 +52,10 @@ class Member:
 
     model: PointGoalModel
     spacing: float  # metric_waypoint_spacing of its training data, metres
-    crop_to_aspect: bool = True
+    crop: str = "aspect"  # data.crop of its training data: aspect | official | none (True/False: aspect/none)
+
+    def __post_init__(self):
+        self.crop = check_crop(self.crop, "policy member crop")
 
 
 class PointGoalPolicy:
@@ -44,10 +68,12 @@ class PointGoalPolicy:
     AGGREGATES = ("first", "vote")
 
     def __init__(self, members: list[Member], control: ControlConfig, num_samples: int = 8, seed: int = 0,
-                 device: str | torch.device = "cpu", aggregate: str = "first"):
+                 device: str | torch.device = "cpu", aggregate: str = "first", threads: int | None = 1):
         if aggregate not in self.AGGREGATES:
             raise ValueError(f"policy aggregate={aggregate!r}; choose one of {self.AGGREGATES}")
-        self.aggregate = aggregate
+        if threads is not None and not (isinstance(threads, int) and threads >= 1):
+            raise ValueError(f"policy threads={threads!r}; give a positive integer or null (torch's setting)")
+        self.aggregate, self.threads = aggregate, threads
         self.members, self.control = members, control
         self.num_samples, self.seed, self.device = int(num_samples), int(seed), torch.device(device)
         self.last_waypoints: np.ndarray | None = None  # metres, robot frame (for plots/debugging)
@@ -58,12 +84,15 @@ class PointGoalPolicy:
         self.generator = torch.Generator(device=self.device).manual_seed(self.seed)
 
     def _push(self, rgb: np.ndarray) -> list[torch.Tensor]:
-        """Encode the frame for every member; return each member's context tokens [1,C+1,D]."""
-        out = []
+        """Encode the frame for every member; return each member's context tokens [1,C+1,D].
+        Members with the same image size and crop share the preprocessed frame."""
+        out, frames = [], {}
         for m, q in zip(self.members, self.queues):
-            img = preprocess_image(rgb, m.model.image_size, m.crop_to_aspect)
-            x = torch.from_numpy(img).to(self.device).permute(2, 0, 1).unsqueeze(0).float().div_(255.0)
-            tok = m.model.encode_frames(x)[0]
+            key = (tuple(m.model.image_size), m.crop)
+            if key not in frames:
+                img = preprocess_image(rgb, m.model.image_size, m.crop)
+                frames[key] = torch.from_numpy(img).to(self.device).permute(2, 0, 1).unsqueeze(0).float().div_(255.0)
+            tok = m.model.encode_frames(frames[key])[0]
             while len(q) < q.maxlen - 1:  # first frame after reset fills the context
                 q.append(tok)
             q.append(tok)
@@ -100,7 +129,7 @@ class PointGoalPolicy:
 
     def act(self, obs) -> int:
         rgb, pointgoal = self._check(obs)
-        with torch.inference_mode():
+        with torch.inference_mode(), intra_op_threads(self.threads if self.device.type == "cpu" else None):
             tokens = self._push(rgb)
             if np.linalg.norm(pointgoal) < self.control.stop_radius:
                 return int(Action.STOP)
@@ -113,13 +142,14 @@ class NoMaDNegPolicy(PointGoalPolicy):
     sample selected by CoR (``selection`` argmax | argmin, Student-t parameter ``cor_alpha``)."""
 
     def __init__(self, members: list[Member], control: ControlConfig, num_samples: int = 8, seed: int = 0,
-                 device: str | torch.device = "cpu", selection: str = "argmax", cor_alpha: float = 1.0):
+                 device: str | torch.device = "cpu", selection: str = "argmax", cor_alpha: float = 1.0,
+                 threads: int | None = 1):
         if len(members) != 2:
             raise ValueError("NoMaD-Neg needs two members: expert and negative")
         if selection not in SELECTIONS:
             raise ValueError(f"policy selection={selection!r}; choose argmax or argmin")
         self.selection, self.cor_alpha = selection, float(cor_alpha)
-        super().__init__(members, control, num_samples, seed, device)
+        super().__init__(members, control, num_samples, seed, device, threads=threads)
 
     def choose(self, samples: list[np.ndarray], pointgoal: np.ndarray) -> np.ndarray:
         expert, negative = samples

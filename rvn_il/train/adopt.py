@@ -14,21 +14,27 @@ from typing import Mapping
 
 from safetensors.torch import load_file
 
+from ..data.images import crop_setting
 from ..models import build_model
 from ..models.checkpoint import (latest_checkpoint, load_state_dict_checked, read_config, read_stats, read_weights,
                                  save_checkpoint)
 
 log = logging.getLogger(__name__)
-SAME = ("image_size", "crop_to_aspect", "context_size", "len_traj_pred", "metric_waypoint_spacing")
+SAME = ("image_size", "crop", "context_size", "len_traj_pred", "metric_waypoint_spacing")
 
 
 def adopt_expert(source: str | Path, member_dir: Path, model_cfg: Mapping, stats: Mapping) -> Path:
     """Copy the latest checkpoint of the NoMaD-PointGoal run ``source`` into ``member_dir``
     (NoMaD-Neg's ``expert``) unless that already holds it; returns the adopted checkpoint."""
     src_dir = Path(source).expanduser()
-    name = read_config(src_dir)["model"]["name"]
+    src_model = read_config(src_dir)["model"]
+    name = src_model["name"]
     if name != "nomad_pointgoal":
         raise ValueError(f"train.expert_from={source} holds a {name!r} run; NoMaD_e must come from a nomad_pointgoal run")
+    theirs, ours = src_model.get("prediction_type", "epsilon"), model_cfg.get("prediction_type", "epsilon")
+    if theirs != ours:
+        raise ValueError(f"train.expert_from={source} was trained with model.prediction_type={theirs}, this run has "
+                         f"{ours}; set model.prediction_type={theirs}")
     ckpt = latest_checkpoint(src_dir / "model")
     if ckpt is None:
         raise ValueError(f"train.expert_from={source} has no finished checkpoint (no {src_dir / 'model' / 'latest'}); "
@@ -40,6 +46,7 @@ def adopt_expert(source: str | Path, member_dir: Path, model_cfg: Mapping, stats
         raise ValueError(f"{member_dir} already holds a NoMaD_e checkpoint that is not {ckpt}; choose another out_dir= "
                          "or remove train.expert_from")
     src_stats = read_stats(ckpt)
+    src_stats["crop"] = crop_setting(src_stats, setting=f"crop in {ckpt / 'stats.json'}")  # older stats: crop_to_aspect
     for key in SAME:
         if key in stats and src_stats.get(key) != stats[key]:
             raise ValueError(f"train.expert_from={source}: its {key}={src_stats.get(key)} differs from this run's "

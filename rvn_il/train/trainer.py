@@ -21,14 +21,18 @@ from torch.utils.data import BatchSampler, DataLoader
 from safetensors.torch import load_file
 from tqdm import tqdm
 
-from ..data import BatchView, EpochSampler, make_dataset
+from ..data import BatchView, EpochSampler, crop_setting, make_dataset
 from ..models import build_model, resolve_size
 from ..models.checkpoint import (latest_checkpoint, load_state_dict_checked, members_of, read_config, read_weights,
                                  save_checkpoint, write_config)
 from ..models.encoders import IMAGENET_MEAN, IMAGENET_STD
+from ..models.nomad import PREDICTION_TYPES
 from ..policies.loader import resolve_device
 from .adopt import adopt_expert
 from .ema import EMA
+from .validate import Validator
+
+PRECISIONS = ("fp32", "bf16")
 
 log = logging.getLogger(__name__)
 
@@ -66,6 +70,22 @@ def data_roots(cfg: Mapping) -> dict[str, str]:
     return {"expert": cfg["data"]["root"], "negative": neg}
 
 
+def check_settings(cfg: Mapping) -> None:
+    """Settings that would otherwise fail after minutes of training."""
+    tcfg, data, model = cfg["train"], cfg["data"], cfg["model"]
+    if "prediction_type" in model and model["prediction_type"] not in PREDICTION_TYPES:
+        raise ValueError(f"model.prediction_type={model['prediction_type']!r}; choose one of {', '.join(PREDICTION_TYPES)}")
+    if tcfg.get("precision", "fp32") not in PRECISIONS:
+        raise ValueError(f"train.precision={tcfg['precision']!r}; choose one of {', '.join(PRECISIONS)}")
+    val_root = data.get("val_root")
+    if val_root and not Path(val_root).expanduser().is_dir():
+        raise ValueError(f"data.val_root={val_root} does not exist; generate an expert dataset on other scenes "
+                         "(rvn-gen split=val out_dir=...) or set data.val_root=null")
+    for key in ("val_every", "val_batches", "val_trajectories"):
+        if val_root and not int(tcfg.get(key, 1)) > 0:
+            raise ValueError(f"train.{key}={tcfg[key]} must be a positive integer")
+
+
 def run_training(cfg: Mapping[str, Any]) -> Path:
     """Train every member of ``cfg['model']`` into ``cfg['out_dir']``; returns the out_dir."""
     rank, world, local_rank = _dist_info()
@@ -82,6 +102,7 @@ def run_training(cfg: Mapping[str, Any]) -> Path:
             raise ValueError(f"{out_dir} holds a checkpoint of model {old['name']!r} (size {old.get('size', 'full')}), not "
                              f"{name!r} (size {cfg['model'].get('size', 'full')}); choose another out_dir=")
     roots = data_roots(cfg)
+    check_settings(cfg)
     if rank == 0:
         write_config(out_dir, cfg)
     for index, (member, root) in enumerate(roots.items()):
@@ -99,7 +120,7 @@ def train_member(cfg: Mapping, member: str, index: int, root: str, out_dir: Path
         if rank == 0:
             adopt_expert(tcfg["expert_from"], out_dir / member, model_cfg,
                          {"model": model_cfg["name"], "image_size": list(model_cfg["image_size"]),
-                          "crop_to_aspect": bool(model_cfg.get("crop_to_aspect", True)),
+                          "crop": crop_setting(data_cfg, model_cfg),
                           "context_size": model_cfg["context_size"], "len_traj_pred": model_cfg["len_traj_pred"]})
         if world > 1:
             dist.barrier()
@@ -159,9 +180,15 @@ def train_member(cfg: Mapping, member: str, index: int, root: str, out_dir: Path
     stats = {"model": model_cfg["name"], "member": member, "metric_waypoint_spacing": dataset.spacing,
              "action_stats": {"min": model.action_min.tolist(), "max": model.action_max.tolist()}
              if hasattr(model, "action_min") else None, "image_size": list(model_cfg["image_size"]),
-             "crop_to_aspect": bool(model_cfg.get("crop_to_aspect", True)), "context_size": model_cfg["context_size"],
+             "crop": crop_setting(data_cfg, model_cfg), "context_size": model_cfg["context_size"],
              "len_traj_pred": model_cfg["len_traj_pred"], "imagenet_mean": IMAGENET_MEAN, "imagenet_std": IMAGENET_STD,
              "dataset": str(Path(root).expanduser().resolve()), "num_samples": len(dataset)}
+    validator = None
+    if rank == 0 and data_cfg.get("val_root") and member != "negative":  # NoMaD_n imitates collisions: no agreement
+        validator = Validator(data_cfg["val_root"], model_cfg, data_cfg, tcfg, cfg.get("agent"), seed, bs,
+                              dataset.spacing, out_dir / member / "val.json")
+    val_every = int(tcfg.get("val_every", 1000))
+    bf16 = tcfg.get("precision", "fp32") == "bf16"
     gen = torch.Generator(device=device)
     log_every, ckpt_every = int(tcfg.get("log_every", 10)), int(tcfg.get("ckpt_every", 1000))
     net.train()
@@ -172,7 +199,8 @@ def train_member(cfg: Mapping, member: str, index: int, root: str, out_dir: Path
             batch = {k: v.to(device, non_blocking=True) for k, v in batch.items()}
             gen.manual_seed(derive_seed(seed, index, rank, step))
             torch.manual_seed(derive_seed(seed, index, rank, step, 1))
-            losses = net(batch, gen)
+            with torch.autocast(device.type, dtype=torch.bfloat16, enabled=bf16):
+                losses = net(batch, gen)
             if not torch.isfinite(losses["loss"]):
                 raise ValueError(f"non-finite loss at step {step} of {model_cfg['name']}/{member}; lower train.lr or check the data")
             opt.zero_grad(set_to_none=True)
@@ -190,6 +218,8 @@ def train_member(cfg: Mapping, member: str, index: int, root: str, out_dir: Path
                     writer.add_scalar(f"train/{k}", float(v.detach()), step)
                 writer.add_scalar("train/lr", sched.get_last_lr()[0], step)
                 bar.set_postfix(loss=f"{float(losses['loss'].detach()):.4f}")
+            if validator is not None and (step % val_every == 0 or step >= max_steps):
+                validator(model, ema.shadow if ema is not None else None, step, writer)
             if rank == 0 and (step % ckpt_every == 0 or step >= max_steps):
                 state = {"step": step, "optimizer": opt.state_dict(), "scheduler": sched.state_dict(),
                          "ema": ema.state_dict() if ema is not None else None, "max_steps": max_steps}

@@ -1,0 +1,125 @@
+"""NoMaD's fast sampling path against the reference one: the packed U-Net against the module's
+forward, the precomputed DDPM update against diffusers' DDPMScheduler.step, and whole
+``predict`` calls, for every prediction_type, with the same seeded generator; the policies'
+decision thread cap."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from rvn_data.conventions import AgentConfig
+from rvn_il.models import build_model, load_model_config
+from rvn_il.models.nomad import PREDICTION_TYPES, ddpm_plan
+from rvn_il.policies import ControlConfig, Member, PointGoalPolicy
+
+torch.set_num_threads(1)
+
+
+def nomad(size: str = "small", **overrides):
+    torch.manual_seed(0)
+    return build_model(load_model_config("nomad_pointgoal", size, **overrides)).eval()
+
+
+def inputs(model, b: int = 2):
+    g = torch.Generator().manual_seed(5)
+    tokens = torch.randn(b, model.context_size + 1, model.encoding_size, generator=g)
+    return tokens, torch.randn(b, 2, generator=g) * 3
+
+
+@pytest.mark.parametrize("prediction_type", PREDICTION_TYPES)
+def test_ddpm_plan_matches_diffusers_step(prediction_type):
+    """The same denoiser outputs through both updates (noise from generators seeded alike) give
+    the same floats."""
+    model = nomad(prediction_type=prediction_type)
+    plan = ddpm_plan(model.scheduler, model.num_diffusion_iters)
+    model.scheduler.set_timesteps(model.num_diffusion_iters)
+    assert [s.t for s in plan] == model.scheduler.timesteps.tolist()
+    cond = torch.randn(16, model.encoding_size)
+    ga, gb = torch.Generator().manual_seed(3), torch.Generator().manual_seed(3)
+    xa = xb = torch.randn(16, model.len_traj_pred, 2, generator=torch.Generator().manual_seed(1))
+    with torch.no_grad():
+        for step in plan:
+            out_a = model.noise_pred_net(xa, step.t, cond)
+            xa = model.scheduler.step(out_a, step.t, xa, generator=ga).prev_sample
+            xb = step.update(model.noise_pred_net(xb, step.t, cond), xb, gb)
+            torch.testing.assert_close(xb, xa, rtol=0, atol=0)  # the same float operations
+    assert torch.equal(ga.get_state(), gb.get_state())  # the same number of draws
+
+
+@pytest.mark.parametrize("size", ["small", "full"])
+def test_packed_unet_matches_forward(size):
+    model = nomad(size)
+    net = model.noise_pred_net
+    g = torch.Generator().manual_seed(2)
+    x = torch.randn(6, model.len_traj_pred, 2, generator=g)
+    cond = torch.randn(6, model.encoding_size, generator=g)
+    t = torch.tensor([9, 7, 5, 3, 1, 0])
+    with torch.no_grad():
+        biases = net.film_biases(t, cond)
+        torch.testing.assert_close(net.forward_packed(x, biases), net(x, t, cond), rtol=0, atol=1e-5)
+        steps = torch.arange(9, -1, -1)
+        packed = net.packed_film_biases(steps, cond[:2], net.packed_weights())
+        for k, s in enumerate(steps.tolist()):
+            for got, want in zip(packed[k], net.film_biases(s, cond[:2])):
+                torch.testing.assert_close(got, want, rtol=0, atol=1e-5)
+
+
+def test_packed_weights_follow_parameter_changes():
+    """The repacked weights are cached, and rebuilt after an in-place change or a load."""
+    model, other = nomad(), nomad()
+    with torch.no_grad():
+        for p in other.parameters():
+            p.add_(0.01 * torch.randn_like(p))
+    net = model.noise_pred_net
+    x = torch.randn(4, model.len_traj_pred, 2)
+    cond = torch.randn(4, model.encoding_size)
+    t = torch.tensor([9, 5, 2, 0])
+    with torch.no_grad():
+        assert net.packed_weights() is net.packed_weights()
+        model.load_state_dict(other.state_dict())
+        torch.testing.assert_close(net.forward_packed(x, net.film_biases(t, cond)), other.noise_pred_net(x, t, cond),
+                                   rtol=0, atol=1e-5)
+        net.final_conv[1].bias.add_(1.0)
+        torch.testing.assert_close(net.forward_packed(x, net.film_biases(t, cond)), net(x, t, cond), rtol=0, atol=1e-5)
+
+
+@pytest.mark.parametrize("prediction_type", PREDICTION_TYPES)
+def test_predict_fast_matches_reference_path(prediction_type):
+    model = nomad(prediction_type=prediction_type)
+    tokens, goal = inputs(model)
+    mask = torch.tensor([0.0, 1.0])
+    ref = model.predict(tokens, goal, 8, torch.Generator().manual_seed(7), mask, fast=False)
+    fast = model.predict(tokens, goal, 8, torch.Generator().manual_seed(7), mask)
+    assert fast.shape == (2, 8, model.len_traj_pred, 2)
+    torch.testing.assert_close(fast, ref, rtol=0, atol=1e-5)
+    torch.testing.assert_close(model.predict(tokens, goal, 8, torch.Generator().manual_seed(7), mask), fast,
+                               rtol=0, atol=0)  # deterministic for a seed
+
+
+def test_predict_full_size_one_item():
+    """The policy's case: one item, full size."""
+    model = nomad("full")
+    tokens, goal = inputs(model, 1)
+    fast = model.predict(tokens, goal, 8, torch.Generator().manual_seed(4))
+    ref = model.predict(tokens, goal, 8, torch.Generator().manual_seed(4), fast=False)
+    torch.testing.assert_close(fast, ref, rtol=0, atol=1e-5)
+
+
+@pytest.mark.parametrize("threads, inside", [(1, 1), (None, 2)])
+def test_policy_decision_threads(threads, inside):
+    """A decision runs with at most ``threads`` intra-op threads; torch's setting is restored."""
+    model = nomad()
+    seen = []
+    encode = model.encode_frames
+    model.encode_frames = lambda x: seen.append(torch.get_num_threads()) or encode(x)
+    policy = PointGoalPolicy([Member(model, 0.25)], ControlConfig.from_agent(AgentConfig()), 2, threads=threads)
+    before = torch.get_num_threads()
+    torch.set_num_threads(2)
+    try:
+        policy.act({"rgb": np.zeros((64, 64, 3), np.uint8), "pointgoal": np.array([2.0, 0.5], np.float32)})
+        assert seen == [inside] and torch.get_num_threads() == 2
+    finally:
+        torch.set_num_threads(before)
+    with pytest.raises(ValueError, match="policy threads=0"):
+        PointGoalPolicy([Member(model, 0.25)], ControlConfig.from_agent(AgentConfig()), threads=0)
