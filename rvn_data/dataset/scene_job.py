@@ -160,11 +160,11 @@ def run_scene(spec: str, settings: GenSettings, out_dir: Path, trajectories_per_
                 if on_trajectory:
                     on_trajectory(1)
                 continue
-            jpegs = _render(scene.renderer, rollout, s, res.timing)
+            jpegs, depth = _render(scene.renderer, rollout, s, res.timing)
             t0 = time.perf_counter()
             meta = _meta(s, scene.scene.scene_id, spec, split, name, index, a, rejected, rollout,
                          scene.renderer.backend)
-            writer.write_trajectory(out_dir, name, jpegs, rollout.planar, rollout.yaws, meta)
+            writer.write_trajectory(out_dir, name, jpegs, rollout.planar, rollout.yaws, meta, depth)
             res.timing["writing"] += time.perf_counter() - t0
             kept.append(meta)
             res.written += 1
@@ -193,17 +193,23 @@ def run_scene(spec: str, settings: GenSettings, out_dir: Path, trajectories_per_
             scene.close()
 
 
-def _render(renderer, r: Rollout, s: GenSettings, timing: dict) -> list[bytes]:
-    jpegs = []
+def _render(renderer, r: Rollout, s: GenSettings, timing: dict) -> tuple[list[bytes], np.ndarray | None]:
+    """JPEG bytes of every frame and, with dataset.save_depth, the depth maps float16 [T, S, S]."""
+    jpegs, depths = [], []
     for i in range(r.num_render):
         t0 = time.perf_counter()
-        rgb, _ = renderer.render(r.positions[i], float(r.yaws[i]))
+        rgb, depth = renderer.render(r.positions[i], float(r.yaws[i]))
         t1 = time.perf_counter()
         jpegs.append(writer.encode_jpeg(rgb, s.jpeg_quality))
+        if s.save_depth:
+            depths.append(writer.downsample_depth(depth, s.depth_size))
         timing["rendering"] += t1 - t0
         timing["encoding"] += time.perf_counter() - t1
     jpegs += [jpegs[-1]] * (len(r.yaws) - r.num_render)  # I_t = I_{t_c} after the collision
-    return jpegs
+    if not s.save_depth:
+        return jpegs, None
+    depths += [depths[-1]] * (len(r.yaws) - r.num_render)  # and so is its depth
+    return jpegs, np.stack(depths)
 
 
 def _navigable_on(grid, navmesh) -> np.ndarray:

@@ -39,6 +39,8 @@ class GenSettings:
     resolution: float = 0.05  # m, occupancy grid cell
     stop_radius: float = 0.36  # m, STOP this close to the goal (2·r_robot)
     jpeg_quality: int = 90
+    save_depth: bool = False  # also write <traj>/depth.npy, the rendered depth per frame (dataset/writer.py)
+    depth_size: int = 16  # side S of the saved depth maps [T, S, S]
     train_fraction: float = 0.8  # scenes in the train split of data_splits/
     renderer: str = "auto"
     render_device: int = 0  # GPU index for the GL back-end (not part of the identity)
@@ -80,6 +82,10 @@ class GenSettings:
         for key in ("perturb_max_turns", "max_steps", "max_attempts", "goal_candidates"):
             if getattr(self, key) < 1:
                 raise ValueError(f"dataset.{key}={getattr(self, key)} must be >= 1")
+        if not isinstance(self.save_depth, bool):
+            raise ValueError(f"dataset.save_depth={self.save_depth!r} must be true or false")
+        if isinstance(self.depth_size, bool) or not isinstance(self.depth_size, int) or self.depth_size < 1:
+            raise ValueError(f"dataset.depth_size={self.depth_size!r} must be a positive integer")
         if not 1 <= self.jpeg_quality <= 100:
             raise ValueError(f"dataset.jpeg_quality={self.jpeg_quality} must be in [1, 100]")
 
@@ -97,6 +103,8 @@ class GenSettings:
             del out["clearance_pref"], out["clearance_weight"]
         if self.perturb_prob == 0:
             del out["perturb_prob"], out["perturb_max_turns"]
+        if not self.save_depth:
+            del out["save_depth"], out["depth_size"]
         return out
 
     @classmethod

@@ -7,6 +7,10 @@ aspect, ``_official`` for official, none for none) holds ``images`` uint8 [N,3,H
 ``traj_len`` int64 [M], ``names`` and attributes (fingerprint, spacing, image size). It is
 rebuilt when the fingerprint of the source files (names, sizes, mtimes) or the image settings
 (size, crop) change, and written atomically (temporary file, then ``os.replace``).
+
+With depth (``model.depth_aux_weight`` > 0, see :mod:`.depth`) the file is another one
+(``..._depth<S>.h5``, its own fingerprint) that also holds ``depth`` float16 [N,S,S] (metres,
+0 = nothing hit) from the trajectories' ``depth.npy`` sidecars.
 """
 from __future__ import annotations
 
@@ -21,6 +25,7 @@ from tqdm import tqdm
 
 from rvn_data.atomic import atomic_path
 
+from .depth import load_traj_depth, require_depth
 from .gnm import GNMSource, fingerprint
 from .images import check_crop, preprocess_image, read_rgb
 
@@ -29,10 +34,12 @@ SUFFIX = {"aspect": "_crop", "official": "_official", "none": ""}  # one file pe
 log = logging.getLogger(__name__)
 
 
-def cache_path(source: GNMSource, image_size: Sequence[int], crop: str | bool, cache_dir: str | Path | None) -> Path:
+def cache_path(source: GNMSource, image_size: Sequence[int], crop: str | bool, cache_dir: str | Path | None,
+               depth: int | None = None) -> Path:
     d = Path(cache_dir) if cache_dir else source.root / ".rvn_cache"
     w, h = int(image_size[0]), int(image_size[1])
-    return d / f"{source.name}_{source.split}_{w}x{h}{SUFFIX[check_crop(crop)]}.h5"
+    extra = f"_depth{int(depth)}" if depth else ""
+    return d / f"{source.name}_{source.split}_{w}x{h}{SUFFIX[check_crop(crop)]}{extra}.h5"
 
 
 def _crop_key(crop: str) -> object:
@@ -55,13 +62,16 @@ def _load_traj_images(source: GNMSource, i: int, image_size, crop: str) -> np.nd
 
 
 def build_cache(source: GNMSource, path: Path, image_size: Sequence[int], crop: str | bool,
-                fp: str, num_threads: int = 4, progress: bool = True) -> None:
-    """Decode, crop, resize and pack every frame of ``source`` into ``path`` (atomic write)."""
+                fp: str, num_threads: int = 4, progress: bool = True, depth: int | None = None) -> None:
+    """Decode, crop, resize and pack every frame of ``source`` into ``path`` (atomic write); with
+    ``depth`` = S also the [S,S] depth maps of every frame."""
     crop = check_crop(crop)
     w, h = int(image_size[0]), int(image_size[1])
     lengths = source.lengths
     starts = np.concatenate([[0], np.cumsum(lengths)[:-1]]).astype(np.int64)
     n = int(lengths.sum())
+    if depth:
+        require_depth(source)  # every sidecar is there before any frame is decoded
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
     except OSError as e:
@@ -75,30 +85,38 @@ def build_cache(source: GNMSource, path: Path, image_size: Sequence[int], crop: 
             f["traj_start"] = starts
             f["traj_len"] = lengths
             f["names"] = np.array(source.names, dtype=h5py.string_dtype())
+            if depth:
+                depths = f.create_dataset("depth", shape=(n, depth, depth), dtype=np.float16)  # contiguous
+                f.attrs["depth_size"] = int(depth)
             f.attrs.update(fingerprint=fp, version=CACHE_VERSION, image_size=[w, h], crop=crop, crop_to_aspect=crop == "aspect",
                            spacing=source.spacing, root=str(source.root), split=source.split, name=source.name)
             with ThreadPoolExecutor(max(1, num_threads)) as pool:
                 jobs = pool.map(lambda i: _load_traj_images(source, i, (w, h), crop), range(len(lengths)))
                 for i, arr in enumerate(tqdm(jobs, total=len(lengths), desc=f"cache {path.name}", disable=not progress, leave=False)):
                     images[starts[i]:starts[i] + lengths[i]] = arr
+                    if depth:
+                        depths[starts[i]:starts[i] + lengths[i]] = load_traj_depth(source, i, depth)
 
 
 def ensure_cache(source: GNMSource, image_size: Sequence[int], crop: str | bool = "aspect",
-                 cache_dir: str | Path | None = None, num_threads: int = 4, progress: bool = True) -> Path:
+                 cache_dir: str | Path | None = None, num_threads: int = 4, progress: bool = True,
+                 depth: int | None = None) -> Path:
     """Path of an up-to-date cache for ``source`` with frames cropped by ``crop`` (aspect |
-    official | none), building it if missing or stale."""
+    official | none), and [depth, depth] depth maps unless ``depth`` is None, building it if
+    missing or stale."""
     crop = check_crop(crop)
-    path = cache_path(source, image_size, crop, cache_dir)
-    fp = fingerprint(source, CACHE_VERSION, tuple(int(s) for s in image_size), _crop_key(crop), source.spacing)
+    path = cache_path(source, image_size, crop, cache_dir, depth)
+    extra = (("depth", int(depth)),) if depth else ()  # caches without depth keep their fingerprint
+    fp = fingerprint(source, CACHE_VERSION, tuple(int(s) for s in image_size), _crop_key(crop), source.spacing, *extra)
     if _stored_fingerprint(path) != fp:
         log.info("building GNM cache %s from %s (%d trajectories)", path, source.root, len(source.names))
-        build_cache(source, path, image_size, crop, fp, num_threads, progress)
+        build_cache(source, path, image_size, crop, fp, num_threads, progress, depth)
     return path
 
 
 class PackedCache:
-    """Read side of the cache. Small arrays are loaded at once; images are opened lazily per
-    process (``np.memmap`` on the contiguous HDF5 dataset, h5py as a fallback)."""
+    """Read side of the cache. Small arrays are loaded at once; images (and depth maps) are
+    opened lazily per process (``np.memmap`` on the contiguous HDF5 dataset, h5py as a fallback)."""
 
     def __init__(self, path: str | Path):
         self.path = Path(path)
@@ -113,34 +131,53 @@ class PackedCache:
                 self.image_shape = tuple(f["images"].shape)
                 self.spacing = float(f.attrs["spacing"])
                 self.image_size = tuple(int(v) for v in f.attrs["image_size"])
+                self.depth_shape = tuple(f["depth"].shape) if "depth" in f else None
         except (OSError, KeyError) as e:
             raise ValueError(f"corrupt GNM cache {self.path} ({e}); delete it and it will be rebuilt") from None
-        self._images = None
+        self._arrays: dict = {}
         self._h5 = None
+
+    @property
+    def has_depth(self) -> bool:
+        return self.depth_shape is not None
+
+    def _open(self, key: str, dtype, shape: tuple):
+        """Dataset ``key`` of the file, opened on first use in this process."""
+        if key not in self._arrays:
+            with h5py.File(self.path, "r") as f:
+                offset = f[key].id.get_offset()
+            if offset is not None:
+                self._arrays[key] = np.memmap(self.path, dtype=dtype, mode="r", offset=offset, shape=shape)
+            else:  # empty or non-contiguous dataset
+                if self._h5 is None:
+                    self._h5 = h5py.File(self.path, "r")
+                self._arrays[key] = self._h5[key]
+        return self._arrays[key]
 
     @property
     def images(self):
         """uint8 [N,3,H,W], opened on first use in this process."""
-        if self._images is None:
-            with h5py.File(self.path, "r") as f:
-                offset = f["images"].id.get_offset()
-            if offset is not None:
-                self._images = np.memmap(self.path, dtype=np.uint8, mode="r", offset=offset, shape=self.image_shape)
-            else:  # empty or non-contiguous dataset
-                self._h5 = h5py.File(self.path, "r")
-                self._images = self._h5["images"]
-        return self._images
+        return self._open("images", np.uint8, self.image_shape)
+
+    @staticmethod
+    def _read(array, index: np.ndarray) -> np.ndarray:
+        if isinstance(array, np.ndarray):
+            return array[index]
+        uniq, inverse = np.unique(index, return_inverse=True)  # h5py needs increasing indices
+        return array[uniq][inverse]
 
     def read_frames(self, index: np.ndarray) -> np.ndarray:
         """Frames ``index`` (any order, repeats allowed) as uint8 [len(index),3,H,W]."""
-        images = self.images
-        if isinstance(images, np.ndarray):
-            return images[index]
-        uniq, inverse = np.unique(index, return_inverse=True)  # h5py needs increasing indices
-        return images[uniq][inverse]
+        return self._read(self.images, index)
+
+    def read_depth(self, index: np.ndarray) -> np.ndarray:
+        """Depth maps of frames ``index`` as float16 [len(index),S,S] (metres, 0 = nothing hit)."""
+        if self.depth_shape is None:
+            raise ValueError(f"GNM cache {self.path} holds no depth maps")
+        return self._read(self._open("depth", np.float16, self.depth_shape), index)
 
     def __getstate__(self):
         state = self.__dict__.copy()
-        state["_images"] = None
+        state["_arrays"] = {}
         state["_h5"] = None
         return state

@@ -8,6 +8,8 @@ frames ``t+1 .. t+len_traj_pred`` (past the trajectory end the last pose is repe
 expressed in the frame of pose ``t`` (x forward, y left) and divided by
 ``metric_waypoint_spacing``. Unlike the official code the last ``len_traj_pred`` frames are
 kept (padded), so short negative trajectories still yield their collision steps.
+When the cache holds depth maps (``model.depth_aux_weight`` > 0) an item also has ``depth``
+float32 [S,S], the current frame's (metres, 0 where nothing was hit).
 Each item's randomness comes from ``default_rng([seed, index])``; indices past ``len(self)``
 (see :class:`EpochSampler`) give fresh draws for later epochs.
 """
@@ -88,7 +90,7 @@ class GNMDataset(Dataset):
         images = torch.empty(obs.shape, dtype=torch.float32)
         if get_worker_info() is not None:  # built in shared memory: the main process maps it, no copy
             images.share_memory_()
-        return {
+        out = {
             "obs_image": images.copy_(obs).div_(255.0),
             "goal_pos": torch.from_numpy(goal.astype(np.float32)),
             "actions": torch.from_numpy(actions.astype(np.float32)),
@@ -96,6 +98,9 @@ class GNMDataset(Dataset):
             "goal_mask": torch.from_numpy(masked),
             "action_mask": torch.ones(len(n), dtype=torch.float32),
         }
+        if self.cache.has_depth:
+            out["depth"] = torch.from_numpy(self.cache.read_depth(g).astype(np.float32))
+        return out
 
     def waypoints(self, n: np.ndarray) -> np.ndarray:
         """Normalised future waypoints [len(n), len_traj_pred, 2] of samples ``n`` (< len(self))."""

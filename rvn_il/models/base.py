@@ -6,6 +6,14 @@ Contract used by training and policies:
 - ``forward(batch, generator=None) -> dict`` of scalar losses (``loss`` is optimised);
 - ``predict(tokens [B,C+1,D], goal [B,2], num_samples, generator) -> [B,S,len_traj_pred,2]``
   waypoints in units of metric_waypoint_spacing, robot frame (x forward, y left).
+
+Auxiliary depth loss (``depth_aux_weight`` > 0; off by default, a departure from the paper,
+whose models see RGB only): a head ``depth_head`` (D → D → S·S, ReLU between) on the current
+frame's observation token predicts log depth on an S×S grid; its loss, the mean absolute error
+to log(clamp(depth, DEPTH_RANGE)) over the cells where something was hit, is added to ``loss``
+with that weight and reported as ``depth_loss`` when the batch has ``depth``. It only shapes
+the image encoder during training: policies never call the head, and without the weight the
+model has no head, so its checkpoints are those of before.
 """
 from __future__ import annotations
 
@@ -15,6 +23,8 @@ import torch
 from torch import nn
 
 from .encoders import GoalMLP, ObsEncoder, PositionalEncoding, make_transformer
+
+DEPTH_RANGE = (0.05, 50.0)  # m: log-depth targets are clamped to it (the camera's default far plane)
 
 
 class PointGoalModel(nn.Module):
@@ -34,6 +44,12 @@ class PointGoalModel(nn.Module):
         self.positional_encoding = PositionalEncoding(d, self.context_size + 2)
         self.transformer = make_transformer(d, int(cfg["num_heads"]), int(cfg["num_layers"]),
                                             int(cfg["ff_dim_factor"]), float(cfg["dropout"]))
+        self.depth_aux_weight = float(cfg.get("depth_aux_weight") or 0.0)
+        self.depth_size = int(cfg.get("depth_size", 16))
+        self.depth_head = None
+        if self.depth_aux_weight > 0:  # drawn from a fork of the RNG: the other weights start as without it
+            with torch.random.fork_rng(devices=[]):
+                self.depth_head = nn.Sequential(nn.Linear(d, d), nn.ReLU(), nn.Linear(d, self.depth_size ** 2))
 
     def use_channels_last(self) -> "PointGoalModel":
         """NHWC weights for the image encoder (rvn-train does this): EfficientNet's depthwise
@@ -61,6 +77,19 @@ class PointGoalModel(nn.Module):
             kpm = torch.zeros(x.shape[:2], dtype=torch.bool, device=x.device)
             kpm[:, -1] = goal_mask > 0.5
         return self.transformer(x, src_key_padding_mask=kpm)
+
+    def with_depth_loss(self, tokens: torch.Tensor, batch: Mapping[str, torch.Tensor],
+                        losses: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
+        """``losses`` plus ``depth_loss`` (added to ``loss`` times ``depth_aux_weight``) when the
+        model has the depth head and the batch a ``depth`` [B,S,S]; ``tokens`` [B,C+1,D]."""
+        if self.depth_head is None or "depth" not in batch:
+            return losses
+        depth = batch["depth"].float()
+        pred = self.depth_head(tokens[:, -1]).float().view(depth.shape)
+        hit = (depth > 0).float()
+        error = (pred - depth.clamp(*DEPTH_RANGE).log()).abs()
+        depth_loss = (error * hit).sum() / hit.sum().clamp(min=1.0)
+        return {**losses, "loss": losses["loss"] + self.depth_aux_weight * depth_loss, "depth_loss": depth_loss}
 
 
 def masked_mean(loss: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:

@@ -76,7 +76,8 @@ class NoMaDPointGoal(PointGoalModel):
 
     def forward(self, batch: Mapping[str, torch.Tensor], generator: torch.Generator | None = None) -> dict[str, torch.Tensor]:
         goal_mask = batch["goal_mask"]
-        cond = self.condition(self.batch_tokens(batch["obs_image"]), batch["goal_pos"], goal_mask)
+        tokens = self.batch_tokens(batch["obs_image"])
+        cond = self.condition(tokens, batch["goal_pos"], goal_mask)
         seen = 1.0 - goal_mask
         dist = self.dist_pred_net(cond).squeeze(-1)
         dist_loss = ((dist - batch["distance"].float()) ** 2 * seen).sum() / seen.sum().clamp(min=1.0)
@@ -89,7 +90,7 @@ class NoMaDPointGoal(PointGoalModel):
         diffusion_loss = masked_mean(F.mse_loss(pred, self.target(naction, noise, t), reduction="none").mean(dim=(1, 2)),
                                      batch["action_mask"])
         loss = self.alpha * dist_loss + (1 - self.alpha) * diffusion_loss
-        return {"loss": loss, "dist_loss": dist_loss, "diffusion_loss": diffusion_loss}
+        return self.with_depth_loss(tokens, batch, {"loss": loss, "dist_loss": dist_loss, "diffusion_loss": diffusion_loss})
 
     def target(self, naction: torch.Tensor, noise: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
         """What the denoiser is trained to output for ``prediction_type``."""

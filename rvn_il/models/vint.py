@@ -35,7 +35,8 @@ class ViNTPointGoal(PointGoalModel):
         return waypoints, dist
 
     def forward(self, batch: Mapping[str, torch.Tensor], generator: torch.Generator | None = None) -> dict[str, torch.Tensor]:
-        waypoints, dist = self.decode(self.batch_tokens(batch["obs_image"]), batch["goal_pos"])
+        tokens = self.batch_tokens(batch["obs_image"])
+        waypoints, dist = self.decode(tokens, batch["goal_pos"])
         action_loss = masked_mean(F.mse_loss(waypoints, batch["actions"], reduction="none").mean(dim=(1, 2)),
                                   batch["action_mask"])
         out = {"action_loss": action_loss}
@@ -44,7 +45,7 @@ class ViNTPointGoal(PointGoalModel):
             out["loss"] = self.alpha * 1e-2 * out["dist_loss"] + (1 - self.alpha) * action_loss
         else:
             out["loss"] = action_loss
-        return out
+        return self.with_depth_loss(tokens, batch, out)
 
     @torch.no_grad()
     def predict(self, tokens: torch.Tensor, goal: torch.Tensor, num_samples: int = 1,

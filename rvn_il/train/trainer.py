@@ -21,7 +21,9 @@ from torch.utils.data import BatchSampler, DataLoader
 from safetensors.torch import load_file
 from tqdm import tqdm
 
-from ..data import BatchView, EpochSampler, crop_setting, make_dataset
+from ..data import BatchView, EpochSampler, crop_setting, depth_setting, make_dataset
+from ..data.depth import REGENERATE, has_depth
+from ..data.gnm import list_trajectories
 from ..models import build_model, resolve_size
 from ..models.checkpoint import (latest_checkpoint, load_state_dict_checked, members_of, read_config, read_weights,
                                  save_checkpoint, write_config)
@@ -84,6 +86,15 @@ def check_settings(cfg: Mapping) -> None:
     for key in ("val_every", "val_batches", "val_trajectories"):
         if val_root and not int(tcfg.get(key, 1)) > 0:
             raise ValueError(f"train.{key}={tcfg[key]} must be a positive integer")
+    if depth_setting(resolve_size(model)) is not None:  # the depth loss reads rvn-gen's depth.npy sidecars
+        for member, root in data_roots(cfg).items():
+            if member == "expert" and tcfg.get("expert_from"):
+                continue
+            key = "data.negative_root" if member == "negative" else "data.root"
+            _, names = list_trajectories(Path(root).expanduser(), data.get("split", "train"),
+                                         Path(data["splits_dir"]) if data.get("splits_dir") else None, data.get("name"))
+            if not has_depth(Path(root).expanduser(), names):
+                raise ValueError(f"{key}={root} has no depth.npy sidecars; {REGENERATE}")
 
 
 def run_training(cfg: Mapping[str, Any]) -> Path:

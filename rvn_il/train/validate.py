@@ -7,7 +7,7 @@ scores the weights a policy would load (the EMA weights when the model keeps the
 
 - ``val/loss`` (and each loss term): the training loss on a fixed set of held-out samples with
   fixed diffusion noise and timesteps, dropout off, so successive values differ only by the
-  weights;
+  weights (without the auxiliary depth term, so it compares with runs trained without it);
 - ``val/agreement``: the share of expert frames on which the policy (the checkpoint's own
   waypoint → action settings, sample 0) picks the expert's action, replaying
   ``train.val_trajectories`` expert trajectories exactly as ``python -m rvn_il.eval.agreement``
@@ -55,7 +55,7 @@ class Validator:
         cache_dir = data_cfg.get("cache_dir")
         val_data = {**data_cfg, "split": split, "splits_dir": None, "name": None, "skip_short": True,
                     "cache_dir": str(Path(cache_dir) / "val") if cache_dir else None}
-        self.dataset = make_dataset(self.root, model_cfg, val_data, seed)
+        self.dataset = make_dataset(self.root, model_cfg, val_data, seed, depth=False)
         self.trajectories = expert_trajectories(self.root, None if split == "all" else split,
                                                 int(tcfg.get("val_trajectories", 20)))
         n = min(len(self.dataset), int(tcfg.get("val_batches", 8)) * batch_size)

@@ -1,0 +1,161 @@
+"""Auxiliary depth loss: rvn-gen dataset.save_depth sidecars, the depth cache and sample, and
+rvn-train model.depth_aux_weight end to end (a tiny rvn-gen dataset, 3 training steps)."""
+from __future__ import annotations
+
+import json
+import os
+import pickle
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import torch
+from safetensors.torch import load_file
+from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+from rvn_data.dataset.writer import downsample_depth
+from rvn_il.data import make_dataset
+from rvn_il.models import build_model, load_model_config
+from rvn_il.models.checkpoint import latest_checkpoint
+from rvn_il.policies import load_policy
+
+torch.set_num_threads(1)
+ENV = {**os.environ, "OMP_NUM_THREADS": "1"}
+GEN = ["scenes.num_scenes=1", "trajectories_per_scene=2", "camera.width=32", "camera.height=32", "progress=false"]
+TRAIN = ["model=nomad_pointgoal", "model.size=small", "train.max_steps=3", "train.batch_size=4", "train.log_every=1",
+         "data.num_workers=0", "device=cpu"]
+
+
+def run(*args, check=True):
+    proc = subprocess.run([sys.executable, *args], capture_output=True, text=True, env=ENV, timeout=600)
+    if check:
+        assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-3000:]
+    return proc
+
+
+@pytest.fixture(scope="module")
+def data(tmp_path_factory):
+    base = tmp_path_factory.mktemp("depth_aux")
+    run("-m", "rvn_data.gen.cli", f"out_dir={base / 'depth'}", "dataset.save_depth=true", *GEN)
+    run("-m", "rvn_data.gen.cli", f"out_dir={base / 'plain'}", *GEN)
+    run("-m", "rvn_data.gen.cli", f"out_dir={base / 'negative'}", "dataset=negative", "dataset.save_depth=true", *GEN)
+    return base
+
+
+def trajectories(root):
+    return sorted(p for p in root.iterdir() if (p / "traj_data.pkl").is_file())
+
+
+def test_downsample_depth_is_a_block_mean_over_hits():
+    depth = np.array([[1, 3, 0, 0], [2, 2, 0, 0], [4, 0, 5, 5], [0, 0, 5, 5]], np.float32)
+    out = downsample_depth(depth, 2)
+    assert out.dtype == np.float16 and out.shape == (2, 2)
+    np.testing.assert_allclose(out, [[2.0, 0.0], [4.0, 5.0]])
+
+
+def test_gen_writes_depth_of_every_frame(data):
+    trajs = trajectories(data / "depth")
+    assert len(trajs) == 2
+    for t in trajs:
+        depth = np.load(t / "depth.npy")
+        frames = len(list(t.glob("*.jpg")))
+        assert depth.dtype == np.float16 and depth.shape == (frames, 16, 16)
+        assert (depth > 0).mean() > 0.9 and depth.max() < 20.0 and depth[depth > 0].min() > 0.01  # inside a flat
+        assert len({depth[i].tobytes() for i in range(frames)}) > frames // 2  # the view changes along the path
+    settings = json.loads((data / "depth" / ".rvn" / "settings.json").read_text())
+    assert settings["save_depth"] is True and settings["depth_size"] == 16
+
+
+def test_gen_without_depth_writes_what_it_did_before(data):
+    plain, depth = trajectories(data / "plain"), trajectories(data / "depth")
+    assert [p.name for p in plain] == [p.name for p in depth]
+    for a, b in zip(plain, depth):
+        assert sorted(f.name for f in a.iterdir()) == sorted(f.name for f in b.iterdir() if f.name != "depth.npy")
+        for f in a.iterdir():  # the same frames and poses; only the settings record differs
+            if f.name != "rvn_meta.json":
+                assert f.read_bytes() == (b / f.name).read_bytes(), f
+        assert "depth" not in (a / "rvn_meta.json").read_text()
+    for f in ("manifest.json", ".rvn/settings.json"):
+        assert "depth" not in (data / "plain" / f).read_text()
+    assert "save_depth" in (data / "depth" / "manifest.json").read_text()
+
+
+def test_negative_depth_repeats_the_collision_frame(data):
+    for t in trajectories(data / "negative"):
+        depth, t_c = np.load(t / "depth.npy"), json.loads((t / "rvn_meta.json").read_text())["t_c"]
+        with open(t / "traj_data.pkl", "rb") as fh:
+            assert len(depth) == len(pickle.load(fh)["position"]) == len(list(t.glob("*.jpg")))
+        for i in range(t_c + 1, len(depth)):  # I_t = I_{t_c}, and so is its depth
+            assert (depth[i] == depth[t_c]).all() and (t / f"{i}.jpg").read_bytes() == (t / f"{t_c}.jpg").read_bytes()
+
+
+def test_samples_and_model_with_depth(data, tmp_path):
+    cfg = load_model_config("nomad_pointgoal", "small", depth_aux_weight=0.5)
+    ds = make_dataset(data / "depth", cfg, {"split": "train", "cache_dir": str(tmp_path), "progress": False})
+    assert ds.cache.path.name.endswith("_depth16.h5")
+    batch = ds.get_batch([0, 5])
+    assert batch["depth"].dtype == torch.float32 and batch["depth"].shape == (2, 16, 16)
+    first = trajectories(data / "depth")[0]
+    cur = ds.curr[0] - ds.cache.traj_start[0]  # current frame (last of the context) of sample 0
+    assert ds.cache.names[0] == first.name
+    np.testing.assert_array_equal(batch["depth"][0].numpy(), np.load(first / "depth.npy")[cur].astype(np.float32))
+    torch.manual_seed(0)
+    losses = build_model(cfg)(batch, torch.Generator().manual_seed(0))
+    assert losses["depth_loss"] > 0
+    assert torch.allclose(losses["loss"], 1e-4 * losses["dist_loss"] + (1 - 1e-4) * losses["diffusion_loss"]
+                          + 0.5 * losses["depth_loss"])
+    # off (the default): no depth in the samples, no head, the weights and losses of before
+    plain_cfg = load_model_config("nomad_pointgoal", "small")
+    plain = make_dataset(data / "depth", plain_cfg, {"split": "train", "cache_dir": str(tmp_path), "progress": False})
+    assert "depth" not in plain.get_batch([0]) and plain.cache.path != ds.cache.path
+    torch.manual_seed(0)
+    model = build_model(plain_cfg)
+    assert not any(k.startswith("depth_head") for k in model.state_dict())
+    assert set(model(batch, torch.Generator().manual_seed(0))) == {"loss", "dist_loss", "diffusion_loss"}
+    torch.manual_seed(0)  # the head comes from a fork of the RNG: every other weight starts the same
+    with_head = build_model(cfg).state_dict()
+    for k, v in model.state_dict().items():
+        assert torch.equal(v, with_head[k]), k
+
+
+def test_train_with_depth_loss_end_to_end(data, tmp_path):
+    out = tmp_path / "run"
+    run("-m", "rvn_il.train.cli", *TRAIN, f"data.root={data / 'depth'}", f"out_dir={out}", "model.depth_aux_weight=0.5")
+    ckpt = latest_checkpoint(out / "model")
+    assert ckpt.name == "ckpt_00000003"
+    for f in ("weights.safetensors", "ema.safetensors"):
+        assert {"depth_head.0.weight", "depth_head.2.bias"} <= set(load_file(str(ckpt / f)))
+    events = EventAccumulator(str(out / "tb" / "model"))
+    events.Reload()
+    assert {"train/depth_loss", "train/loss"} <= set(events.Tags()["scalars"])
+    assert all(e.value > 0 for e in events.Scalars("train/depth_loss"))
+    policy = load_policy(out)
+    policy.reset()
+    frame = np.full((32, 32, 3), 128, np.uint8)
+    assert policy.act({"rgb": frame, "pointgoal": np.array([2.0, 0.5], np.float32)}) in (0, 1, 2, 3)
+
+
+def test_train_with_depth_loss_needs_depth(data, tmp_path):
+    out = tmp_path / "bad"
+    proc = run("-m", "rvn_il.train.cli", *TRAIN, f"data.root={data / 'plain'}", f"out_dir={out}",
+               "model.depth_aux_weight=0.5", check=False)
+    lines = proc.stderr.strip().splitlines()
+    assert proc.returncode == 1 and len(lines) == 1 and "Traceback" not in proc.stderr, proc.stderr[-2000:]
+    assert f"data.root={data / 'plain'} has no depth.npy sidecars" in lines[0]
+    assert "dataset.save_depth=true" in lines[0] and "model.depth_aux_weight=0" in lines[0]
+    assert not (out / "model").exists() and not (data / "plain" / ".rvn_cache").exists()
+
+
+def test_cache_with_depth_needs_every_sidecar(data, tmp_path):
+    root = tmp_path / "partial"
+    shutil.copytree(data / "depth", root, ignore=shutil.ignore_patterns(".rvn_cache"))
+    (trajectories(root)[1] / "depth.npy").unlink()
+    cfg = load_model_config("nomad_pointgoal", "small", depth_aux_weight=0.5)
+    with pytest.raises(ValueError, match=rf"dataset {root}: trajectory .*_0001 has no depth.npy; regenerate with "
+                                         r"rvn-gen dataset.save_depth=true"):
+        make_dataset(root, cfg, {"progress": False})
+    assert not list((root / ".rvn_cache").glob("*.h5"))
+    with pytest.raises(ValueError, match=r"model.depth_size=8; rvn-gen dataset.depth_size must match"):
+        make_dataset(data / "depth", {**cfg, "depth_size": 8}, {"progress": False, "cache_dir": str(tmp_path)})
