@@ -20,9 +20,9 @@ set -euo pipefail
 SCALE=${SCALE:-small}
 OUT=${1:-${OUT:-runs/small_experiment_${SCALE}}}
 case "$SCALE" in
-  small)  # sized for ~1.5 h on a quiet 2-core machine (jobs/paper_scale.md, "Time budget"); NoMaD: 4 epochs, because
-          # it under-fits at this size and 6 epochs doubled its SR_1 over 3 (docs/results/2026-11-23_small_experiment_2/diagnosis.md)
-    : "${TRAIN_SCENES:=64}" "${TRAJ_PER_SCENE:=32}" "${IMAGE:=64}" "${VINT_EPOCHS:=1}" "${NOMAD_EPOCHS:=4}" "${MAX_STEPS:=}"
+  small)  # sized for < 2 h on a quiet 2-core machine (jobs/paper_scale.md, "Time budget"): NoMaD 3 epochs, the measured
+          # recipe (docs/results/2026-11-23_small_experiment_3/); it under-fits, so raise NOMAD_EPOCHS where time allows
+    : "${TRAIN_SCENES:=64}" "${TRAJ_PER_SCENE:=32}" "${IMAGE:=64}" "${VINT_EPOCHS:=1}" "${NOMAD_EPOCHS:=3}" "${MAX_STEPS:=}"
     : "${VINT_MAX_STEPS:=900}"  # ViNT: 900 of its 2,200 steps per epoch (~15 min); NoMaD gets the time budget
     : "${EVAL_SCENES:=50}" "${EVAL_EPISODES:=4}" "${N_GOALS:=32}" "${T_MAX:=500}" "${LR:=1e-3}"  # 200 val episodes a row
     : "${VAL_SCENES:=10}" "${VAL_TRAJ:=4}" ;;
@@ -45,6 +45,8 @@ esac
 : "${GOAL_OFFSET_MAX:=40}"     # point goals up to this many frames ahead (the whole 4-8 m path; official 20)
 : "${NEG_EXPERT:=reuse}"     # reuse: NoMaD_e = the NoMaD-PointGoal checkpoint; train: train NoMaD_e on 93.75 % of the experts
 : "${PREDICTION:=sample}"    # NoMaD denoiser target: sample (x0; measured best at this scale, docs/results) | epsilon (the paper's) | v_prediction
+: "${DEPTH_AUX:=0}"           # > 0: rvn-gen writes depth sidecars and the models train with this auxiliary depth-loss
+                              # weight (model.depth_aux_weight; off by default, a departure from the paper's RGB-only models)
 : "${SEED:=0}"
 : "${DEVICE:=cpu}"            # rvn-train device (cpu | cuda | auto); rvn-eval's policies stay on the CPU
 : "${RENDERER:=auto}"         # rvn-gen / rvn-eval renderer: auto | gl | raycast
@@ -61,6 +63,8 @@ CAMERA=("camera.width=$IMAGE" "camera.height=$IMAGE")
 TRAIN_SIZE=("model.size=small" "train.batch_size=$BATCH" "data.num_workers=0" "data.goal_offset=[1,$GOAL_OFFSET_MAX]"
             "train.tqdm_interval=30" "seed=$SEED" "device=$DEVICE" "data.val_root=$DATA/val_expert")
 [[ -n "$MAX_STEPS" ]] && TRAIN_SIZE+=("train.max_steps=$MAX_STEPS")
+DEPTH_GEN=()
+if [[ "$DEPTH_AUX" != 0 ]]; then TRAIN_SIZE+=("model.depth_aux_weight=$DEPTH_AUX"); DEPTH_GEN=("dataset.save_depth=true"); fi
 [[ -n "$LR" ]] && TRAIN_SIZE+=("train.lr=$LR")
 EVAL=("split=val" "episodes.num_scenes=$EVAL_SCENES" "episodes.per_scene=$EVAL_EPISODES" "episodes.n_goals=$N_GOALS"
       "env.t_max=$T_MAX" "episodes.dir=$OUT/episodes" "workers=$WORKERS" "progress=false" "seed=$SEED" "renderer=$RENDERER" "${CAMERA[@]}")
@@ -103,8 +107,8 @@ echo "small_experiment: SCALE=$SCALE OUT=$OUT: $TRAIN_SCENES train scenes x $TRA
 
 GEN=("split=train" "scenes.num_scenes=$TRAIN_SCENES" "dataset.train_fraction=1.0" "workers=$WORKERS" "progress=false" "seed=$SEED"
      "renderer=$RENDERER" "${CAMERA[@]}")
-step gen_expert rvn-gen dataset=expert out_dir="$DATA/rvn_expert" trajectories_per_scene="$TRAJ_PER_SCENE" "${GEN[@]}"
-step gen_negative rvn-gen dataset=negative out_dir="$DATA/rvn_negative" trajectories_per_scene="$NEG_PER_SCENE" "${GEN[@]}"
+step gen_expert rvn-gen dataset=expert out_dir="$DATA/rvn_expert" trajectories_per_scene="$TRAJ_PER_SCENE" "${GEN[@]}" "${DEPTH_GEN[@]}"
+step gen_negative rvn-gen dataset=negative out_dir="$DATA/rvn_negative" trajectories_per_scene="$NEG_PER_SCENE" "${GEN[@]}" "${DEPTH_GEN[@]}"
 # held-out expert trajectories on val scenes: rvn-train logs its val loss and open-loop agreement on them
 VAL_GEN=("split=val" "scenes.num_scenes=$VAL_SCENES" "dataset.train_fraction=1.0" "workers=$WORKERS" "progress=false" "seed=$SEED"
          "renderer=$RENDERER" "${CAMERA[@]}")

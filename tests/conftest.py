@@ -1,6 +1,9 @@
 """Shared test helpers: analytic box scenes and the real scene shipped with the project."""
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +15,16 @@ from rvn_data.scenes.scene import Part, Scene
 DREAM_APARTMENT = Path("/work/shared/scenes/dream_apartment.glb")
 if not DREAM_APARTMENT.exists():
     DREAM_APARTMENT = Path(__file__).resolve().parents[2] / "shared" / "scenes" / "dream_apartment.glb"
+
+
+def run_python(*args: str, check: bool = True, timeout: float = 600) -> subprocess.CompletedProcess:
+    """``python ARGS`` (e.g. ``-m rvn_il.train.cli ...``) with one torch thread; asserts exit 0 unless
+    ``check`` is false, showing the end of its output."""
+    proc = subprocess.run([sys.executable, *args], capture_output=True, text=True, timeout=timeout,
+                          env={**os.environ, "OMP_NUM_THREADS": "1"})
+    if check:
+        assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-3000:]
+    return proc
 
 
 def box_scene(boxes, name: str = "test") -> Scene:

@@ -2,20 +2,9 @@
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 
 import pytest
-
-ENV = {**os.environ, "OMP_NUM_THREADS": "1"}
-
-
-def run(*args, check=True):
-    proc = subprocess.run([sys.executable, *args], capture_output=True, text=True, env=ENV, timeout=600)
-    if check:
-        assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-3000:]
-    return proc
+from conftest import run_python as run
 
 
 @pytest.fixture(scope="module")

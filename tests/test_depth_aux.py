@@ -3,16 +3,14 @@ rvn-train model.depth_aux_weight end to end (a tiny rvn-gen dataset, 3 training 
 from __future__ import annotations
 
 import json
-import os
 import pickle
 import shutil
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 import torch
 from safetensors.torch import load_file
+from conftest import run_python as run
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
 from rvn_data.dataset.writer import downsample_depth
@@ -22,17 +20,9 @@ from rvn_il.models.checkpoint import latest_checkpoint
 from rvn_il.policies import load_policy
 
 torch.set_num_threads(1)
-ENV = {**os.environ, "OMP_NUM_THREADS": "1"}
 GEN = ["scenes.num_scenes=1", "trajectories_per_scene=2", "camera.width=32", "camera.height=32", "progress=false"]
 TRAIN = ["model=nomad_pointgoal", "model.size=small", "train.max_steps=3", "train.batch_size=4", "train.log_every=1",
          "data.num_workers=0", "device=cpu"]
-
-
-def run(*args, check=True):
-    proc = subprocess.run([sys.executable, *args], capture_output=True, text=True, env=ENV, timeout=600)
-    if check:
-        assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-3000:]
-    return proc
 
 
 @pytest.fixture(scope="module")
