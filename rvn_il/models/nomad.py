@@ -26,6 +26,13 @@ from .unet1d import ConditionalUnet1D
 PREDICTION_TYPES = ("epsilon", "sample", "v_prediction")
 
 
+def check_prediction_type(value: object) -> str:
+    """``model.prediction_type`` as one of :data:`PREDICTION_TYPES`; a ValueError naming it otherwise."""
+    if value not in PREDICTION_TYPES:
+        raise ValueError(f"model.prediction_type={value!r}; choose one of {', '.join(PREDICTION_TYPES)}")
+    return str(value)
+
+
 class NoMaDPointGoal(PointGoalModel):
     name = "nomad_pointgoal"
 
@@ -39,9 +46,7 @@ class NoMaDPointGoal(PointGoalModel):
                                                 int(cfg.get("kernel_size", 3)), int(cfg.get("n_groups", 8)))
         self.dist_pred_net = nn.Sequential(nn.Linear(d, d // 4), nn.ReLU(), nn.Linear(d // 4, d // 16), nn.ReLU(), nn.Linear(d // 16, 1))
         self.num_diffusion_iters = int(cfg["num_diffusion_iters"])
-        self.prediction_type = str(cfg.get("prediction_type", "epsilon"))
-        if self.prediction_type not in PREDICTION_TYPES:
-            raise ValueError(f"model.prediction_type={self.prediction_type!r}; choose one of {', '.join(PREDICTION_TYPES)}")
+        self.prediction_type = check_prediction_type(cfg.get("prediction_type", "epsilon"))
         from diffusers import DDPMScheduler  # imported here: diffusers takes ~2 s to import
         self.scheduler = DDPMScheduler(num_train_timesteps=self.num_diffusion_iters, beta_schedule="squaredcos_cap_v2",
                                        clip_sample=True, prediction_type=self.prediction_type)

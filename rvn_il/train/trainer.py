@@ -28,7 +28,7 @@ from ..models import build_model, resolve_size
 from ..models.checkpoint import (latest_checkpoint, load_state_dict_checked, members_of, read_config, read_weights,
                                  save_checkpoint, write_config)
 from ..models.encoders import IMAGENET_MEAN, IMAGENET_STD
-from ..models.nomad import PREDICTION_TYPES
+from ..models.nomad import check_prediction_type
 from ..policies.loader import resolve_device
 from .adopt import adopt_expert
 from .ema import EMA
@@ -75,8 +75,8 @@ def data_roots(cfg: Mapping) -> dict[str, str]:
 def check_settings(cfg: Mapping) -> None:
     """Settings that would otherwise fail after minutes of training."""
     tcfg, data, model = cfg["train"], cfg["data"], cfg["model"]
-    if "prediction_type" in model and model["prediction_type"] not in PREDICTION_TYPES:
-        raise ValueError(f"model.prediction_type={model['prediction_type']!r}; choose one of {', '.join(PREDICTION_TYPES)}")
+    if "prediction_type" in model:
+        check_prediction_type(model["prediction_type"])
     if tcfg.get("precision", "fp32") not in PRECISIONS:
         raise ValueError(f"train.precision={tcfg['precision']!r}; choose one of {', '.join(PRECISIONS)}")
     val_root = data.get("val_root")
@@ -112,8 +112,8 @@ def run_training(cfg: Mapping[str, Any]) -> Path:
         if old["name"] != name or old.get("size", "full") != cfg["model"].get("size", "full"):
             raise ValueError(f"{out_dir} holds a checkpoint of model {old['name']!r} (size {old.get('size', 'full')}), not "
                              f"{name!r} (size {cfg['model'].get('size', 'full')}); choose another out_dir=")
-    roots = data_roots(cfg)
     check_settings(cfg)
+    roots = data_roots(cfg)
     if rank == 0:
         write_config(out_dir, cfg)
     for index, (member, root) in enumerate(roots.items()):
