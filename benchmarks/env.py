@@ -22,9 +22,9 @@ def env_kwargs(args, rank: int, episodes_dir: str) -> dict:
 
 
 def worker(args, rank: int, workers: int, episodes_dir: str, barrier, results) -> None:
-    from rvn_data.env import RVNEnv
-    from rvn_data.policies import OraclePolicy
-    from rvn_il.eval.runner import share_cpu_threads
+    from rvn_data.benchmark.env import RVNEnv
+    from rvn_data.benchmark.policies import OraclePolicy
+    from rvn_data.benchmark.runner import share_cpu_threads
 
     share_cpu_threads(workers)  # as rvn-eval does: llvmpipe threads split between workers
 
@@ -71,7 +71,7 @@ def main() -> int:
     ap.add_argument("--per-scene", type=int, default=4, help="episodes per scene")
     args = ap.parse_args()
 
-    from rvn_data.episodes_source import EnvConfig, ensure_scene_episodes
+    from rvn_data.benchmark.episodes_source import EnvConfig, ensure_scene_episodes
 
     with tempfile.TemporaryDirectory() as episodes_dir:
         for rank in range(2):

@@ -92,4 +92,4 @@ for SPLIT in $SPLITS; do
 done
 
 # 5. report: the shards of each method and split are merged
-run python -m rvn_il.eval.report "$OUT/eval" -o "$OUT/report.md" --title "RVN paper-scale experiment"
+run python -m rvn_data.benchmark.report "$OUT/eval" -o "$OUT/report.md" --title "RVN paper-scale experiment"

@@ -5,7 +5,7 @@
 #   -> rvn-eval on procedural val scenes (the three, NoMaD-PointGoal voting over its samples, NoMaD-Neg with
 #      argmin CoR; oracle, trajectory oracle,
 #      blind goal follower, random)
-#   -> python -m rvn_il.eval.report -> OUT/report.md (+ plots, per-episode logs in OUT/eval/*/)
+#   -> python -m rvn_data.benchmark.report -> OUT/report.md (+ plots, per-episode logs in OUT/eval/*/)
 #
 #   bash jobs/small_experiment.sh [OUT]              # SCALE=small: < 2 h on 2 CPU cores
 #   SCALE=tiny bash jobs/small_experiment.sh /tmp/x  # smoke test: 1 scene, 2 steps, 1 episode
@@ -158,6 +158,6 @@ RUNS=("$OUT/eval/random" "$OUT/eval/oracle" "$OUT/eval/goal_follower" "$OUT/eval
 COMPARE=("NoMaD-PointGoal=Goal follower" "NoMaD-PointGoal=Random" "NoMaD-PointGoal=Trajectory oracle"
          "NoMaD-PointGoal-vote=NoMaD-PointGoal" "NoMaD-Neg=NoMaD-PointGoal" "NoMaD-Neg-argmin=NoMaD-Neg"
          "ViNT-PointGoal=Goal follower" "Goal follower=Random")
-$PY -m rvn_il.eval.report "${RUNS[@]}" -o "$OUT/report.md" "${COMPARE[@]/#/--compare=}" \
+$PY -m rvn_data.benchmark.report "${RUNS[@]}" -o "$OUT/report.md" "${COMPARE[@]/#/--compare=}" \
   --title "RVN small-scale experiment (SCALE=$SCALE: $TRAIN_SCENES train scenes x $TRAJ_PER_SCENE trajectories, val $EVAL_SCENES x $EVAL_EPISODES)"
 echo "small_experiment: this run took $SECONDS s ($STEPS_SECONDS s in steps run now); report: $OUT/report.md"

@@ -7,9 +7,9 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 from rvn_data.conventions import Action, relative_goal
-from rvn_data.env import RVNEnv
-from rvn_data.policies import OraclePolicy
-from rvn_data.wrappers import RGBFrameStack
+from rvn_data.benchmark.env import RVNEnv
+from rvn_data.benchmark.policies import OraclePolicy
+from rvn_data.benchmark.wrappers import RGBFrameStack
 
 F, L, R, STOP = Action.MOVE_FORWARD, Action.TURN_LEFT, Action.TURN_RIGHT, Action.STOP
 

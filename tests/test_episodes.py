@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from rvn_data.conventions import AgentConfig
-from rvn_data.episodes import EpisodeSettings, episode_rng, sample_episode, sample_episodes
-from rvn_data.episodes_source import EnvConfig, ensure_scene_episodes, open_scene
-from rvn_data.episodes_store import EpisodeStore, make_settings, scene_fingerprint
+from rvn_data.benchmark.episodes import EpisodeSettings, episode_rng, sample_episode, sample_episodes
+from rvn_data.benchmark.episodes_source import EnvConfig, ensure_scene_episodes, open_scene
+from rvn_data.benchmark.episodes_store import EpisodeStore, make_settings, scene_fingerprint
 from rvn_data.navmesh import NavMeshSettings
 from rvn_data.scenes import Part, Scene, SceneError
 

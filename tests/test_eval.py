@@ -6,16 +6,16 @@ import sys
 
 import pytest
 
-from rvn_data.metrics import compute_metrics, read_records
-from rvn_il.eval.table import main as table_main
-from rvn_il.eval.table import render_table
+from rvn_data.benchmark.metrics import compute_metrics, read_records
+from rvn_data.benchmark.table import main as table_main
+from rvn_data.benchmark.table import render_table
 
 SMALL = ["split=val", "episodes.num_scenes=2", "episodes.per_scene=2", "episodes.n_goals=3",
          "camera.width=32", "camera.height=32", "progress=false"]
 
 
 def rvn_eval(tmp_path, *overrides, env=None):
-    cmd = [sys.executable, "-c", "from rvn_il.eval.cli import main; main()", *SMALL,
+    cmd = [sys.executable, "-c", "from rvn_data.benchmark.cli import main; main()", *SMALL,
            f"episodes.dir={tmp_path / 'episodes'}", *overrides]
     return subprocess.run(cmd, capture_output=True, text=True, timeout=600, env=env, cwd=tmp_path)
 
@@ -148,7 +148,7 @@ def test_goal_follower_drives_straight_at_the_goal(runs):
     """policy=goal_follower (blind baseline): turns toward the point goal, drives at it, stops
     inside the success radius; in apartments a wall soon stands in the way."""
     from rvn_data.conventions import Action
-    from rvn_data.policies import GoalFollowerPolicy
+    from rvn_data.benchmark.policies import GoalFollowerPolicy
 
     pol = GoalFollowerPolicy()
     assert pol.act({"pointgoal": [3.0, 0.2]}) == Action.MOVE_FORWARD

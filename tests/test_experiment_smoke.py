@@ -74,7 +74,7 @@ def test_bad_scale_is_refused(tmp_path):
 
 def _compose_check(cmd: list[str]) -> None:
     """Run a printed rvn-* command as one job with --cfg job (composition only, nothing runs)."""
-    module = {"rvn-gen": "rvn_data.gen.cli", "rvn-eval": "rvn_il.eval.cli", "rvn-train": "rvn_il.train.cli"}[cmd[0]]
+    module = {"rvn-gen": "rvn_data.gen.cli", "rvn-eval": "rvn_data.benchmark.cli", "rvn-train": "rvn_il.train.cli"}[cmd[0]]
     args = []
     for a in cmd[1:]:
         if a == "-m" or a.startswith("hydra/launcher=") or a.startswith("hydra.launcher.") or a.startswith("hydra.sweep"):
@@ -100,7 +100,7 @@ def test_slurm_recipe_commands_compose(tmp_path):
     assert len(evals) == 3 * 6 and "episodes.first_scene=range(0,800,5)" in evals[0]
     wraps = [c for c in cmds if c[0] == "sbatch"]
     assert len(wraps) == 3 and all("train.epochs=100" in c[-1] for c in wraps)
-    assert cmds[-1][:3] == ["python", "-m", "rvn_il.eval.report"]
+    assert cmds[-1][:3] == ["python", "-m", "rvn_data.benchmark.report"]
     _compose_check(gens[0])
     _compose_check(evals[-1])  # test split, NoMaD-Neg with argmin
     train = shlex.split(wraps[2][-1].split("=", 1)[1])  # --wrap=torchrun ... -m rvn_il.train.cli ...

@@ -4,7 +4,7 @@ import math
 
 import pytest
 
-from rvn_data.metrics import (EpisodeTracker, compute_metrics, metrics_from_jsonl, read_records, spl,
+from rvn_data.benchmark.metrics import (EpisodeTracker, compute_metrics, metrics_from_jsonl, read_records, spl,
                               write_records)
 
 

@@ -1,4 +1,4 @@
-"""`python -m rvn_il.eval.report` on outputs of the real rvn-eval CLI (random and oracle
+"""`python -m rvn_data.benchmark.report` on outputs of the real rvn-eval CLI (random and oracle
 policies, val scenes × 2 episodes × 3 goals, 32×32 camera; the oracle in two shards)."""
 from __future__ import annotations
 
@@ -12,15 +12,15 @@ from pathlib import Path
 import pytest
 from PIL import Image
 
-from rvn_data.metrics import compute_metrics, read_records
-from rvn_il.eval.report import find_runs, load_run, main as report_main, merge_shards
+from rvn_data.benchmark.metrics import compute_metrics, read_records
+from rvn_data.benchmark.report import find_runs, load_run, main as report_main, merge_shards
 
 SMALL = ["split=val", "episodes.num_scenes=1", "episodes.per_scene=2", "episodes.n_goals=3", "camera.width=32",
          "camera.height=32", "progress=false"]
 
 
 def rvn_eval(tmp: Path, *overrides: str) -> None:
-    proc = subprocess.run([sys.executable, "-m", "rvn_il.eval.cli", *SMALL, f"episodes.dir={tmp / 'episodes'}",
+    proc = subprocess.run([sys.executable, "-m", "rvn_data.benchmark.cli", *SMALL, f"episodes.dir={tmp / 'episodes'}",
                            *overrides], capture_output=True, text=True, timeout=600, cwd=tmp)
     assert proc.returncode == 0, proc.stderr[-3000:]
 
@@ -37,7 +37,7 @@ def runs(tmp_path_factory) -> Path:
 
 
 def report(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "rvn_il.eval.report", *args], capture_output=True, text=True,
+    return subprocess.run([sys.executable, "-m", "rvn_data.benchmark.report", *args], capture_output=True, text=True,
                           timeout=300)
 
 
@@ -119,7 +119,7 @@ def test_significance_between_rows(runs, tmp_path):
     """Fisher's exact test on SR_1 and the exact two-Poisson-rate test on CPK, from the episode records."""
     from scipy.stats import binomtest, fisher_exact
 
-    from rvn_il.eval.significance import Row, cpk_p, sr1_p
+    from rvn_data.benchmark.significance import Row, cpk_p, sr1_p
 
     out = tmp_path / "report.md"
     proc = report(str(runs / "eval" / "oracle"), str(runs / "eval" / "random"), "-o", str(out),

@@ -1,4 +1,4 @@
-"""Closed-loop benchmark: run a policy over a split's episode set (`rvn-eval`), metrics tables."""
-from rvn_il.eval.runner import InvalidActionError, run_episode
+"""Model-side evaluation: open-loop agreement of a trained policy with the expert (`agreement`).
 
-__all__ = ["InvalidActionError", "run_episode"]
+The closed-loop benchmark (`rvn-eval`, tables, reports) is task code: `rvn_data.benchmark`.
+"""

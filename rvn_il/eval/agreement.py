@@ -10,7 +10,7 @@ in an episode) and the trajectory's goal relative to the recorded pose, exactly 
 recall per action, the confusion matrix, and the *adapter ceiling*: the agreement of the
 same waypoint → action rule fed the ground-truth future poses (the best a perfect
 trajectory predictor could reach with these policy settings), and the *blind* baseline: the
-agreement of the goal follower (``rvn_data.policies.GoalFollowerPolicy``: steer straight at
+agreement of the goal follower (``rvn_data.benchmark.policies.GoalFollowerPolicy``: steer straight at
 the point goal, no image), with the policy's agreement on the frames where the blind rule is
 wrong: the frames where only the image tells the expert's action (a wall, a detour).
 
@@ -30,7 +30,7 @@ import numpy as np
 
 from rvn_data.atomic import write_text_atomic
 from rvn_data.conventions import Action, from_planar, relative_goal
-from rvn_data.policies import GoalFollowerPolicy
+from rvn_data.benchmark.policies import GoalFollowerPolicy
 from rvn_il.data.dataset import to_local
 from rvn_il.data.images import read_rgb
 from rvn_il.policies.control import waypoints_to_action

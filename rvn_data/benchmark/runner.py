@@ -104,7 +104,7 @@ def share_cpu_threads(workers: int) -> None:
 
 
 def _init_worker(cfg: dict, workers: int = 1) -> None:
-    from rvn_data.env import RVNEnv
+    from rvn_data.benchmark.env import RVNEnv
 
     share_cpu_threads(workers)
 
@@ -119,7 +119,7 @@ def _run_task(k: int) -> tuple[int, dict]:
 
 
 def _prepare_task(args) -> int:
-    from rvn_data.episodes_source import EnvConfig, ensure_scene_episodes
+    from rvn_data.benchmark.episodes_source import EnvConfig, ensure_scene_episodes
 
     cfg, slot = args
     return ensure_scene_episodes(EnvConfig.from_kwargs(**env_kwargs(cfg)), slot)

@@ -30,9 +30,9 @@ import numpy as np
 from gymnasium import spaces
 
 from rvn_data.conventions import Action, relative_goal, to_planar
-from rvn_data.episodes import sample_goal, sample_start
-from rvn_data.episodes_source import EnvConfig, SceneSlot, eval_schedule
-from rvn_data.metrics import EpisodeTracker
+from rvn_data.benchmark.episodes import sample_goal, sample_start
+from rvn_data.benchmark.episodes_source import EnvConfig, SceneSlot, eval_schedule
+from rvn_data.benchmark.metrics import EpisodeTracker
 from rvn_data.scenes import SceneError
 
 
@@ -65,7 +65,7 @@ class RVNEnv(gym.Env):
         self._done = True
         self._obs = None
 
-    # ---- privileged state (for `rvn_data.policies.OraclePolicy` and tools) ----------------
+    # ---- privileged state (for `rvn_data.benchmark.policies.OraclePolicy` and tools) ----------------
     @property
     def navmesh(self):
         return self._scene.navmesh
@@ -248,7 +248,7 @@ class RVNEnv(gym.Env):
         return obs, float(reward), terminated, truncated, info
 
     def episode_record(self) -> dict:
-        """The per-episode record so far (`rvn_data.metrics`); final once the episode ended."""
+        """The per-episode record so far (`rvn_data.benchmark.metrics`); final once the episode ended."""
         return self._tracker.record
 
     def _observe(self) -> dict:
@@ -289,4 +289,4 @@ class RVNEnv(gym.Env):
 
 
 if "RVN-v0" not in gym.registry:
-    gym.register(id="RVN-v0", entry_point="rvn_data.env:RVNEnv")
+    gym.register(id="RVN-v0", entry_point="rvn_data.benchmark.env:RVNEnv")

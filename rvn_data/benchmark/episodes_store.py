@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from rvn_data.atomic import write_bytes_atomic
-from rvn_data.episodes import GENERATOR_VERSION, Episode, EpisodeSettings, sample_episodes
+from rvn_data.benchmark.episodes import GENERATOR_VERSION, Episode, EpisodeSettings, sample_episodes
 
 FORMAT_SCENE = "rvn-episodes/scene"
 FORMAT_INDEX = "rvn-episodes/index"

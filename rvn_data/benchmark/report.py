@@ -1,12 +1,12 @@
 """Results report (markdown + PNG plots) from rvn-eval output directories.
 
-    python -m rvn_il.eval.report RUN_DIR [RUN_DIR ...] -o report.md [--title TEXT]
+    python -m rvn_data.benchmark.report RUN_DIR [RUN_DIR ...] -o report.md [--title TEXT]
 
 Each RUN_DIR is an rvn-eval ``out_dir`` (``metrics.json`` + ``episodes.jsonl``; one per
 policy × split) or a folder searched for them. Runs with the same method and split are
 shards of one evaluation (e.g. over ``episodes.first_scene``): they are merged and their
 metrics recomputed from all records. The report holds the results table in the paper's
-layout (`rvn_il.eval.table`, paper rows included), our numbers beside the paper's per
+layout (`rvn_data.benchmark.table`, paper rows included), our numbers beside the paper's per
 method and split, run details with links to the per-episode logs, plots written next to
 the report (``<stem>_sr1.png``, ``<stem>_cpk.png``, ``<stem>_goals.png``) and every
 episode's record. Runs appear in the order given.
@@ -24,9 +24,9 @@ from pathlib import Path
 import numpy as np
 
 from rvn_data.atomic import atomic_path
-from rvn_data.metrics import TERMINATIONS, format_metric, read_records, write_text_atomic
-from rvn_il.eval.significance import Row, significance_table
-from rvn_il.eval.table import PAPER_RESULTS, SPLIT_TITLES, render_table
+from rvn_data.benchmark.metrics import TERMINATIONS, format_metric, read_records, write_text_atomic
+from rvn_data.benchmark.significance import Row, significance_table
+from rvn_data.benchmark.table import PAPER_RESULTS, SPLIT_TITLES, render_table
 
 PAPER_BY_METHOD = {method: by_split for (_, method), by_split in PAPER_RESULTS.items()}
 
@@ -102,7 +102,7 @@ def merge_shards(runs: list[Run]) -> list[Run]:
     """Combine runs of the same method and split (shards of one evaluation, e.g. over
     ``episodes.first_scene``) into one: their records, metrics recomputed over all of them.
     Order: first appearance. Shards must agree on N_goal and episodes per scene."""
-    from rvn_data.metrics import compute_metrics
+    from rvn_data.benchmark.metrics import compute_metrics
 
     groups: dict[tuple[str, str], list[Run]] = {}
     for r in runs:
@@ -159,7 +159,7 @@ def run_details(runs: list[Run], base: Path) -> str:
 
 
 def tests(runs: list[Run], compare: list[tuple[str, str]] | None = None) -> str:
-    """Significance of the differences between rows of the same split (rvn_il.eval.significance)."""
+    """Significance of the differences between rows of the same split (rvn_data.benchmark.significance)."""
     out = []
     for split in dict.fromkeys(r.split for r in runs):
         rows = [Row(r.method, sum(bool(e["first_goal_success"]) for e in r.records), len(r.records),
@@ -277,7 +277,7 @@ def write_report(runs: list[Run], output: str | Path, title: str = "RVN benchmar
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m rvn_il.eval.report", description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(prog="python -m rvn_data.benchmark.report", description=__doc__.split("\n\n")[0])
     ap.add_argument("runs", nargs="+", help="rvn-eval out_dirs (or folders holding them)")
     ap.add_argument("-o", "--output", default="report.md", help="markdown file; plots go next to it (default: report.md)")
     ap.add_argument("--title", default="RVN benchmark results")
@@ -296,7 +296,7 @@ def main(argv: list[str] | None = None) -> int:
             compare = [tuple(x.strip() for x in c.split("=")) for c in args.compare]
         runs = merge_shards(find_runs(args.runs))
         path = write_report(runs, args.output, args.title,
-                            command="python -m rvn_il.eval.report " + " ".join(sys.argv[1:] if argv is None else argv),
+                            command="python -m rvn_data.benchmark.report " + " ".join(sys.argv[1:] if argv is None else argv),
                             compare=compare)
     except (ValueError, KeyError, OSError) as err:
         print(f"report: error: {err}", file=sys.stderr)

@@ -7,8 +7,8 @@ import os
 from dataclasses import dataclass, field, fields, replace
 
 from rvn_data.conventions import AgentConfig
-from rvn_data.episodes import DEFAULT_PER_SCENE, EpisodeSettings, split_code
-from rvn_data.episodes_store import EpisodeStore, make_settings
+from rvn_data.benchmark.episodes import DEFAULT_PER_SCENE, EpisodeSettings, split_code
+from rvn_data.benchmark.episodes_store import EpisodeStore, make_settings
 from rvn_data.navmesh.settings import NavMeshSettings
 from rvn_data.render.camera import CameraConfig
 

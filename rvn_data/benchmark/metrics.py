@@ -95,7 +95,7 @@ def compute_metrics(records: Sequence[dict]) -> dict:
 
 
 class EpisodeTracker:
-    """Builds one episode's record step by step (used by `rvn_data.env.RVNEnv`)."""
+    """Builds one episode's record step by step (used by `rvn_data.benchmark.env.RVNEnv`)."""
 
     def __init__(self, scene_id: str, scene_index: int, episode_index: int, episode_id: str):
         self.record = {

@@ -18,9 +18,9 @@ from omegaconf import DictConfig, OmegaConf
 from omegaconf.errors import OmegaConfBaseException
 
 import rvn_data
-from rvn_il.eval.results import RunDir, record_key, run_identity
-from rvn_il.eval.runner import env_kwargs, prepare_episodes, run_episodes
-from rvn_il.eval.table import render_table
+from rvn_data.benchmark.results import RunDir, record_key, run_identity
+from rvn_data.benchmark.runner import env_kwargs, prepare_episodes, run_episodes
+from rvn_data.benchmark.table import render_table
 
 CONF_DIR = str(Path(rvn_data.__file__).resolve().parents[1] / "conf")
 
@@ -29,8 +29,8 @@ def evaluate(cfg: dict) -> dict:
     """Run the benchmark described by a resolved config dict; returns metrics.json's content."""
     from tqdm import tqdm
 
-    from rvn_data.episodes_source import EnvConfig, eval_schedule
-    from rvn_data.metrics import compute_metrics
+    from rvn_data.benchmark.episodes_source import EnvConfig, eval_schedule
+    from rvn_data.benchmark.metrics import compute_metrics
 
     env_cfg = EnvConfig.from_kwargs(**env_kwargs(cfg))
     slots = env_cfg.scene_slots()

@@ -6,7 +6,7 @@ in the split) of split ``split`` is a pure function of the settings and of
 ``np.random.default_rng([seed, SPLIT_CODES[split], s, e])``, so episode ``e`` is the same
 whatever the number of episodes or scenes asked for. Goals are drawn by rejection:
 uniform navigable points of the main island, kept when the geodesic distance field of
-the previous goal puts them in range. Files and caching: `rvn_data.episodes_store`.
+the previous goal puts them in range. Files and caching: `rvn_data.benchmark.episodes_store`.
 """
 from __future__ import annotations
 

@@ -13,8 +13,8 @@ import json
 import os
 from pathlib import Path
 
-from rvn_data.episodes_store import check_settings
-from rvn_data.metrics import dumps_record, read_records, write_records, write_text_atomic
+from rvn_data.benchmark.episodes_store import check_settings
+from rvn_data.benchmark.metrics import dumps_record, read_records, write_records, write_text_atomic
 
 IDENTITY_KEYS = ("policy", "method", "split", "seed", "scenes", "episodes", "agent", "navmesh", "camera", "env")
 

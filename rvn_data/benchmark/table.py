@@ -2,7 +2,7 @@
 SR_1, E(G), CPK (paper, table "RVN-Bench Results"), with the paper's numbers as
 reference rows.
 
-``python -m rvn_il.eval.table runs/*/*/metrics.json -o table.md`` merges several
+``python -m rvn_data.benchmark.table runs/*/*/metrics.json -o table.md`` merges several
 ``metrics.json`` files (one per method and split) into one table.
 """
 from __future__ import annotations
@@ -12,7 +12,7 @@ import json
 import sys
 from pathlib import Path
 
-from rvn_data.metrics import format_metric, write_text_atomic
+from rvn_data.benchmark.metrics import format_metric, write_text_atomic
 
 SPLITS = ("train", "val", "test")
 SPLIT_TITLES = {"train": "Train", "val": "Val", "test": "Test"}
@@ -79,7 +79,7 @@ def load_metrics(paths: list[str | Path]) -> list[dict]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m rvn_il.eval.table", description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(prog="python -m rvn_data.benchmark.table", description=__doc__.split("\n\n")[0])
     ap.add_argument("metrics", nargs="+", help="metrics.json files or rvn-eval out_dirs")
     ap.add_argument("-o", "--output", help="write the markdown here (default: stdout)")
     ap.add_argument("--no-reference", action="store_true", help="leave out the paper's rows")
