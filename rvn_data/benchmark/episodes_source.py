@@ -133,12 +133,12 @@ class EnvConfig:
 
 def open_scene(spec: str, scenes: dict, navmesh_settings: NavMeshSettings):
     """(Scene, NavMesh) for a spec; raises SceneError naming the scene on failure."""
-    from rvn_data.navmesh import NavMesh
+    from rvn_data.navmesh.source import open_navmesh
     from rvn_data.scenes.loader import load_scene
 
     scene = load_scene(spec, up_axis=scenes.get("up_axis", "y"), unit_scale=float(scenes.get("unit_scale", 1.0)),
                        level=bool(scenes.get("level", False)))
-    return scene, NavMesh.build(scene, navmesh_settings)
+    return scene, open_navmesh(scene, navmesh_settings)
 
 
 class SceneSlot:

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from rvn_data.atomic import write_bytes_atomic
+from rvn_data.navmesh.settings import recorded
 from rvn_data.benchmark.episodes import GENERATOR_VERSION, Episode, EpisodeSettings, sample_episodes
 
 FORMAT_SCENE = "rvn-episodes/scene"
@@ -39,7 +40,7 @@ def make_settings(episodes: EpisodeSettings, agent, navmesh, scenes: dict, split
     for k in ("unit_scale",):
         if scene_opts[k] is not None:
             scene_opts[k] = float(scene_opts[k])
-    nav = _plain(navmesh)
+    nav = recorded(_plain(navmesh))  # source/file only when not the defaults
     return {
         "generator_version": GENERATOR_VERSION,
         "split": split,

@@ -14,6 +14,7 @@ import os
 from pathlib import Path
 
 from rvn_data.benchmark.episodes_store import check_settings
+from rvn_data.navmesh.settings import recorded
 from rvn_data.benchmark.metrics import dumps_record, read_records, write_records, write_text_atomic
 
 IDENTITY_KEYS = ("policy", "method", "split", "seed", "scenes", "episodes", "agent", "navmesh", "camera", "env")
@@ -24,6 +25,8 @@ def run_identity(cfg: dict) -> dict:
     ident = {k: cfg.get(k) for k in IDENTITY_KEYS}
     ident["episodes"] = {k: v for k, v in dict(cfg.get("episodes") or {}).items() if k != "dir"}
     ident["scenes"] = {k: v for k, v in dict(cfg.get("scenes") or {}).items() if k != "root"}
+    if ident["navmesh"] is not None:  # navmesh.source/file only when not the defaults
+        ident["navmesh"] = recorded(dict(ident["navmesh"]))
     return json.loads(json.dumps(ident, sort_keys=True))
 
 

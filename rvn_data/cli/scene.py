@@ -1,5 +1,6 @@
 """`rvn-scene`: inspect a scene (`info`), draw its top-down navmesh map (`map`), render
-sample views (`views`). SCENE is a mesh path or `procedural:<split>/<index>`.
+sample views (`views`), write its navmesh as a Habitat/Recast file (`navmesh`). SCENE is a
+mesh path or `procedural:<split>/<index>`.
 
 Bad input prints one line on stderr and exits with code 2.
 """
@@ -19,6 +20,10 @@ def _add_scene_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--level", action="store_true", help="rotate so the dominant floor normal is +y")
     p.add_argument("--agent-radius", type=float, default=0.18, help="navmesh agent radius (m)")
     p.add_argument("--agent-height", type=float, default=1.0, help="navmesh agent height (m)")
+    p.add_argument("--navmesh", metavar="FILE", default=None,
+                   help="read the navmesh from this Habitat/Recast .navmesh instead of building it")
+    p.add_argument("--navmesh-source", choices=("auto", "build", "file"), default="auto",
+                   help="auto: --navmesh, else a .navmesh beside the scene file, else build")
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -36,21 +41,27 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("-n", "--n", type=int, default=8, help="number of views")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--backend", choices=("auto", "gl", "raycast"), default="auto")
+    p = sub.add_parser("navmesh", help="write the navmesh as a Habitat/Recast .navmesh file")
+    _add_scene_args(p)
+    p.add_argument("-o", "--output", required=True, help=".navmesh path")
+    p.add_argument("--tile-cells", type=int, default=64, help="tile size in cells")
     return ap
 
 
 def _load(args):
-    from rvn_data.navmesh import NavMesh, NavMeshSettings
+    from rvn_data.navmesh import NavMeshSettings
+    from rvn_data.navmesh.source import open_navmesh
     from rvn_data.scenes import load_scene
 
-    settings = NavMeshSettings(agent_radius=args.agent_radius, agent_height=args.agent_height)
+    settings = NavMeshSettings(agent_radius=args.agent_radius, agent_height=args.agent_height,
+                               source=args.navmesh_source, file=args.navmesh)
     scene = load_scene(args.scene, up_axis=args.up_axis, unit_scale=args.unit_scale, level=args.level)
-    return scene, settings, NavMesh
+    return scene, settings, open_navmesh
 
 
 def cmd_info(args) -> None:
-    scene, settings, NavMesh = _load(args)
-    nm = NavMesh.build(scene, settings)
+    scene, settings, open_navmesh = _load(args)
+    nm = open_navmesh(scene, settings)
     info = {
         "scene": scene.scene_id,
         "source": scene.source,
@@ -61,6 +72,8 @@ def cmd_info(args) -> None:
         "navigable_area_m2": round(nm.navigable_area, 4),
         "layers": len(nm.layers),
         "navmesh": settings.to_dict(),
+        "navmesh_source": "build" if nm.source_file is None else "file",
+        "navmesh_file": nm.source_file,
     }
     if args.json:
         print(json.dumps(info))
@@ -75,13 +88,14 @@ def cmd_info(args) -> None:
     for i, a in enumerate(nm.island_areas):
         print(f"  island {i}: {a:8.2f} m²" + ("  (main)" if i == 0 else ""))
     print(f"navigable  {nm.navigable_area:.2f} m² on the main island")
+    print(f"navmesh    {'built from the scene' if nm.source_file is None else 'read from ' + nm.source_file}")
 
 
 def cmd_map(args) -> None:
     from rvn_data.cli.topdown_map import write_map
 
-    scene, settings, NavMesh = _load(args)
-    nm = NavMesh.build(scene, settings)
+    scene, settings, open_navmesh = _load(args)
+    nm = open_navmesh(scene, settings)
     write_map(scene, nm, args.output)
     print(f"wrote {args.output}")
 
@@ -91,10 +105,20 @@ def cmd_views(args) -> None:
 
     if args.n <= 0:
         raise ValueError(f"-n {args.n}: the number of views must be positive")
-    scene, settings, NavMesh = _load(args)
-    navmesh = NavMesh.build(scene, settings)  # poses honour --agent-radius / --agent-height
+    scene, settings, open_navmesh = _load(args)
+    navmesh = open_navmesh(scene, settings)  # poses honour --agent-radius / --agent-height
     write_views(scene, args.output, args.n, args.seed, args.backend, navmesh=navmesh)
     print(f"wrote {args.n} view(s) to {args.output}")
+
+
+def cmd_navmesh(args) -> None:
+    from rvn_data.navmesh.detour_write import write_navmesh_file
+
+    scene, settings, open_navmesh = _load(args)
+    nm = open_navmesh(scene, settings)
+    write_navmesh_file(nm, args.output, tile_cells=args.tile_cells)
+    print(f"wrote {args.output} ({sum(int((g.island >= 0).sum()) for g in nm.layers)} polygons, "
+          f"{nm.navigable_area:.2f} m² main island)")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -102,7 +126,7 @@ def main(argv: list[str] | None = None) -> int:
     from rvn_data.scenes.scene import SceneError
 
     try:
-        {"info": cmd_info, "map": cmd_map, "views": cmd_views}[args.command](args)
+        {"info": cmd_info, "map": cmd_map, "views": cmd_views, "navmesh": cmd_navmesh}[args.command](args)
     except (SceneError, ValueError, OSError, RuntimeError) as exc:  # RuntimeError: no EGL for --backend gl
         msg = " ".join(str(exc).split())
         print(f"rvn-scene {args.command}: error: {msg}", file=sys.stderr)

@@ -65,7 +65,8 @@ class _Scene:
     """Lazily built scene resources (nothing is loaded when every trajectory exists)."""
 
     def __init__(self, spec: str, settings: GenSettings, scene_cfg: dict, timing: dict):
-        from rvn_data.navmesh import NavMesh, NavMeshSettings
+        from rvn_data.navmesh import NavMeshSettings
+        from rvn_data.navmesh.source import open_navmesh
         from rvn_data.render import CameraConfig, make_renderer
         from rvn_data.scenes.loader import load_scene
         from rvn_data.sim import Simulator
@@ -74,7 +75,7 @@ class _Scene:
         self.scene = load_scene(spec, up_axis=scene_cfg.get("up_axis", "y"),
                                 unit_scale=float(scene_cfg.get("unit_scale", 1.0)),
                                 level=bool(scene_cfg.get("level", False)))
-        navmesh = NavMesh.build(self.scene, NavMeshSettings.from_config(settings.navmesh))
+        navmesh = open_navmesh(self.scene, NavMeshSettings.from_config(settings.navmesh))
         self.ctx = SceneContext(navmesh=navmesh, sim=Simulator(navmesh, settings.agent), scene=self.scene,
                                 settings=settings)
         self._renderer = None

@@ -39,6 +39,8 @@ def _islands(meta, height, clearance, island, x0, z0, cs, pts, tol, r):
 class NavMesh:
     """Navigable surface of a scene; build with `NavMesh.build(scene, settings)`."""
 
+    source_file: str | None = None  # the .navmesh it was read from (None: built from the scene)
+
     def __init__(self, scene_id: str, settings: NavMeshSettings, layers: list[NavGrid],
                  island_areas: list[float], scene_grid: tuple, links: np.ndarray):
         self.scene_id = scene_id

@@ -15,6 +15,10 @@ class NavMeshSettings:
     surface (m); max_climb: largest step between neighbouring surfaces (m);
     max_slope_deg: steepest walkable face; min_island_area: connected navigable islands
     smaller than this (m²) are dropped.
+    source: where the navmesh comes from: "build" (from the scene's triangles), "file" (a
+    Habitat/Recast `.navmesh`, path in `file`) or "auto" (`file` when set, else a
+    `<scene>.navmesh` beside the scene file when there is one, else build); see
+    `rvn_data.navmesh.source.open_navmesh`.
     """
 
     cell_size: float = 0.05
@@ -24,9 +28,19 @@ class NavMeshSettings:
     max_climb: float = 0.2
     max_slope_deg: float = 45.0
     min_island_area: float = 1.0
+    source: str = "auto"  # auto | build | file: auto uses `file`, else <scene>.navmesh beside the scene file, else builds
+    file: str | None = None  # path of a Habitat/Recast .navmesh (source=file, or auto)
 
     def __post_init__(self) -> None:
+        if self.source not in SOURCES:
+            raise ValueError(f"navmesh setting source={self.source!r} must be one of {list(SOURCES)}")
+        if self.file is not None and not isinstance(self.file, str):
+            object.__setattr__(self, "file", str(self.file))
+        if self.source == "file" and not self.file:
+            raise ValueError("navmesh setting source='file' needs navmesh.file=<path to a .navmesh>")
         for f in fields(self):
+            if f.name in ("source", "file"):
+                continue
             value = getattr(self, f.name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise ValueError(f"navmesh setting {f.name}={value!r} must be a finite number")
@@ -57,8 +71,22 @@ class NavMeshSettings:
         unknown = sorted(set(values) - known)
         if unknown:
             raise ValueError(f"unknown navmesh setting(s) {unknown}; known: {sorted(known)}")
-        return cls(**{k: (float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else v)
+        return cls(**{k: (float(v) if isinstance(v, (int, float)) and not isinstance(v, bool)
+                          and k not in ("source", "file") else v)
                       for k, v in values.items()})
 
     def to_dict(self) -> dict[str, float]:
-        return asdict(self)
+        return recorded(asdict(self))
+
+
+SOURCES = ("auto", "build", "file")
+
+
+def recorded(navmesh: Mapping[str, Any]) -> dict[str, Any]:
+    """Navmesh settings as recorded in episode and run files: `source` and `file` only when
+    they differ from their defaults (auto, none), so records made before they existed match."""
+    out = dict(navmesh)
+    if out.get("source", "auto") == "auto" and out.get("file") is None:
+        out.pop("source", None)
+        out.pop("file", None)
+    return out

@@ -1,0 +1,80 @@
+"""Where a scene's navmesh comes from (`navmesh.source`): built from the scene's triangles,
+or read from a Habitat/Recast `.navmesh` file (`navmesh.file`, or for `auto` the one
+HM3D ships beside the scene mesh: `<id>.basis.navmesh` / `<id>.navmesh`).
+
+A file's navmesh is in Habitat's frame, which is the scene's frame when the scene is loaded
+with `up_axis=z` (HM3D), unit scale 1 and no levelling; a file whose polygons do not lie
+within the scene's bounds is refused with an error naming it.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from rvn_data.navmesh.settings import NavMeshSettings
+
+BOUNDS_SLACK = 0.5  # m, how far a file's polygons may reach beyond the scene's bounds
+
+
+def navmesh_beside(scene_source: str) -> Path | None:
+    """The `.navmesh` shipped beside a scene mesh file, or None."""
+    if not scene_source:
+        return None
+    mesh = Path(scene_source)
+    if not mesh.is_file():
+        return None
+    stem = mesh.name.split(".")[0]
+    for cand in (mesh.with_suffix(".navmesh"), mesh.parent / f"{stem}.basis.navmesh", mesh.parent / f"{stem}.navmesh"):
+        if cand.is_file():
+            return cand
+    return None
+
+
+def navmesh_path(scene, settings: NavMeshSettings) -> Path | None:
+    """The file the navmesh is read from under these settings, or None when it is built."""
+    if settings.source == "build":
+        return None
+    if settings.file:
+        path = Path(settings.file).expanduser()
+        if not path.is_file():
+            raise ValueError(f"navmesh.file={settings.file!r} not found; give the path of a .navmesh "
+                             "or use navmesh.source=build")
+        return path
+    beside = navmesh_beside(getattr(scene, "source", ""))
+    if beside is None and settings.source == "file":
+        raise ValueError(f"navmesh.source=file but no navmesh.file is set and there is no .navmesh beside "
+                         f"scene {scene.scene_id!r}")
+    return beside
+
+
+def load_navmesh_file(path: str | Path, settings: NavMeshSettings, scene=None):
+    """NavMesh from a `.navmesh` file; with `scene`, checked to lie within its bounds."""
+    from rvn_data.navmesh.detour_format import read_navmesh_file
+    from rvn_data.navmesh.from_detour import navmesh_from_detour
+
+    mesh = read_navmesh_file(path)
+    if not mesh.tiles:
+        raise ValueError(f"navmesh file {str(path)!r} holds no tile")
+    if scene is not None:
+        lo, hi = np.asarray(scene.bounds, dtype=np.float64)
+        verts = np.concatenate([t.verts for t in mesh.tiles if len(t.verts)]).astype(np.float64)
+        vlo, vhi = verts.min(0), verts.max(0)
+        if (vlo < lo - BOUNDS_SLACK).any() or (vhi > hi + BOUNDS_SLACK).any():
+            raise ValueError(
+                f"navmesh file {str(path)!r} (bounds {np.round(vlo, 2).tolist()}..{np.round(vhi, 2).tolist()}) does not "
+                f"lie within scene {scene.scene_id!r} ({np.round(lo, 2).tolist()}..{np.round(hi, 2).tolist()}); "
+                "check scenes.up_axis (HM3D: z), unit_scale and level, or use navmesh.source=build")
+    scene_id = scene.scene_id if scene is not None else Path(path).name.split(".")[0]
+    return navmesh_from_detour(mesh, settings, scene_id)
+
+
+def open_navmesh(scene, settings: NavMeshSettings | None = None):
+    """The scene's `NavMesh` per `settings.source`: read from a file, or `NavMesh.build`."""
+    from rvn_data.navmesh.navmesh import NavMesh
+
+    settings = settings or NavMeshSettings()
+    path = navmesh_path(scene, settings)
+    if path is None:
+        return NavMesh.build(scene, settings)
+    return load_navmesh_file(path, settings, scene)
