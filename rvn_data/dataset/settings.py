@@ -12,6 +12,7 @@ from dataclasses import asdict, dataclass, field
 from typing import Any, Mapping
 
 from rvn_data.conventions import AgentConfig
+from rvn_data.navmesh.settings import recorded
 
 KINDS = ("expert", "negative")
 
@@ -98,6 +99,7 @@ class GenSettings:
         """JSON-able dict of everything that determines a trajectory's bytes."""
         out = asdict(self)
         out["agent"] = asdict(self.agent)
+        out["navmesh"] = recorded(self.navmesh)  # navmesh source/file only when not the defaults
         del out["render_device"]
         if self.clearance_pref is None or self.clearance_weight == 0:  # off: datasets made before it keep their identity
             del out["clearance_pref"], out["clearance_weight"]
