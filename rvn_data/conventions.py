@@ -32,11 +32,11 @@ class Action(IntEnum):
 class AgentConfig:
     """The robot of SPEC.md "Task": a cylinder with a forward camera."""
 
-    r_robot: float = 0.18
-    h_robot: float = 1.0
-    d_step: float = 0.25
-    theta_step_deg: float = 30.0
-    allow_sliding: bool = False
+    r_robot: float = 0.18  # m, cylinder radius
+    h_robot: float = 1.0  # m, cylinder height
+    d_step: float = 0.25  # m, MOVE_FORWARD
+    theta_step_deg: float = 30.0  # deg, TURN_LEFT / TURN_RIGHT
+    allow_sliding: bool = False  # paper: a short displacement is a collision, no sliding along walls
 
     def __post_init__(self) -> None:
         for name in ("r_robot", "h_robot", "d_step", "theta_step_deg"):
@@ -48,6 +48,12 @@ class AgentConfig:
     def theta_step(self) -> float:
         """Turn angle in radians."""
         return math.radians(self.theta_step_deg)
+
+    @property
+    def success_distance(self) -> float:
+        """The success radius (m), 2·r_robot: a STOP this close to the goal reaches it (the
+        benchmark's default ``success_distance``, the expert's and the IL policies' ``stop_radius``)."""
+        return 2.0 * self.r_robot
 
 
 @dataclass(frozen=True)
@@ -84,8 +90,30 @@ def heading(yaw: float) -> np.ndarray:
     return np.array([math.cos(yaw), 0.0, -math.sin(yaw)])
 
 
+def to_local(points: np.ndarray, origin: np.ndarray, yaw: float | np.ndarray) -> np.ndarray:
+    """Planar point(s) [..., 2] in the robot frame of planar pose (``origin`` [..., 2], ``yaw``):
+    x forward, y left, metres, float64. ``yaw`` broadcasts against ``points[..., 0]``. The
+    one frame change behind both the training labels (waypoints, image goals) and the
+    benchmark's point goal (`relative_goal`)."""
+    d = np.asarray(points, dtype=np.float64) - origin
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.stack([c * d[..., 0] + s * d[..., 1], -s * d[..., 0] + c * d[..., 1]], axis=-1)
+
+
 def relative_goal(position: np.ndarray, yaw: float, goal: np.ndarray) -> np.ndarray:
-    """Goal in the robot frame: (x forward, y left), metres, float32 [2]."""
-    d = to_planar(goal) - to_planar(position)
-    c, s = math.cos(yaw), math.sin(yaw)
-    return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]], dtype=np.float32)
+    """World ``goal`` [3] in the robot frame of the world pose (``position`` [3], ``yaw``):
+    the observation ``pointgoal``, (x forward, y left), metres, float32 [2]."""
+    return to_local(to_planar(goal), to_planar(position), yaw).astype(np.float32)
+
+
+def turn_toward(bearing: float, theta_step: float) -> Action:
+    """The discrete action steering toward a point at ``bearing`` (radians, counter-clockwise
+    from the heading, in [-π, π)): turn by θ_step while the bearing exceeds θ_step/2, else
+    MOVE_FORWARD. A turn brings a bearing above θ_step/2 closer to zero, so this never
+    oscillates between left and right. The expert's path follower, the IL policies' action
+    adapter and the blind goal follower all steer with it."""
+    if bearing > theta_step / 2:
+        return Action.TURN_LEFT
+    if bearing < -theta_step / 2:
+        return Action.TURN_RIGHT
+    return Action.MOVE_FORWARD

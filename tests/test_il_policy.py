@@ -116,3 +116,51 @@ def test_vote_follows_the_action_most_samples_lead_to():
     np.testing.assert_array_equal(policy.choose([samples], goal), straight)
     with pytest.raises(ValueError, match="aggregate"):
         PointGoalPolicy([], CTRL, aggregate="mean")
+
+
+def test_trajectory_oracle_predicts_the_expert_planners_path(tmp_path):
+    """The trajectory oracle replans with rvn-gen's `ExpertPlanner` on the env's scene (its public
+    ``scene``), with the env's navmesh step settings and the expert margin r_robot + margin_offset:
+    its waypoints are the expert follower's next poses along that plan, in the robot frame; the
+    goal follower bound to the same env stops within the env agent's success radius."""
+    from rvn_data.benchmark.env import RVNEnv
+    from rvn_data.benchmark.policies import GoalFollowerPolicy
+    from rvn_data.conventions import to_local, to_planar
+    from rvn_data.planning import ExpertPlanner, PathFollower
+    from rvn_data.planning.follower import integrate
+    from rvn_il.policies.trajectory_oracle import TrajectoryOraclePolicy
+
+    agent = AgentConfig(r_robot=0.15)
+    env = RVNEnv(mode="eval", split="val", scenes={"num_scenes": 1}, per_scene=1, agent=agent,
+                 navmesh={"max_climb": 0.15}, camera={"width": 16, "height": 12},
+                 episodes={"n_goals": 1, "dir": str(tmp_path)})
+    oracle = TrajectoryOraclePolicy(clearance_pref=0.5, clearance_weight=4.0)
+    with pytest.raises(RuntimeError, match="bind"):
+        oracle.act({"pointgoal": np.zeros(2)})
+    oracle.bind(env)
+    goal_follower = GoalFollowerPolicy()
+    goal_follower.bind(env)
+    assert goal_follower.stop_radius == pytest.approx(0.3)
+    obs, _ = env.reset(seed=0)
+    planner = ExpertPlanner(env.scene, agent, 0.25, 0.05, 0.15, env.config.navmesh.max_slope_deg, 0.5, 4.0)
+    planned = 0
+    for _ in range(12):
+        position, yaw = np.array(env.position), float(env.yaw)
+        plan = planner.plan(position, env.goal)
+        planned += plan is not None
+        future = [to_planar(position)] * 8  # no expert path: the oracle predicts staying in place
+        if plan is not None:
+            follower, p, y, future = PathFollower(plan.waypoints, agent), position, yaw, []
+            for _ in range(8):
+                action = follower.act(p, y)
+                p, y = (p, y) if action == Action.STOP else integrate(p, y, action, agent)
+                future.append(to_planar(p))
+        action = oracle.act(obs)
+        np.testing.assert_allclose(oracle.last_waypoints, to_local(np.array(future), to_planar(position), yaw), atol=1e-12)
+        assert action == waypoints_to_action(oracle.last_waypoints, obs["pointgoal"], oracle.control)
+        obs, _, terminated, truncated, _ = env.step(action)
+        assert not terminated
+    assert planned >= 10 and oracle.planner.scene is env.scene and oracle.planner.max_climb == 0.15
+    env.close()
+    with pytest.raises(ValueError, match="margin_offset"):
+        TrajectoryOraclePolicy(margin_offset=-0.5).bind(env)

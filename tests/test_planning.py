@@ -1,11 +1,11 @@
-"""Planning: occupancy grid from a mesh, inflation, A*, pruning, follower (synthetic data)."""
+"""Planning: occupancy grid from a mesh, inflation, A*, pruning, the expert planner, follower (synthetic data)."""
 import math
 
 import numpy as np
 import pytest
 
 from rvn_data.conventions import Action, AgentConfig, from_planar, to_planar
-from rvn_data.planning import PathFollower, astar, occupancy_grid, plan_path, prune_path
+from rvn_data.planning import ExpertPlanner, PathFollower, astar, occupancy_grid, plan_path, prune_path
 from rvn_data.planning.follower import integrate
 from rvn_data.scenes.scene import Part, Scene
 
@@ -147,3 +147,50 @@ def test_soft_clearance_keeps_paths_off_the_margin(grid):
     assert plan_path(grid, grid.inflate(0.35), s, g, 0.5, 4.0) is None  # still closed by the hard margin
     with pytest.raises(ValueError, match="clearance_pref"):
         plan_path(grid, free, s, g, clearance_pref=-1.0, clearance_weight=4.0)
+
+
+def test_expert_planner_plans_on_the_inflated_grid_and_leaves_the_margin():
+    """ExpertPlanner (rvn-gen's and the trajectory oracle's expert): from a start outside the
+    margin it is A* on the grid inflated by the margin; from a start inside it (0.18 m from the
+    table, margin 0.2) the plan begins at the true start, then the nearest free cell; with
+    ``leave_margin=False`` there is no entry."""
+    scene, agent = make_scene(WALLS + [TABLE, OVERHANG]), AgentConfig()
+    planner = ExpertPlanner(scene, agent, margin=0.2, clearance_pref=0.5, clearance_weight=4.0)
+    grid, free = planner.grid_at(0.01)  # floor heights within 2.5 cm share the grid of level 0
+    assert planner.grid_at(0.0)[0] is grid and np.array_equal(free, grid.inflate(0.2))
+    s, g = np.array([1.5, 0, 3.0]), np.array([4.5, 0, 1.0])
+    assert planner.is_free(s) and planner.entry(s) is s
+    direct = plan_path(grid, free, s, g, 0.5, 4.0)
+    assert np.array_equal(planner.plan(s, g).waypoints, direct.waypoints)
+    near = np.array([1.78, 0.0, 1.2])  # 0.18 m right of the table
+    assert not planner.is_free(near) and planner.entry(near, leave_margin=False) is None
+    entry = planner.entry(near)
+    assert planner.is_free(entry) and 0.05 < np.hypot(*(entry - near)[[0, 2]]) <= planner.exit_reach
+    plan = planner.plan(near, g)
+    assert np.array_equal(plan.waypoints[0], near) and np.allclose(plan.waypoints[1], entry)
+    assert plan.length == pytest.approx(plan_path(grid, free, entry, g, 0.5, 4.0).length + np.hypot(*(entry - near)[[0, 2]]))
+    assert planner.plan(near, np.array([1.2, 0.0, 1.2])) is None  # goal on the table
+
+
+def test_expert_planner_margin_below_the_robot_radius_still_leaves_it():
+    """A margin smaller than r_robot (negative datasets) still looks two cells around a start
+    inside it: the reach is max(margin - r_robot, 0) + 2 cells, never less."""
+    planner = ExpertPlanner(make_scene(WALLS), AgentConfig(r_robot=0.18), margin=0.08)
+    near = np.array([1.5, 0.0, 0.16])  # 0.06 m from the wall at z = 0.1
+    assert not planner.is_free(near)
+    assert planner.exit_reach == pytest.approx(0.1)
+    plan = planner.plan(near, np.array([1.5, 0.0, 3.0]))
+    assert plan is not None and planner.is_free(plan.waypoints[1])
+
+
+def test_expert_planner_uses_the_navmesh_step_settings():
+    """A 0.15 m step: under max_climb 0.2 (the default) the robot stands on it; with max_climb
+    0.1 it is an obstacle the expert plans around."""
+    step = (1.0, 2.0, 0.0, 0.15, 1.5, 2.5)
+    scene, agent = make_scene(WALLS + [step]), AgentConfig()
+    on_step, s, g = np.array([1.5, 0.0, 2.0]), np.array([0.5, 0.0, 2.0]), np.array([2.5, 0.0, 2.0])
+    low = ExpertPlanner(scene, agent, 0.28, max_climb=0.2)
+    high = ExpertPlanner(scene, agent, 0.28, max_climb=0.1)
+    assert low.is_free(on_step) and not high.is_free(on_step)
+    assert low.plan(s, g).length == pytest.approx(2.0)  # straight over the step
+    assert high.plan(s, g).length > 2.3  # around it

@@ -67,6 +67,11 @@ class RVNEnv(gym.Env):
 
     # ---- privileged state (for `rvn_data.benchmark.policies.OraclePolicy` and tools) ----------------
     @property
+    def scene(self):
+        """The current `Scene` (its triangles: what the trajectory oracle's planner rasterises)."""
+        return self._scene.scene
+
+    @property
     def navmesh(self):
         return self._scene.navmesh
 

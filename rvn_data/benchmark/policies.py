@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from rvn_data.conventions import Action
+from rvn_data.conventions import Action, AgentConfig, turn_toward
 
 
 class OraclePolicy:
@@ -172,39 +172,35 @@ class RandomPolicy:
 class GoalFollowerPolicy:
     """Blind goal follower (habitat-baselines' ``GoalFollower``): only the point goal, no image.
 
-    Turn toward ``obs["pointgoal"]`` while its bearing exceeds θ_step/2, else move forward;
-    STOP once it is closer than ``stop_radius`` (default 2·r_robot, the success radius).
+    Steer toward ``obs["pointgoal"]`` with `turn_toward` (turn while its bearing exceeds
+    θ_step/2, else move forward); STOP once it is closer than ``stop_radius``. Unset settings
+    come from the bound env's agent (the success radius 2·r_robot and its θ_step), or from the
+    default `AgentConfig` when unbound.
     The same steering rule as the IL policies' action adapter, fed the straight line to the
     goal instead of predicted waypoints: the score a policy gets without looking.
     """
 
     def __init__(self, stop_radius: float | None = None, theta_step_deg: float | None = None):
-        self.stop_radius = None if stop_radius is None else float(stop_radius)
-        self.theta_step = None if theta_step_deg is None else math.radians(float(theta_step_deg))
-        for name, value in (("stop_radius", self.stop_radius), ("theta_step_deg", self.theta_step)):
-            if value is not None and not (math.isfinite(value) and value > 0):
+        for name, value in (("stop_radius", stop_radius), ("theta_step_deg", theta_step_deg)):
+            if value is not None and not (math.isfinite(float(value)) and float(value) > 0):
                 raise ValueError(f"GoalFollowerPolicy {name} must be a positive number (got {value!r})")
+        self._stop_radius = None if stop_radius is None else float(stop_radius)
+        self._theta_step = None if theta_step_deg is None else math.radians(float(theta_step_deg))
+        self._use(AgentConfig())
+
+    def _use(self, agent) -> None:
+        self.stop_radius = agent.success_distance if self._stop_radius is None else self._stop_radius
+        self.theta_step = agent.theta_step if self._theta_step is None else self._theta_step
 
     def bind(self, env) -> None:
         """Take r_robot and θ_step from the env's agent unless given."""
-        agent = env.unwrapped.agent
-        if self.stop_radius is None:
-            self.stop_radius = 2 * float(agent.r_robot)
-        if self.theta_step is None:
-            self.theta_step = float(agent.theta_step)
+        self._use(env.unwrapped.agent)
 
     def reset(self) -> None:
         pass
 
     def act(self, obs) -> int:
         goal = np.asarray(obs["pointgoal"], dtype=np.float64)
-        stop_radius = 0.36 if self.stop_radius is None else self.stop_radius
-        theta = math.radians(30.0) if self.theta_step is None else self.theta_step
-        if float(np.hypot(goal[0], goal[1])) < stop_radius:
+        if float(np.hypot(goal[0], goal[1])) < self.stop_radius:
             return int(Action.STOP)
-        bearing = math.atan2(goal[1], goal[0])
-        if bearing > theta / 2:
-            return int(Action.TURN_LEFT)
-        if bearing < -theta / 2:
-            return int(Action.TURN_RIGHT)
-        return int(Action.MOVE_FORWARD)
+        return int(turn_toward(math.atan2(goal[1], goal[0]), self.theta_step))

@@ -33,7 +33,8 @@ import numpy as np
 
 from rvn_data.conventions import Action, to_planar, wrap_angle
 from rvn_data.dataset.settings import GenSettings
-from rvn_data.planning.astar import Plan, exit_point, plan_path, prepend_start
+from rvn_data.planning.astar import Plan
+from rvn_data.planning.expert import ExpertPlanner
 from rvn_data.planning.follower import PathFollower, integrate
 from rvn_data.planning.occupancy import OccupancyGrid
 
@@ -66,42 +67,34 @@ class Rollout:
 
 @dataclass
 class SceneContext:
-    """What attempts in one scene share: navmesh, simulator, occupancy grids per floor."""
+    """What attempts in one scene share: navmesh, simulator, the expert planner (its occupancy
+    grids per floor)."""
 
     navmesh: object
     sim: object
     scene: object
     settings: GenSettings
-    grids: dict = field(default_factory=dict)
     stats: dict = field(default_factory=lambda: {"max_geodesic_seen": 0.0})
+    planner: ExpertPlanner = field(init=False)
+
+    def __post_init__(self) -> None:
+        s = self.settings
+        self.planner = ExpertPlanner(self.scene, s.agent, s.margin, s.resolution,
+                                     float(s.navmesh.get("max_climb", 0.2)), float(s.navmesh.get("max_slope_deg", 45.0)),
+                                     s.clearance_pref, s.clearance_weight)
 
     def grid_at(self, floor_y: float) -> tuple[OccupancyGrid, np.ndarray]:
-        """(grid, inflated free mask) at a floor height, cached per 5 cm level."""
-        from rvn_data.planning.occupancy import occupancy_grid
-
-        key = int(round(floor_y / 0.05))
-        if key not in self.grids:
-            s = self.settings
-            grid = occupancy_grid(self.scene, key * 0.05, s.resolution, s.agent.h_robot,
-                                  float(s.navmesh.get("max_climb", 0.2)), float(s.navmesh.get("max_slope_deg", 45.0)))
-            self.grids[key] = (grid, grid.inflate(s.margin))
-        return self.grids[key]
-
-
-def _free_at(grid: OccupancyGrid, free: np.ndarray, p: np.ndarray) -> bool:
-    cell = grid.to_cell(p)
-    return grid.contains(cell) and bool(free[cell[0], cell[1]])
+        """(grid, inflated free mask) at a floor height (`ExpertPlanner.grid_at`)."""
+        return self.planner.grid_at(floor_y)
 
 
 def attempt(ctx: SceneContext, rng: np.random.Generator) -> Rollout | str:
     """One start/goal draw, plan and rollout; a `Rollout` or a reason from `REASONS`."""
-    s = ctx.settings
+    s, planner = ctx.settings, ctx.planner
     start = np.asarray(ctx.navmesh.sample(rng), dtype=np.float64)
     start_yaw = float(rng.uniform(-math.pi, math.pi))
-    grid, free = ctx.grid_at(float(start[1]))
-    reach = max(s.margin - s.agent.r_robot, 0.0) + 2.0 * s.resolution
-    plan_start = start if _free_at(grid, free, start) else exit_point(grid, free, start, reach) if s.start_anywhere else None
-    if plan_start is None:
+    entry = planner.entry(start, leave_margin=s.start_anywhere)
+    if entry is None:
         return "start_blocked"
     candidates = np.array([ctx.navmesh.sample(rng) for _ in range(s.goal_candidates)], dtype=np.float64)
     dists = np.asarray(ctx.navmesh.distance_field(start).distance(candidates), dtype=np.float64).reshape(-1)
@@ -110,16 +103,14 @@ def attempt(ctx: SceneContext, rng: np.random.Generator) -> Rollout | str:
         ctx.stats["max_geodesic_seen"] = max(ctx.stats["max_geodesic_seen"], float(finite.max()))
     goal, geodesic = None, math.inf
     for g, d in zip(candidates, dists):  # the first candidate in range and free under the margin
-        if s.d_min <= d <= s.d_max and _free_at(grid, free, g):
+        if s.d_min <= d <= s.d_max and planner.is_free(g, floor_y=float(start[1])):
             goal, geodesic = g, float(d)
             break
     if goal is None:
         return "no_goal"
-    plan = plan_path(grid, free, plan_start, goal, s.clearance_pref, s.clearance_weight)
+    plan = planner.plan(start, goal, entry)
     if plan is None:
         return "no_path"
-    if plan_start is not start:
-        plan = prepend_start(plan, start)
     if not s.d_min <= plan.length <= s.d_max:
         return "path_length"
     return _follow(ctx, plan, start, start_yaw, goal, geodesic, rng)

@@ -1,11 +1,10 @@
 """Follow a planned path with the discrete actions (SPEC.md "Trajectory datasets" step 4).
 
-Rule, in the planar frame: STOP within `stop_radius` (default 2·r_robot) of the goal;
-otherwise advance to the next waypoint when the current one is within d_step/2 or has
-been passed (the agent is beyond it along its segment); turn by θ_step toward the
-waypoint while the heading error exceeds θ_step/2, else MOVE_FORWARD. Turning by θ_step
-always brings an error above θ_step/2 closer to zero, so the follower never oscillates
-between turns.
+Rule, in the planar frame: STOP within `stop_radius` (default `AgentConfig.success_distance`,
+2·r_robot) of the goal; otherwise advance to the next waypoint when the current one is within
+d_step/2 or has been passed (the agent is beyond it along its segment); then steer to it with
+`turn_toward` (turn by θ_step while the heading error exceeds θ_step/2, else MOVE_FORWARD), so
+the follower never oscillates between turns.
 """
 from __future__ import annotations
 
@@ -13,7 +12,7 @@ import math
 
 import numpy as np
 
-from rvn_data.conventions import Action, AgentConfig, to_planar, wrap_angle
+from rvn_data.conventions import Action, AgentConfig, to_planar, turn_toward, wrap_angle
 
 
 class PathFollower:
@@ -25,7 +24,7 @@ class PathFollower:
             raise ValueError("PathFollower needs at least one waypoint (the goal)")
         self.points = pts
         self.agent = agent
-        self.stop_radius = 2.0 * agent.r_robot if stop_radius is None else float(stop_radius)
+        self.stop_radius = agent.success_distance if stop_radius is None else float(stop_radius)
         self.index = min(1, len(pts) - 1)
 
     @property
@@ -50,10 +49,7 @@ class PathFollower:
             return Action.STOP
         self._advance(p)
         d = self.points[self.index] - p
-        err = wrap_angle(math.atan2(d[1], d[0]) - yaw)
-        if abs(err) > 0.5 * self.agent.theta_step:
-            return Action.TURN_LEFT if err > 0 else Action.TURN_RIGHT
-        return Action.MOVE_FORWARD
+        return turn_toward(wrap_angle(math.atan2(d[1], d[0]) - yaw), self.agent.theta_step)
 
 
 def integrate(position: np.ndarray, yaw: float, action: Action, agent: AgentConfig) -> tuple[np.ndarray, float]:

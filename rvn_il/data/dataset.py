@@ -21,14 +21,9 @@ import numpy as np
 import torch
 from torch.utils.data import Dataset, Sampler, get_worker_info
 
+from rvn_data.conventions import to_local
+
 from .cache import PackedCache
-
-
-def to_local(points: np.ndarray, origin: np.ndarray, yaw: float) -> np.ndarray:
-    """Planar points [...,2] in the frame of pose (origin, yaw): x forward, y left."""
-    d = np.asarray(points, dtype=np.float64) - origin
-    c, s = np.cos(yaw), np.sin(yaw)  # yaw broadcasts against points[..., 0]
-    return np.stack([c * d[..., 0] + s * d[..., 1], -s * d[..., 0] + c * d[..., 1]], axis=-1)
 
 
 class GNMDataset(Dataset):

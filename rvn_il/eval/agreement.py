@@ -29,9 +29,8 @@ from pathlib import Path
 import numpy as np
 
 from rvn_data.atomic import write_text_atomic
-from rvn_data.conventions import Action, from_planar, relative_goal
+from rvn_data.conventions import Action, from_planar, relative_goal, to_local
 from rvn_data.benchmark.policies import GoalFollowerPolicy
-from rvn_il.data.dataset import to_local
 from rvn_il.data.images import read_rgb
 from rvn_il.policies.control import waypoints_to_action
 

@@ -2,7 +2,8 @@
 a lookahead point chosen on the predicted trajectory).
 
 Rule, with waypoints in metres in the robot frame (x forward, y left):
-1. STOP when the point goal is closer than ``stop_radius`` (2·r_robot: the success radius).
+1. STOP when the point goal is closer than ``stop_radius`` (default `AgentConfig.success_distance`,
+   2·r_robot: the success radius).
 2. Lookahead point: the first waypoint at least ``lookahead_min_dist`` from the robot
    (d_step/2: the first one a MOVE_FORWARD can approach; ``waypoint_index: null``, the
    default), or waypoint ``waypoint_index`` if set (negative counts from the end). When
@@ -17,9 +18,10 @@ Rule, with waypoints in metres in the robot frame (x forward, y left):
    blurs "turn, then go" into a short step straight ahead, so its first waypoint says
    MOVE_FORWARD too often; that is the model's shortfall, and no lookahead choice repairs
    it without breaking the perfect case (`python -m rvn_il.eval.agreement` measures both).
-3. Heading error e = atan2(y, x) of the lookahead: TURN_LEFT if e > θ_step/2, TURN_RIGHT if
-   e < -θ_step/2, else MOVE_FORWARD. This is the expert's own following rule (rvn-gen), so a
-   perfectly imitated trajectory reproduces the expert's actions.
+3. Heading error e = atan2(y, x) of the lookahead, steered with `rvn_data.conventions.turn_toward`
+   (TURN_LEFT if e > θ_step/2, TURN_RIGHT if e < -θ_step/2, else MOVE_FORWARD). This is the
+   expert's own following rule (rvn-gen), so a perfectly imitated trajectory reproduces the
+   expert's actions.
 """
 from __future__ import annotations
 
@@ -28,23 +30,24 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rvn_data.conventions import Action, AgentConfig
+from rvn_data.conventions import Action, AgentConfig, turn_toward
 
 
 @dataclass(frozen=True)
 class ControlConfig:
-    """Settings of the waypoint → action rule (``model.policy`` in the config)."""
+    """Settings of the waypoint → action rule (``model.policy`` in the config); `from_agent`
+    fills what is not set from the agent."""
 
-    theta_step: float = math.radians(30.0)  # rad
-    stop_radius: float = 0.36  # m, 2*r_robot
-    lookahead_min_dist: float = 0.125  # m, d_step/2
+    theta_step: float  # rad
+    stop_radius: float  # m
+    lookahead_min_dist: float  # m
     waypoint_index: int | None = None
 
     @classmethod
     def from_agent(cls, agent: AgentConfig, stop_radius: float | None = None, lookahead_min_dist: float | None = None,
                    waypoint_index: int | None = None) -> "ControlConfig":
         return cls(theta_step=agent.theta_step,
-                   stop_radius=2 * agent.r_robot if stop_radius is None else float(stop_radius),
+                   stop_radius=agent.success_distance if stop_radius is None else float(stop_radius),
                    lookahead_min_dist=agent.d_step / 2 if lookahead_min_dist is None else float(lookahead_min_dist),
                    waypoint_index=None if waypoint_index is None else int(waypoint_index))
 
@@ -60,18 +63,9 @@ def lookahead_point(waypoints: np.ndarray, pointgoal: np.ndarray, cfg: ControlCo
     return wp[far[0]] if len(far) else np.asarray(pointgoal, dtype=np.float64)
 
 
-def steer(point: np.ndarray, theta_step: float) -> Action:
-    """Turn toward ``point`` while its bearing exceeds θ_step/2, else move forward."""
-    err = math.atan2(float(point[1]), float(point[0]))
-    if err > theta_step / 2:
-        return Action.TURN_LEFT
-    if err < -theta_step / 2:
-        return Action.TURN_RIGHT
-    return Action.MOVE_FORWARD
-
-
 def waypoints_to_action(waypoints: np.ndarray, pointgoal: np.ndarray, cfg: ControlConfig) -> Action:
     """The discrete action following ``waypoints`` toward ``pointgoal`` (see module docstring)."""
     if float(np.linalg.norm(pointgoal)) < cfg.stop_radius:
         return Action.STOP
-    return steer(lookahead_point(waypoints, pointgoal, cfg), cfg.theta_step)
+    point = lookahead_point(waypoints, pointgoal, cfg)
+    return turn_toward(math.atan2(float(point[1]), float(point[0])), cfg.theta_step)

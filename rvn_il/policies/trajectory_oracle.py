@@ -1,9 +1,10 @@
 """The action adapter's ceiling: perfect trajectory predictions through the IL control rule.
 
 `TrajectoryOraclePolicy` replaces the network of an IL policy by the expert that made its
-training labels: every step it replans the expert path (A* on the occupancy grid inflated by
-the expert margin, leaving the margin first when the agent is inside it, as ``rvn-gen``
-does), rolls the path follower forward ``len_traj_pred`` steps without obstacles, and feeds
+training labels: every step it replans the expert path with the planner ``rvn-gen`` uses
+(`rvn_data.planning.ExpertPlanner`: A* on the occupancy grid inflated by the expert margin,
+built with the env's navmesh ``max_climb`` / ``max_slope_deg``, leaving the margin first when
+the agent is inside it), rolls the path follower forward ``len_traj_pred`` steps without obstacles, and feeds
 those future positions (robot frame, exactly the training labels' waypoints) to the same
 waypoint → action rule as the learned policies (`control.py`). Its benchmark score is what a
 model that predicts its labels perfectly would get with these adapter settings, so it tells
@@ -15,11 +16,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from rvn_data.conventions import Action, AgentConfig, to_planar
-from rvn_data.planning import PathFollower, exit_point, occupancy_grid, plan_path, prepend_start
+from rvn_data.conventions import Action, AgentConfig, to_local, to_planar
+from rvn_data.planning import ExpertPlanner, PathFollower
 from rvn_data.planning.follower import integrate
 
-from ..data.dataset import to_local
 from .control import ControlConfig, waypoints_to_action
 
 
@@ -37,7 +37,7 @@ class TrajectoryOraclePolicy:
         if self.len_traj_pred < 1 or self.resolution <= 0:
             raise ValueError(f"trajectory_oracle: len_traj_pred={len_traj_pred} must be >= 1 and resolution={resolution} > 0")
         self.env = None
-        self._grids: dict = {}
+        self.planner: ExpertPlanner | None = None
         self.last_waypoints: np.ndarray | None = None
 
     def bind(self, env) -> None:
@@ -45,34 +45,31 @@ class TrajectoryOraclePolicy:
         agent = self.env.agent
         self.agent = agent if isinstance(agent, AgentConfig) else AgentConfig(**dict(agent))
         self.margin = self.agent.r_robot + self.margin_offset
+        if not self.margin >= 0:
+            raise ValueError(f"trajectory_oracle: margin_offset={self.margin_offset} puts the expert margin "
+                             f"r_robot + margin_offset = {self.margin} below 0; raise it")
         self.control = ControlConfig.from_agent(self.agent, lookahead_min_dist=self.lookahead_min_dist,
                                                 waypoint_index=self.waypoint_index)
+        self.planner = None
 
     def reset(self) -> None:
         self.last_waypoints = None
 
-    def _grid(self, floor_y: float):
-        scene = self.env._scene.scene
-        key = (scene.scene_id, int(round(floor_y / 0.05)))
-        if key not in self._grids:
-            if len(self._grids) > 4:
-                self._grids.clear()
-            grid = occupancy_grid(scene, key[1] * 0.05, self.resolution, self.agent.h_robot)
-            self._grids[key] = (grid, grid.inflate(self.margin))
-        return self._grids[key]
+    def _planner(self) -> ExpertPlanner:
+        """The expert planner of the env's current scene (made again when the scene changes)."""
+        scene = self.env.scene
+        if self.planner is None or self.planner.scene is not scene:
+            nav = self.env.config.navmesh
+            self.planner = ExpertPlanner(scene, self.agent, self.margin, self.resolution, nav.max_climb, nav.max_slope_deg,
+                                         self.clearance_pref, self.clearance_weight)
+        return self.planner
 
     def predict(self, position: np.ndarray, yaw: float, goal: np.ndarray) -> np.ndarray:
         """The expert's next ``len_traj_pred`` positions in the robot frame [len, 2] (metres);
         zeros when no expert path exists from here."""
-        grid, free = self._grid(float(position[1]))
-        cell = grid.to_cell(position)
-        inside = grid.contains(cell) and bool(free[cell[0], cell[1]])
-        start = position if inside else exit_point(grid, free, position, self.margin - self.agent.r_robot + 2 * self.resolution)
-        plan = None if start is None else plan_path(grid, free, start, goal, self.clearance_pref, self.clearance_weight)
+        plan = self._planner().plan(position, goal)
         if plan is None:
             return np.zeros((self.len_traj_pred, 2))
-        if start is not position:
-            plan = prepend_start(plan, position)
         follower = PathFollower(plan.waypoints, self.agent)
         p, y, future = np.asarray(position, np.float64), float(yaw), []
         for _ in range(self.len_traj_pred):

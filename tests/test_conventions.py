@@ -1,0 +1,65 @@
+"""One frame convention and one steering rule shared by the training labels, the expert and the benchmark."""
+import math
+
+import numpy as np
+import pytest
+
+from rvn_data.benchmark.episodes_source import EnvConfig
+from rvn_data.benchmark.policies import GoalFollowerPolicy
+from rvn_data.conventions import Action, AgentConfig, from_planar, relative_goal, to_local, turn_toward
+from rvn_data.planning import PathFollower
+from rvn_il.policies import ControlConfig, waypoints_to_action
+
+
+def test_to_local_is_the_point_goal_frame():
+    """The training labels' frame change (vectorised over poses) and the benchmark's point goal
+    are one function: x forward, y left of the robot, yaw counter-clockwise from above."""
+    # facing planar +y (world -z): a goal 2 m further along world -z is straight ahead, world -x is left
+    assert relative_goal(np.zeros(3), math.pi / 2, np.array([0.0, 0.0, -2.0])) == pytest.approx([2.0, 0.0], abs=1e-6)
+    assert relative_goal(np.zeros(3), math.pi / 2, np.array([-1.0, 0.0, 0.0])) == pytest.approx([0.0, 1.0], abs=1e-6)
+    rng = np.random.default_rng(0)
+    pos, goal = rng.uniform(-5, 5, (50, 2)), rng.uniform(-5, 5, (50, 2))
+    yaw = rng.uniform(-math.pi, math.pi, 50)
+    batch = to_local(goal[:, None], pos[:, None], yaw[:, None])[:, 0]  # as GNMDataset builds its goal labels
+    assert batch.dtype == np.float64 and batch.shape == (50, 2)
+    for k in range(50):
+        pointgoal = relative_goal(from_planar(pos[k], 0.3), float(yaw[k]), from_planar(goal[k], 0.3))
+        assert pointgoal.dtype == np.float32
+        np.testing.assert_array_equal(pointgoal, batch[k].astype(np.float32))
+        assert np.linalg.norm(batch[k]) == pytest.approx(np.linalg.norm(goal[k] - pos[k]))
+
+
+def test_turn_toward_thresholds():
+    theta = math.radians(30)
+    assert turn_toward(0.0, theta) == Action.MOVE_FORWARD
+    assert turn_toward(theta / 2, theta) == turn_toward(-theta / 2, theta) == Action.MOVE_FORWARD
+    assert turn_toward(math.nextafter(theta / 2, 1), theta) == Action.TURN_LEFT
+    assert turn_toward(-math.nextafter(theta / 2, 1), theta) == Action.TURN_RIGHT
+    assert turn_toward(-3.0, theta) == Action.TURN_RIGHT and turn_toward(3.0, theta) == Action.TURN_LEFT
+
+
+@pytest.mark.parametrize("agent", [AgentConfig(), AgentConfig(r_robot=0.25, theta_step_deg=45.0)])
+def test_expert_adapter_and_goal_follower_steer_and_stop_alike(agent):
+    """The expert's path follower, the IL action adapter and the blind goal follower turn toward a
+    point 3 m away at any bearing exactly as `turn_toward` says, and all stop within the agent's
+    success radius 2·r_robot, which is also the benchmark's default success distance."""
+    assert agent.success_distance == pytest.approx(2 * agent.r_robot)
+    control = ControlConfig.from_agent(agent)
+    follower = GoalFollowerPolicy(theta_step_deg=agent.theta_step_deg, stop_radius=agent.success_distance)
+    default_follower = GoalFollowerPolicy()  # unbound: the default agent's settings
+    for bearing in np.linspace(-3.1, 3.1, 125):
+        point = 3.0 * np.array([math.cos(bearing), math.sin(bearing)])
+        expected = turn_toward(math.atan2(point[1], point[0]), agent.theta_step)
+        expert = PathFollower(from_planar(np.array([[0.0, 0.0], point])), agent)
+        assert expert.act(np.zeros(3), 0.0) == expected
+        assert waypoints_to_action(point[None], point, control) == expected
+        assert follower.act({"pointgoal": point}) == expected
+        assert default_follower.act({"pointgoal": point}) == turn_toward(math.atan2(point[1], point[0]), math.radians(30))
+    r = agent.success_distance
+    inside, outside = np.array([0.97 * r, 0.0]), np.array([1.03 * r, 0.0])
+    for goal, stops in ((inside, True), (outside, False)):
+        expert = PathFollower(from_planar(np.array([[0.0, 0.0], goal])), agent)
+        assert (expert.act(np.zeros(3), 0.0) == Action.STOP) == stops
+        assert (waypoints_to_action(goal[None], goal, control) == Action.STOP) == stops
+        assert (follower.act({"pointgoal": goal}) == Action.STOP) == stops
+    assert EnvConfig.from_kwargs(agent=agent, split="val").success_distance == pytest.approx(r)
