@@ -1,0 +1,77 @@
+"""rvn-rl checkpoints: ``out_dir/config.yaml`` (``kind: rl``, the run's settings and the
+network's arguments) and ``out_dir/checkpoints/ckpt_<env steps>/`` holding
+``weights.safetensors`` (the policy, with its input normalisation statistics) and
+``state.pt`` (optimiser, Lagrange multiplier, counters: what a resumed run needs);
+``out_dir/checkpoints/latest`` names the newest."""
+from __future__ import annotations
+
+import io
+import shutil
+from pathlib import Path
+
+import torch
+import yaml
+from safetensors.torch import load_file, save_file
+
+from rvn_data.atomic import atomic_path, write_bytes_atomic, write_text_atomic
+
+KIND = "rl"
+
+
+def read_rl_config(out_dir: str | Path) -> dict:
+    """config.yaml of an rvn-rl out_dir; a one-line ValueError for anything else."""
+    path = Path(out_dir).expanduser() / "config.yaml"
+    if not path.is_file():
+        raise ValueError(f"{out_dir} is not an rvn-rl checkpoint directory (no config.yaml); pass the out_dir of rvn-rl")
+    try:
+        cfg = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as e:
+        raise ValueError(f"corrupt checkpoint config {path} ({type(e).__name__})") from None
+    if not isinstance(cfg, dict) or cfg.get("kind") != KIND:
+        found = cfg.get("kind", "rvn-train (IL)") if isinstance(cfg, dict) else "unknown"
+        raise ValueError(f"{path} holds a checkpoint of kind {found!r}, not an rvn-rl (kind: rl) one")
+    algo = (cfg.get("algo") or {}).get("name")
+    from .config import ALGOS
+    if algo not in ALGOS or "policy" not in cfg:
+        raise ValueError(f"{path}: unknown RL algo {algo!r} or no policy settings; expected one of {', '.join(ALGOS)}")
+    return cfg
+
+
+def write_config(out_dir: Path, cfg: dict) -> None:
+    write_text_atomic(out_dir / "config.yaml", yaml.safe_dump({"kind": KIND, **cfg}, sort_keys=False))
+
+
+def latest(out_dir: str | Path) -> Path | None:
+    marker = Path(out_dir).expanduser() / "checkpoints" / "latest"
+    if not marker.is_file():
+        return None
+    ckpt = marker.parent / marker.read_text().strip()
+    return ckpt if (ckpt / "weights.safetensors").is_file() else None
+
+
+def save(out_dir: Path, env_steps: int, model: torch.nn.Module, state: dict, keep: int = 2) -> Path:
+    root = out_dir / "checkpoints"
+    ckpt = root / f"ckpt_{env_steps:012d}"
+    ckpt.mkdir(parents=True, exist_ok=True)
+    weights = {k: v.detach().cpu().contiguous() for k, v in model.state_dict().items()}
+    with atomic_path(ckpt / "weights.safetensors") as tmp:
+        save_file(weights, str(tmp))
+    buf = io.BytesIO()
+    torch.save(state, buf)
+    write_bytes_atomic(ckpt / "state.pt", buf.getvalue())
+    write_text_atomic(root / "latest", ckpt.name + "\n")
+    for old in sorted(p for p in root.glob("ckpt_*") if p.is_dir())[:-keep]:
+        shutil.rmtree(old, ignore_errors=True)
+    return ckpt
+
+
+def load_weights(model: torch.nn.Module, ckpt: Path) -> None:
+    weights = load_file(str(ckpt / "weights.safetensors"))
+    missing, unexpected = model.load_state_dict(weights, strict=False)
+    if missing or unexpected:
+        raise ValueError(f"{ckpt}: weights do not fit the network of config.yaml (missing {sorted(missing)[:3]}, "
+                         f"unexpected {sorted(unexpected)[:3]})")
+
+
+def load_state(ckpt: Path) -> dict:
+    return torch.load(ckpt / "state.pt", map_location="cpu", weights_only=False)

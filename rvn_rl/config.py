@@ -1,0 +1,73 @@
+"""Settings of an rvn-rl run: validation (one-line errors naming the setting), the
+`RVNEnv` keyword arguments of the train-mode environments, the network's keyword arguments."""
+from __future__ import annotations
+
+from pathlib import Path
+
+ALGOS = ("ppo", "ppo_lag", "ddppo", "ddppo_depth")
+CONF_RL = Path(__file__).resolve().parents[1] / "conf" / "rl"
+
+
+def _positive_int(value, name: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise ValueError(f"{name}={value!r} must be a positive integer")
+    return value
+
+
+def validate(cfg: dict, world_size: int = 1) -> None:
+    algo = cfg["algo"]
+    if algo.get("name") not in ALGOS:
+        raise ValueError(f"algo={algo.get('name')!r} is not an RL algorithm; choose one of {', '.join(ALGOS)}")
+    env, ppo = cfg["env"], cfg["ppo"]
+    for key in ("num_envs", "size", "scene_switch_every", "t_max"):
+        _positive_int(env[key], f"env.{key}")
+    _positive_int(env["scene_cache"] + 1, "env.scene_cache + 1")
+    for key in ("num_steps", "ppo_epoch", "num_mini_batch"):
+        _positive_int(ppo[key], f"ppo.{key}")
+    if env["num_envs"] < ppo["num_mini_batch"]:
+        raise ValueError(f"env.num_envs={env['num_envs']} is below ppo.num_mini_batch={ppo['num_mini_batch']}: "
+                         "each mini-batch holds whole rollouts of some envs; raise env.num_envs or lower num_mini_batch")
+    _positive_int(int(cfg["train"]["total_steps"]), "train.total_steps")
+    _positive_int(cfg["train"]["checkpoint_every"], "train.checkpoint_every")
+    if cfg["model"]["backbone"] not in ("resnet18", "resnet50"):
+        raise ValueError(f"model.backbone={cfg['model']['backbone']!r}: choose resnet50 or resnet18")
+    if world_size > 1 and not algo["distributed"]:
+        raise ValueError(f"algo={algo['name']} runs in one process; use algo=ddppo (or ddppo_depth) under torchrun")
+    if not 0.0 < float(cfg["ddppo"]["sync_frac"]) <= 1.0:
+        raise ValueError(f"ddppo.sync_frac={cfg['ddppo']['sync_frac']!r} must be in (0, 1]")
+    if algo["use_depth"]:
+        source = cfg["depth"]["source"]
+        if source not in ("model", "true"):
+            raise ValueError(f"depth.source={source!r}: choose model (predicted depth) or true (rendered depth)")
+        if source == "model":
+            path = cfg["depth"].get("model_path")
+            if not path:
+                raise ValueError("algo=ddppo_depth with depth.source=model needs depth.model_path=<trained depth "
+                                 "model> (or depth.source=true for the rendered depth)")
+            if not Path(str(path)).expanduser().exists():
+                raise ValueError(f"depth.model_path={path}: no such file or directory")
+    if algo["lagrangian"] and not float(algo["cost_limit"]) >= 0.0:
+        raise ValueError(f"algo.cost_limit={algo['cost_limit']!r} must be >= 0")
+
+
+def uses_true_depth(cfg: dict) -> bool:
+    return bool(cfg["algo"]["use_depth"]) and cfg["depth"]["source"] == "true"
+
+
+def env_kwargs(cfg: dict) -> dict:
+    """`RVNEnv` keyword arguments of the train-mode environments."""
+    env = cfg["env"]
+    scenes = {k: v for k, v in dict(cfg["scenes"]).items() if k != "split"}
+    return {"mode": "train", "split": "train", "scenes": scenes, "agent": cfg["agent"], "navmesh": cfg["navmesh"],
+            "camera": cfg["camera"], "renderer": cfg.get("renderer") or {}, "episodes": dict(cfg["episodes"]),
+            "t_max": env["t_max"], "scene_switch_every": env["scene_switch_every"],
+            "depth": bool(env.get("depth")) or uses_true_depth(cfg)}
+
+
+def model_kwargs(cfg: dict) -> dict:
+    """`PointNavResNetPolicy` keyword arguments (also what a checkpoint's config.yaml records)."""
+    m = cfg["model"]
+    return {"obs_size": int(cfg["env"]["size"]), "backbone": m["backbone"], "base_planes": int(m["base_planes"]),
+            "ngroups": int(m["ngroups"]), "input_size": int(m["input_size"]), "hidden_size": int(m["hidden_size"]),
+            "rnn_layers": int(m["rnn_layers"]), "use_depth": bool(cfg["algo"]["use_depth"]),
+            "cost_critic": bool(cfg["algo"]["lagrangian"])}

@@ -1,0 +1,65 @@
+"""torch.distributed set-up for DD-PPO under torchrun (or srun setting the same variables):
+one process group (NCCL on GPUs, gloo on CPU) on a TCPStore, and a prefix store that counts
+the ranks that finished their rollout (straggler pre-emption, as habitat-baselines)."""
+from __future__ import annotations
+
+import datetime
+import os
+from dataclasses import dataclass
+
+import torch
+import torch.distributed as dist
+
+SHORT_ROLLOUT_THRESHOLD = 0.25  # a rank collects at least this fraction of a rollout before it may stop
+
+
+@dataclass
+class Dist:
+    rank: int = 0
+    local_rank: int = 0
+    world_size: int = 1
+    store: object = None
+
+    @property
+    def enabled(self) -> bool:
+        return self.world_size > 1
+
+    def should_end_early(self, step: int, num_steps: int, update: int, sync_frac: float) -> bool:
+        if not self.enabled or step < num_steps * SHORT_ROLLOUT_THRESHOLD:
+            return False
+        return int(self.store.add(f"done_{update}", 0)) >= sync_frac * self.world_size
+
+    def rollout_done(self, update: int) -> None:
+        if self.enabled:
+            self.store.add(f"done_{update}", 1)
+
+
+def world_size_from_env() -> int:
+    return int(os.environ.get("WORLD_SIZE", "1"))
+
+
+def init(backend: str, device_type: str) -> Dist:
+    """Join the process group described by torchrun's environment (a no-op for one process)."""
+    world = world_size_from_env()
+    if world <= 1:
+        return Dist()
+    rank, local = int(os.environ["RANK"]), int(os.environ.get("LOCAL_RANK", "0"))
+    if backend == "auto":
+        backend = "nccl" if device_type == "cuda" else "gloo"
+    if backend not in ("gloo", "nccl"):
+        raise ValueError(f"ddppo.backend={backend!r}: choose auto, gloo or nccl")
+    host, port = os.environ.get("MASTER_ADDR", "127.0.0.1"), int(os.environ.get("MASTER_PORT", "29500"))
+    store = dist.TCPStore(host, port + 1, world, rank == 0, timeout=datetime.timedelta(minutes=30))
+    dist.init_process_group(backend, store=dist.PrefixStore("pg", store), rank=rank, world_size=world)
+    return Dist(rank, local, world, dist.PrefixStore("rollout_tracker", store))
+
+
+def all_sum(x: torch.Tensor) -> torch.Tensor:
+    if dist.is_available() and dist.is_initialized():
+        dist.all_reduce(x)
+    return x
+
+
+def shutdown() -> None:
+    if dist.is_available() and dist.is_initialized():
+        dist.destroy_process_group()

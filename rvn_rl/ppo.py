@@ -1,0 +1,109 @@
+"""Recurrent PPO update (clipped surrogate, clipped value loss, entropy bonus, gradient-norm
+clipping) as habitat-baselines' PPO, and the PPO-Lagrangian multiplier as OmniSafe's
+`Lagrange`: Adam on -lambda (J_c - d), lambda clamped to >= 0, surrogate advantage
+(A_r - lambda A_c) / (1 + lambda)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+import torch.distributed as dist
+from torch import nn
+
+
+@dataclass
+class PPOConfig:
+    clip_param: float = 0.2
+    ppo_epoch: int = 2
+    num_mini_batch: int = 2
+    value_loss_coef: float = 0.5
+    entropy_coef: float = 0.01
+    lr: float = 2.5e-4
+    eps: float = 1e-5
+    max_grad_norm: float = 0.2
+    num_steps: int = 128
+    gamma: float = 0.99
+    tau: float = 0.95
+    use_normalized_advantage: bool = True
+    use_clipped_value_loss: bool = True
+
+
+def _world() -> int:
+    return dist.get_world_size() if dist.is_available() and dist.is_initialized() else 1
+
+
+class Lagrange:
+    """lambda >= 0 learned from the mean episode cost J_c against the limit d."""
+
+    def __init__(self, cost_limit: float, init: float = 0.001, lr: float = 0.035, upper_bound: float | None = None):
+        self.cost_limit = float(cost_limit)
+        self.upper_bound = upper_bound
+        self.multiplier = nn.Parameter(torch.tensor(float(init)))
+        self.optimizer = torch.optim.Adam([self.multiplier], lr=lr)
+
+    @property
+    def value(self) -> float:
+        return float(self.multiplier.detach())
+
+    def update(self, ep_cost: float) -> None:
+        self.optimizer.zero_grad()
+        loss = -self.multiplier * (ep_cost - self.cost_limit)
+        loss.backward()
+        self.optimizer.step()
+        self.multiplier.data.clamp_(0.0, self.upper_bound if self.upper_bound is not None else float("inf"))
+
+    def state_dict(self) -> dict:
+        return {"multiplier": self.multiplier.detach().clone(), "optimizer": self.optimizer.state_dict()}
+
+    def load_state_dict(self, state: dict) -> None:
+        self.multiplier.data.copy_(state["multiplier"])
+        self.optimizer.load_state_dict(state["optimizer"])
+
+
+def normalise(adv: torch.Tensor) -> torch.Tensor:
+    """Advantages standardised with mean/variance over every rank's rollout."""
+    stats = torch.stack([adv.sum(), adv.pow(2).sum(), torch.tensor(float(adv.numel()))])
+    if _world() > 1:
+        dist.all_reduce(stats)
+    mean = stats[0] / stats[2]
+    var = (stats[1] / stats[2] - mean ** 2).clamp(min=0.0)
+    return (adv - mean) / (var.sqrt() + 1e-5)
+
+
+def ppo_update(model: nn.Module, optimizer, rollouts, cfg: PPOConfig, generator: torch.Generator,
+               lagrange: Lagrange | None = None) -> dict:
+    """One PPO update over the filled part of ``rollouts`` (returns computed already).
+    ``model`` may be a DistributedDataParallel wrapper (gradients all-reduced in backward)."""
+    adv = rollouts.returns[:rollouts.step] - rollouts.values[:rollouts.step]
+    if lagrange is not None:
+        lam = lagrange.value
+        adv = (adv[..., 0] - lam * adv[..., 1]) / (1.0 + lam)
+    else:
+        adv = adv[..., 0]
+    if cfg.use_normalized_advantage:
+        adv = normalise(adv)
+    sums = {"value_loss": 0.0, "action_loss": 0.0, "entropy": 0.0, "grad_norm": 0.0}
+    updates = 0
+    for _ in range(cfg.ppo_epoch):
+        for mb in rollouts.minibatches(adv, cfg.num_mini_batch, generator):
+            logp, entropy, values = model(mb["obs"], mb["state"], mb["prev_actions"], mb["masks"], mb["actions"])
+            ratio = torch.exp(logp - mb["logp"])
+            a = mb["advantages"]
+            action_loss = -torch.min(ratio * a, ratio.clamp(1 - cfg.clip_param, 1 + cfg.clip_param) * a).mean()
+            ret, old = mb["returns"], mb["values"]
+            if cfg.use_clipped_value_loss:
+                clipped = old + (values - old).clamp(-cfg.clip_param, cfg.clip_param)
+                value_loss = 0.5 * torch.max((values - ret).pow(2), (clipped - ret).pow(2)).sum(-1).mean()
+            else:
+                value_loss = 0.5 * (values - ret).pow(2).sum(-1).mean()
+            loss = value_loss * cfg.value_loss_coef + action_loss - entropy.mean() * cfg.entropy_coef
+            optimizer.zero_grad()
+            loss.backward()
+            grad_norm = nn.utils.clip_grad_norm_(model.parameters(), cfg.max_grad_norm)
+            optimizer.step()
+            sums["value_loss"] += value_loss.item()
+            sums["action_loss"] += action_loss.item()
+            sums["entropy"] += entropy.mean().item()
+            sums["grad_norm"] += float(grad_norm)
+            updates += 1
+    return {k: v / max(1, updates) for k, v in sums.items()}

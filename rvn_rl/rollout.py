@@ -1,0 +1,85 @@
+"""Rollout storage for recurrent PPO with GAE over one or two value heads (reward, and cost
+for PPO-Lagrangian). Rollouts may end early (DD-PPO's straggler pre-emption): only the
+first ``step`` transitions are used."""
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+
+class RolloutStorage:
+    def __init__(self, num_steps: int, num_envs: int, obs_space: dict, state_shape: tuple, heads: int):
+        T, N = num_steps, num_envs
+        self.num_steps, self.num_envs, self.heads = T, N, heads
+        self.obs = {k: torch.zeros((T + 1, N, *shape), dtype=dtype) for k, (shape, dtype) in obs_space.items()}
+        self.state0 = torch.zeros(state_shape)
+        self.prev_actions = torch.zeros(T + 1, N, dtype=torch.long)
+        self.masks = torch.zeros(T + 1, N)
+        self.actions = torch.zeros(T, N, dtype=torch.long)
+        self.logp = torch.zeros(T, N)
+        self.values = torch.zeros(T + 1, N, heads)
+        self.rewards = torch.zeros(T, N, heads)
+        self.returns = torch.zeros(T + 1, N, heads)
+        self.step = 0
+
+    def set_first(self, obs: dict, state: torch.Tensor, prev_actions: torch.Tensor, masks: torch.Tensor) -> None:
+        for k, v in obs.items():
+            self.obs[k][0].copy_(torch.as_tensor(v))
+        self.state0.copy_(state)
+        self.prev_actions[0].copy_(prev_actions)
+        self.masks[0].copy_(masks)
+        self.step = 0
+
+    def current(self) -> tuple[dict, torch.Tensor, torch.Tensor]:
+        t = self.step
+        return {k: v[t] for k, v in self.obs.items()}, self.prev_actions[t], self.masks[t]
+
+    def insert(self, obs: dict, actions, logp, values, rewards, done: np.ndarray) -> None:
+        """Transition ``step`` (its action, log-prob, value, rewards [N, heads]) and the next
+        observation; ``done`` marks envs whose episode ended with this action."""
+        t = self.step
+        self.actions[t].copy_(actions)
+        self.logp[t].copy_(logp)
+        self.values[t].copy_(values)
+        self.rewards[t].copy_(torch.as_tensor(rewards))
+        for k, v in obs.items():
+            self.obs[k][t + 1].copy_(torch.as_tensor(v))
+        self.prev_actions[t + 1].copy_(actions)
+        self.masks[t + 1].copy_(torch.as_tensor(~done, dtype=torch.float32))
+        self.step = t + 1
+
+    def compute_returns(self, next_values: torch.Tensor, gamma: float, tau: float) -> torch.Tensor:
+        """GAE(gamma, tau) returns per head; returns the advantages [step, N, heads]."""
+        n = self.step
+        self.values[n].copy_(next_values)
+        gae = torch.zeros(self.num_envs, self.heads)
+        adv = torch.zeros(n, self.num_envs, self.heads)
+        for t in reversed(range(n)):
+            m = self.masks[t + 1].unsqueeze(-1)
+            delta = self.rewards[t] + gamma * self.values[t + 1] * m - self.values[t]
+            gae = delta + gamma * tau * m * gae
+            adv[t] = gae
+        self.returns[:n] = adv + self.values[:n]
+        return adv
+
+    def after_update(self, state: torch.Tensor) -> None:
+        """Carry the last observation, state, previous action and mask to the next rollout."""
+        n = self.step
+        for v in self.obs.values():
+            v[0].copy_(v[n])
+        self.prev_actions[0].copy_(self.prev_actions[n])
+        self.masks[0].copy_(self.masks[n])
+        self.state0.copy_(state)
+        self.step = 0
+
+    def minibatches(self, advantages: torch.Tensor, num_mini_batch: int, generator: torch.Generator):
+        """Whole-rollout sequences of a random subset of envs per mini-batch (time-major, flat)."""
+        n = self.step
+        perm = torch.randperm(self.num_envs, generator=generator)
+        for idx in perm.chunk(num_mini_batch):
+            def flat(x):
+                return x[:n, idx].reshape(n * len(idx), *x.shape[2:])
+            yield dict(obs={k: flat(v) for k, v in self.obs.items()}, state=self.state0[:, idx],
+                       prev_actions=flat(self.prev_actions), masks=flat(self.masks), actions=flat(self.actions),
+                       logp=flat(self.logp), values=flat(self.values), returns=flat(self.returns),
+                       advantages=flat(advantages))

@@ -1,0 +1,113 @@
+"""`BatchEnv`: N `RVNEnv`s stepped in one process, one call per batch, with same-step
+autoreset: when an episode ends, the returned observation is the first one of the next
+episode and ``done`` is set, so a rollout never attributes a new episode's frame to the
+last action of the previous one (the transition's reward is the ending step's; the
+recurrent state and previous action are masked out from the next step on).
+
+Each env keeps its last few loaded scenes (navmesh, simulator, renderer) in a small LRU
+cache, so switching back to a scene does not rebuild its navmesh. An optional
+``depth_fn(rgb uint8 [N,H,W,3]) -> float32 [N,H,W]`` fills ``obs["depth"]`` from the RGB
+batch (predicted depth); with ``depth=True`` in the env settings the rendered depth is used.
+"""
+from __future__ import annotations
+
+from collections import OrderedDict
+
+import numpy as np
+
+from rvn_data.benchmark.env import RVNEnv
+from rvn_data.benchmark.episodes_source import SceneSlot
+
+
+class CachedSceneEnv(RVNEnv):
+    """`RVNEnv` that keeps up to ``scene_cache`` scenes loaded besides the current one."""
+
+    def __init__(self, scene_cache: int = 2, **kwargs):
+        super().__init__(**kwargs)
+        self.scene_cache = int(scene_cache)
+        self._cache: OrderedDict[int, SceneSlot] = OrderedDict()
+
+    def _load(self, pos: int) -> None:
+        if self._scene is not None and self._scene.pos == pos:
+            return
+        slot = self._cache.pop(pos, None) or SceneSlot.open(self.config, self._slots[pos], pos)
+        if self._scene is not None:
+            self._cache[self._scene.pos] = self._scene
+        while len(self._cache) > self.scene_cache:
+            self._cache.popitem(last=False)[1].close()
+        self._scene = slot
+
+    def close(self) -> None:
+        while self._cache:
+            self._cache.popitem()[1].close()
+        super().close()
+
+
+def env_seed(seed: int, rank: int, index: int) -> int:
+    """The reset seed of env ``index`` of rank ``rank``, a pure function of the config seed."""
+    return int(np.random.SeedSequence([int(seed), int(rank), int(index)]).generate_state(1)[0])
+
+
+class BatchEnv:
+    """``num_envs`` train-mode envs; ``reset()`` then ``step(actions)`` on batches."""
+
+    def __init__(self, env_kwargs: dict, num_envs: int, seed: int = 0, rank: int = 0, scene_cache: int = 2,
+                 depth_fn=None):
+        if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
+            raise ValueError(f"env.num_envs={num_envs!r} must be a positive integer")
+        self.num_envs, self.seed, self.rank = num_envs, int(seed), int(rank)
+        self.depth_fn = depth_fn
+        self.envs: list[CachedSceneEnv] = []
+        try:
+            for _ in range(num_envs):
+                self.envs.append(CachedSceneEnv(scene_cache=scene_cache, **env_kwargs))
+        except Exception:
+            self.close()
+            raise
+        self.observation_space = self.envs[0].observation_space
+        self._ret = np.zeros(num_envs)
+        self._cost = np.zeros(num_envs)
+
+    def _batch(self, obs_list: list[dict]) -> dict:
+        out = {"rgb": np.stack([o["rgb"] for o in obs_list]),
+               "pointgoal": np.stack([o["pointgoal"] for o in obs_list]).astype(np.float32)}
+        if "depth" in obs_list[0]:
+            out["depth"] = np.stack([o["depth"] for o in obs_list]).astype(np.float32)
+        elif self.depth_fn is not None:
+            out["depth"] = np.asarray(self.depth_fn(out["rgb"]), dtype=np.float32)
+        return out
+
+    def reset(self) -> dict:
+        self._ret[:] = 0.0
+        self._cost[:] = 0.0
+        return self._batch([env.reset(seed=env_seed(self.seed, self.rank, i))[0] for i, env in enumerate(self.envs)])
+
+    def step(self, actions) -> tuple[dict, np.ndarray, np.ndarray, np.ndarray, list[dict]]:
+        """(obs, reward [N], cost [N], done [N], infos). A finished episode's info holds
+        ``episode`` (its record with ``return`` and ``cost`` added); its obs is the next
+        episode's first."""
+        actions = np.asarray(actions).reshape(-1)
+        if actions.shape[0] != self.num_envs:
+            raise ValueError(f"BatchEnv.step: {actions.shape[0]} actions for {self.num_envs} envs")
+        obs_list, infos = [], []
+        reward = np.zeros(self.num_envs, np.float32)
+        cost = np.zeros(self.num_envs, np.float32)
+        done = np.zeros(self.num_envs, bool)
+        for i, (env, a) in enumerate(zip(self.envs, actions)):
+            obs, r, terminated, truncated, info = env.step(int(a))
+            reward[i], cost[i] = r, info["cost"]
+            self._ret[i] += r
+            self._cost[i] += info["cost"]
+            if terminated or truncated:
+                done[i] = True
+                info["episode"] = {**info["episode"], "return": float(self._ret[i]), "cost": float(self._cost[i])}
+                self._ret[i] = self._cost[i] = 0.0
+                obs, _ = env.reset()
+            obs_list.append(obs)
+            infos.append(info)
+        return self._batch(obs_list), reward, cost, done, infos
+
+    def close(self) -> None:
+        for env in self.envs:
+            env.close()
+        self.envs = []
