@@ -169,7 +169,7 @@ def _loop(cfg, d, device, policy, learner, optimizer, lagrange, ppo, envs, log, 
         updates += 1
         now = time.perf_counter()
         scalars = {"fps": delta / (now - t0), "fps_collect": delta / max(t_collect, 1e-9), **losses,
-                   "updates": updates}
+                   "updates": updates, "rollout_steps": delta / (n * d.world_size)}
         if lagrange is not None:
             scalars.update({"lambda": lagrange.value, "J_c": ep_cost})
         row = log.record(env_steps, sums, scalars)

@@ -1,0 +1,135 @@
+"""rvn-rl through its CLI at tiny sizes (32x32 RGB, ResNet-18, 2 envs, 2 train scenes):
+PPO trains and writes a checkpoint that rvn-eval loads; a second run resumes it; PPO-Lag
+logs lambda and J_c; bad input gets a one-line error."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+import yaml
+
+TINY = ["env.size=32", "env.num_envs=2", "env.num_scenes=2", "ppo.num_steps=8", "model.backbone=resnet18",
+        "train.threads=1", "progress=false", "renderer=raycast"]
+ENV = {**os.environ, "OMP_NUM_THREADS": "1"}
+
+
+def rvn_rl(*args, check=True):
+    proc = subprocess.run([sys.executable, "-m", "rvn_rl.cli", *args], capture_output=True, text=True, env=ENV,
+                          timeout=600)
+    if check:
+        assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-3000:]
+    return proc
+
+
+def rows(out_dir):
+    return [json.loads(line) for line in (out_dir / "metrics.jsonl").read_text().splitlines()]
+
+
+@pytest.fixture(scope="module")
+def ppo_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("rl") / "ppo"
+    proc = rvn_rl("algo=ppo", f"out_dir={out}", "train.total_steps=32", *TINY)
+    return out, proc
+
+
+def test_ppo_trains_writes_a_checkpoint_and_a_curve(ppo_run):
+    out, proc = ppo_run
+    cfg = yaml.safe_load((out / "config.yaml").read_text())
+    assert cfg["kind"] == "rl" and cfg["algo"]["name"] == "ppo" and cfg["policy"]["obs_size"] == 32
+    latest = out / "checkpoints" / (out / "checkpoints" / "latest").read_text().strip()
+    assert (latest / "weights.safetensors").is_file() and (latest / "state.pt").is_file()
+    r = rows(out)
+    assert [x["env_steps"] for x in r] == [16, 32]
+    assert all(x["fps"] > 0 for x in r) and "value_loss" in r[-1]
+    assert (out / "learning_curve.png").stat().st_size > 1000
+    assert list((out / "tb").glob("events.out.tfevents.*"))
+    assert "rvn-rl ppo: 32 env steps" in proc.stdout
+
+
+def test_rvn_eval_loads_the_rl_checkpoint(ppo_run, tmp_path):
+    out, _ = ppo_run
+    ev = tmp_path / "eval"
+    proc = subprocess.run(["rvn-eval", "policy=checkpoint", f"policy.checkpoint_path={out}", "split=val",
+                           "episodes.num_scenes=1", "episodes.per_scene=2", "episodes.n_goals=2", "env.t_max=20",
+                           "camera.width=32", "camera.height=32", f"out_dir={ev}", "progress=false", "method=PPO",
+                           "renderer=raycast", f"episodes.dir={tmp_path / 'episodes'}"],
+                          capture_output=True, text=True, env=ENV, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    metrics = json.loads((ev / "metrics.json").read_text())
+    assert metrics["episodes"] == 2 and metrics["method"] == "PPO"
+
+
+def test_rl_policy_resets_its_recurrent_state(ppo_run):
+    import numpy as np
+    from rvn_il.policies import load_policy
+
+    out, _ = ppo_run
+    policy = load_policy(out)  # rvn_il's loader dispatches on config.yaml's kind: rl
+    obs = {"rgb": np.full((64, 64, 3), 90, np.uint8), "pointgoal": np.array([3.0, 1.0], np.float32)}
+    policy.reset()
+    assert policy.act(obs) in range(4)
+    assert float(policy.state.abs().sum()) > 0 and float(policy.mask[0]) == 1.0
+    policy.reset()
+    assert float(policy.state.abs().sum()) == 0 and float(policy.mask[0]) == 0.0
+
+
+def test_resume_continues_from_the_latest_checkpoint(ppo_run, tmp_path):
+    import shutil
+
+    src, _ = ppo_run
+    out = tmp_path / "ppo"
+    shutil.copytree(src, out)
+    rvn_rl("algo=ppo", f"out_dir={out}", "train.total_steps=48", *TINY)
+    assert [x["env_steps"] for x in rows(out)] == [16, 32, 48]
+    assert (out / "checkpoints" / "latest").read_text().strip() == "ckpt_000000000048"
+    import torch
+    state = torch.load(out / "checkpoints" / "ckpt_000000000048" / "state.pt", weights_only=False)
+    assert state["updates"] == 3 and state["env_steps"] == 48
+
+
+def test_ppo_lag_logs_lambda_and_episode_cost(tmp_path):
+    out = tmp_path / "lag"
+    proc = rvn_rl("algo=ppo_lag", f"out_dir={out}", "train.total_steps=32", "algo.lambda_lr=0.5", *TINY)
+    r = rows(out)
+    assert all("lambda" in x and "J_c" in x for x in r)
+    assert all(x["lambda"] >= 0 for x in r)
+    # episodes end at the first collision, so J_c > cost limit until the policy stops colliding: lambda grows
+    if r[0]["J_c"] > 0:
+        assert r[-1]["lambda"] > 0.001
+    assert "lambda" in proc.stdout
+    cfg = yaml.safe_load((out / "config.yaml").read_text())
+    assert cfg["policy"]["cost_critic"] is True and cfg["algo"]["cost_limit"] == 1e-4
+
+
+@pytest.mark.parametrize("args, words", [
+    (["algo=sac"], "algo='sac' is unknown"),
+    (["env.num_envs=0"], "env.num_envs=0 must be a positive integer"),
+    (["model.backbone=vgg"], "model.backbone='vgg'"),
+    (["algo=ddppo_depth"], "depth.model_path"),
+    (["env.num_envs=1"], "ppo.num_mini_batch"),
+])
+def test_bad_input_one_line(tmp_path, args, words):
+    proc = rvn_rl(f"out_dir={tmp_path / 'x'}", "train.total_steps=8", *TINY, *args, check=False)
+    assert proc.returncode == 1
+    err = [line for line in proc.stderr.splitlines() if line.strip() and "INFO" not in line]
+    assert len(err) == 1 and err[0].startswith("rvn-rl: error:") and words in err[0], proc.stderr
+
+
+def test_checkpoint_of_another_kind_is_refused(tmp_path):
+    from rvn_rl.policy import load_rl_policy
+
+    il = tmp_path / "il"
+    il.mkdir()
+    (il / "config.yaml").write_text(yaml.safe_dump({"model": {"name": "vint_pointgoal"}}))
+    with pytest.raises(ValueError, match="not an rvn-rl"):
+        load_rl_policy(il)
+    proc = rvn_rl("algo=ppo", f"out_dir={il}", "train.total_steps=8", *TINY, check=False)
+    assert proc.returncode == 1 and "not an rvn-rl" in proc.stderr
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "config.yaml").write_text(yaml.safe_dump({"kind": "rl", "algo": {"name": "sac"}, "policy": {}}))
+    with pytest.raises(ValueError, match="unknown RL algo 'sac'"):
+        load_rl_policy(other)

@@ -1,0 +1,68 @@
+"""`BatchEnv`'s same-step autoreset and `RolloutStorage`'s GAE: a finished episode's last
+transition keeps its own reward and done flag, the returned observation is the next
+episode's first, and returns do not bootstrap across the episode boundary."""
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from rvn_data.conventions import Action, relative_goal
+from rvn_rl.rollout import RolloutStorage
+from rvn_rl.vec_env import BatchEnv
+
+KW = dict(mode="train", split="train", scenes={"num_scenes": 2}, camera={"width": 32, "height": 32},
+          renderer={"backend": "raycast"}, episodes={"n_goals": 2})
+
+
+def test_autoreset_gives_the_next_episodes_first_observation():
+    envs = BatchEnv(KW, 2, seed=3)
+    try:
+        obs = envs.reset()
+        ended, returns = 0, np.zeros(2)
+        for _ in range(200):  # always forward: episodes end by collisions
+            obs, reward, cost, done, infos = envs.step(np.full(2, int(Action.MOVE_FORWARD)))
+            returns += reward
+            for i, env in enumerate(envs.envs):
+                # the returned observation is always the env's current state (after a reset when done)
+                np.testing.assert_allclose(obs["pointgoal"][i], relative_goal(env.position, env.yaw, env.goal),
+                                           atol=1e-5)
+                if done[i]:
+                    ep = infos[i]["episode"]
+                    assert env.episode_record()["steps"] == 0  # a fresh episode
+                    assert ep["termination"] in ("collision", "timeout", "success")
+                    if ep["termination"] == "collision":
+                        assert reward[i] == np.float32(-0.1) and cost[i] == 1.0
+                    assert abs(ep["return"] - returns[i]) < 1e-4
+                    returns[i] = 0.0
+                    ended += 1
+                else:
+                    assert "episode" not in infos[i]
+        assert ended >= 2
+    finally:
+        envs.close()
+
+
+def test_gae_stops_at_episode_ends():
+    T, N, gamma, tau = 5, 2, 0.9, 0.8
+    st = RolloutStorage(T, N, {"pointgoal": ((2,), torch.float32)}, (4, N, 8), heads=1)
+    st.set_first({"pointgoal": np.zeros((N, 2), np.float32)}, torch.zeros(4, N, 8), torch.zeros(N, dtype=torch.long),
+                 torch.zeros(N))
+    rng = np.random.default_rng(0)
+    rewards, values = rng.normal(size=(T, N)), rng.normal(size=(T + 1, N))
+    done = np.zeros((T, N), bool)
+    done[2, 0] = True
+    for t in range(T):
+        st.insert({"pointgoal": np.zeros((N, 2), np.float32)}, torch.ones(N, dtype=torch.long), torch.zeros(N),
+                  torch.tensor(values[t, :, None], dtype=torch.float32), rewards[t, :, None], done[t])
+    adv = st.compute_returns(torch.tensor(values[T, :, None], dtype=torch.float32), gamma, tau)[..., 0].numpy()
+    expect = np.zeros((T, N))
+    for i in range(N):
+        g = 0.0
+        for t in reversed(range(T)):
+            m = 0.0 if done[t, i] else 1.0
+            delta = rewards[t, i] + gamma * values[t + 1, i] * m - values[t, i]
+            g = delta + gamma * tau * m * g
+            expect[t, i] = g
+    np.testing.assert_allclose(adv, expect, rtol=1e-5, atol=1e-5)
+    assert st.masks[3, 0] == 0 and st.masks[3, 1] == 1  # the step after the end starts a new episode
+    assert np.isclose(adv[2, 0], rewards[2, 0] - values[2, 0], atol=1e-5)  # no bootstrap across the end
