@@ -17,12 +17,12 @@ import hydra
 from omegaconf import DictConfig, OmegaConf
 from omegaconf.errors import OmegaConfBaseException
 
-import rvn_data
 from rvn_data.benchmark.results import RunDir, record_key, run_identity
 from rvn_data.benchmark.runner import env_kwargs, prepare_episodes, run_episodes
 from rvn_data.benchmark.table import render_table
+from rvn_data.config import CONF_DIR, register_configs
 
-CONF_DIR = str(Path(rvn_data.__file__).resolve().parents[1] / "conf")
+register_configs()
 
 
 def evaluate(cfg: dict) -> dict:

@@ -24,7 +24,7 @@ DEFAULT_PER_SCENE = {"train": 2, "val": 20, "test": 20}
 
 @dataclass(frozen=True)
 class EpisodeSettings:
-    """How episodes are drawn (conf/eval.yaml ``episodes``).
+    """How episodes are drawn (rvn-eval's ``episodes``, schema `rvn_data.config_schemas.EvalEpisodesConfig`).
 
     d_min, d_max: geodesic distance range between consecutive goals (m); n_goals: goals
     per episode (N_goal); seed: the set's seed; max_tries: candidate points drawn per goal
@@ -32,12 +32,12 @@ class EpisodeSettings:
     is declared too small (SceneError).
     """
 
-    d_min: float = 4.0
+    d_min: float = 4.0  # m, geodesic distance between consecutive goals
     d_max: float = 8.0
-    n_goals: int = 32
-    seed: int = 0
-    max_tries: int = 500
-    max_restarts: int = 20
+    n_goals: int = 32  # N_goal
+    seed: int = 0  # rvn-eval: its top-level seed
+    max_tries: int = 500  # candidate points per goal before restarting the episode
+    max_restarts: int = 20  # restarts before the scene is declared too small
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.d_min) and math.isfinite(self.d_max) and 0 <= self.d_min < self.d_max):

@@ -4,8 +4,9 @@ order in which an evaluation walks a fixed episode set (`eval_schedule`)."""
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import asdict, dataclass, field, fields, replace
 
+from rvn_data.config import RendererConfig, ScenesConfig
 from rvn_data.conventions import AgentConfig
 from rvn_data.benchmark.episodes import DEFAULT_PER_SCENE, EpisodeSettings, split_code
 from rvn_data.benchmark.episodes_store import EpisodeStore, make_settings
@@ -13,8 +14,7 @@ from rvn_data.navmesh.settings import NavMeshSettings
 from rvn_data.render.camera import CameraConfig
 
 DEFAULT_EPISODES_DIR = os.environ.get("RVN_EPISODES_DIR", "~/.cache/rvn/episodes")
-SCENE_DEFAULTS = {"source": "procedural", "root": None, "num_scenes": None, "first_scene": 0,
-                  "up_axis": "y", "unit_scale": 1.0, "level": False}
+SCENE_DEFAULTS = {k: v for k, v in asdict(ScenesConfig()).items() if k != "split"}
 
 
 def _mapping(obj) -> dict:
@@ -75,7 +75,7 @@ class EnvConfig:
             eps = EpisodeSettings.from_dict(eps_map)
         kw = dict(kw, agent=agent, navmesh=nav, camera=cam, episodes=eps,
                   scenes={**SCENE_DEFAULTS, **_mapping(kw.get("scenes"))},
-                  renderer={"backend": "auto", "device": 0, **_mapping(kw.get("renderer"))})
+                  renderer={**asdict(RendererConfig()), **_mapping(kw.get("renderer"))})
         for key in ("dir", "per_scene"):  # accepted inside the `episodes` mapping too
             name = "episodes_dir" if key == "dir" else key
             if eps_map.get(key) is not None and kw.get(name) is None:
@@ -95,7 +95,7 @@ class EnvConfig:
         if self.success_metric not in ("geodesic", "euclidean"):
             raise ValueError(f"success_metric={self.success_metric!r} must be 'geodesic' or 'euclidean'")
         if self.success_distance is None:
-            self.success_distance = 2.0 * self.agent.r_robot
+            self.success_distance = self.agent.success_distance
         if self.per_scene is None:
             self.per_scene = DEFAULT_PER_SCENE[self.split]
         for name in ("t_max", "per_scene", "scene_switch_every"):

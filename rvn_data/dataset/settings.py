@@ -1,4 +1,4 @@
-"""Settings of a trajectory dataset (conf/dataset/*.yaml), validated, with its identity.
+"""Settings of a trajectory dataset (`DatasetConfig`: conf/dataset/*.yaml), validated, with its identity.
 
 A dataset's *identity* is everything that changes the bytes of a trajectory: the kind,
 margins, ranges, budgets, the agent, navmesh, camera, renderer request, JPEG quality and
@@ -18,31 +18,80 @@ KINDS = ("expert", "negative")
 
 
 @dataclass(frozen=True)
-class GenSettings:
-    """One dataset's generation settings (field names as in conf/dataset/*.yaml)."""
+class DatasetConfig:
+    """The ``dataset`` group of rvn-gen (conf/dataset/*.yaml hold only what differs from these).
 
-    kind: str = "expert"
-    name: str = "rvn_expert"
-    seed: int = 0
-    margin: float = 0.28  # m, obstacle inflation for A* (expert > r_robot, negative < r_robot)
-    clearance_pref: float | None = None  # m, soft clearance: moves closer to an obstacle cost more (planning/astar.py)
-    clearance_weight: float = 0.0  # extra cost factor at zero clearance (linear in the shortfall)
-    d_min: float = 4.0  # m, path length range
+    Expert trajectories: A* on the occupancy grid with obstacles inflated by a margin LARGER
+    than r_robot; kept only when the follower reaches the goal without a collision. Negative
+    trajectories: a margin SMALLER than r_robot; the follower runs into an obstacle at t_c and
+    frames t_c - k_pre .. t_c + k_post are kept (image frozen at I_{t_c} after it).
+    """
+
+    kind: str = "expert"  # expert | negative
+    name: str = "rvn_expert"  # dataset name: data_splits/<name>/, data_config.yaml key
+    margin: float | None = None  # m, obstacle inflation for A*; null = agent.r_robot + margin_offset
+    margin_offset: float = 0.1  # m, margin - r_robot (expert > 0, negative < 0)
+    # m; soft clearance on top of the margin: A* moves closer than this to an obstacle cost up to
+    # 1 + clearance_weight times their length (ROS-costmap-style decaying inflation, planning/astar.py), so
+    # paths keep to corridor middles; clearance_pref null / clearance_weight 0: plain shortest paths that graze the margin
+    clearance_pref: float | None = 0.5
+    clearance_weight: float = 4.0
+    d_min: float = 4.0  # m, path length range [d_min, d_max]
     d_max: float = 8.0
-    k_pre: int = 8  # negative: steps kept before the collision
-    k_post: int = 6  # negative: steps kept after it
-    perturb_prob: float = 0.0  # expert: chance per step of a perturbing turn (DART-style; dataset/trajectory.py)
-    perturb_max_turns: int = 2  # a perturbation turns 1..this many times theta_step to one side
-    start_anywhere: bool = True  # starts anywhere on the navmesh (as the benchmark's); False: only outside the margin
+    # chance per step of a perturbing turn the expert then recovers from (DART-style noise injection;
+    # labels stay the expert path's positions): 1..perturb_max_turns turns of theta_step to one side
+    perturb_prob: float = 0.0
+    perturb_max_turns: int = 2
+    # starts anywhere on the navmesh like the benchmark's (inside the margin too: the path first
+    # leaves it); false: only starts outside the margin
+    start_anywhere: bool = True
+    k_pre: int = 8  # negative only: steps kept before the collision
+    k_post: int = 6  # negative only: steps kept after it (k_post + 1 collision/post-collision frames)
     max_steps: int = 400  # step budget of one rollout
     max_attempts: int = 40  # start/goal draws per trajectory before it is given up
-    goal_candidates: int = 32  # goal draws per start
+    goal_candidates: int = 32  # goal draws per start (geodesic distance in [d_min, d_max])
     resolution: float = 0.05  # m, occupancy grid cell
-    stop_radius: float = 0.36  # m, STOP this close to the goal (2·r_robot)
+    stop_radius: float | None = None  # m, STOP this close to the goal; null = 2 * agent.r_robot
     jpeg_quality: int = 90
-    save_depth: bool = False  # also write <traj>/depth.npy, the rendered depth per frame (dataset/writer.py)
-    depth_size: int = 16  # side S of the saved depth maps [T, S, S]
-    train_fraction: float = 0.8  # scenes in the train split of data_splits/
+    # also write <traj>/depth.npy: float16 [T, S, S] rendered depth in metres (frame i of i.jpg; S = depth_size:
+    # block mean over the pixels that hit something, 0 where none did) for rvn-train's model.depth_aux_weight;
+    # false: the folders hold exactly the GNM files and rvn_meta.json
+    save_depth: bool = False
+    depth_size: int = 16
+    train_fraction: float = 0.8  # share of scenes in data_splits/<name>/train
+
+
+_D = DatasetConfig
+
+
+@dataclass(frozen=True)
+class GenSettings:
+    """One dataset's resolved generation settings: a `DatasetConfig` with margin and stop_radius
+    resolved against the agent, plus the seed, agent, navmesh, camera and renderer request.
+    Defaults and the meaning of each field: `DatasetConfig`."""
+
+    kind: str = _D.kind
+    name: str = _D.name
+    seed: int = 0
+    margin: float = 0.28  # m, the resolved obstacle inflation (default: r_robot + margin_offset)
+    clearance_pref: float | None = _D.clearance_pref
+    clearance_weight: float = _D.clearance_weight
+    d_min: float = _D.d_min
+    d_max: float = _D.d_max
+    k_pre: int = _D.k_pre
+    k_post: int = _D.k_post
+    perturb_prob: float = _D.perturb_prob
+    perturb_max_turns: int = _D.perturb_max_turns
+    start_anywhere: bool = _D.start_anywhere
+    max_steps: int = _D.max_steps
+    max_attempts: int = _D.max_attempts
+    goal_candidates: int = _D.goal_candidates
+    resolution: float = _D.resolution
+    stop_radius: float = 0.36  # m, the resolved STOP radius (default: 2 * r_robot)
+    jpeg_quality: int = _D.jpeg_quality
+    save_depth: bool = _D.save_depth
+    depth_size: int = _D.depth_size
+    train_fraction: float = _D.train_fraction
     renderer: str = "auto"
     render_device: int = 0  # GPU index for the GL back-end (not part of the identity)
     agent: AgentConfig = field(default_factory=AgentConfig)
@@ -114,11 +163,11 @@ class GenSettings:
         """From the composed `rvn-gen` config (keys dataset, agent, navmesh, camera, renderer, seed)."""
         ds = dict(cfg["dataset"])
         agent = AgentConfig(**{k: v for k, v in dict(cfg["agent"]).items()})
-        offset = ds.pop("margin_offset", 0.1 if ds.get("kind") == "expert" else -0.1)
+        offset = ds.pop("margin_offset", _D.margin_offset if ds.get("kind", _D.kind) == "expert" else -_D.margin_offset)
         if ds.get("margin") is None:
             ds["margin"] = round(agent.r_robot + float(offset), 6)
         if ds.get("stop_radius") is None:
-            ds["stop_radius"] = 2.0 * agent.r_robot
+            ds["stop_radius"] = agent.success_distance
         renderer, device = cfg.get("renderer", "auto"), 0
         if isinstance(renderer, Mapping):
             renderer, device = renderer.get("backend", "auto"), int(renderer.get("device", 0) or 0)

@@ -6,14 +6,13 @@ which some scenes failed lists them in the summary and exits with status 1.
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
 import hydra
 from omegaconf import DictConfig, OmegaConf
 
-import rvn_data
+from rvn_data.config import CONF_DIR, register_configs
 
-CONF_DIR = str(Path(rvn_data.__file__).resolve().parents[1] / "conf")
+register_configs()
 
 
 @hydra.main(config_path=CONF_DIR, config_name="gen", version_base="1.3")

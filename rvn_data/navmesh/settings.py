@@ -21,13 +21,13 @@ class NavMeshSettings:
     `rvn_data.navmesh.source.open_navmesh`.
     """
 
-    cell_size: float = 0.05
-    cell_height: float = 0.01
-    agent_radius: float = 0.18
-    agent_height: float = 1.0
-    max_climb: float = 0.2
-    max_slope_deg: float = 45.0
-    min_island_area: float = 1.0
+    cell_size: float = 0.05  # m, horizontal grid cell
+    cell_height: float = 0.01  # m, vertical resolution of surface heights
+    agent_radius: float = 0.18  # m, erosion radius (the configs set it to agent.r_robot)
+    agent_height: float = 1.0  # m, clearance needed above a surface (the configs: agent.h_robot)
+    max_climb: float = 0.2  # m, largest step between neighbouring surfaces
+    max_slope_deg: float = 45.0  # deg, steepest walkable face
+    min_island_area: float = 1.0  # m², smaller connected islands are dropped
     source: str = "auto"  # auto | build | file: auto uses `file`, else <scene>.navmesh beside the scene file, else builds
     file: str | None = None  # path of a Habitat/Recast .navmesh (source=file, or auto)
 

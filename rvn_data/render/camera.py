@@ -26,19 +26,20 @@ def _number(name: str, value, allow_none: bool = False) -> None:
 
 @dataclass(frozen=True)
 class CameraConfig:
-    """Camera settings (conf/camera/default.yaml). fx/fy (pixels) override hfov_deg."""
+    """The forward RGB(-D) camera (the ``camera`` config group; conf/camera/*.yaml hold only
+    what differs). Give hfov_deg, or fx/fy (and cx/cy) in pixels: fx/fy override hfov_deg."""
 
-    width: int = 256
-    height: int = 256
-    hfov_deg: float = 90.0
-    fx: float | None = None
+    width: int = 256  # pixels
+    height: int = 256  # pixels
+    hfov_deg: float = 90.0  # deg, horizontal field of view (square pixels)
+    fx: float | None = None  # pixels, focal lengths; null: from hfov_deg
     fy: float | None = None
-    cx: float | None = None
+    cx: float | None = None  # pixels, principal point; null: the image centre
     cy: float | None = None
-    h_camera: float = 0.6
-    pitch_deg: float = 0.0
-    forward_offset: float = 0.0
-    near: float = 0.01
+    h_camera: float = 0.6  # m above the floor
+    pitch_deg: float = 0.0  # deg, + looks up
+    forward_offset: float = 0.0  # m ahead of the robot centre
+    near: float = 0.01  # m, clipping planes of the depth range
     far: float = 50.0
 
     def __post_init__(self) -> None:

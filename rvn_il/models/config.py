@@ -1,44 +1,42 @@
 """Model configuration: the ``conf/model/<name>.yaml`` files and their ``size`` variants.
 
-A model config is a plain dict. ``size: full`` uses the file's values; any other size merges
-``sizes[<size>]`` over them (the resolved dict has no ``sizes`` key) (e.g. ``small``: fewer channels, 64×64 images, for CPU tests and
-the reduced-size experiment). ``resolve_size`` is applied both when training and when a
-checkpoint is loaded, so the saved config is the single source of truth.
+A model config is a plain dict: the ``model`` node of rvn-train's config composed by Hydra
+(`rvn_data.config.load_config`; a model YAML may extend another through its defaults list,
+as nomad_neg extends nomad_pointgoal). ``size: full`` uses the file's values; any other size
+merges ``sizes[<size>]`` over them (the resolved dict has no ``sizes`` key) (e.g. ``small``:
+fewer channels, 64×64 images, for CPU tests and the reduced-size experiment).
+``resolve_size`` is applied both when training and when a checkpoint is loaded, so the saved
+config is the single source of truth.
 """
 from __future__ import annotations
 
-from pathlib import Path
+import copy
+from functools import lru_cache
 from typing import Any, Mapping
 
-import rvn_data
-import yaml
+from omegaconf import OmegaConf
+from rvn_data.config import load_config
 
-CONF_DIR = Path(rvn_data.__file__).resolve().parents[1] / "conf"
+from ..train import settings as _train_settings  # noqa: F401  (registers rvn-train's schema)
+
 MODEL_NAMES = ("vint_pointgoal", "nomad_pointgoal", "nomad_neg")
 
 
-def _read(name: str) -> dict:
-    path = CONF_DIR / "model" / f"{name}.yaml"
-    if not path.is_file():
-        raise ValueError(f"unknown model {name!r}: no {path}; choose one of {', '.join(MODEL_NAMES)}")
-    cfg = yaml.safe_load(path.read_text()) or {}
-    base: dict = {}
-    for entry in cfg.pop("defaults", []) or []:
-        if isinstance(entry, str) and entry != "_self_":
-            base = _merge(base, _read(entry))
-    return _merge(base, cfg)
+@lru_cache(maxsize=None)
+def _composed(name: str) -> dict:
+    from hydra.errors import MissingConfigException
 
-
-def _merge(a: Mapping, b: Mapping) -> dict:
-    out = dict(a)
-    for k, v in b.items():
-        out[k] = _merge(out[k], v) if isinstance(v, Mapping) and isinstance(out.get(k), Mapping) else v
-    return out
+    try:
+        cfg = load_config("train", [f"model={name}"])
+    except MissingConfigException:
+        raise ValueError(f"unknown model {name!r}: no conf/model/{name}.yaml; choose one of "
+                         f"{', '.join(MODEL_NAMES)}") from None
+    return OmegaConf.to_container(cfg.model, resolve=True)
 
 
 def load_model_config(name: str, size: str = "full", **overrides: Any) -> dict:
     """The resolved config of model ``name`` at ``size``, then top-level ``overrides``."""
-    cfg = _read(name)
+    cfg = copy.deepcopy(_composed(name))
     cfg["size"] = size
     cfg = resolve_size(cfg)
     cfg.update(overrides)
@@ -56,4 +54,4 @@ def resolve_size(cfg: Mapping) -> dict:
         return cfg
     if size not in sizes:
         raise ValueError(f"model.size={size!r} is not defined for model {cfg.get('name')!r}; choose full or one of {sorted(sizes)}")
-    return _merge(cfg, sizes[size])
+    return OmegaConf.to_container(OmegaConf.merge(cfg, sizes[size]))

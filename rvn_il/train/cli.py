@@ -15,13 +15,13 @@ from pathlib import Path
 from typing import Sequence
 
 import hydra
-import rvn_data
 from omegaconf import DictConfig, OmegaConf
+from rvn_data.config import CONF_DIR, load_config, register_configs
 
+from . import settings  # noqa: F401  (registers conf/train.yaml's schema, base_train)
 from .trainer import run_training
 
-CONF_DIR = Path(rvn_data.__file__).resolve().parents[1] / "conf"
-
+register_configs()
 
 def _run(cfg: DictConfig) -> Path:
     container = OmegaConf.to_container(cfg, resolve=True)
@@ -30,10 +30,8 @@ def _run(cfg: DictConfig) -> Path:
 
 
 def compose(overrides: Sequence[str] = ()) -> DictConfig:
-    """The resolved train config for ``overrides`` (Hydra compose API; for tests and notebooks)."""
-    from hydra import compose as hydra_compose, initialize_config_dir
-    with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
-        return hydra_compose(config_name="train", overrides=list(overrides))
+    """The composed train config for ``overrides`` (for tests and notebooks)."""
+    return load_config("train", overrides)
 
 
 def train(overrides: Sequence[str] = ()) -> Path:
@@ -41,7 +39,7 @@ def train(overrides: Sequence[str] = ()) -> Path:
     return _run(compose(overrides))
 
 
-@hydra.main(config_path=str(CONF_DIR), config_name="train", version_base="1.3")
+@hydra.main(config_path=CONF_DIR, config_name="train", version_base="1.3")
 def _hydra_main(cfg: DictConfig) -> None:
     logging.getLogger("rvn_il").setLevel(logging.INFO)
     try:

@@ -32,6 +32,7 @@ from ..models.nomad import check_prediction_type
 from ..policies.loader import resolve_device
 from .adopt import adopt_expert
 from .ema import EMA
+from .settings import complete_config
 from .validate import Validator
 
 PRECISIONS = ("fp32", "bf16")
@@ -66,7 +67,7 @@ def data_roots(cfg: Mapping) -> dict[str, str]:
     members = members_of(cfg["model"]["name"])
     if members == ["model"]:
         return {"model": cfg["data"]["root"]}
-    neg = cfg["data"].get("negative_root")
+    neg = cfg["data"]["negative_root"]
     if not neg:
         raise ValueError("model=nomad_neg needs data.negative_root= (the negative GNM dataset for NoMaD_n) besides data.root=")
     return {"expert": cfg["data"]["root"], "negative": neg}
@@ -77,30 +78,33 @@ def check_settings(cfg: Mapping) -> None:
     tcfg, data, model = cfg["train"], cfg["data"], cfg["model"]
     if "prediction_type" in model:
         check_prediction_type(model["prediction_type"])
-    if tcfg.get("precision", "fp32") not in PRECISIONS:
+    if tcfg["precision"] not in PRECISIONS:
         raise ValueError(f"train.precision={tcfg['precision']!r}; choose one of {', '.join(PRECISIONS)}")
-    val_root = data.get("val_root")
+    val_root = data["val_root"]
     if val_root and not Path(val_root).expanduser().is_dir():
         raise ValueError(f"data.val_root={val_root} does not exist; generate an expert dataset on other scenes "
                          "(rvn-gen split=val out_dir=...) or set data.val_root=null")
     for key in ("val_every", "val_batches", "val_trajectories"):
-        if val_root and not int(tcfg.get(key, 1)) > 0:
+        if val_root and not int(tcfg[key]) > 0:
             raise ValueError(f"train.{key}={tcfg[key]} must be a positive integer")
     if depth_setting(resolve_size(model)) is not None:  # the depth loss reads rvn-gen's depth.npy sidecars
         for member, root in data_roots(cfg).items():
-            if member == "expert" and tcfg.get("expert_from"):
+            if member == "expert" and tcfg["expert_from"]:
                 continue
             key = "data.negative_root" if member == "negative" else "data.root"
-            _, names = list_trajectories(Path(root).expanduser(), data.get("split", "train"),
-                                         Path(data["splits_dir"]) if data.get("splits_dir") else None, data.get("name"))
+            _, names = list_trajectories(Path(root).expanduser(), data["split"],
+                                         Path(data["splits_dir"]) if data["splits_dir"] else None, data["name"])
             if not has_depth(Path(root).expanduser(), names):
                 raise ValueError(f"{key}={root} has no depth.npy sidecars; {REGENERATE}")
 
 
 def run_training(cfg: Mapping[str, Any]) -> Path:
-    """Train every member of ``cfg['model']`` into ``cfg['out_dir']``; returns the out_dir."""
+    """Train every member of ``cfg['model']`` into ``cfg['out_dir']``; returns the out_dir.
+    ``cfg`` is rvn-train's config (`rvn_il.train.settings.TrainConfig`); what it leaves out
+    takes the schema's default."""
+    cfg = complete_config(cfg)
     rank, world, local_rank = _dist_info()
-    device = resolve_device(cfg.get("device", "auto"))
+    device = resolve_device(cfg["device"])
     if device.type == "cuda" and world > 1:
         device = torch.device("cuda", local_rank)
         torch.cuda.set_device(device)
@@ -127,7 +131,7 @@ def run_training(cfg: Mapping[str, Any]) -> Path:
 def train_member(cfg: Mapping, member: str, index: int, root: str, out_dir: Path, device: torch.device,
                  rank: int, world: int) -> None:
     model_cfg, data_cfg, tcfg, seed = resolve_size(cfg["model"]), dict(cfg["data"]), dict(cfg["train"]), int(cfg["seed"])
-    if member == "expert" and tcfg.get("expert_from"):  # NoMaD_e = a finished NoMaD-PointGoal run (adopt.py)
+    if member == "expert" and tcfg["expert_from"]:  # NoMaD_e = a finished NoMaD-PointGoal run (adopt.py)
         if rank == 0:
             adopt_expert(tcfg["expert_from"], out_dir / member, model_cfg,
                          {"model": model_cfg["name"], "image_size": list(model_cfg["image_size"]),
@@ -149,20 +153,20 @@ def train_member(cfg: Mapping, member: str, index: int, root: str, out_dir: Path
         lo, hi = dataset.delta_range()
         model.action_min.copy_(torch.from_numpy(lo).float())
         model.action_max.copy_(torch.from_numpy(hi).float())
-    bs = int(tcfg.get("batch_size") or model_cfg["batch_size"])
-    lr = float(tcfg.get("lr") or model_cfg["lr"])
-    use_ema = model_cfg.get("ema", False) if tcfg.get("ema") is None else bool(tcfg["ema"])
+    bs = int(tcfg["batch_size"] or model_cfg["batch_size"])
+    lr = float(tcfg["lr"] or model_cfg["lr"])
+    use_ema = model_cfg.get("ema", False) if tcfg["ema"] is None else bool(tcfg["ema"])
     steps_per_epoch = max(1, len(dataset) // (bs * world))
-    max_steps = int(tcfg["max_steps"] if tcfg.get("max_steps") is not None else int(tcfg["epochs"]) * steps_per_epoch)
-    warmup = int(tcfg.get("warmup_steps") or round(float(tcfg.get("warmup_frac", 0.04)) * max_steps))
+    max_steps = int(tcfg["max_steps"] if tcfg["max_steps"] is not None else int(tcfg["epochs"]) * steps_per_epoch)
+    warmup = int(tcfg["warmup_steps"] or round(float(tcfg["warmup_frac"]) * max_steps))
     for key, value in (("train.batch_size", bs), ("train.max_steps", max_steps), ("train.lr", lr)):
         if not value > 0:
             raise ValueError(f"{key}={value} must be positive")
-    opt = torch.optim.AdamW(model.parameters(), lr=lr, weight_decay=float(tcfg.get("weight_decay", 0.01)))
+    opt = torch.optim.AdamW(model.parameters(), lr=lr, weight_decay=float(tcfg["weight_decay"]))
     sched = torch.optim.lr_scheduler.LambdaLR(opt, lr_lambda(max(1, warmup), max_steps))
     ema = EMA(model, float(model_cfg.get("ema_power", 0.75))) if use_ema else None
     member_dir, step = out_dir / member, 0
-    ckpt = latest_checkpoint(member_dir) if tcfg.get("resume", True) else None
+    ckpt = latest_checkpoint(member_dir) if tcfg["resume"] else None
     if ckpt is not None:
         load_state_dict_checked(model, read_weights(ckpt, model_cfg["name"], prefer_ema=False), ckpt)
         state = torch.load(ckpt / "state.pt", map_location=device, weights_only=False)
@@ -179,7 +183,7 @@ def train_member(cfg: Mapping, member: str, index: int, root: str, out_dir: Path
     net = model
     if world > 1:
         net = torch.nn.parallel.DistributedDataParallel(model, device_ids=[device.index] if device.type == "cuda" else None)
-    workers = int(data_cfg.get("num_workers", 2))
+    workers = int(data_cfg["num_workers"])
     sampler = BatchSampler(EpochSampler(len(dataset), seed, rank, world, step * bs), bs, drop_last=True)
     loader = DataLoader(BatchView(dataset), batch_size=None, sampler=sampler, num_workers=workers,
                         pin_memory=device.type == "cuda", persistent_workers=workers > 0,
@@ -195,16 +199,16 @@ def train_member(cfg: Mapping, member: str, index: int, root: str, out_dir: Path
              "len_traj_pred": model_cfg["len_traj_pred"], "imagenet_mean": IMAGENET_MEAN, "imagenet_std": IMAGENET_STD,
              "dataset": str(Path(root).expanduser().resolve()), "num_samples": len(dataset)}
     validator = None
-    if rank == 0 and data_cfg.get("val_root") and member != "negative":  # NoMaD_n imitates collisions: no agreement
-        validator = Validator(data_cfg["val_root"], model_cfg, data_cfg, tcfg, cfg.get("agent"), seed, bs,
+    if rank == 0 and data_cfg["val_root"] and member != "negative":  # NoMaD_n imitates collisions: no agreement
+        validator = Validator(data_cfg["val_root"], model_cfg, data_cfg, tcfg, cfg["agent"], seed, bs,
                               dataset.spacing, out_dir / member / "val.json")
-    val_every = int(tcfg.get("val_every", 1000))
-    bf16 = tcfg.get("precision", "fp32") == "bf16"
+    val_every = int(tcfg["val_every"])
+    bf16 = tcfg["precision"] == "bf16"
     gen = torch.Generator(device=device)
-    log_every, ckpt_every = int(tcfg.get("log_every", 10)), int(tcfg.get("ckpt_every", 1000))
+    log_every, ckpt_every = int(tcfg["log_every"]), int(tcfg["ckpt_every"])
     net.train()
     bar = tqdm(total=max_steps, initial=step, desc=f"{model_cfg['name']}/{member}", disable=rank != 0,
-               mininterval=float(tcfg.get("tqdm_interval", 1.0)))
+               mininterval=float(tcfg["tqdm_interval"]))
     try:
         for batch in loader:
             batch = {k: v.to(device, non_blocking=True) for k, v in batch.items()}
@@ -216,7 +220,7 @@ def train_member(cfg: Mapping, member: str, index: int, root: str, out_dir: Path
                 raise ValueError(f"non-finite loss at step {step} of {model_cfg['name']}/{member}; lower train.lr or check the data")
             opt.zero_grad(set_to_none=True)
             losses["loss"].backward()
-            if tcfg.get("grad_clip"):
+            if tcfg["grad_clip"]:
                 torch.nn.utils.clip_grad_norm_(model.parameters(), float(tcfg["grad_clip"]))
             opt.step()
             sched.step()
@@ -235,7 +239,7 @@ def train_member(cfg: Mapping, member: str, index: int, root: str, out_dir: Path
                 state = {"step": step, "optimizer": opt.state_dict(), "scheduler": sched.state_dict(),
                          "ema": ema.state_dict() if ema is not None else None, "max_steps": max_steps}
                 save_checkpoint(out_dir / member, step, model.state_dict(), {**stats, "step": step}, state,
-                                ema.shadow if ema is not None else None, int(tcfg.get("keep_checkpoints", 2)))
+                                ema.shadow if ema is not None else None, int(tcfg["keep_checkpoints"]))
             if step >= max_steps:
                 break
     finally:

@@ -51,14 +51,14 @@ class Validator:
         if not self.root.is_dir():
             raise ValueError(f"data.val_root={root} does not exist; generate one with rvn-gen split=val "
                              "(expert) or set data.val_root=null")
-        split = data_cfg.get("val_split") or "all"
-        cache_dir = data_cfg.get("cache_dir")
+        split = data_cfg["val_split"] or "all"
+        cache_dir = data_cfg["cache_dir"]
         val_data = {**data_cfg, "split": split, "splits_dir": None, "name": None, "skip_short": True,
                     "cache_dir": str(Path(cache_dir) / "val") if cache_dir else None}
         self.dataset = make_dataset(self.root, model_cfg, val_data, seed, depth=False)
         self.trajectories = expert_trajectories(self.root, None if split == "all" else split,
-                                                int(tcfg.get("val_trajectories", 20)))
-        n = min(len(self.dataset), int(tcfg.get("val_batches", 8)) * batch_size)
+                                                int(tcfg["val_trajectories"]))
+        n = min(len(self.dataset), int(tcfg["val_batches"]) * batch_size)
         self.batches = np.array_split(np.unique(np.linspace(0, len(self.dataset) - 1, n).astype(np.int64)),
                                       max(1, -(-n // batch_size)))
         pol = dict(model_cfg.get("policy") or {})

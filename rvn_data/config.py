@@ -1,0 +1,122 @@
+"""The commands' configs: where they live (`CONF_DIR`), their typed schemas, one way to load them.
+
+Every setting has its default in one place, the dataclass that uses it; `register_configs`
+stores those dataclasses in Hydra's ConfigStore (structured configs), and each YAML file
+under ``conf/`` names its schema first in its defaults list (``defaults: [base_camera,
+_self_]``) and holds only what differs from it. Composition checks every key and type, so
+a typo'd key or a value of the wrong type stops rvn-gen / rvn-eval / rvn-train at start-up
+with Hydra's own message.
+
+Schemas: groups ``agent`` (`AgentConfig`), ``camera`` (`CameraConfig`), ``navmesh``
+(`NavMeshSettings`), ``dataset`` (`DatasetConfig`), ``renderer`` (`RendererConfig`),
+``scenes`` (`ScenesConfig`); primary configs ``gen`` (`GenConfig`) and ``eval``
+(`EvalConfig`) here, ``train`` in `rvn_il.train.settings` (registered when rvn_il is
+imported, so the task side never imports the IL side).
+
+    cfg = load_config("eval", overrides=["policy=random", "episodes.per_scene=2"])
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+CONF_DIR = str(Path(__file__).resolve().parents[1] / "conf")
+
+_registered: set[str] = set()
+
+
+@dataclass(frozen=True)
+class RendererConfig:
+    """Renderer back-end request (conf/renderer/*.yaml; rvn_data.render.make_renderer)."""
+
+    backend: str = "auto"  # auto | gl | raycast
+    device: int = 0  # EGL device index for gl (GPU on multi-GPU nodes)
+
+
+@dataclass(frozen=True)
+class ScenesConfig:
+    """Which scenes a command uses (conf/scenes/*.yaml; rvn_data.scenes.sets.scene_specs)."""
+
+    source: str = "procedural"  # procedural | mesh_dir | hm3d
+    root: str | None = None  # folder (or list file) of the scenes; null for procedural
+    split: str = "${split}"  # the command's split
+    num_scenes: int | None = None  # null = every scene of the split
+    first_scene: int = 0  # index of the first scene within the split
+    up_axis: str = "y"  # the meshes' up axis on disk (y or z; z is rotated to y on load)
+    unit_scale: float = 1.0  # metres per mesh unit
+    level: bool = False  # rotate each scene so its floor is horizontal
+
+
+def schema_node(cls: type):
+    """A dataclass as a writable OmegaConf node (frozen dataclasses give read-only ones,
+    which Hydra could not merge the YAML values into)."""
+    from omegaconf import OmegaConf
+
+    node = OmegaConf.structured(cls)
+    _writable(node)
+    return node
+
+
+def _writable(node) -> None:
+    from omegaconf import DictConfig, OmegaConf
+
+    OmegaConf.set_readonly(node, None)
+    if isinstance(node, DictConfig):
+        for key in node:
+            _writable(node._get_node(key))
+
+
+def register(name: str, cls: type, group: str | None = None) -> None:
+    """Store ``cls`` in Hydra's ConfigStore as ``[group/]name`` (once per process)."""
+    from hydra.core.config_store import ConfigStore
+
+    key = f"{group}/{name}" if group else name
+    if key not in _registered:
+        ConfigStore.instance().store(group=group, name=name, node=schema_node(cls))
+        _registered.add(key)
+
+
+def register_configs() -> None:
+    """Register the task side's schemas (idempotent)."""
+    from rvn_data.config_schemas import EvalConfig, GenConfig
+    from rvn_data.conventions import AgentConfig
+    from rvn_data.dataset.settings import DatasetConfig
+    from rvn_data.navmesh.settings import NavMeshSettings
+    from rvn_data.render.camera import CameraConfig
+
+    for group, name, cls in (("agent", "base_agent", AgentConfig), ("camera", "base_camera", CameraConfig),
+                             ("navmesh", "base_navmesh", NavMeshSettings), ("dataset", "base_dataset", DatasetConfig),
+                             ("renderer", "base_renderer", RendererConfig), ("scenes", "base_scenes", ScenesConfig),
+                             (None, "base_gen", GenConfig), (None, "base_eval", EvalConfig)):
+        register(name, cls, group)
+    for hook in _hooks:
+        hook()
+
+
+_hooks: list[Callable[[], None]] = []
+
+
+def add_registration(hook: Callable[[], None]) -> None:
+    """Have `register_configs` also run ``hook`` (how rvn_il adds the train schema)."""
+    if hook not in _hooks:
+        _hooks.append(hook)
+        hook()
+
+
+def load_config(name: str, overrides: Sequence[str] = ()):
+    """The composed config ``conf/<name>.yaml`` with Hydra-style ``overrides`` (DictConfig,
+    interpolations unresolved). Inside a running Hydra app (which already searches CONF_DIR)
+    it composes with that app's loader."""
+    from hydra import compose, initialize_config_dir
+    from hydra.core.global_hydra import GlobalHydra
+
+    register_configs()
+    if GlobalHydra.instance().is_initialized():
+        return compose(config_name=name, overrides=list(overrides))
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        return compose(config_name=name, overrides=list(overrides))
+
+
+__all__ = ["CONF_DIR", "RendererConfig", "ScenesConfig", "add_registration", "load_config",
+           "register", "register_configs", "schema_node"]

@@ -1,0 +1,98 @@
+"""rvn-train's settings (conf/train.yaml): the typed schema of its config, every default here.
+
+`TrainConfig` is registered in Hydra's ConfigStore as ``base_train`` (conf/train.yaml's first
+default) when this module is imported, so a typo'd ``data.*`` / ``train.*`` key or a value of
+the wrong type stops rvn-train at start-up with Hydra's message. The model's settings are the
+model's YAML (conf/model/<name>.yaml; `rvn_il.models.config`). Field order is the order of
+the composed config, and so of the config.yaml rvn-train writes into its out_dir.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+from rvn_data.config import add_registration, register
+from rvn_data.conventions import AgentConfig
+
+
+@dataclass
+class DataConfig:
+    """``data``: the GNM datasets a model learns from and how samples are drawn from them."""
+
+    root: str = "outputs/rvn_expert"  # GNM dataset (expert; rvn-gen default out_dir); nomad_neg: NoMaD_e data
+    negative_root: str | None = "outputs/rvn_negative"  # nomad_neg only: negative GNM dataset (NoMaD_n)
+    split: str = "train"  # data_splits/<name>/<split>/traj_names.txt, else every trajectory
+    splits_dir: str | None = None  # null: <root>/data_splits
+    name: str | None = None  # dataset name in data_splits (null: the only one, else the root's name)
+    metric_waypoint_spacing: float | None = None  # m; null: <root>/data_config.yaml, else 0.25 (d_step)
+    # centre crop before the resize to model.image_size, in training and in the policy:
+    # aspect (to image_size's W/H) | official (visualnav-transformer's 4:3) | none
+    crop: str = "aspect"
+    goal_offset: list[int] = field(default_factory=lambda: [1, 20])  # goal frame offset range (frames ahead)
+    end_slack: int = 0  # frames ignored at each trajectory's end
+    skip_short: bool = False  # skip (true) or reject (false) trajectories too short for the context
+    cache_dir: str | None = None  # null: <root>/.rvn_cache
+    cache_threads: int = 4  # JPEG decoding threads when building the cache
+    num_workers: int = 2  # DataLoader workers
+    # expert GNM dataset on other scenes (e.g. rvn-gen split=val): held-out loss and open-loop
+    # agreement every train.val_every steps (rvn_il/train/validate.py); null: off
+    val_root: str | None = None
+    val_split: str = "all"  # data_splits split of val_root to use, or all
+
+
+@dataclass
+class TrainLoopConfig:
+    """``train``: optimisation, schedule, checkpoints, validation."""
+
+    max_steps: int | None = None  # null: epochs x steps per epoch
+    epochs: int = 100
+    batch_size: int | None = None  # null: model.batch_size (of the chosen size)
+    lr: float | None = None  # null: model.lr
+    ema: bool | None = None  # null: model.ema
+    weight_decay: float = 0.01  # AdamW (torch default)
+    warmup_frac: float = 0.04  # linear warm-up share of max_steps (official: 4 of 100 epochs)
+    warmup_steps: int | None = None  # overrides warmup_frac
+    grad_clip: float | None = None  # max gradient norm; null: no clipping
+    log_every: int = 10  # TensorBoard scalars (out_dir/tb/<member>)
+    ckpt_every: int = 1000
+    keep_checkpoints: int = 2
+    resume: bool = True  # continue from out_dir's latest checkpoint
+    # nomad_neg only: out_dir of a finished nomad_pointgoal run to use as NoMaD_e (not trained
+    # again; it saw all expert data, not the paper's 93.75 %)
+    expert_from: str | None = None
+    tqdm_interval: float = 1.0  # s between progress bar refreshes
+    precision: str = "fp32"  # fp32 | bf16: mixed precision with torch.autocast (GPUs with bf16; CPUs run it too)
+    val_every: int = 1000  # steps between validations (and at the last step), when data.val_root is set
+    val_batches: int = 8  # held-out loss on val_batches x batch_size fixed samples
+    val_trajectories: int = 20  # expert trajectories replayed for the open-loop agreement
+
+
+@dataclass
+class TrainConfig:
+    """rvn-train: model=vint_pointgoal|nomad_pointgoal|nomad_neg data.root=... out_dir=..."""
+
+    agent: AgentConfig = field(default_factory=AgentConfig)
+    model: dict[str, Any] = field(default_factory=dict)  # conf/model/<name>.yaml (its own keys)
+    seed: int = 0
+    device: str = "auto"  # auto (cuda if available) | cpu | cuda | cuda:1
+    out_dir: str = "runs/train/${model.name}"
+    data: DataConfig = field(default_factory=DataConfig)
+    train: TrainLoopConfig = field(default_factory=TrainLoopConfig)
+
+
+def complete_config(cfg: Mapping[str, Any]) -> dict:
+    """rvn-train's config as a plain resolved dict with every default filled in and every key
+    and type checked against `TrainConfig` (a composed config passes through unchanged)."""
+    from omegaconf import OmegaConf
+
+    from rvn_data.config import schema_node
+
+    merged = OmegaConf.merge(schema_node(TrainConfig), OmegaConf.create(dict(cfg)))
+    return OmegaConf.to_container(merged, resolve=True)
+
+
+def _register() -> None:
+    register("base_train", TrainConfig)
+
+
+add_registration(_register)
