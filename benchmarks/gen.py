@@ -17,17 +17,15 @@ import os
 import tempfile
 from pathlib import Path
 
-from hydra import compose, initialize_config_dir
 from omegaconf import OmegaConf
 
+from rvn_data.config import load_config
 from rvn_data.dataset.scene_job import TIMERS
-from rvn_data.gen.cli import CONF_DIR
 from rvn_data.gen.run import generate
 
 
 def run(out_dir: Path, overrides: list[str]):
-    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
-        cfg = compose("gen", overrides=[f"out_dir={out_dir}", "progress=false", *overrides])
+    cfg = load_config("gen", [f"out_dir={out_dir}", "progress=false", *overrides])
     with contextlib.redirect_stdout(io.StringIO()):
         report = generate(OmegaConf.to_container(cfg, resolve=True))
     if report.status:
