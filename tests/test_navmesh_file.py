@@ -1,11 +1,13 @@
 """Habitat/Recast `.navmesh` files: the reader on a file written field by field from Detour's
-struct layout, the writer (`rvn-scene navmesh`) read back, `navmesh.source`, bad files."""
+struct layout and on files baked by real Recast, the writer (`rvn-scene navmesh`) read back,
+`navmesh.source`, bad files."""
 from __future__ import annotations
 
 import json
 import math
 import shutil
 import struct
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,6 +21,7 @@ from rvn_data.navmesh.source import load_navmesh_file, open_navmesh
 
 DNAV = ord("D") << 24 | ord("N") << 16 | ord("A") << 8 | ord("V")
 MSET = ord("M") << 24 | ord("S") << 16 | ord("E") << 8 | ord("T")
+DATA = Path(__file__).parent / "data"
 OX, OY, OZ = 10.0, 0.5, -3.0  # world offset of the hand-built polygons
 
 # an L (pentagon + square sharing the edge (0,1)-(1,1)), a 1.2 m square island and a 0.5 m one
@@ -104,6 +107,27 @@ def test_bad_files_one_line_errors(tmp_path, capsys):
         NavMeshSettings(source="habitat")
     with pytest.raises(ValueError, match="navmesh.file"):
         NavMeshSettings(source="file")
+
+
+@pytest.mark.parametrize("name", ["recast_room_solo.navmesh", "recast_room_tiled.navmesh"])
+def test_real_recast_files(name):
+    """Files baked by real Recast (tests/data/make_recast_navmesh.mjs): one and nine tiles,
+    detail meshes, BV trees, a second storey; against Detour's own area and paths."""
+    ref = json.loads((DATA / "recast_room.json").read_text())
+    want = ref["files"][name]
+    mesh = read_navmesh_file(DATA / name)
+    assert mesh.version == 1 and len(mesh.tiles) == (1 if "solo" in name else 9)
+    assert all(len(t.bv_nodes) and len(t.detail_meshes) == len(t.polys) for t in mesh.tiles)
+    nm = load_navmesh_file(DATA / name, NavMeshSettings())
+    assert sum(nm.island_areas) == pytest.approx(want["area"], abs=1e-3) and nm.num_islands == 2
+    assert len(nm.layers) == 2  # the slab over the floor
+    for (a, b), length in zip(ref["pairs"], want["lengths"]):
+        ours = nm.geodesic_distance(np.array(a, float), np.array(b, float))
+        if length is None:
+            assert math.isinf(ours)
+        else:  # Detour's paths follow the polygon corners exactly; ours up to the grid's precision
+            assert ours == pytest.approx(length, rel=0.015)
+    assert nm.floor_height(np.array([1.0, 2.4, 1.0])) == pytest.approx(2.4, abs=0.15)
 
 
 @pytest.fixture(scope="module")

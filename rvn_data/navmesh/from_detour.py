@@ -8,7 +8,8 @@ height (surfaces closer than half a metre are one surface); rank k forms layer k
 polygons are already eroded by the agent radius, so a cell's clearance is the agent radius
 plus its horizontal distance to the nearest boundary edge (edges with no neighbour polygon)
 inside the mesh, and the radius minus that distance outside: the bilinear clearance reaches
-the agent radius on the polygon boundary. Islands are the connected cells (4-neighbours
+the agent radius on the polygon boundary. Cells the polygons cover only in part are floor
+cells without an island, as in `NavMesh.build`, so points up to the boundary are navigable. Islands are the connected cells (4-neighbours
 within `max_climb`, and the links); an island's area is the horizontal area of the detail
 triangles of its polygons, and islands smaller than `min_island_area` are dropped.
 """
@@ -220,8 +221,11 @@ def _layers(sample_at, h, island, seg, x0, z0, cs, r, climb):
         d = _boundary_distance(seg, pts, cs, 1.0 + r).reshape(own_w.shape)
         clearance = np.where(covered, r + d, np.maximum(r - d, 0.0))
         lab = np.where(own_w, island[np.maximum(sample_at[k][win], 0)], -1)
+        # cells the polygons only partly cover (centre outside, within half a diagonal): floor
+        # without an island, so the bilinear clearance places the edge inside the cell
+        free = own_w | (ring & ~covered & (d < 0.5 * math.sqrt(2.0) * cs))
         where[k] = len(layers)
-        layers.append(NavGrid(x0 + c0 * cs, z0 + r0 * cs, cs, int(r0), int(c0), own_w,
-                              np.where(own_w, hk, np.nan).astype(np.float32), clearance.astype(np.float32),
+        layers.append(NavGrid(x0 + c0 * cs, z0 + r0 * cs, cs, int(r0), int(c0), free,
+                              np.where(free, href, np.nan).astype(np.float32), clearance.astype(np.float32),
                               lab.astype(np.int32)))
     return layers, where
