@@ -37,6 +37,18 @@ def check_choices(argv: list[str]) -> None:
                 sys.exit(1)
 
 
+def compose(overrides: list[str] = ()) -> dict:
+    """The resolved rvn-rl config for ``overrides`` (as on the command line), without running."""
+    from hydra import compose as hydra_compose, initialize_config_dir
+
+    check_choices(list(overrides))
+    _register_task_schemas()
+    register_groups()
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        cfg = hydra_compose(config_name="rl", overrides=list(overrides))
+    return OmegaConf.to_container(cfg, resolve=True, throw_on_missing=True)
+
+
 def run(cfg: dict) -> dict:
     from .trainer import train
 

@@ -22,6 +22,9 @@ def validate(cfg: dict, world_size: int = 1) -> None:
     for key in ("num_envs", "size", "scene_switch_every", "t_max"):
         _positive_int(env[key], f"env.{key}")
     _positive_int(env["scene_cache"] + 1, "env.scene_cache + 1")
+    workers = env.get("workers", 0)
+    if isinstance(workers, bool) or not isinstance(workers, int) or not 0 <= workers <= env["num_envs"]:
+        raise ValueError(f"env.workers={workers!r} must be between 0 (in process) and env.num_envs={env['num_envs']}")
     for key in ("num_steps", "ppo_epoch", "num_mini_batch"):
         _positive_int(ppo[key], f"ppo.{key}")
     if env["num_envs"] < ppo["num_mini_batch"]:

@@ -52,6 +52,16 @@ def _depth_fn(cfg: dict):
     return load_depth_model(str(Path(cfg["depth"]["model_path"]).expanduser()))
 
 
+def make_envs(cfg: dict, seed: int, rank: int = 0):
+    """The run's environments: in this process (``env.workers=0``) or split over worker processes."""
+    workers = cfg["env"].get("workers", 0)
+    common = dict(seed=seed, rank=rank, scene_cache=cfg["env"]["scene_cache"], depth_fn=_depth_fn(cfg))
+    if workers:
+        from .vec_procs import ProcessBatchEnv
+        return ProcessBatchEnv(env_kwargs(cfg), cfg["env"]["num_envs"], workers, **common)
+    return BatchEnv(env_kwargs(cfg), cfg["env"]["num_envs"], **common)
+
+
 def _check_out_dir(out_dir: Path, cfg: dict) -> Path | None:
     """The checkpoint to resume from (or None); refuses an out_dir of another run or kind."""
     if not (out_dir / "config.yaml").is_file():
@@ -103,8 +113,7 @@ def _train(cfg: dict, d: Dist) -> dict:
         learner = DDP(learner, device_ids=[device.index] if device.type == "cuda" else None,
                       broadcast_buffers=False, find_unused_parameters=False)
     gen = torch.Generator().manual_seed(int(np.random.SeedSequence([int(cfg["seed"]), d.rank, updates]).generate_state(1)[0]))
-    envs = BatchEnv(env_kwargs(cfg), cfg["env"]["num_envs"], seed=int(cfg["seed"]) + 7919 * updates, rank=d.rank,
-                    scene_cache=cfg["env"]["scene_cache"], depth_fn=_depth_fn(cfg))
+    envs = make_envs(cfg, seed=int(cfg["seed"]) + 7919 * updates, rank=d.rank)
     log = RunLog(out_dir, d.rank == 0)
     try:
         return _loop(cfg, d, device, policy, learner, optimizer, lagrange, ppo, envs, log, gen,

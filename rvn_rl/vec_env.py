@@ -52,10 +52,10 @@ class BatchEnv:
     """``num_envs`` train-mode envs; ``reset()`` then ``step(actions)`` on batches."""
 
     def __init__(self, env_kwargs: dict, num_envs: int, seed: int = 0, rank: int = 0, scene_cache: int = 2,
-                 depth_fn=None):
+                 depth_fn=None, index_offset: int = 0):
         if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
             raise ValueError(f"env.num_envs={num_envs!r} must be a positive integer")
-        self.num_envs, self.seed, self.rank = num_envs, int(seed), int(rank)
+        self.num_envs, self.seed, self.rank, self.offset = num_envs, int(seed), int(rank), int(index_offset)
         self.depth_fn = depth_fn
         self.envs: list[CachedSceneEnv] = []
         try:
@@ -80,7 +80,7 @@ class BatchEnv:
     def reset(self) -> dict:
         self._ret[:] = 0.0
         self._cost[:] = 0.0
-        return self._batch([env.reset(seed=env_seed(self.seed, self.rank, i))[0] for i, env in enumerate(self.envs)])
+        return self._batch([env.reset(seed=env_seed(self.seed, self.rank, self.offset + i))[0] for i, env in enumerate(self.envs)])
 
     def step(self, actions) -> tuple[dict, np.ndarray, np.ndarray, np.ndarray, list[dict]]:
         """(obs, reward [N], cost [N], done [N], infos). A finished episode's info holds

@@ -1,0 +1,96 @@
+"""RL figures (issue 16): env steps/s of rvn-rl's collection alone and of collection + learning,
+at 128x128 RGB with the ResNet-18 policy (goals on a 2-core CPU: >= 800 and >= 200).
+
+1. env: the batched envs stepped with random actions (no network);
+2. collection: envs + the policy's act() (what a rollout costs);
+3. collection + learning: rvn-rl's own loop (``train()``) for a few PPO updates, its fps.
+Train-mode envs on ``--scenes`` procedural train scenes, their loading excluded (warm-up).
+Run: python benchmarks/rl.py [--envs 8] [--workers 0] [--steps 400] [--updates 3]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import tempfile
+import time
+
+import numpy as np
+import torch
+
+
+def overrides(args, out_dir: str) -> list[str]:
+    return [f"env.size={args.size}", f"env.num_envs={args.envs}", f"env.workers={args.workers}",
+            f"env.num_scenes={args.scenes}", "model.backbone=resnet18", f"ppo.num_steps={args.num_steps}",
+            f"train.threads={args.threads}", "progress=false", f"renderer={args.renderer}", f"out_dir={out_dir}",
+            f"train.total_steps={args.updates * args.num_steps * args.envs}", "train.checkpoint_every=1000"]
+
+
+def collection(cfg: dict, steps: int, with_policy: bool) -> float:
+    from rvn_rl.config import model_kwargs
+    from rvn_rl.model import PointNavResNetPolicy
+    from rvn_rl.trainer import make_envs
+
+    envs = make_envs(cfg, seed=0)
+    n = envs.num_envs
+    rng = np.random.default_rng(0)
+    net = PointNavResNetPolicy(**model_kwargs(cfg)).eval() if with_policy else None
+    state, prev, masks = (net.initial_state(n), torch.zeros(n, dtype=torch.long), torch.zeros(n)) if net else (0, 0, 0)
+    try:
+        obs = envs.reset()
+
+        def run(k):
+            nonlocal obs, state, prev, masks
+            for _ in range(k):
+                if net is None:
+                    actions = rng.integers(0, 4, n)
+                else:
+                    with torch.no_grad():
+                        t = {key: torch.as_tensor(v) for key, v in obs.items()}
+                        a, _, _, state = net.act(t, state, prev, masks)
+                    actions, prev = a.numpy(), a
+                obs, _, _, done, _ = envs.step(actions)
+                if net is not None:
+                    masks = torch.as_tensor(~done, dtype=torch.float32)
+
+        run(10)  # warm-up: scenes of the first resets loaded, numba compiled
+        t = time.perf_counter()
+        run(steps)
+        return steps * n / (time.perf_counter() - t)
+    finally:
+        envs.close()
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--size", type=int, default=128)
+    p.add_argument("--envs", type=int, default=8)
+    p.add_argument("--workers", type=int, default=0, help="env worker processes (0: in process)")
+    p.add_argument("--scenes", type=int, default=4)
+    p.add_argument("--steps", type=int, default=100, help="batched steps per collection measurement")
+    p.add_argument("--updates", type=int, default=3)
+    p.add_argument("--num-steps", type=int, default=32, help="rollout length of the learning measurement")
+    p.add_argument("--threads", type=int, default=2)
+    p.add_argument("--renderer", default="auto")
+    args = p.parse_args()
+    torch.set_num_threads(args.threads)
+    from rvn_rl.cli import compose
+    from rvn_rl.trainer import train
+
+    with tempfile.TemporaryDirectory() as tmp:
+        cfg = compose(overrides(args, f"{tmp}/run"))
+        env_sps = collection(cfg, args.steps, with_policy=False)
+        col_sps = collection(cfg, args.steps, with_policy=True)
+        train(cfg)
+        rows = [json.loads(line) for line in open(f"{tmp}/run/metrics.jsonl")]
+    learn = rows[1:] or rows  # the first update includes scene loading
+    fps = sum(r["fps"] for r in learn) / len(learn)
+    print(f"rvn-rl at {args.size}x{args.size} RGB, resnet18, {args.envs} envs, workers={args.workers}, "
+          f"{args.threads} torch threads:")
+    print(f"  env steps/s, envs alone (random actions): {env_sps:8.0f}")
+    print(f"  env steps/s, collection (envs + policy) : {col_sps:8.0f}   (goal >= 800)")
+    print(f"  env steps/s, collection + learning      : {fps:8.0f}   (goal >= 200; PPO {learn[0]['rollout_steps']:.0f}-step "
+          f"rollouts, 2 epochs x 2 mini-batches)")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,107 @@
+"""`ProcessBatchEnv`: the envs of a `BatchEnv` split over worker processes (``env.workers``),
+so stepping and rendering use several cores while the learner's process waits. Same
+interface and same same-step autoreset as `BatchEnv`; worker ``w`` owns envs
+``[offsets[w], offsets[w+1])`` with the same reset seeds as in one process. The depth
+function (a network) runs in the calling process on the gathered RGB batch."""
+from __future__ import annotations
+
+import multiprocessing as mp
+import os
+
+import numpy as np
+
+from .vec_env import BatchEnv
+
+
+def _worker(conn, env_kwargs: dict, indices: list[int], seed: int, rank: int, scene_cache: int, threads: str) -> None:
+    os.environ["LP_NUM_THREADS"] = threads  # software GL: share the cores between workers
+    envs = None
+    try:
+        envs = BatchEnv(env_kwargs, len(indices), seed=seed, rank=rank, scene_cache=scene_cache, index_offset=indices[0])
+        conn.send(("ok", None))
+        while True:
+            cmd, arg = conn.recv()
+            if cmd == "reset":
+                conn.send(("ok", envs.reset()))
+            elif cmd == "step":
+                obs, reward, cost, done, infos = envs.step(arg)
+                infos = [{"episode": i["episode"]} if "episode" in i else {} for i in infos]
+                conn.send(("ok", (obs, reward, cost, done, infos)))
+            else:
+                break
+    except Exception as err:  # reported to the caller as a one-line error
+        conn.send(("error", f"{type(err).__name__}: {(str(err).splitlines() or [''])[0]}"))
+    finally:
+        if envs is not None:
+            envs.close()
+        conn.close()
+
+
+class ProcessBatchEnv:
+    def __init__(self, env_kwargs: dict, num_envs: int, workers: int, seed: int = 0, rank: int = 0,
+                 scene_cache: int = 2, depth_fn=None):
+        if isinstance(workers, bool) or not isinstance(workers, int) or not 1 <= workers <= num_envs:
+            raise ValueError(f"env.workers={workers!r} must be between 1 and env.num_envs={num_envs}")
+        self.num_envs, self.depth_fn = num_envs, depth_fn
+        ctx = mp.get_context("spawn")
+        self.bounds = bounds = np.linspace(0, num_envs, workers + 1).round().astype(int)
+        threads = os.environ.get("LP_NUM_THREADS", str(max(1, (os.cpu_count() or 1) // workers)))
+        self.conns, self.procs = [], []
+        for w in range(workers):
+            parent, child = ctx.Pipe()
+            p = ctx.Process(target=_worker, daemon=True, args=(
+                child, env_kwargs, list(range(bounds[w], bounds[w + 1])), seed, rank, scene_cache, threads))
+            p.start()
+            child.close()
+            self.conns.append(parent)
+            self.procs.append(p)
+        for _ in self._gather():
+            pass
+
+    def _gather(self) -> list:
+        out = []
+        for conn in self.conns:
+            status, value = conn.recv()
+            if status == "error":
+                self.close()
+                raise ValueError(f"env worker: {value}")
+            out.append(value)
+        return out
+
+    def _with_depth(self, obs: dict) -> dict:
+        if self.depth_fn is not None and "depth" not in obs:
+            obs["depth"] = np.asarray(self.depth_fn(obs["rgb"]), dtype=np.float32)
+        return obs
+
+    @staticmethod
+    def _cat(parts: list[dict]) -> dict:
+        return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+
+    def reset(self) -> dict:
+        for conn in self.conns:
+            conn.send(("reset", None))
+        return self._with_depth(self._cat(self._gather()))
+
+    def step(self, actions):
+        """(obs, reward, cost, done, infos) as `BatchEnv.step`; infos hold only ``episode``."""
+        actions = np.asarray(actions).reshape(-1)
+        if actions.shape[0] != self.num_envs:
+            raise ValueError(f"ProcessBatchEnv.step: {actions.shape[0]} actions for {self.num_envs} envs")
+        for w, conn in enumerate(self.conns):
+            conn.send(("step", actions[self.bounds[w]:self.bounds[w + 1]]))
+        parts = self._gather()
+        obs = self._with_depth(self._cat([p[0] for p in parts]))
+        reward, cost, done = (np.concatenate([p[k] for p in parts]) for k in (1, 2, 3))
+        return obs, reward, cost, done, [i for p in parts for i in p[4]]
+
+    def close(self) -> None:
+        for conn in self.conns:
+            try:
+                conn.send(("close", None))
+            except (OSError, BrokenPipeError):
+                pass
+        for p in self.procs:
+            p.join(timeout=10)
+            if p.is_alive():
+                p.terminate()
+        self.conns, self.procs = [], []
