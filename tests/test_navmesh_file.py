@@ -105,8 +105,6 @@ def test_bad_files_one_line_errors(tmp_path, capsys):
         read_navmesh_file(tmp_path / "tile.navmesh")
     with pytest.raises(ValueError, match="source"):
         NavMeshSettings(source="habitat")
-    with pytest.raises(ValueError, match="navmesh.file"):
-        NavMeshSettings(source="file")
 
 
 @pytest.mark.parametrize("name", ["recast_room_solo.navmesh", "recast_room_tiled.navmesh"])
@@ -128,6 +126,25 @@ def test_real_recast_files(name):
         else:  # Detour's paths follow the polygon corners exactly; ours up to the grid's precision
             assert ours == pytest.approx(length, rel=0.015)
     assert nm.floor_height(np.array([1.0, 2.4, 1.0])) == pytest.approx(2.4, abs=0.15)
+
+
+def test_source_setting_and_checks(wall_glb, tmp_path):
+    from rvn_data.benchmark.episodes_source import open_scene
+
+    assert "source" not in NavMeshSettings().to_dict()  # defaults are not recorded: old records match
+    assert NavMeshSettings.from_config({"source": "file", "file": "x.navmesh"}).to_dict()["file"] == "x.navmesh"
+    path = tmp_path / "wall.navmesh"
+    assert main(["navmesh", str(wall_glb), "-o", str(path)]) == 0
+    scene, nm = open_scene(str(wall_glb), {}, NavMeshSettings(source="file", file=str(path)))
+    assert nm.source_file == str(path)
+    assert open_scene(str(wall_glb), {}, NavMeshSettings(source="build", file=str(path)))[1].source_file is None
+    with pytest.raises(ValueError, match="no navmesh.file is set and there is no .navmesh beside"):
+        open_navmesh(scene, NavMeshSettings(source="file"))
+    (tmp_path / "hand.navmesh").write_bytes(hand_built())
+    with pytest.raises(ValueError, match="does not lie within scene .*up_axis"):
+        open_navmesh(scene, NavMeshSettings(file=str(tmp_path / "hand.navmesh")))
+    with pytest.warns(UserWarning, match="agent radius of 0.180 m, the settings say 0.25"):
+        load_navmesh_file(path, NavMeshSettings(agent_radius=0.25))
 
 
 @pytest.fixture(scope="module")

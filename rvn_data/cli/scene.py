@@ -116,9 +116,8 @@ def cmd_navmesh(args) -> None:
 
     scene, settings, open_navmesh = _load(args)
     nm = open_navmesh(scene, settings)
-    write_navmesh_file(nm, args.output, tile_cells=args.tile_cells)
-    print(f"wrote {args.output} ({sum(int((g.island >= 0).sum()) for g in nm.layers)} polygons, "
-          f"{nm.navigable_area:.2f} m² main island)")
+    path = write_navmesh_file(nm, args.output, tile_cells=args.tile_cells)
+    print(f"wrote {args.output} ({path.stat().st_size:,} bytes; main island {nm.navigable_area:.2f} m²)")
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -36,8 +36,6 @@ class NavMeshSettings:
             raise ValueError(f"navmesh setting source={self.source!r} must be one of {list(SOURCES)}")
         if self.file is not None and not isinstance(self.file, str):
             object.__setattr__(self, "file", str(self.file))
-        if self.source == "file" and not self.file:
-            raise ValueError("navmesh setting source='file' needs navmesh.file=<path to a .navmesh>")
         for f in fields(self):
             if f.name in ("source", "file"):
                 continue

@@ -8,6 +8,7 @@ within the scene's bounds is refused with an error naming it.
 """
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -56,6 +57,10 @@ def load_navmesh_file(path: str | Path, settings: NavMeshSettings, scene=None):
     mesh = read_navmesh_file(path)
     if not mesh.tiles:
         raise ValueError(f"navmesh file {str(path)!r} holds no tile")
+    baked = float(mesh.tiles[0].header["walkableRadius"])  # Recast rounds it up to whole cells
+    if abs(baked - settings.agent_radius) > max(0.01, float(mesh.settings.get("cellSize", settings.cell_size))):
+        warnings.warn(f"navmesh file {str(path)!r} was baked for an agent radius of {baked:.3f} m, the "
+                      f"settings say {settings.agent_radius} m; its polygons keep the file's radius", stacklevel=2)
     if scene is not None:
         lo, hi = np.asarray(scene.bounds, dtype=np.float64)
         verts = np.concatenate([t.verts for t in mesh.tiles if len(t.verts)]).astype(np.float64)
