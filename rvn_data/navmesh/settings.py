@@ -16,9 +16,9 @@ class NavMeshSettings:
     max_slope_deg: steepest walkable face; min_island_area: connected navigable islands
     smaller than this (m²) are dropped.
     source: where the navmesh comes from: "build" (from the scene's triangles), "file" (a
-    Habitat/Recast `.navmesh`, path in `file`) or "auto" (`file` when set, else a
-    `<scene>.navmesh` beside the scene file when there is one, else build); see
-    `rvn_data.navmesh.source.open_navmesh`.
+    Habitat/Recast `.navmesh`: `file`, else the one beside the scene file, an error if
+    none) or "auto" (`file` when set, else a `.navmesh` beside the scene file when there is
+    one, else build); see `rvn_data.navmesh.source.open_navmesh`.
     """
 
     cell_size: float = 0.05  # m, horizontal grid cell
