@@ -38,6 +38,8 @@ def validate(cfg: dict, world_size: int = 1) -> None:
         raise ValueError(f"algo={algo['name']} runs in one process; use algo=ddppo (or ddppo_depth) under torchrun")
     if not 0.0 < float(cfg["ddppo"]["sync_frac"]) <= 1.0:
         raise ValueError(f"ddppo.sync_frac={cfg['ddppo']['sync_frac']!r} must be in (0, 1]")
+    if cfg["depth"]["source"] is True:  # depth.source=true parses as a YAML boolean
+        cfg["depth"]["source"] = "true"
     if algo["use_depth"]:
         source = cfg["depth"]["source"]
         if source not in ("model", "true"):
@@ -74,3 +76,12 @@ def model_kwargs(cfg: dict) -> dict:
             "ngroups": int(m["ngroups"]), "input_size": int(m["input_size"]), "hidden_size": int(m["hidden_size"]),
             "rnn_layers": int(m["rnn_layers"]), "use_depth": bool(cfg["algo"]["use_depth"]),
             "cost_critic": bool(cfg["algo"]["lagrangian"])}
+
+
+def load_depth_fn(path: str, device="cpu"):
+    """The frozen depth network of rvn_rl.depth: ``fn(rgb uint8 [N,H,W,3]) -> depth float32 [N,H,W]``."""
+    try:
+        from .depth import load_depth_model
+    except ImportError:
+        from .depth.model import load_depth_model
+    return load_depth_model(str(Path(str(path)).expanduser()), device=device)

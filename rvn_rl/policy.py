@@ -94,7 +94,7 @@ def load_rl_policy(checkpoint_path: str | Path, device: str | torch.device = "cp
     if cfg["policy"]["use_depth"]:
         true_depth = cfg["depth"]["source"] == "true"
         if not true_depth:
-            from .depth import load_depth_model
-            depth_fn = load_depth_model(str(Path(overrides.get("depth_model_path") or cfg["depth"]["model_path"]).expanduser()))
+            from .config import load_depth_fn
+            depth_fn = load_depth_fn(overrides.get("depth_model_path") or cfg["depth"]["model_path"], dev)
     return RLPolicy(net, cfg["policy"]["obs_size"], dev, deterministic=bool(overrides.get("deterministic", False)),
                     threads=overrides.get("threads", 1), depth_fn=depth_fn, true_depth=true_depth)

@@ -13,7 +13,7 @@ import torch
 from torch import nn
 
 from . import checkpoint as ck
-from .config import env_kwargs, model_kwargs, validate
+from .config import env_kwargs, load_depth_fn, model_kwargs, validate
 from .distrib import Dist, all_sum, init
 from .model import PointNavResNetPolicy
 from .ppo import Lagrange, PPOConfig, ppo_update
@@ -45,17 +45,17 @@ def pick_device(setting: str, d: Dist) -> torch.device:
     return torch.device("cpu")
 
 
-def _depth_fn(cfg: dict):
+def _depth_fn(cfg: dict, device="cpu"):
     if not cfg["algo"]["use_depth"] or cfg["depth"]["source"] != "model":
         return None
-    from .depth import load_depth_model
-    return load_depth_model(str(Path(cfg["depth"]["model_path"]).expanduser()))
+    return load_depth_fn(cfg["depth"]["model_path"], device)
 
 
-def make_envs(cfg: dict, seed: int, rank: int = 0):
-    """The run's environments: in this process (``env.workers=0``) or split over worker processes."""
+def make_envs(cfg: dict, seed: int, rank: int = 0, device="cpu"):
+    """The run's environments: in this process (``env.workers=0``) or split over worker processes;
+    predicted depth (algo=ddppo_depth, depth.source=model) runs on ``device``."""
     workers = cfg["env"].get("workers", 0)
-    common = dict(seed=seed, rank=rank, scene_cache=cfg["env"]["scene_cache"], depth_fn=_depth_fn(cfg))
+    common = dict(seed=seed, rank=rank, scene_cache=cfg["env"]["scene_cache"], depth_fn=_depth_fn(cfg, device))
     if workers:
         from .vec_procs import ProcessBatchEnv
         return ProcessBatchEnv(env_kwargs(cfg), cfg["env"]["num_envs"], workers, **common)
@@ -113,7 +113,7 @@ def _train(cfg: dict, d: Dist) -> dict:
         learner = DDP(learner, device_ids=[device.index] if device.type == "cuda" else None,
                       broadcast_buffers=False, find_unused_parameters=False)
     gen = torch.Generator().manual_seed(int(np.random.SeedSequence([int(cfg["seed"]), d.rank, updates]).generate_state(1)[0]))
-    envs = make_envs(cfg, seed=int(cfg["seed"]) + 7919 * updates, rank=d.rank)
+    envs = make_envs(cfg, seed=int(cfg["seed"]) + 7919 * updates, rank=d.rank, device=device)
     log = RunLog(out_dir, d.rank == 0)
     try:
         return _loop(cfg, d, device, policy, learner, optimizer, lagrange, ppo, envs, log, gen,

@@ -133,3 +133,30 @@ def test_checkpoint_of_another_kind_is_refused(tmp_path):
     (other / "config.yaml").write_text(yaml.safe_dump({"kind": "rl", "algo": {"name": "sac"}, "policy": {}}))
     with pytest.raises(ValueError, match="unknown RL algo 'sac'"):
         load_rl_policy(other)
+
+
+@pytest.mark.parametrize("source", ["true", "model"])
+def test_ddppo_depth_trains_on_a_fourth_channel(tmp_path, source):
+    """algo=ddppo_depth (one rank): the rendered depth (depth.source=true) or a frozen depth
+    network's prediction (depth.source=model) as the 4th input channel; rvn-eval runs it."""
+    extra = ["depth.source=true"]
+    if source == "model":
+        from rvn_rl.depth.model import DepthNet, save_depth_model
+
+        save_depth_model(DepthNet(widths=(4, 8)), tmp_path / "depth", image_size=32)
+        extra = ["depth.source=model", f"depth.model_path={tmp_path / 'depth'}"]
+    out = tmp_path / "dd"
+    rvn_rl("algo=ddppo_depth", f"out_dir={out}", "train.total_steps=16", *TINY, *extra)
+    cfg = yaml.safe_load((out / "config.yaml").read_text())
+    assert cfg["policy"]["use_depth"] is True
+    from rvn_rl.policy import load_rl_policy
+    policy = load_rl_policy(out)
+    assert policy.net.visual_encoder.backbone.conv1[0].in_channels == 4
+    ev = tmp_path / "eval"
+    args = ["rvn-eval", "policy=checkpoint", f"policy.checkpoint_path={out}", "split=val", "episodes.num_scenes=1",
+            "episodes.per_scene=1", "episodes.n_goals=1", "env.t_max=10", "camera.width=32", "camera.height=32",
+            f"out_dir={ev}", "progress=false", "renderer=raycast", f"episodes.dir={tmp_path / 'episodes'}"]
+    if source == "true":
+        args.append("env.depth=true")
+    proc = subprocess.run(args, capture_output=True, text=True, env=ENV, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
