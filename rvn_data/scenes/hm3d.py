@@ -1,7 +1,8 @@
 """HM3D layout: `<root>/<split>/<NNNNN-id>/<id>.glb` (z-up on disk, rotated on load).
 
 The plain `<id>.glb` is preferred over `<id>.basis.glb` (Basis textures cannot be decoded
-with trimesh/PIL); an `<id>.navmesh` beside it is ignored (the navmesh is rebuilt).
+with trimesh/PIL); the `<id>.basis.navmesh` Habitat ships beside it is used by
+`navmesh.source=auto` (see rvn_data/navmesh/source.py).
 """
 from __future__ import annotations
 
