@@ -111,7 +111,7 @@ def _train(cfg: dict, d: Dist) -> dict:
     if d.enabled:
         from torch.nn.parallel import DistributedDataParallel as DDP
         learner = DDP(learner, device_ids=[device.index] if device.type == "cuda" else None,
-                      broadcast_buffers=False, find_unused_parameters=False)
+                      broadcast_buffers=False, find_unused_parameters=False, gradient_as_bucket_view=True)
     gen = torch.Generator().manual_seed(int(np.random.SeedSequence([int(cfg["seed"]), d.rank, updates]).generate_state(1)[0]))
     envs = make_envs(cfg, seed=int(cfg["seed"]) + 7919 * updates, rank=d.rank, device=device)
     log = RunLog(out_dir, d.rank == 0)

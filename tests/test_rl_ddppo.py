@@ -35,3 +35,22 @@ def test_ddppo_two_ranks_gloo(tmp_path):
     from rvn_rl.policy import load_rl_policy
     policy = load_rl_policy(out)
     assert policy.net.visual_encoder.running_mean_and_var._count > 0  # statistics were updated in the update
+
+
+def test_straggler_preemption_rule():
+    """A rank stops its rollout once sync_frac of the ranks finished theirs, but never before a
+    quarter of the rollout (habitat-baselines' rule), counted per update."""
+    import torch.distributed as dist
+
+    from rvn_rl.distrib import Dist
+
+    d = Dist(rank=3, world_size=4, store=dist.HashStore())
+    assert not d.should_end_early(100, 128, update=0, sync_frac=0.6)
+    d.rollout_done(0)
+    d.rollout_done(0)
+    assert not d.should_end_early(100, 128, update=0, sync_frac=0.6)  # 2 of 4 < 0.6
+    d.rollout_done(0)
+    assert d.should_end_early(100, 128, update=0, sync_frac=0.6)  # 3 of 4 >= 0.6
+    assert not d.should_end_early(31, 128, update=0, sync_frac=0.6)  # under a quarter of the rollout
+    assert not d.should_end_early(100, 128, update=1, sync_frac=0.6)  # the next update counts afresh
+    assert not Dist().should_end_early(100, 128, update=0, sync_frac=0.6)  # one process: never
