@@ -132,6 +132,9 @@ def navmesh_from_detour(mesh: DetourMesh, settings: NavMeshSettings, scene_id: s
     rc, h, t = np.zeros((cap_n, 2), np.int64), np.zeros(cap_n), np.zeros(cap_n, np.int64)
     n = _rasterise(np.ascontiguousarray(tris), x0, z0, cs, np.zeros(len(tris), np.int64), rc, h, t)
     rc, h, t = rc[:n], h[:n], t[:n]
+    if n == 0:
+        raise ValueError(f"navmesh file {mesh.path!r}: no polygon covers a cell centre at "
+                         f"navmesh.cell_size={cs}; lower the cell size")
     # one sample per surface and cell; rank = position among a cell's surfaces, bottom up
     cell = rc[:, 0] * cols + rc[:, 1]
     order = np.lexsort((h, cell))

@@ -55,8 +55,8 @@ def load_navmesh_file(path: str | Path, settings: NavMeshSettings, scene=None):
     from rvn_data.navmesh.from_detour import navmesh_from_detour
 
     mesh = read_navmesh_file(path)
-    if not mesh.tiles:
-        raise ValueError(f"navmesh file {str(path)!r} holds no tile")
+    if not any(len(t.polys) and len(t.verts) for t in mesh.tiles):
+        raise ValueError(f"navmesh file {str(path)!r} holds no polygon")
     baked = float(mesh.tiles[0].header["walkableRadius"])  # Recast rounds it up to whole cells
     if abs(baked - settings.agent_radius) > max(0.01, float(mesh.settings.get("cellSize", settings.cell_size))):
         warnings.warn(f"navmesh file {str(path)!r} was baked for an agent radius of {baked:.3f} m, the "
