@@ -93,7 +93,8 @@ def test_bad_files_one_line_errors(tmp_path, capsys):
     good = hand_built()
     for name, data, what in (("cut.navmesh", good[:-7], "truncated"), ("head.navmesh", good[:30], "truncated"),
                              ("zip.navmesh", b"PK\x03\x04" + bytes(60), "not a Habitat/Recast navmesh"),
-                             ("v9.navmesh", struct.pack("<ii", MSET, 9) + good[8:], "version 9")):
+                             ("v9.navmesh", struct.pack("<ii", MSET, 9) + good[8:], "version 9"),
+                             ("empty.navmesh", struct.pack("<iii3f2f2i", MSET, 1, 0, 0, 0, 0, 1, 1, 1, 1), "no polygon")):
         (tmp_path / name).write_bytes(data)
         with pytest.raises(ValueError, match=what) as err:
             load_navmesh_file(tmp_path / name, NavMeshSettings())
