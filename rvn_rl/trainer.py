@@ -4,6 +4,7 @@ update through a DistributedDataParallel replica when distributed, the Lagrange 
 for PPO-Lagrangian, logging and resumable checkpoints in ``out_dir``."""
 from __future__ import annotations
 
+import logging
 import time
 from dataclasses import fields
 from pathlib import Path
@@ -114,6 +115,7 @@ def _train(cfg: dict, d: Dist) -> dict:
                       broadcast_buffers=False, find_unused_parameters=False, gradient_as_bucket_view=True)
     gen = torch.Generator().manual_seed(int(np.random.SeedSequence([int(cfg["seed"]), d.rank, updates]).generate_state(1)[0]))
     envs = make_envs(cfg, seed=int(cfg["seed"]) + 7919 * updates, rank=d.rank, device=device)
+    logging.getLogger("rvn").setLevel(logging.WARNING)  # the first scenes' renderer lines are enough
     log = RunLog(out_dir, d.rank == 0)
     try:
         return _loop(cfg, d, device, policy, learner, optimizer, lagrange, ppo, envs, log, gen,
