@@ -20,7 +20,8 @@ import torch
 
 def overrides(args, out_dir: str) -> list[str]:
     return [f"env.size={args.size}", f"env.num_envs={args.envs}", f"env.workers={args.workers}",
-            f"env.num_scenes={args.scenes}", "model.backbone=resnet18", f"ppo.num_steps={args.num_steps}",
+            f"env.num_scenes={args.scenes}", "model.backbone=resnet18", f"model.base_planes={args.base_planes}",
+            f"model.ngroups={min(16, args.base_planes // 2)}", f"ppo.num_steps={args.num_steps}",
             f"train.threads={args.threads}", "progress=false", f"renderer={args.renderer}", f"out_dir={out_dir}",
             f"train.total_steps={args.updates * args.num_steps * args.envs}", "train.checkpoint_every=1000"]
 
@@ -70,6 +71,7 @@ def main() -> None:
     p.add_argument("--updates", type=int, default=3)
     p.add_argument("--num-steps", type=int, default=32, help="rollout length of the learning measurement")
     p.add_argument("--threads", type=int, default=2)
+    p.add_argument("--base-planes", type=int, default=32, help="ResNet base width (32: DD-PPO's half width)")
     p.add_argument("--renderer", default="auto")
     args = p.parse_args()
     torch.set_num_threads(args.threads)
@@ -84,7 +86,7 @@ def main() -> None:
         rows = [json.loads(line) for line in open(f"{tmp}/run/metrics.jsonl")]
     learn = rows[1:] or rows  # the first update includes scene loading
     fps = sum(r["fps"] for r in learn) / len(learn)
-    print(f"rvn-rl at {args.size}x{args.size} RGB, resnet18, {args.envs} envs, workers={args.workers}, "
+    print(f"rvn-rl at {args.size}x{args.size} RGB, resnet18 (base planes {args.base_planes}), {args.envs} envs, workers={args.workers}, "
           f"{args.threads} torch threads:")
     print(f"  env steps/s, envs alone (random actions): {env_sps:8.0f}")
     print(f"  env steps/s, collection (envs + policy) : {col_sps:8.0f}   (goal >= 800)")

@@ -54,3 +54,21 @@ def test_straggler_preemption_rule():
     assert not d.should_end_early(31, 128, update=0, sync_frac=0.6)  # under a quarter of the rollout
     assert not d.should_end_early(100, 128, update=1, sync_frac=0.6)  # the next update counts afresh
     assert not Dist().should_end_early(100, 128, update=0, sync_frac=0.6)  # one process: never
+
+
+@pytest.mark.slow
+def test_rl_small_recipe_smoke(tmp_path):
+    """jobs/rl_small.sh end to end at SCALE=tiny: two trainings, three evaluations, the report."""
+    from pathlib import Path
+
+    script = Path(__file__).resolve().parents[1] / "jobs" / "rl_small.sh"
+    out = tmp_path / "rl"
+    proc = subprocess.run(["bash", str(script), str(out)], capture_output=True, text=True, timeout=900,
+                          cwd=script.parents[1], env={**os.environ, "SCALE": "tiny", "THREADS": "1", "WORKERS": "1",
+                                                      "RENDERER": "raycast"})
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-3000:]
+    report = (out / "report.md").read_text()
+    assert "PPO-Lagrangian" in report and "Goal follower" in report
+    for algo in ("ppo", "ppo_lag"):
+        assert (out / "train" / algo / "learning_curve.png").is_file()
+        assert json.loads((out / "eval" / algo / "metrics.json").read_text())["episodes"] == 1
