@@ -48,6 +48,8 @@ def init(backend: str, device_type: str) -> Dist:
         backend = "nccl" if device_type == "cuda" else "gloo"
     if backend not in ("gloo", "nccl"):
         raise ValueError(f"ddppo.backend={backend!r}: choose auto, gloo or nccl")
+    if backend == "nccl":
+        torch.cuda.set_device(local)
     host, port = os.environ.get("MASTER_ADDR", "127.0.0.1"), int(os.environ.get("MASTER_PORT", "29500"))
     store = dist.TCPStore(host, port + 1, world, rank == 0, timeout=datetime.timedelta(minutes=30))
     dist.init_process_group(backend, store=dist.PrefixStore("pg", store), rank=rank, world_size=world)
@@ -55,8 +57,14 @@ def init(backend: str, device_type: str) -> Dist:
 
 
 def all_sum(x: torch.Tensor) -> torch.Tensor:
-    if dist.is_available() and dist.is_initialized():
-        dist.all_reduce(x)
+    """Sum over ranks in place (a no-op in one process); CPU tensors travel through the GPU under NCCL."""
+    if dist.is_available() and dist.is_initialized() and dist.get_world_size() > 1:
+        if dist.get_backend() == "nccl" and x.device.type != "cuda":
+            y = x.to(torch.device("cuda", torch.cuda.current_device()))
+            dist.all_reduce(y)
+            x.copy_(y.cpu())
+        else:
+            dist.all_reduce(x)
     return x
 
 

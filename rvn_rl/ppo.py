@@ -7,8 +7,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import torch
-import torch.distributed as dist
 from torch import nn
+
+from .distrib import all_sum
 
 
 @dataclass
@@ -26,10 +27,6 @@ class PPOConfig:
     tau: float = 0.95
     use_normalized_advantage: bool = True
     use_clipped_value_loss: bool = True
-
-
-def _world() -> int:
-    return dist.get_world_size() if dist.is_available() and dist.is_initialized() else 1
 
 
 class Lagrange:
@@ -62,12 +59,10 @@ class Lagrange:
 
 def normalise(adv: torch.Tensor) -> torch.Tensor:
     """Advantages standardised with mean/variance over every rank's rollout."""
-    stats = torch.stack([adv.sum(), adv.pow(2).sum(), torch.tensor(float(adv.numel()))])
-    if _world() > 1:
-        dist.all_reduce(stats)
+    stats = all_sum(torch.stack([adv.sum(), adv.pow(2).sum(), torch.tensor(float(adv.numel()))]).double())
     mean = stats[0] / stats[2]
     var = (stats[1] / stats[2] - mean ** 2).clamp(min=0.0)
-    return (adv - mean) / (var.sqrt() + 1e-5)
+    return ((adv - mean) / (var.sqrt() + 1e-5)).float()
 
 
 def ppo_update(model: nn.Module, optimizer, rollouts, cfg: PPOConfig, generator: torch.Generator,

@@ -7,9 +7,10 @@ from collections import deque
 from pathlib import Path
 
 import torch
-import torch.distributed as dist
 
 from rvn_data.atomic import atomic_path
+
+from .distrib import all_sum
 
 FIELDS = ("episodes", "return", "success", "goals", "collisions", "distance_km", "cost")
 
@@ -20,9 +21,7 @@ def episode_sums(episodes: list[dict]) -> torch.Tensor:
     for ep in episodes:
         s += torch.tensor([1.0, ep["return"], float(ep["termination"] == "success"), ep["goals_reached"],
                            ep["collisions"], ep["path_length"] / 1000.0, ep["cost"]], dtype=torch.float64)
-    if dist.is_available() and dist.is_initialized():
-        dist.all_reduce(s)
-    return s
+    return all_sum(s)
 
 
 class RunLog:
