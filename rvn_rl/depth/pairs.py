@@ -1,0 +1,110 @@
+"""(RGB, exact depth) pairs for the depth model: camera poses sampled on the navmesh of a
+split's scenes, rendered with `rvn_data.render.make_renderer`, stored in one HDF5 file.
+
+Pose k of scene s: a point uniform over the navmesh's main island and a yaw uniform in
+[-pi, pi), both drawn from ``np.random.default_rng([seed, split_code, scene_index])`` in
+that order, so a file is reproducible from its settings. The camera is the robot's (the
+``camera`` group: height above the floor, field of view) at ``image_size`` pixels square.
+
+File layout: ``rgb`` uint8 [N, H, W, 3], ``depth`` float32 [N, H, W] (planar metres, 0
+where nothing was hit), ``scene_index`` int32 [N]; attribute ``meta`` (JSON) holds the
+settings that produced it. A file whose ``meta`` matches the request is reused.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
+
+from rvn_data.atomic import atomic_path
+
+
+def pair_meta(split: str, specs: list[tuple[str, int]], per_scene: int, seed: int, camera, renderer: dict) -> dict:
+    """The settings that determine a pairs file (compared to decide whether to reuse it)."""
+    return {"split": split, "scenes": [[s, int(i)] for s, i in specs], "per_scene": int(per_scene),
+            "seed": int(seed), "camera": asdict(camera), "renderer_backend": str(renderer.get("backend", "auto"))}
+
+
+def split_scenes(source: str, split: str, num_scenes: int, first_scene: int = 0, root=None) -> list[tuple[str, int]]:
+    """(spec, scene index within the split) of ``num_scenes`` scenes from ``first_scene`` on."""
+    from rvn_data.scenes.sets import scene_specs
+
+    specs = list(scene_specs(source, split, root=root, num_scenes=num_scenes, first_scene=first_scene))
+    if len(specs) < num_scenes:
+        raise ValueError(f"pairs: the {split} split has only {len(specs)} scenes from scene {first_scene} on, "
+                         f"{num_scenes} requested; lower pairs.{split}_scenes")
+    return [(spec, first_scene + i) for i, spec in enumerate(specs)]
+
+
+def render_scene_pairs(spec: str, scene_index: int, split: str, per_scene: int, seed: int, camera,
+                       navmesh_settings, renderer: dict) -> tuple[np.ndarray, np.ndarray]:
+    """(rgb uint8 [K, H, W, 3], depth float32 [K, H, W]) of ``per_scene`` poses in one scene."""
+    from rvn_data.benchmark.episodes import split_code
+    from rvn_data.benchmark.episodes_source import SCENE_DEFAULTS, open_scene
+    from rvn_data.render import make_renderer
+
+    scene, navmesh = open_scene(spec, SCENE_DEFAULTS, navmesh_settings)
+    rng = np.random.default_rng([int(seed), split_code(split), int(scene_index)])
+    rgb = np.empty((per_scene, camera.height, camera.width, 3), np.uint8)
+    depth = np.empty((per_scene, camera.height, camera.width), np.float32)
+    with make_renderer(scene, camera, backend=renderer.get("backend", "auto"),
+                       device=int(renderer.get("device", 0))) as r:
+        for k in range(per_scene):
+            position = navmesh.sample(rng)
+            yaw = float(rng.uniform(-math.pi, math.pi))
+            rgb[k], depth[k] = r.render(position, yaw)
+    return rgb, depth
+
+
+def read_meta(path: Path) -> dict | None:
+    """The ``meta`` of a pairs file, or None when it is missing or unreadable."""
+    import h5py
+
+    if not path.is_file():
+        return None
+    try:
+        with h5py.File(path, "r") as f:
+            return json.loads(f.attrs["meta"])
+    except (OSError, KeyError, ValueError):
+        return None
+
+
+def make_pairs(path: str | Path, split: str, specs: list[tuple[str, int]], per_scene: int, seed: int, camera,
+               navmesh_settings, renderer: dict, progress: bool = False) -> tuple[Path, bool]:
+    """Render the pairs of ``specs`` into ``path`` (atomic); returns (path, reused) where
+    ``reused`` says an existing file with the same settings was kept."""
+    import h5py
+    from tqdm import tqdm
+
+    path = Path(path)
+    meta = pair_meta(split, specs, per_scene, seed, camera, renderer)
+    if read_meta(path) == meta:
+        return path, True
+    n, h, w = len(specs) * per_scene, camera.height, camera.width
+    with atomic_path(path) as tmp:
+        with h5py.File(tmp, "w") as f:
+            d_rgb = f.create_dataset("rgb", (n, h, w, 3), np.uint8, chunks=(1, h, w, 3))
+            d_depth = f.create_dataset("depth", (n, h, w), np.float32, chunks=(1, h, w))
+            f.create_dataset("scene_index", data=np.repeat([i for _, i in specs], per_scene).astype(np.int32))
+            for j, (spec, index) in enumerate(tqdm(specs, desc=f"pairs {split}", unit="scene", disable=not progress)):
+                rgb, depth = render_scene_pairs(spec, index, split, per_scene, seed, camera, navmesh_settings, renderer)
+                d_rgb[j * per_scene:(j + 1) * per_scene] = rgb
+                d_depth[j * per_scene:(j + 1) * per_scene] = depth
+            f.attrs["meta"] = json.dumps(meta)
+    return path, False
+
+
+def read_pairs(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """(rgb uint8 [N, H, W, 3], depth float32 [N, H, W]) of a pairs file."""
+    import h5py
+
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"pairs file {path} not found; create it with python -m rvn_rl.depth.cli")
+    with h5py.File(path, "r") as f:
+        if "rgb" not in f or "depth" not in f:
+            raise ValueError(f"pairs file {path} has no rgb/depth datasets; delete it and run the CLI again")
+        return f["rgb"][:], f["depth"][:]

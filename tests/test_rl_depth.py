@@ -1,0 +1,117 @@
+"""The depth model of the DD-PPO + predicted depth baseline, through its CLI on tiny data
+(2 train scenes, 1 val scene, 8 poses each, 32x32 frames): it writes a model that
+`load_depth_model` loads and that reproduces the reported val metrics, the metrics and the
+PNG; training lowers the error on the training frames well below the untrained model's;
+pairs are reproducible and reused; bad input gets a one-line error."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+TINY = ["image_size=32", "pairs.train_scenes=2", "pairs.val_scenes=1", "pairs.per_scene=8", "train.batch_size=8",
+        "train.eval_every=40", "threads=1", "progress=false", "renderer=raycast"]
+ENV = {**os.environ, "OMP_NUM_THREADS": "1"}
+
+
+def depth_cli(*args, check=True):
+    proc = subprocess.run([sys.executable, "-m", "rvn_rl.depth.cli", *args], capture_output=True, text=True,
+                          env=ENV, timeout=600)
+    if check:
+        assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-3000:]
+    return proc
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("depth") / "run"
+    proc = depth_cli(f"out_dir={out}", "train.steps=100", *TINY)
+    return out, proc
+
+
+def test_cli_writes_a_loadable_model_that_reproduces_its_metrics(run):
+    from rvn_rl.depth import load_depth_model
+    from rvn_rl.depth.pairs import read_pairs
+    from rvn_rl.depth.train import depth_metrics
+
+    out, proc = run
+    for name in ("model.safetensors", "model.json", "metrics.json", "predictions.png", "config.yaml"):
+        assert (out / name).is_file(), name
+    assert (out / "predictions.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "AbsRel" in proc.stdout and "constant train median" in proc.stdout
+    metrics = json.loads((out / "metrics.json").read_text())
+    predictor = load_depth_model(out)
+    assert not predictor.net.training and not any(p.requires_grad for p in predictor.net.parameters())
+    rgb, depth = read_pairs(out / "pairs" / "val.h5")
+    assert rgb.shape == (8, 32, 32, 3) and depth.shape == (8, 32, 32)
+    pred = predictor(rgb)
+    assert pred.dtype == np.float32 and pred.shape == depth.shape and np.all(pred > 0)
+    again = depth_metrics(pred, depth)
+    assert again["absrel"] == pytest.approx(metrics["val"]["absrel"], rel=1e-4)
+    assert again["delta1"] == pytest.approx(metrics["val"]["delta1"], rel=1e-4)
+    # another frame size: resized to the training size and back
+    big = np.repeat(np.repeat(rgb[:2], 2, axis=1), 2, axis=2)
+    assert predictor(big).shape == (2, 64, 64)
+    # the model file alone loads too
+    assert np.allclose(load_depth_model(out / "model.safetensors")(rgb[:1]), pred[:1])
+
+
+def test_metrics_hold_val_errors_baselines_and_the_training_log(run):
+    metrics = json.loads((run[0] / "metrics.json").read_text())
+    for block in (metrics["val"], metrics["baselines"]["constant_median"], metrics["baselines"]["pixel_median"]):
+        assert block["frames"] == 8 and block["absrel"] > 0 and 0 <= block["delta1"] <= 1
+    assert metrics["pairs"]["train"] == 16 and metrics["pairs"]["val"] == 8
+    assert any("val" in row for row in metrics["history"])
+    assert metrics["history"][-1]["step"] == 100
+
+
+def test_training_lowers_the_error(run):
+    """AbsRel on the training frames: the untrained model predicts about the training median
+    everywhere; after 100 steps it must fit the frames far better."""
+    sub = json.loads((run[0] / "metrics.json").read_text())["train_subset"]
+    assert sub["final"]["absrel"] < 0.6 * sub["init"]["absrel"], sub
+    assert sub["final"]["delta1"] > sub["init"]["delta1"] + 0.1, sub
+
+
+def test_pairs_are_reproducible_and_reused(run, tmp_path):
+    from rvn_rl.depth.pairs import read_pairs
+
+    out = tmp_path / "second"
+    depth_cli(f"out_dir={out}", f"pairs.dir={run[0] / 'pairs'}", "train.steps=2", *TINY)
+    assert json.loads((out / "metrics.json").read_text())["pairs"]["reused"] == {"train": True, "val": True}
+    fresh = tmp_path / "fresh"
+    depth_cli(f"out_dir={fresh}", "train.steps=1", *TINY)
+    for split in ("train", "val"):
+        a, b = read_pairs(run[0] / "pairs" / f"{split}.h5"), read_pairs(fresh / "pairs" / f"{split}.h5")
+        assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
+
+
+@pytest.mark.parametrize("arg, words", [
+    ("pairs.per_scene=0", "pairs.per_scene"),
+    ("image_size=8", "image_size"),
+    ("train.lr=0", "train.lr"),
+    ("train.stepz=3", "stepz"),
+    ("pairs.val_scenes=500", "val_scenes"),
+])
+def test_bad_input_gets_a_one_line_error(tmp_path, arg, words):
+    proc = depth_cli(f"out_dir={tmp_path / 'x'}", *TINY, arg, check=False)
+    assert proc.returncode == 1
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and words in lines[0] and lines[0].startswith("rvn_rl.depth.cli: error:"), proc.stderr
+
+
+def test_loader_and_predictor_refuse_bad_input(run, tmp_path):
+    from rvn_rl.depth import load_depth_model
+
+    with pytest.raises(ValueError, match="model.safetensors not found"):
+        load_depth_model(tmp_path)
+    (tmp_path / "model.safetensors").write_bytes((run[0] / "model.safetensors").read_bytes())
+    (tmp_path / "model.json").write_text(json.dumps({"kind": "rl"}))
+    with pytest.raises(ValueError, match="not a depth checkpoint"):
+        load_depth_model(tmp_path)
+    with pytest.raises(ValueError, match=r"uint8 \[N,H,W,3\]"):
+        load_depth_model(run[0])(np.zeros((1, 32, 32, 3), np.float32))
