@@ -138,14 +138,16 @@ def test_source_setting_and_checks(wall_glb, tmp_path):
     assert main(["navmesh", str(wall_glb), "-o", str(path)]) == 0
     scene, nm = open_scene(str(wall_glb), {}, NavMeshSettings(source="file", file=str(path)))
     assert nm.source_file == str(path)
-    assert open_scene(str(wall_glb), {}, NavMeshSettings(source="build", file=str(path)))[1].source_file is None
+    assert open_scene(str(wall_glb), {}, NavMeshSettings())[1].source_file is None  # default: build
+    with pytest.raises(ValueError, match="navmesh.source=build ignores it"):
+        NavMeshSettings(source="build", file=str(path))
     with pytest.raises(ValueError, match="no navmesh.file is set and there is no .navmesh beside"):
         open_navmesh(scene, NavMeshSettings(source="file"))
     (tmp_path / "hand.navmesh").write_bytes(hand_built())
     with pytest.raises(ValueError, match="does not lie within scene .*up_axis"):
-        open_navmesh(scene, NavMeshSettings(file=str(tmp_path / "hand.navmesh")))
+        open_navmesh(scene, NavMeshSettings(source="auto", file=str(tmp_path / "hand.navmesh")))
     with pytest.warns(UserWarning, match="agent radius of 0.180 m, the settings say 0.25"):
-        load_navmesh_file(path, NavMeshSettings(agent_radius=0.25))
+        load_navmesh_file(path, NavMeshSettings(source="file", agent_radius=0.25))
 
 
 @pytest.fixture(scope="module")

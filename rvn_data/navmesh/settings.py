@@ -1,4 +1,5 @@
-"""Navigation-mesh build settings (Habitat/Recast semantics, reference §1)."""
+"""Navigation-mesh settings: Habitat/Recast semantics (cell size and height, agent radius and
+height, climb, slope, small islands dropped), and where the navmesh comes from."""
 from __future__ import annotations
 
 import math
@@ -18,7 +19,9 @@ class NavMeshSettings:
     source: where the navmesh comes from: "build" (from the scene's triangles), "file" (a
     Habitat/Recast `.navmesh`: `file`, else the one beside the scene file, an error if
     none) or "auto" (`file` when set, else a `.navmesh` beside the scene file when there is
-    one, else build); see `rvn_data.navmesh.source.open_navmesh`.
+    one, else build); see `rvn_data.navmesh.source.open_navmesh`. The default is "build" so
+    that a run never changes navmesh because a file appeared beside a scene; HM3D users who
+    want Habitat's shipped navmeshes say `navmesh.source=auto` (recorded in the run identity).
     """
 
     cell_size: float = 0.05  # m, horizontal grid cell
@@ -28,7 +31,7 @@ class NavMeshSettings:
     max_climb: float = 0.2  # m, largest step between neighbouring surfaces
     max_slope_deg: float = 45.0  # deg, steepest walkable face
     min_island_area: float = 1.0  # m², smaller connected islands are dropped
-    source: str = "auto"  # auto | build | file: auto uses `file`, else <scene>.navmesh beside the scene file, else builds
+    source: str = "build"  # build | auto | file: auto uses `file`, else <scene>.navmesh beside the scene file, else builds
     file: str | None = None  # path of a Habitat/Recast .navmesh (source=file, or auto)
 
     def __post_init__(self) -> None:
@@ -36,6 +39,9 @@ class NavMeshSettings:
             raise ValueError(f"navmesh setting source={self.source!r} must be one of {list(SOURCES)}")
         if self.file is not None and not isinstance(self.file, str):
             object.__setattr__(self, "file", str(self.file))
+        if self.file is not None and self.source == "build":
+            raise ValueError(f"navmesh.file={self.file!r} is set but navmesh.source=build ignores it; "
+                             "add navmesh.source=file (or auto)")
         for f in fields(self):
             if f.name in ("source", "file"):
                 continue
@@ -82,9 +88,9 @@ SOURCES = ("auto", "build", "file")
 
 def recorded(navmesh: Mapping[str, Any]) -> dict[str, Any]:
     """Navmesh settings as recorded in episode and run files: `source` and `file` only when
-    they differ from their defaults (auto, none), so records made before they existed match."""
+    they differ from their defaults (build, none), so records made before they existed match."""
     out = dict(navmesh)
-    if out.get("source", "auto") == "auto" and out.get("file") is None:
+    if out.get("source", "build") == "build" and out.get("file") is None:
         out.pop("source", None)
         out.pop("file", None)
     return out

@@ -1,8 +1,8 @@
 """HM3D layout: `<root>/<split>/<NNNNN-id>/<id>.glb` (z-up on disk, rotated on load).
 
 The plain `<id>.glb` is preferred over `<id>.basis.glb` (Basis textures cannot be decoded
-with trimesh/PIL); the `<id>.basis.navmesh` Habitat ships beside it is used by
-`navmesh.source=auto` (see rvn_data/navmesh/source.py).
+with trimesh/PIL); the `<id>.basis.navmesh` Habitat ships beside it is used with
+`navmesh.source=auto` (the default, `build`, builds from the mesh) (see rvn_data/navmesh/source.py).
 """
 from __future__ import annotations
 
