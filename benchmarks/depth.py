@@ -1,6 +1,6 @@
 """Depth model inference speed: frames/s of `rvn_rl.depth.load_depth_model`'s predictor
 (uint8 RGB in, metres out, frozen, no gradients) at 128x128, batch 4, on the CPU (or
---device cuda), with 1 torch thread and with every core.
+--device cuda), with 1 torch thread (the predictor's default) and with every core.
 
 The predictor is what algo=ddppo_depth calls once per environment step batch, so its
 frames/s bounds the RL collection speed with predicted depth. Without --model the default
@@ -43,9 +43,9 @@ def main() -> int:
     from rvn_rl.depth import DepthNet, DepthPredictor, load_depth_model
 
     if args.model:
-        predictor = load_depth_model(args.model, device=args.device)
+        predictor = load_depth_model(args.model, device=args.device, threads=None)
     else:
-        predictor = DepthPredictor(DepthNet(), image_size=args.size, device=args.device)
+        predictor = DepthPredictor(DepthNet(), image_size=args.size, device=args.device, threads=None)
     params = sum(p.numel() for p in predictor.net.parameters())
     print(f"Depth model inference, {args.size}x{args.size}, batch {args.batch}, {params:,} parameters, "
           f"model {args.model or 'untrained default'}, device {args.device}")

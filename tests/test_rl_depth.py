@@ -115,3 +115,23 @@ def test_loader_and_predictor_refuse_bad_input(run, tmp_path):
         load_depth_model(tmp_path)
     with pytest.raises(ValueError, match=r"uint8 \[N,H,W,3\]"):
         load_depth_model(run[0])(np.zeros((1, 32, 32, 3), np.float32))
+    with pytest.raises(ValueError, match="threads=0"):
+        load_depth_model(run[0], threads=0)
+
+
+def test_predictor_runs_with_its_own_thread_count_and_restores_torch_s(run):
+    import torch
+
+    from rvn_rl.depth import load_depth_model
+
+    before = torch.get_num_threads()
+    torch.set_num_threads(2)
+    seen = []
+    predictor = load_depth_model(run[0], threads=1)
+    net_forward = predictor.net.forward
+    predictor.net.forward = lambda x: (seen.append(torch.get_num_threads()), net_forward(x))[1]
+    predictor(np.zeros((1, 32, 32, 3), np.uint8))
+    try:
+        assert seen == [1] and torch.get_num_threads() == 2
+    finally:
+        torch.set_num_threads(before)

@@ -9,7 +9,8 @@ up-sampled to the input size. The output is metres (not relative depth): the rob
 metric depth, so the training loss has a scale-dependent term.
 
 `load_depth_model(path)` -> `DepthPredictor`: ``predictor(rgb uint8 [N,H,W,3]) -> depth
-float32 [N,H,W]`` metres, in eval mode under ``torch.no_grad``; frames of another size than
+float32 [N,H,W]`` metres, in eval mode under ``torch.no_grad`` (on a CPU with 1 torch thread
+unless told otherwise: several threads on a loaded, shared CPU can be far slower); frames of another size than
 the training ``image_size`` are area-resized to it and the depth resized back (bilinear).
 """
 from __future__ import annotations
@@ -91,14 +92,28 @@ def to_input(rgb: np.ndarray | torch.Tensor, device="cpu") -> torch.Tensor:
 class DepthPredictor:
     """A frozen `DepthNet`: ``predictor(rgb uint8 [N,H,W,3]) -> depth float32 [N,H,W]`` metres."""
 
-    def __init__(self, net: DepthNet, image_size: int, device: str | torch.device = "cpu", info: dict | None = None):
+    def __init__(self, net: DepthNet, image_size: int, device: str | torch.device = "cpu", info: dict | None = None,
+                 threads: int | None = 1):
+        if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
+            raise ValueError(f"depth model threads={threads!r}; give a positive integer or null (torch's setting)")
         self.net = net.to(device).eval().requires_grad_(False)
         self.image_size, self.device, self.info = int(image_size), torch.device(device), dict(info or {})
+        self.threads = threads
 
     def __call__(self, rgb) -> np.ndarray:
         rgb = np.asarray(rgb)
         if rgb.dtype != np.uint8 or rgb.ndim != 4 or rgb.shape[-1] != 3:
             raise ValueError(f"depth model input must be uint8 [N,H,W,3] RGB, got {rgb.dtype} {list(rgb.shape)}")
+        if self.threads is None or self.device.type != "cpu":
+            return self._predict(rgb)
+        old = torch.get_num_threads()
+        torch.set_num_threads(self.threads)
+        try:
+            return self._predict(rgb)
+        finally:
+            torch.set_num_threads(old)
+
+    def _predict(self, rgb: np.ndarray) -> np.ndarray:
         x = to_input(rgb, self.device)
         size, s = x.shape[-2:], self.image_size
         with torch.no_grad():
@@ -123,9 +138,11 @@ def save_depth_model(net: DepthNet, out_dir: str | Path, image_size: int, extra:
     return out_dir / WEIGHTS
 
 
-def load_depth_model(path: str | Path, device: str | torch.device = "cpu") -> DepthPredictor:
+def load_depth_model(path: str | Path, device: str | torch.device = "cpu", threads: int | None = 1) -> DepthPredictor:
     """The frozen predictor of a depth checkpoint: a folder holding ``model.safetensors`` and
-    ``model.json`` (the CLI's ``out_dir``), or the ``model.safetensors`` file itself."""
+    ``model.json`` (the CLI's ``out_dir``), or the ``model.safetensors`` file itself. On a
+    CPU each call runs with at most ``threads`` torch threads (default 1, as the IL policies;
+    None: torch's setting), restored afterwards."""
     from safetensors.torch import load_file
 
     path = Path(path).expanduser()
@@ -145,4 +162,4 @@ def load_depth_model(path: str | Path, device: str | torch.device = "cpu") -> De
         net.load_state_dict(load_file(str(weights)))
     except (RuntimeError, OSError) as e:
         raise ValueError(f"depth model {weights}: weights do not fit model.json ({str(e).splitlines()[0]})") from None
-    return DepthPredictor(net, meta["image_size"], device, info=meta)
+    return DepthPredictor(net, meta["image_size"], device, info=meta, threads=threads)
