@@ -17,35 +17,12 @@ imported, so the task side never imports the IL side).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
 CONF_DIR = str(Path(__file__).resolve().parents[1] / "conf")
 
 _registered: set[str] = set()
-
-
-@dataclass(frozen=True)
-class RendererConfig:
-    """Renderer back-end request (conf/renderer/*.yaml; rvn_data.render.make_renderer)."""
-
-    backend: str = "auto"  # auto | gl | raycast
-    device: int = 0  # EGL device index for gl (GPU on multi-GPU nodes)
-
-
-@dataclass(frozen=True)
-class ScenesConfig:
-    """Which scenes a command uses (conf/scenes/*.yaml; rvn_data.scenes.sets.scene_specs)."""
-
-    source: str = "procedural"  # procedural | mesh_dir | hm3d
-    root: str | None = None  # folder (or list file) of the scenes; null for procedural
-    split: str = "${split}"  # the command's split
-    num_scenes: int | None = None  # null = every scene of the split
-    first_scene: int = 0  # index of the first scene within the split
-    up_axis: str = "y"  # the meshes' up axis on disk (y or z; z is rotated to y on load)
-    unit_scale: float = 1.0  # metres per mesh unit
-    level: bool = False  # rotate each scene so its floor is horizontal
 
 
 def schema_node(cls: type):
@@ -83,7 +60,9 @@ def register_configs() -> None:
     from rvn_data.conventions import AgentConfig
     from rvn_data.dataset.settings import DatasetConfig
     from rvn_data.navmesh.settings import NavMeshSettings
+    from rvn_data.render import RendererConfig
     from rvn_data.render.camera import CameraConfig
+    from rvn_data.scenes.sets import ScenesConfig
 
     for group, name, cls in (("agent", "base_agent", AgentConfig), ("camera", "base_camera", CameraConfig),
                              ("navmesh", "base_navmesh", NavMeshSettings), ("dataset", "base_dataset", DatasetConfig),
@@ -118,5 +97,5 @@ def load_config(name: str, overrides: Sequence[str] = ()):
         return compose(config_name=name, overrides=list(overrides))
 
 
-__all__ = ["CONF_DIR", "RendererConfig", "ScenesConfig", "add_registration", "load_config",
+__all__ = ["CONF_DIR", "add_registration", "load_config",
            "register", "register_configs", "schema_node"]

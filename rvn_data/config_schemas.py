@@ -8,7 +8,8 @@ from typing import Any
 
 from rvn_data.benchmark.episodes import EpisodeSettings
 from rvn_data.benchmark.episodes_source import EnvConfig
-from rvn_data.config import RendererConfig, ScenesConfig
+from rvn_data.render import RendererConfig
+from rvn_data.scenes.sets import ScenesConfig
 from rvn_data.conventions import AgentConfig
 from rvn_data.dataset.settings import DatasetConfig
 from rvn_data.navmesh.settings import NavMeshSettings

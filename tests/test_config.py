@@ -10,7 +10,9 @@ from dataclasses import asdict, fields
 import pytest
 from omegaconf import OmegaConf
 
-from rvn_data.config import RendererConfig, ScenesConfig, load_config
+from rvn_data.config import load_config
+from rvn_data.render import RendererConfig
+from rvn_data.scenes.sets import ScenesConfig
 from rvn_data.conventions import AgentConfig
 from rvn_data.dataset.settings import DatasetConfig, GenSettings
 from rvn_data.navmesh.settings import NavMeshSettings

@@ -6,7 +6,8 @@ from __future__ import annotations
 import os
 from dataclasses import asdict, dataclass, field, fields, replace
 
-from rvn_data.config import RendererConfig, ScenesConfig
+from rvn_data.render import RendererConfig
+from rvn_data.scenes.sets import ScenesConfig
 from rvn_data.conventions import AgentConfig
 from rvn_data.benchmark.episodes import DEFAULT_PER_SCENE, EpisodeSettings, split_code
 from rvn_data.benchmark.episodes_store import EpisodeStore, make_settings

@@ -8,6 +8,7 @@ software GL (<= SOFTWARE_GL_MAX_TRIANGLES), otherwise raycast, and says why in
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass
 
 from rvn_data.render.base import Renderer, check_scene, log
 from rvn_data.render.camera import CameraConfig
@@ -16,7 +17,15 @@ from rvn_data.scenes.scene import Scene
 BACKENDS = ("auto", "gl", "raycast")
 SOFTWARE_GL_MAX_TRIANGLES = 300_000
 
-__all__ = ["BACKENDS", "CameraConfig", "Renderer", "SOFTWARE_GL_MAX_TRIANGLES", "make_renderer"]
+__all__ = ["BACKENDS", "CameraConfig", "Renderer", "RendererConfig", "SOFTWARE_GL_MAX_TRIANGLES", "make_renderer"]
+
+
+@dataclass(frozen=True)
+class RendererConfig:
+    """Renderer back-end request (conf/renderer/*.yaml; rvn_data.render.make_renderer)."""
+
+    backend: str = "auto"  # auto | gl | raycast
+    device: int = 0  # EGL device index for gl (GPU on multi-GPU nodes)
 
 
 def _camera(camera) -> CameraConfig:

@@ -7,6 +7,7 @@ file; blank lines and `#` comments ignored) and `hm3d` (`<root>/<split>/<NNNNN-i
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 from rvn_data.scenes.hm3d import hm3d_scenes
@@ -15,6 +16,20 @@ from rvn_data.scenes.scene import SceneError
 
 PROCEDURAL_SPLITS = {"train": 800, "val": 50, "test": 50}
 SOURCES = ("procedural", "mesh_dir", "list_file", "hm3d")
+
+
+@dataclass(frozen=True)
+class ScenesConfig:
+    """Which scenes a command uses (conf/scenes/*.yaml; rvn_data.scenes.sets.scene_specs)."""
+
+    source: str = "procedural"  # procedural | mesh_dir | hm3d
+    root: str | None = None  # folder (or list file) of the scenes; null for procedural
+    split: str = "${split}"  # the command's split
+    num_scenes: int | None = None  # null = every scene of the split
+    first_scene: int = 0  # index of the first scene within the split
+    up_axis: str = "y"  # the meshes' up axis on disk (y or z; z is rotated to y on load)
+    unit_scale: float = 1.0  # metres per mesh unit
+    level: bool = False  # rotate each scene so its floor is horizontal
 
 
 def _list_file(path: Path) -> list[str]:
