@@ -34,25 +34,7 @@ esac
 PY=${PYTHON:-python}
 mkdir -p "$OUT/logs" "$OUT/.done"
 OUT=$(cd "$OUT" && pwd)
-STEPS_SECONDS=0
-step() {  # step NAME CMD...: run CMD unless OUT/.done/NAME holds the same command; log and time it
-  local name=$1; shift
-  local cmd; cmd=$(printf '%q ' "$@")
-  if [[ -f "$OUT/.done/$name" && "$(cat "$OUT/.done/$name")" == "$cmd" ]]; then
-    echo "[$name] done before, skipped"; return 0
-  fi
-  echo "[$name] $cmd"
-  local t0=$SECONDS
-  if ! "$@" >"$OUT/logs/$name.log" 2>&1; then
-    echo "[$name] FAILED after $((SECONDS - t0)) s; last lines of $OUT/logs/$name.log:" >&2
-    tail -n 20 "$OUT/logs/$name.log" >&2
-    exit 1
-  fi
-  printf '%s\t%s\n' "$name" "$((SECONDS - t0))" >>"$OUT/timings.tsv"
-  STEPS_SECONDS=$((STEPS_SECONDS + SECONDS - t0))
-  printf '%s' "$cmd" >"$OUT/.done/$name"
-  echo "[$name] ok in $((SECONDS - t0)) s"
-}
+source "$(dirname "${BASH_SOURCE[0]}")/lib.sh"   # step NAME CMD...: skip if done, log, time
 export OMP_NUM_THREADS=$THREADS MKL_NUM_THREADS=$THREADS
 CAMERA=("camera.width=$IMAGE" "camera.height=$IMAGE")
 RL=("scale=small" "env.size=$IMAGE" "env.num_envs=$NUM_ENVS" "env.num_scenes=$TRAIN_SCENES" "env.workers=$ENV_WORKERS"

@@ -56,7 +56,6 @@ PY=${PYTHON:-python}
 NEG_PER_SCENE=$($PY -c "print(max(1, round($TRAJ_PER_SCENE * $NEG_FRACTION)))")
 EXPERT_KEEP=$((TRAJ_PER_SCENE > NEG_PER_SCENE ? TRAJ_PER_SCENE - NEG_PER_SCENE : TRAJ_PER_SCENE))
 mkdir -p "$OUT/logs" "$OUT/.done"
-STEPS_SECONDS=0
 OUT=$(cd "$OUT" && pwd)
 DATA=$OUT/data
 CAMERA=("camera.width=$IMAGE" "camera.height=$IMAGE")
@@ -69,25 +68,7 @@ if [[ "$DEPTH_AUX" != 0 ]]; then TRAIN_SIZE+=("model.depth_aux_weight=$DEPTH_AUX
 EVAL=("split=val" "episodes.num_scenes=$EVAL_SCENES" "episodes.per_scene=$EVAL_EPISODES" "episodes.n_goals=$N_GOALS"
       "env.t_max=$T_MAX" "episodes.dir=$OUT/episodes" "workers=$WORKERS" "progress=false" "seed=$SEED" "renderer=$RENDERER" "${CAMERA[@]}")
 
-# step NAME CMD...: run CMD unless OUT/.done/NAME holds the same command; log and time it
-step() {
-  local name=$1; shift
-  local cmd; cmd=$(printf '%q ' "$@")
-  if [[ -f "$OUT/.done/$name" && "$(cat "$OUT/.done/$name")" == "$cmd" ]]; then
-    echo "[$name] done before, skipped"; return 0
-  fi
-  echo "[$name] $cmd"
-  local t0=$SECONDS
-  if ! "$@" >"$OUT/logs/$name.log" 2>&1; then
-    echo "[$name] FAILED after $((SECONDS - t0)) s; last lines of $OUT/logs/$name.log:" >&2
-    tail -n 20 "$OUT/logs/$name.log" >&2
-    exit 1
-  fi
-  printf '%s\t%s\n' "$name" "$((SECONDS - t0))" >>"$OUT/timings.tsv"
-  STEPS_SECONDS=$((STEPS_SECONDS + SECONDS - t0))
-  printf '%s' "$cmd" >"$OUT/.done/$name"
-  echo "[$name] ok in $((SECONDS - t0)) s"
-}
+source "$(dirname "${BASH_SOURCE[0]}")/lib.sh"   # step NAME CMD...: skip if done, log, time
 
 # NoMaD-Neg's splits: NoMaD_e on the first EXPERT_KEEP expert trajectories of each scene (the
 # other NEG_PER_SCENE are "replaced" by the negative dataset), NoMaD_n on the negatives.

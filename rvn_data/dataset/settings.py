@@ -87,7 +87,7 @@ class GenSettings:
     max_attempts: int = _D.max_attempts
     goal_candidates: int = _D.goal_candidates
     resolution: float = _D.resolution
-    stop_radius: float = 0.36  # m, the resolved STOP radius (default: 2 * r_robot)
+    stop_radius: float = AgentConfig().success_distance  # m, the resolved STOP radius (2 * r_robot)
     jpeg_quality: int = _D.jpeg_quality
     save_depth: bool = _D.save_depth
     depth_size: int = _D.depth_size
