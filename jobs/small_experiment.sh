@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Small-scale RVN experiment on a CPU machine, end to end (SPEC.md; issue 7):
+# Small-scale RVN experiment on a CPU machine, end to end:
 #   rvn-gen expert + negative on procedural train scenes
 #   -> rvn-train ViNT-PointGoal, NoMaD-PointGoal, NoMaD-Neg (model.size=small)
 #   -> rvn-eval on procedural val scenes (the three, NoMaD-PointGoal voting over its samples, NoMaD-Neg with
@@ -128,7 +128,7 @@ step eval_nomad_vote rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/tra
   +policy.aggregate=vote out_dir="$OUT/eval/nomad_pointgoal_vote" "${EVAL[@]}"
 step eval_nomad_neg rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_neg" method=NoMaD-Neg +policy.waypoint_index="$LOOKAHEAD" \
   out_dir="$OUT/eval/nomad_neg" "${EVAL[@]}"
-# the paper writes argmin CoR; by its equation argmax keeps away from the negatives (SPEC.md "Baselines")
+# the paper writes argmin CoR; by its equation argmax keeps away from the negatives
 step eval_nomad_neg_argmin rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_neg" \
   method=NoMaD-Neg-argmin +policy.waypoint_index="$LOOKAHEAD" +policy.selection=argmin out_dir="$OUT/eval/nomad_neg_argmin" "${EVAL[@]}"
 

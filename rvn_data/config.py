@@ -18,7 +18,7 @@ imported, so the task side never imports the IL side).
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Callable, Sequence
 
 CONF_DIR = str(Path(__file__).resolve().parents[1] / "conf")
 

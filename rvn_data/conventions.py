@@ -1,4 +1,5 @@
-"""Frames, poses and actions shared by every module (SPEC.md "Conventions", "GNM format").
+"""Frames, poses and actions shared by every module (and the GNM format's
+planar frame).
 
 World frame: metres, **y up**. The robot moves on the floor plane (x, z).
 
@@ -30,7 +31,8 @@ class Action(IntEnum):
 
 @dataclass(frozen=True)
 class AgentConfig:
-    """The robot of SPEC.md "Task": a cylinder with a forward camera."""
+    """The robot: a cylinder of radius r_robot and height h_robot with a forward camera, moving
+    d_step forward or turning theta_step_deg per action."""
 
     r_robot: float = 0.18  # m, cylinder radius
     h_robot: float = 1.0  # m, cylinder height

@@ -1,4 +1,5 @@
-"""Discrete-action simulator with collision detection (SPEC.md "Task", reference §2).
+"""Discrete-action simulator with collision detection (Habitat-style: the
+move is constrained to the navmesh; a short move is a collision).
 
 MOVE_FORWARD asks for `d_step` along the heading; the target is constrained to the
 navigable surface (which already includes the agent-radius margin): the robot marches

@@ -16,6 +16,7 @@ from safetensors.torch import load_file, save_file
 from rvn_data.atomic import atomic_path, write_bytes_atomic, write_text_atomic
 
 KIND = "rl"
+POLICY_LOADER = "rvn_rl.policy.load_rl_policy"  # what rvn-eval policy=checkpoint calls for this out_dir
 
 
 def read_rl_config(out_dir: str | Path) -> dict:
@@ -38,7 +39,8 @@ def read_rl_config(out_dir: str | Path) -> dict:
 
 
 def write_config(out_dir: Path, cfg: dict) -> None:
-    write_text_atomic(out_dir / "config.yaml", yaml.safe_dump({"kind": KIND, **cfg}, sort_keys=False))
+    write_text_atomic(out_dir / "config.yaml",
+                      yaml.safe_dump({"kind": KIND, "policy_loader": POLICY_LOADER, **cfg}, sort_keys=False))
 
 
 def latest(out_dir: str | Path) -> Path | None:

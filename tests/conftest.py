@@ -12,9 +12,9 @@ import trimesh
 
 from rvn_data.scenes.scene import Part, Scene
 
-DREAM_APARTMENT = Path("/work/shared/scenes/dream_apartment.glb")
-if not DREAM_APARTMENT.exists():
-    DREAM_APARTMENT = Path(__file__).resolve().parents[2] / "shared" / "scenes" / "dream_apartment.glb"
+# the real apartment lives beside the checkout (../shared/scenes/), or where RVN_TEST_SCENE says
+DREAM_APARTMENT = Path(os.environ.get(
+    "RVN_TEST_SCENE", Path(__file__).resolve().parents[2] / "shared" / "scenes" / "dream_apartment.glb"))
 
 
 def run_python(*args: str, check: bool = True, timeout: float = 600) -> subprocess.CompletedProcess:

@@ -6,6 +6,8 @@ import json
 import pytest
 from conftest import run_python as run
 
+pytestmark = pytest.mark.slow  # end-to-end runs of the CLIs; the fast tier is -m "not slow"
+
 
 @pytest.fixture(scope="module")
 def trained(tmp_path_factory):

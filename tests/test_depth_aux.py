@@ -19,6 +19,8 @@ from rvn_il.models import build_model, load_model_config
 from rvn_il.models.checkpoint import latest_checkpoint
 from rvn_il.policies import load_policy
 
+pytestmark = pytest.mark.slow  # end-to-end runs of the CLIs; the fast tier is -m "not slow"
+
 torch.set_num_threads(1)
 GEN = ["scenes.num_scenes=1", "trajectories_per_scene=2", "camera.width=32", "camera.height=32", "progress=false"]
 TRAIN = ["model=nomad_pointgoal", "model.size=small", "train.max_steps=3", "train.batch_size=4", "train.log_every=1",

@@ -63,8 +63,13 @@ def test_store_bytes_reproducible_and_prefix(tmp_path, loaded):
     s2.episodes_for(0, SPEC, 2, open_nm)
     s2.episodes_for(0, SPEC, 3, open_nm)  # extended from 2 to 3
     p1, p2 = s1.scene_path(0, SPEC), s2.scene_path(0, SPEC)
-    assert p1.name == "00000_procedural_val_0.json.gz"
+    assert p1.name == "00000_proc_val_0000.json.gz"  # the scene's slug, as rvn-gen names it
     assert p1.read_bytes() == p2.read_bytes()
+    # a file named before scene names were unified is adopted, not regenerated
+    p2.rename(p2.with_name("00000_procedural_val_0.json.gz"))
+    assert [e.to_json() for e in s2.episodes_for(0, SPEC, 3, lambda: pytest.fail("regenerated"))] == \
+        [e.to_json() for e in eps]
+    assert p2.exists() and not p2.with_name("00000_procedural_val_0.json.gz").exists()
     assert p1.read_bytes()[4:8] == b"\0\0\0\0"  # gzip mtime 0
     s1.write_index()
     index = json.loads(s1.index_path.read_text())
@@ -97,7 +102,7 @@ def test_changed_scene_mesh_is_an_error(tmp_path, loaded):
     assert store.episodes_for(0, SPEC, 1, None, loaded=loaded)  # same mesh: fine
     parts = [Part(p.name, p.vertices + np.float32(0.01), p.faces) for p in scene.parts]
     moved = Scene(scene.scene_id, parts, scene.source)
-    with pytest.raises(ValueError, match=r"00000_procedural_val_0.json.gz.*another version of scene"):
+    with pytest.raises(ValueError, match=r"00000_proc_val_0000.json.gz.*another version of scene"):
         store.episodes_for(0, SPEC, 1, None, loaded=(moved, navmesh))
 
 
@@ -106,7 +111,7 @@ def test_env_config_caches_episodes(tmp_path):
                                 episodes={"n_goals": 3, "dir": str(tmp_path)})
     assert cfg.scene_slots() == [(SPEC, 0)]
     assert ensure_scene_episodes(cfg, (SPEC, 0)) == 2
-    assert (tmp_path / "procedural" / "val" / "00000_procedural_val_0.json.gz").exists()
+    assert (tmp_path / "procedural" / "val" / "00000_proc_val_0000.json.gz").exists()
 
 
 def test_scene_too_small_is_named(navmesh):

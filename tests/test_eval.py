@@ -10,6 +10,8 @@ from rvn_data.benchmark.metrics import compute_metrics, read_records
 from rvn_data.benchmark.table import main as table_main
 from rvn_data.benchmark.table import render_table
 
+pytestmark = pytest.mark.slow  # end-to-end runs of the CLIs; the fast tier is -m "not slow"
+
 SMALL = ["split=val", "episodes.num_scenes=2", "episodes.per_scene=2", "episodes.n_goals=3",
          "camera.width=32", "camera.height=32", "progress=false"]
 

@@ -7,6 +7,9 @@ from pathlib import Path
 
 import numpy as np
 import trimesh
+import pytest
+
+pytestmark = pytest.mark.slow  # end-to-end runs of the CLIs; the fast tier is -m "not slow"
 
 TINY = ["trajectories_per_scene=1", "camera.width=32", "camera.height=32", "progress=false"]
 

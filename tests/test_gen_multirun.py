@@ -4,6 +4,9 @@ import hashlib
 import subprocess
 import sys
 from pathlib import Path
+import pytest
+
+pytestmark = pytest.mark.slow  # end-to-end runs of the CLIs; the fast tier is -m "not slow"
 
 TINY = ["scenes.num_scenes=2", "trajectories_per_scene=1", "camera.width=32", "camera.height=32", "progress=false"]
 

@@ -7,7 +7,8 @@ import pytest
 
 from rvn_data.dataset import naming
 from rvn_data.dataset.finalise import split_scenes
-from rvn_data.dataset.writer import encode_jpeg, is_complete, write_trajectory
+from rvn_data.dataset.reader import is_complete, load_gnm, load_traj_data, read_meta, read_rgb, rvn_trajectories
+from rvn_data.dataset.writer import encode_jpeg, write_trajectory
 
 
 def test_jpeg_is_rgb_on_disk():
@@ -22,7 +23,7 @@ def test_write_trajectory_layout_and_atomicity(tmp_path):
     jpeg = encode_jpeg(np.full((8, 8, 3), 128, np.uint8), 90)
     pos, yaw = np.array([[0.0, 0.0], [0.25, 0.0]]), np.array([0.0, 0.0])
     write_trajectory(tmp_path, "t_0000", [jpeg, jpeg], pos, yaw, {"k": 1})
-    assert is_complete(tmp_path, "t_0000")
+    assert is_complete(tmp_path / "t_0000")
     assert sorted(p.name for p in (tmp_path / "t_0000").iterdir()) == ["0.jpg", "1.jpg", "rvn_meta.json", "traj_data.pkl"]
     with open(tmp_path / "t_0000" / "traj_data.pkl", "rb") as f:
         data = pickle.load(f)
@@ -30,6 +31,16 @@ def test_write_trajectory_layout_and_atomicity(tmp_path):
     with pytest.raises(ValueError):
         write_trajectory(tmp_path, "t_0001", [jpeg], pos, yaw, {})
     assert not (tmp_path / "t_0001").exists()
+    # the one reader reads back what the writer wrote
+    assert rvn_trajectories(tmp_path) == ["t_0000"] and read_meta(tmp_path / "t_0000") == {"k": 1}
+    back_pos, back_yaw = load_traj_data(tmp_path / "t_0000")
+    np.testing.assert_array_equal(back_pos, pos) and np.testing.assert_array_equal(back_yaw, yaw)
+    assert read_rgb(tmp_path / "t_0000" / "1.jpg").shape == (8, 8, 3)
+    source = load_gnm(tmp_path)
+    assert source.names == ["t_0000"] and source.spacing == 0.25 and list(source.lengths) == [2]
+    (tmp_path / "t_0000" / "traj_data.pkl").write_bytes(b"junk")
+    with pytest.raises(ValueError, match="corrupt trajectory file .*traj_data.pkl"):
+        load_traj_data(tmp_path / "t_0000")
 
 
 def test_scene_split_is_seeded_disjoint_and_stable():

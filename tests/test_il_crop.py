@@ -12,7 +12,7 @@ import torch
 
 from rvn_il.data import crop_setting, load_gnm, make_dataset, preprocess_image
 from rvn_il.data.cache import PackedCache, cache_path, ensure_cache
-from rvn_il.data.images import read_rgb
+from rvn_data.dataset.reader import read_rgb
 from rvn_il.data.synthetic import render_frame, write_synthetic_gnm
 from rvn_il.models import load_model_config
 from rvn_il.models.checkpoint import latest_checkpoint

@@ -12,7 +12,7 @@ import torch
 
 from rvn_il.data import EpochSampler, load_gnm, make_dataset
 from rvn_il.data.cache import PackedCache, ensure_cache
-from rvn_il.data.gnm import read_spacing
+from rvn_data.dataset.reader import read_spacing
 from rvn_il.data.synthetic import write_synthetic_gnm
 from rvn_il.models import load_model_config
 

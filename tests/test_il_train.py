@@ -19,6 +19,8 @@ from rvn_il.policies import NoMaDNegPolicy, load_policy
 from rvn_il.policies.loader import resolve_device
 from rvn_il.train.cli import main, train
 
+pytestmark = pytest.mark.slow  # end-to-end runs of the CLIs; the fast tier is -m "not slow"
+
 torch.set_num_threads(1)
 ENV = {**os.environ, "OMP_NUM_THREADS": "1"}
 SMALL = ["model.size=small", "train.batch_size=4", "train.log_every=1"]

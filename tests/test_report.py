@@ -15,6 +15,8 @@ from PIL import Image
 from rvn_data.benchmark.metrics import compute_metrics, read_records
 from rvn_data.benchmark.report import find_runs, load_run, main as report_main, merge_shards
 
+pytestmark = pytest.mark.slow  # end-to-end runs of the CLIs; the fast tier is -m "not slow"
+
 SMALL = ["split=val", "episodes.num_scenes=1", "episodes.per_scene=2", "episodes.n_goals=3", "camera.width=32",
          "camera.height=32", "progress=false"]
 

@@ -11,6 +11,8 @@ import sys
 import pytest
 import yaml
 
+pytestmark = pytest.mark.slow  # end-to-end runs of the CLIs; the fast tier is -m "not slow"
+
 TINY = ["env.size=32", "env.num_envs=2", "env.num_scenes=2", "ppo.num_steps=8", "model.backbone=resnet18",
         "train.threads=1", "progress=false", "renderer=raycast"]
 ENV = {**os.environ, "OMP_NUM_THREADS": "1"}
@@ -67,7 +69,7 @@ def test_rl_policy_resets_its_recurrent_state(ppo_run):
     from rvn_il.policies import load_policy
 
     out, _ = ppo_run
-    policy = load_policy(out)  # rvn_il's loader dispatches on config.yaml's kind: rl
+    policy = load_policy(out)  # rvn_il's loader calls the policy_loader config.yaml names
     obs = {"rgb": np.full((64, 64, 3), 90, np.uint8), "pointgoal": np.array([3.0, 1.0], np.float32)}
     policy.reset()
     assert policy.act(obs) in range(4)

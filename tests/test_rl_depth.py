@@ -13,6 +13,8 @@ import sys
 import numpy as np
 import pytest
 
+pytestmark = pytest.mark.slow  # end-to-end runs of the CLIs; the fast tier is -m "not slow"
+
 TINY = ["image_size=32", "pairs.train_scenes=2", "pairs.val_scenes=1", "pairs.per_scene=8", "train.batch_size=8",
         "train.eval_every=40", "threads=1", "progress=false", "renderer=raycast"]
 ENV = {**os.environ, "OMP_NUM_THREADS": "1"}

@@ -1,5 +1,5 @@
-"""``rvn-eval``: closed-loop benchmark of a policy on a split's episode set (SPEC.md
-"Benchmark protocol"). Hydra config ``conf/eval.yaml``; e.g.
+"""``rvn-eval``: closed-loop benchmark of a policy on a split's episode set (the
+paper's protocol: sequential point goals, SR_1, E(G), CPK). Hydra config ``conf/eval.yaml``; e.g.
 
     rvn-eval policy=oracle split=val episodes.num_scenes=5 episodes.per_scene=4 workers=2
     rvn-eval policy=checkpoint policy.checkpoint_path=runs/train/nomad method=NoMaD-PointGoal

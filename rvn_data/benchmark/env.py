@@ -1,4 +1,5 @@
-"""`RVNEnv`: the RVN task as a Gymnasium environment (SPEC.md "Task", "RL environment").
+"""`RVNEnv`: the RVN task as a Gymnasium environment (observations,
+the paper's reward and the Safe-RL collision cost).
 
 Observation: ``rgb`` uint8 [H,W,3], ``pointgoal`` float32 [2] (x forward, y left,
 metres), ``depth`` float32 [H,W] when ``depth=True``. Actions: ``Discrete(4)``

@@ -1,4 +1,4 @@
-"""Benchmark episodes: a start pose and N_goal sequential goals (SPEC.md "Benchmark protocol").
+"""Benchmark episodes: a start pose and N_goal sequential goals.
 
 Each goal lies at geodesic distance in [d_min, d_max] from the previous one (the first
 from the start), on the main island (island 0). Episode ``e`` of scene ``s`` (its index

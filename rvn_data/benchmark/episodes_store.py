@@ -13,6 +13,7 @@ from __future__ import annotations
 import gzip
 import hashlib
 import json
+import os
 import re
 from dataclasses import asdict, is_dataclass
 from pathlib import Path
@@ -20,6 +21,8 @@ from pathlib import Path
 import numpy as np
 
 from rvn_data.atomic import write_bytes_atomic
+from rvn_data.dataset.naming import scene_slug
+from rvn_data.identity import check_identity
 from rvn_data.navmesh.settings import recorded
 from rvn_data.benchmark.episodes import GENERATOR_VERSION, Episode, EpisodeSettings, sample_episodes
 
@@ -53,26 +56,10 @@ def make_settings(episodes: EpisodeSettings, agent, navmesh, scenes: dict, split
     }
 
 
-def _flatten(d: dict, prefix: str = "") -> dict:
-    out = {}
-    for k, v in d.items():
-        key = f"{prefix}{k}"
-        if isinstance(v, dict):
-            out.update(_flatten(v, key + "."))
-        else:
-            out[key] = v
-    return out
-
-
 def check_settings(path: Path, stored: dict, wanted: dict, what: str = "episode file",
                    hint: str = "use another episodes.dir or delete {dir}") -> None:
-    """ValueError naming ``path`` and the first setting that differs."""
-    a, b = _flatten(stored), _flatten(wanted)
-    for key in sorted(set(a) | set(b)):
-        if a.get(key, "<missing>") != b.get(key, "<missing>"):
-            raise ValueError(
-                f"{what} {path} was made with {key}={a.get(key, '<missing>')!r} but this run uses "
-                f"{key}={b.get(key, '<missing>')!r}; " + hint.format(dir=Path(path).parent))
+    """ValueError naming ``path`` and the settings that differ (`rvn_data.identity`)."""
+    check_identity(path, stored, wanted, what, hint)
 
 
 def dumps_gzip_json(obj: dict) -> bytes:
@@ -89,13 +76,6 @@ def scene_fingerprint(scene) -> str:
     return h.hexdigest()[:16]
 
 
-def scene_name(spec: str) -> str:
-    """A file-name-safe short name for a scene spec (``procedural:val/3`` → ``procedural_val_3``)."""
-    s = str(spec)
-    name = s.replace(":", "_").replace("/", "_") if s.startswith("procedural:") else Path(s).stem
-    return re.sub(r"[^A-Za-z0-9_.-]", "_", name) or "scene"
-
-
 class EpisodeStore:
     """The cached episode set of one split under ``root`` (config ``episodes.dir``)."""
 
@@ -107,7 +87,15 @@ class EpisodeStore:
         self.index_path = self.dir / "index.json"
 
     def scene_path(self, scene_index: int, spec: str) -> Path:
-        return self.dir / f"{int(scene_index):05d}_{scene_name(spec)}.json.gz"
+        path = self.dir / f"{int(scene_index):05d}_{scene_slug(spec)}.json.gz"
+        if not path.exists():  # written before scene names were one function (00003_procedural_val_3)
+            older = sorted(self.dir.glob(f"{int(scene_index):05d}_*.json.gz"))
+            if len(older) == 1:
+                try:
+                    os.replace(older[0], path)  # renamed once; another worker may have done it
+                except FileNotFoundError:
+                    pass
+        return path
 
     def check_index(self) -> None:
         """Raise if an existing index was made with other settings."""
@@ -144,7 +132,7 @@ class EpisodeStore:
             "settings": self.settings,
             "scene_id": scene_id,
             "scene_index": int(scene_index),
-            "scene_name": scene_name(spec),
+            "scene_name": scene_slug(spec),
             "fingerprint": fingerprint,
             "episodes": [e.to_json() for e in episodes],
         }

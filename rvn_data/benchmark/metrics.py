@@ -1,4 +1,4 @@
-"""Collision-aware benchmark metrics (SPEC.md "Benchmark protocol", paper "Metrics").
+"""Collision-aware benchmark metrics (the paper's "Metrics": SR_1, E(G), CPK, SPL_1).
 
 One record per episode (a JSON-able dict, written one per line to ``episodes.jsonl``)
 holds everything the metrics need; `compute_metrics(records)` is a pure function of

@@ -22,7 +22,6 @@ from pathlib import Path
 import numpy as np
 
 from rvn_data.dataset import naming, writer
-from rvn_data.dataset.scene_job import record_path
 from rvn_data.dataset.settings import GenSettings
 
 
@@ -46,7 +45,7 @@ def failure_path(out_dir: Path, slug: str) -> Path:
 
 def missing_scenes(out_dir: Path, specs: list[str]) -> list[str]:
     """Specs of the list with neither a record nor a failure note yet."""
-    return [spec for spec in specs if not record_path(out_dir, naming.scene_slug(spec)).is_file()
+    return [spec for spec in specs if not writer.record_path(out_dir, naming.scene_slug(spec)).is_file()
             and not failure_path(out_dir, naming.scene_slug(spec)).is_file()]
 
 
@@ -55,7 +54,7 @@ def failed_scenes(out_dir: Path, specs: list[str]) -> dict[str, str]:
     out = {}
     for spec in specs:
         path = failure_path(out_dir, naming.scene_slug(spec))
-        if path.is_file() and not record_path(out_dir, naming.scene_slug(spec)).is_file():
+        if path.is_file() and not writer.record_path(out_dir, naming.scene_slug(spec)).is_file():
             out[spec] = path.read_text().strip()
     return out
 
@@ -79,7 +78,7 @@ def finalise(out_dir: Path, settings: GenSettings, specs: list[str], allow_missi
     failed = failed_scenes(out_dir, specs)
     records = {}
     for spec in specs:
-        path = record_path(out_dir, naming.scene_slug(spec))
+        path = writer.record_path(out_dir, naming.scene_slug(spec))
         if path.is_file():
             records[naming.scene_slug(spec)] = json.loads(path.read_text())
     train, test = split_scenes([naming.scene_slug(s) for s in specs], settings.seed, settings.train_fraction)

@@ -17,6 +17,8 @@ import numpy as np
 
 from rvn_data.conventions import to_planar
 from rvn_data.dataset import naming, writer
+from rvn_data.dataset.gnm_writer import GNMWriter
+from rvn_data.dataset.reader import load_traj_data
 from rvn_data.dataset.settings import GenSettings
 from rvn_data.dataset.topdown import render_map
 from rvn_data.dataset.trajectory import Rollout, SceneContext, attempt
@@ -37,10 +39,6 @@ class SceneResult:
     written: int = 0  # trajectories written by this run
     frames: int = 0  # frames written by this run
     skipped: int = 0  # trajectories found complete on disk
-
-
-def record_path(out_dir: Path, slug: str) -> Path:
-    return Path(out_dir) / ".rvn" / "scenes" / f"{slug}.json"
 
 
 def _diagnose(s: GenSettings, scene_id: str, reasons: Counter, max_geodesic: float) -> str:
@@ -115,13 +113,11 @@ def _meta(s: GenSettings, scene_id: str, spec: str, split: str, name: str, index
 def run_scene(spec: str, settings: GenSettings, out_dir: Path, trajectories_per_scene: int, scene_cfg: dict,
               on_trajectory=None) -> SceneResult:
     """Generate (or resume) one scene's trajectories and its map and record."""
-    s, out_dir = settings, Path(out_dir)
+    s, gnm = settings, GNMWriter(out_dir, settings)  # opened (checked) by the parent
     slug = naming.scene_slug(spec)
     res = SceneResult(slug=slug, spec=spec)
-    rec_file = record_path(out_dir, slug)
-    if rec_file.is_file():
-        import json
-        rec = json.loads(rec_file.read_text())
+    rec = gnm.scene_record(slug)
+    if rec is not None:
         if rec.get("trajectories_per_scene") == trajectories_per_scene:
             res.record, res.skipped = rec, len(rec["trajectories"])
             if on_trajectory:
@@ -133,8 +129,8 @@ def run_scene(spec: str, settings: GenSettings, out_dir: Path, trajectories_per_
     try:
         for index in range(trajectories_per_scene):
             name = naming.traj_name(slug, s.kind, index)
-            if writer.is_complete(out_dir, name):
-                meta = writer.read_meta(out_dir, name)
+            meta = gnm.done_trajectory(name)
+            if meta is not None:
                 kept.append(meta)
                 reasons.update(meta["rejected"])
                 res.skipped += 1
@@ -165,7 +161,7 @@ def run_scene(spec: str, settings: GenSettings, out_dir: Path, trajectories_per_
             t0 = time.perf_counter()
             meta = _meta(s, scene.scene.scene_id, spec, split, name, index, a, rejected, rollout,
                          scene.renderer.backend)
-            writer.write_trajectory(out_dir, name, jpegs, rollout.planar, rollout.yaws, meta, depth)
+            gnm.write_trajectory(name, jpegs, rollout.planar, rollout.yaws, meta, depth)
             res.timing["writing"] += time.perf_counter() - t0
             kept.append(meta)
             res.written += 1
@@ -175,7 +171,7 @@ def run_scene(spec: str, settings: GenSettings, out_dir: Path, trajectories_per_
         if scene is None:  # everything was on disk but the record was not: load for the map
             scene = _Scene(spec, s, scene_cfg, res.timing)
         t0 = time.perf_counter()
-        _write_map(out_dir, slug, scene, kept)
+        gnm.write_map(slug, _map_png(gnm.out_dir, scene, kept))
         rec = {
             "scene": scene.scene.scene_id, "spec": spec, "slug": slug, "split": split, "kind": s.kind,
             "trajectories_per_scene": trajectories_per_scene,
@@ -185,7 +181,7 @@ def run_scene(spec: str, settings: GenSettings, out_dir: Path, trajectories_per_
             "attempts": int(sum(reasons.values()) + len(kept)),
             "renderers": sorted({m["renderer"] for m in kept}),
         }
-        writer.write_text_atomic(rec_file, writer.dumps_json(rec))
+        gnm.close_scene(slug, rec)
         res.timing["writing"] += time.perf_counter() - t0
         res.record = rec
         return res
@@ -224,22 +220,16 @@ def _navigable_on(grid, navmesh) -> np.ndarray:
     return out
 
 
-def _write_map(out_dir: Path, slug: str, scene: _Scene, kept: list[dict]) -> None:
+def _map_png(out_dir: Path, scene: _Scene, kept: list[dict]) -> bytes:
+    """Top-down map of the scene with every kept trajectory and its collision point."""
     nav = scene.ctx.navmesh
     y = kept[0]["start"][1] if kept else float(nav.sample(np.random.default_rng(0))[1])
     grid, free = scene.ctx.grid_at(y)
     trajs = []
     for m in kept:
-        planar = _load_planar(out_dir, m["name"])
+        planar = load_traj_data(out_dir / m["name"])[0]
         hit = None
         if m["t_c"] is not None:
             hit = m["contact"] or [planar[m["t_c"]][0], y, -planar[m["t_c"]][1]]
         trajs.append({"planar": planar, "start": m["start"], "goal": m["goal"], "collision": hit})
-    png = render_map(grid, free, _navigable_on(grid, nav), trajs)
-    writer.write_text_atomic(out_dir / "maps" / f"{slug}.png", png)
-
-
-def _load_planar(out_dir: Path, name: str) -> np.ndarray:
-    import pickle
-    with open(out_dir / name / writer.TRAJ_DATA, "rb") as fh:
-        return np.asarray(pickle.load(fh)["position"], np.float64)
+    return render_map(grid, free, _navigable_on(grid, nav), trajs)

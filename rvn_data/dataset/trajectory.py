@@ -1,4 +1,5 @@
-"""One trajectory attempt: sample start and goal, plan, follow (SPEC.md "Trajectory datasets").
+"""One trajectory attempt: sample start and goal, plan, follow (an expert or a
+negative trajectory of rvn-gen).
 
 An attempt is a pure function of its `numpy.random.Generator`. It returns a `Rollout`
 (poses to record, how many of them to render, the collision step) or the name of the

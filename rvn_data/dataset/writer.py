@@ -1,4 +1,5 @@
-"""GNM trajectory folders, written atomically (SPEC.md "GNM format").
+"""GNM trajectory folders, written atomically (the layout visualnav-transformer's
+training code reads).
 
 ``<out>/<name>/{0..T-1}.jpg`` (JPEG, fixed quality), ``traj_data.pkl`` = dict(position
 float64 [T, 2] planar metres, yaw float64 [T]) pickled with protocol 4, and the sidecar
@@ -21,11 +22,9 @@ import cv2
 import numpy as np
 
 from rvn_data.atomic import write_text_atomic  # noqa: F401 (used as writer.write_text_atomic)
+from rvn_data.dataset.reader import DEPTH_NAME, META_NAME, TRAJ_DATA
 
 PICKLE_PROTOCOL = 4
-META_NAME = "rvn_meta.json"
-TRAJ_DATA = "traj_data.pkl"
-DEPTH_NAME = "depth.npy"
 
 
 def encode_jpeg(rgb: np.ndarray, quality: int) -> bytes:
@@ -48,19 +47,14 @@ def downsample_depth(depth: np.ndarray, size: int) -> np.ndarray:
     return out.astype(np.float16)
 
 
+def record_path(out_dir: Path, slug: str) -> Path:
+    """A scene's record, written when the scene is done."""
+    return Path(out_dir) / ".rvn" / "scenes" / f"{slug}.json"
+
+
 def dumps_json(obj: Any) -> str:
     """Stable JSON text (sorted keys, fixed float repr) for files compared byte for byte."""
     return json.dumps(obj, indent=1, sort_keys=True, allow_nan=False) + "\n"
-
-
-def is_complete(out_dir: Path, name: str) -> bool:
-    """True when the trajectory folder exists (folders only appear complete)."""
-    d = Path(out_dir) / name
-    return (d / TRAJ_DATA).is_file() and (d / META_NAME).is_file()
-
-
-def read_meta(out_dir: Path, name: str) -> dict:
-    return json.loads((Path(out_dir) / name / META_NAME).read_text())
 
 
 def write_trajectory(out_dir: Path, name: str, jpegs: list[bytes], position: np.ndarray, yaw: np.ndarray,

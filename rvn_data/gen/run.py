@@ -7,7 +7,6 @@ how shards meet.
 """
 from __future__ import annotations
 
-import json
 import multiprocessing as mp
 import os
 import time
@@ -15,47 +14,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from rvn_data.dataset import naming, writer
-from rvn_data.dataset.finalise import failure_path, finalise, missing_scenes
+from rvn_data.dataset import naming
+from rvn_data.dataset.gnm_writer import GNMWriter
 from rvn_data.dataset.scene_job import TIMERS, SceneResult, run_scene
 from rvn_data.dataset.settings import GenSettings
 from rvn_data.gen.summary import summary
-
-
-def check_writable(out_dir: Path) -> None:
-    """Raise ValueError naming `out_dir` when files cannot be created there."""
-    try:
-        (out_dir / ".rvn").mkdir(parents=True, exist_ok=True)
-        probe = out_dir / ".rvn" / f".probe{os.getpid()}"
-        probe.write_bytes(b"")
-        probe.unlink()
-    except OSError as e:
-        raise ValueError(f"out_dir={out_dir}: cannot write there ({e.strerror or e}); choose a writable out_dir") from None
-
-
-def check_identity(out_dir: Path, settings: GenSettings) -> None:
-    """Record the dataset's settings; refuse to mix trajectories made with other settings."""
-    path = out_dir / ".rvn" / "settings.json"
-    mine = settings.identity()
-    if path.is_file():
-        theirs = json.loads(path.read_text())
-        if theirs != json.loads(writer.dumps_json(mine)):
-            diff = _diff(theirs, mine)
-            raise ValueError(f"out_dir={out_dir} holds a dataset made with other settings ({diff}); "
-                             "use another out_dir, or the same settings to resume or extend it")
-        return
-    writer.write_text_atomic(path, writer.dumps_json(mine))
-
-
-def _diff(a: Any, b: Any, prefix: str = "") -> str:
-    """Changed settings, named as on the command line (dataset.margin, agent.r_robot, seed)."""
-    if isinstance(a, dict) and isinstance(b, dict):
-        def name(k: str) -> str:
-            top = prefix or ("" if k in ("agent", "navmesh", "camera", "seed", "renderer") else "dataset.")
-            return f"{top}{k}."
-        parts = [_diff(a.get(k), b.get(k), name(k)) for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)]
-        return ", ".join(p for p in parts if p)
-    return f"{prefix.rstrip('.')}: {a!r} -> {b!r}"
 
 
 def list_scenes(cfg: Any) -> list[str]:
@@ -114,10 +77,9 @@ def generate(cfg: Any) -> GenReport:
     if n < 0:
         raise ValueError(f"trajectories_per_scene={n} must be >= 0")
     specs = list_scenes(cfg)
-    check_writable(out_dir)
-    check_identity(out_dir, settings)
+    gnm = GNMWriter.open(out_dir, settings)
     if cfg.get("mode", "generate") == "merge":
-        return GenReport(merge(out_dir, settings, specs, bool(cfg.get("allow_partial", False))))
+        return GenReport(merge(gnm, specs, bool(cfg.get("allow_partial", False))))
     if cfg.get("mode", "generate") != "generate":
         raise ValueError(f"mode={cfg.get('mode')!r} must be generate or merge")
     if settings.kind == "expert" and settings.margin <= settings.agent.r_robot:
@@ -129,25 +91,21 @@ def generate(cfg: Any) -> GenReport:
     jobs = [(spec, settings, str(out_dir), n, scene_cfg) for spec in mine]
     results = _run(jobs, int(cfg.get("workers", 1)), n, bool(cfg.get("progress", True)))
     for r in results:
-        note = failure_path(out_dir, r.slug)
-        if r.error is not None:
-            writer.write_text_atomic(note, r.error + "\n")
-        elif note.is_file():
-            note.unlink()
-    missing = finalise(out_dir, settings, specs)
+        gnm.note_failure(r.slug, r.error)
+    missing = gnm.finalise(specs)
     seconds = time.perf_counter() - t_start
     print(summary(settings, out_dir, results, specs, missing, shard_index, num_shards, seconds))
     return GenReport(1 if any(r.error for r in results) else 0, results, seconds)
 
 
-def merge(out_dir: Path, settings: GenSettings, specs: list[str], allow_partial: bool) -> int:
+def merge(gnm: GNMWriter, specs: list[str], allow_partial: bool) -> int:
     """`mode=merge`: write splits, data_config and manifest from the scenes done so far."""
-    missing = missing_scenes(out_dir, specs)
+    missing = gnm.missing_scenes(specs)
     if missing and not allow_partial:
-        raise ValueError(f"out_dir={out_dir}: {len(missing)} of {len(specs)} scenes are not generated yet "
+        raise ValueError(f"out_dir={gnm.out_dir}: {len(missing)} of {len(specs)} scenes are not generated yet "
                          f"(first: {missing[0]}); run the missing shards, or merge with allow_partial=true")
-    finalise(out_dir, settings, specs, allow_missing=True)
-    print(f"rvn-gen merge: {out_dir}: wrote data_splits/{settings.name}/, data_config.yaml, manifest.json "
+    gnm.finalise(specs, allow_missing=True)
+    print(f"rvn-gen merge: {gnm.out_dir}: wrote data_splits/{gnm.settings.name}/, data_config.yaml, manifest.json "
           f"({len(specs) - len(missing)} of {len(specs)} scenes)")
     return 0
 
@@ -179,4 +137,4 @@ def _run(jobs: list[tuple], workers: int, n: int, progress: bool) -> list[SceneR
     return sorted(out, key=lambda r: r.slug)
 
 
-__all__ = ["GenReport", "generate", "merge", "check_writable", "check_identity", "TIMERS"]
+__all__ = ["GenReport", "generate", "merge", "TIMERS"]

@@ -8,16 +8,13 @@ A trajectory is a GNM folder ``<root>/<name>/`` with ``0.jpg … (T−1).jpg``,
 """
 from __future__ import annotations
 
-import json
-import pickle
 from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
 
-import cv2
 import numpy as np
 
-from rvn_data.dataset.writer import META_NAME, TRAJ_DATA
+from rvn_data.dataset.reader import META_NAME, TRAJ_DATA, is_complete, load_traj_data, read_meta, read_rgb, rvn_trajectories
 
 
 @dataclass
@@ -54,10 +51,7 @@ def _check_root(root: str | Path) -> Path:
 def list_trajectories(root: str | Path) -> list[dict]:
     """Sidecars (``rvn_meta.json``) of every complete trajectory under ``root``, sorted by name."""
     root = _check_root(root)
-    metas = []
-    for meta_path in sorted(root.glob(f"*/{META_NAME}")):
-        if (meta_path.parent / TRAJ_DATA).is_file() and not meta_path.parent.name.startswith("."):
-            metas.append(json.loads(meta_path.read_text()))
+    metas = [read_meta(root / name) for name in rvn_trajectories(root)]
     if not metas:
         raise ValueError(f"dataset folder {root} holds no trajectory (no <name>/{META_NAME} with {TRAJ_DATA}); "
                          "is it an rvn-gen output directory?")
@@ -119,20 +113,12 @@ def load_clip(root: str | Path, name: str) -> Clip:
     """Frames, poses and sidecar of trajectory ``name``."""
     root = _check_root(root)
     folder = root / name
-    if not (folder / TRAJ_DATA).is_file() or not (folder / META_NAME).is_file():
+    if not is_complete(folder):
         raise ValueError(f"{folder} is not a complete trajectory (needs {TRAJ_DATA} and {META_NAME}); "
                          "pick a name from list_trajectories()")
-    meta = json.loads((folder / META_NAME).read_text())
-    with open(folder / TRAJ_DATA, "rb") as fh:
-        data = pickle.load(fh)
-    planar = np.asarray(data["position"], np.float64).reshape(-1, 2)
-    yaw = np.asarray(data["yaw"], np.float64).reshape(-1)
-    frames = []
-    for i in range(len(planar)):
-        bgr = cv2.imread(str(folder / f"{i}.jpg"), cv2.IMREAD_COLOR)
-        if bgr is None:
-            raise ValueError(f"{folder / f'{i}.jpg'} is missing or not an image; regenerate trajectory {name}")
-        frames.append(bgr[:, :, ::-1])
+    meta = read_meta(folder)
+    planar, yaw = load_traj_data(folder)
+    frames = [read_rgb(folder / f"{i}.jpg") for i in range(len(planar))]
     return Clip(name, np.stack(frames), planar, yaw, meta)
 
 

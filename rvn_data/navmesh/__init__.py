@@ -1,4 +1,5 @@
-"""Navigation mesh: walkable surfaces of a scene with Habitat/Recast semantics (reference §1).
+"""Navigation mesh: walkable surfaces of a scene with Habitat/Recast semantics
+(cell size and height, agent radius and height, max climb and slope, small islands dropped).
 
 `NavMesh.build(scene, NavMeshSettings())`, then point queries, sampling, geodesics; each
 layer's arrays (`NavGrid`: navigable, floor height, clearance, islands, world↔grid) are in

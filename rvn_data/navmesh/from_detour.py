@@ -24,7 +24,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from rvn_data.navmesh.detour_format import EXT_LINK, POLYTYPE_OFFMESH, DetourMesh
+from rvn_data.navmesh.detour_format import POLYTYPE_OFFMESH, DetourMesh
 from rvn_data.navmesh.grid import NavGrid
 from rvn_data.navmesh.settings import NavMeshSettings
 

@@ -1,4 +1,4 @@
-"""Follow a planned path with the discrete actions (SPEC.md "Trajectory datasets" step 4).
+"""Follow a planned path with the discrete actions (the expert of rvn-gen).
 
 Rule, in the planar frame: STOP within `stop_radius` (default `AgentConfig.success_distance`,
 2·r_robot) of the goal; otherwise advance to the next waypoint when the current one is within

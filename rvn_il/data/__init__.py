@@ -1,4 +1,5 @@
-"""GNM datasets: reading folders, the packed HDF5 cache and the torch Dataset."""
+"""GNM datasets for the models: the packed HDF5 cache and the torch Dataset (folders are read
+with `rvn_data.dataset.reader`)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -7,7 +8,7 @@ from typing import Mapping
 from .cache import PackedCache, cache_path, ensure_cache
 from .dataset import BatchView, EpochSampler, GNMDataset
 from .depth import depth_setting
-from .gnm import GNMSource, load_gnm
+from rvn_data.dataset.reader import GNMSource, load_gnm
 from .images import crop_setting, preprocess_image
 
 

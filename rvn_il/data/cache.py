@@ -14,7 +14,9 @@ With depth (``model.depth_aux_weight`` > 0, see :mod:`.depth`) the file is anoth
 """
 from __future__ import annotations
 
+import hashlib
 import logging
+import os
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Sequence
@@ -24,14 +26,24 @@ import numpy as np
 from tqdm import tqdm
 
 from rvn_data.atomic import atomic_path
+from rvn_data.dataset.reader import GNMSource, read_rgb
 
 from .depth import load_traj_depth, require_depth
-from .gnm import GNMSource, fingerprint
-from .images import check_crop, preprocess_image, read_rgb
+from .images import check_crop, preprocess_image
 
 CACHE_VERSION = 2
 SUFFIX = {"aspect": "_crop", "official": "_official", "none": ""}  # one file per crop
 log = logging.getLogger(__name__)
+
+
+def fingerprint(source: GNMSource, *extra: object) -> str:
+    """Hash of every file name, size and mtime in the split's folders, plus ``extra`` settings."""
+    h = hashlib.sha256(repr(extra).encode())
+    for n in source.names:
+        entries = sorted((e.name, e.stat().st_size, e.stat().st_mtime_ns) for e in os.scandir(source.root / n) if e.is_file())
+        h.update(n.encode())
+        h.update(repr(entries).encode())
+    return h.hexdigest()[:32]
 
 
 def cache_path(source: GNMSource, image_size: Sequence[int], crop: str | bool, cache_dir: str | Path | None,

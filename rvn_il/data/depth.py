@@ -12,9 +12,8 @@ from typing import Mapping
 
 import numpy as np
 
-from rvn_data.dataset.writer import DEPTH_NAME
 
-from .gnm import GNMSource
+from rvn_data.dataset.reader import DEPTH_NAME, GNMSource
 
 REGENERATE = "regenerate with rvn-gen dataset.save_depth=true or set model.depth_aux_weight=0"
 

@@ -19,7 +19,6 @@ models, not here. The crops:
 """
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Mapping, Sequence
 
 import cv2
@@ -97,11 +96,3 @@ def preprocess_image(rgb: np.ndarray, image_size: Sequence[int], crop: str | boo
     if rgb.shape[0] == h and rgb.shape[1] == w:
         return np.ascontiguousarray(rgb)
     return cv2.resize(rgb, (w, h), interpolation=cv2.INTER_AREA)
-
-
-def read_rgb(path: str | Path) -> np.ndarray:
-    """Decode an image file to uint8 RGB [h,w,3]; ValueError naming the file if unreadable."""
-    bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    if bgr is None:
-        raise ValueError(f"cannot decode image {path}: the file is missing or corrupt; regenerate the trajectory or remove it from the split")
-    return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)

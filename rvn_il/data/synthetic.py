@@ -1,7 +1,7 @@
 """A small synthetic GNM dataset for tests, benchmarks and demos (no simulator needed).
 
 Each trajectory is a random walk of the discrete actions (MOVE_FORWARD d_step, TURN_LEFT /
-TURN_RIGHT θ_step) from a random pose, so poses obey SPEC.md "GNM format" exactly. Frames are
+TURN_RIGHT θ_step) from a random pose, so poses obey the GNM format's frame exactly. Frames are
 real JPEGs that depend on the pose: a sky/floor split whose colours follow the yaw and a
 vertical landmark drawn at the bearing of a fixed world point.
 """

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import pickle
 import sys
 from pathlib import Path
 
@@ -31,22 +30,23 @@ import numpy as np
 from rvn_data.atomic import write_text_atomic
 from rvn_data.conventions import Action, from_planar, relative_goal, to_local
 from rvn_data.benchmark.policies import GoalFollowerPolicy
-from rvn_il.data.images import read_rgb
+from rvn_data.dataset.reader import list_trajectories, load_traj_data, read_meta, read_rgb, rvn_trajectories
 from rvn_il.policies.control import waypoints_to_action
 
 NAMES = [a.name for a in Action]
 
 
 def expert_trajectories(root: Path, split: str | None, limit: int | None) -> list[Path]:
-    """Trajectory folders of ``split`` (data_splits/<name>/<split>/traj_names.txt) or all,
-    evenly thinned to at most ``limit``."""
-    lists = sorted(root.glob(f"data_splits/*/{split}/traj_names.txt")) if split else []
-    if split and not lists:
-        raise ValueError(f"{root} has no data_splits/*/{split}/traj_names.txt; pass --split all or another split")
-    names = [n for f in lists for n in f.read_text().split()] if lists else \
-        sorted(p.parent.name for p in root.glob("*/rvn_meta.json"))
+    """rvn-gen's expert trajectory folders of ``split`` (data_splits/<name>/<split>/traj_names.txt)
+    or of the whole folder (``split`` None), evenly thinned to at most ``limit``."""
+    if split:
+        if not any(root.glob(f"data_splits/*/{split}/traj_names.txt")):
+            raise ValueError(f"{root} has no data_splits/*/{split}/traj_names.txt; pass --split all or another split")
+        names = list_trajectories(root, split)[1]
+    else:
+        names = rvn_trajectories(root)
     dirs = [root / n for n in names if (root / n / "rvn_meta.json").is_file()]
-    dirs = [d for d in dirs if json.loads((d / "rvn_meta.json").read_text()).get("kind") == "expert"]
+    dirs = [d for d in dirs if read_meta(d).get("kind") == "expert"]
     if not dirs:
         raise ValueError(f"no expert trajectory with an rvn_meta.json sidecar in {root}; pass a dataset written by rvn-gen")
     if limit and len(dirs) > limit:
@@ -61,10 +61,8 @@ def agreement(policy, dirs: list[Path], len_traj_pred: int) -> dict:
     follower = GoalFollowerPolicy(stop_radius=policy.control.stop_radius,
                                   theta_step_deg=np.degrees(policy.control.theta_step))
     for d in dirs:
-        meta = json.loads((d / "rvn_meta.json").read_text())
-        with open(d / "traj_data.pkl", "rb") as f:
-            data = pickle.load(f)
-        pos, yaw = np.asarray(data["position"], np.float64), np.asarray(data["yaw"], np.float64)
+        meta = read_meta(d)
+        pos, yaw = load_traj_data(d)
         goal = np.asarray(meta["goal"], np.float64)
         policy.reset()
         for t, expert in enumerate(meta["actions"][:len(pos)]):

@@ -1,4 +1,4 @@
-"""NoMaD-PointGoal: NoMaD (reference §4) with the goal-image encoder replaced by a two-layer
+"""NoMaD-PointGoal: NoMaD (Sridhar et al., visualnav-transformer) with the goal-image encoder replaced by a two-layer
 MLP on (x_g, y_g). EfficientNet-B0 with GroupNorm → C+1 observation tokens + 1 goal token →
 Transformer (goal token hidden as a padded key when ``goal_mask`` = 1) → mean over the visible
 tokens = the condition [B, D]. A ConditionalUnet1D predicts the noise of the waypoint deltas,
@@ -47,7 +47,7 @@ class NoMaDPointGoal(PointGoalModel):
         self.dist_pred_net = nn.Sequential(nn.Linear(d, d // 4), nn.ReLU(), nn.Linear(d // 4, d // 16), nn.ReLU(), nn.Linear(d // 16, 1))
         self.num_diffusion_iters = int(cfg["num_diffusion_iters"])
         self.prediction_type = check_prediction_type(cfg.get("prediction_type", "epsilon"))
-        from diffusers import DDPMScheduler  # imported here: diffusers takes ~2 s to import
+        from diffusers import DDPMScheduler  # imported here: diffusers is slow to import
         self.scheduler = DDPMScheduler(num_train_timesteps=self.num_diffusion_iters, beta_schedule="squaredcos_cap_v2",
                                        clip_sample=True, prediction_type=self.prediction_type)
         stats = cfg["action_stats"]  # "auto": set from the data by the trainer, saved in the weights

@@ -1,4 +1,4 @@
-"""ViNT-PointGoal: ViNT (reference §3) with the goal-image encoder replaced by a two-layer MLP
+"""ViNT-PointGoal: ViNT (Shah et al., visualnav-transformer) with the goal-image encoder replaced by a two-layer MLP
 on (x_g, y_g). Tokens: C+1 observation tokens + 1 goal token → Transformer → flatten →
 MLP 256-128-64-32 (ReLU after each) → waypoint deltas (cumsum → waypoints) and an optional
 temporal-distance head. Loss: alpha·1e-2·MSE(distance) + (1-alpha)·MSE(waypoints)."""

@@ -1,4 +1,4 @@
-"""Predicted waypoints → one discrete action (SPEC.md "Baselines": the action that best follows
+"""Predicted waypoints → one discrete action (the paper's baselines: the action that best follows
 a lookahead point chosen on the predicted trajectory).
 
 Rule, with waypoints in metres in the robot frame (x forward, y left):

@@ -63,15 +63,16 @@ def load_member(out_dir: Path, member: str, model_cfg: dict, device: torch.devic
     return Member(model, float(stats["metric_waypoint_spacing"]), crop)
 
 
-def checkpoint_kind(out_dir: Path) -> str | None:
-    """``kind`` recorded in an out_dir's config.yaml (``rl`` for rvn-rl; None for rvn-train's)."""
+def recorded_loader(out_dir: Path) -> str | None:
+    """``policy_loader`` recorded in an out_dir's config.yaml: the function that rebuilds a
+    policy of another trainer (rvn-rl writes ``rvn_rl.policy.load_rl_policy``); None for rvn-train's."""
     import yaml
 
     try:
         cfg = yaml.safe_load((out_dir / "config.yaml").read_text())
     except (OSError, yaml.YAMLError):
         return None
-    return cfg.get("kind") if isinstance(cfg, dict) else None
+    return cfg.get("policy_loader") if isinstance(cfg, dict) else None
 
 
 def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu", model: str | None = None,
@@ -79,9 +80,10 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
     """Policy with ``reset()``/``act(obs)`` from an rvn-train ``out_dir``. ``model`` (optional)
     asserts which model the checkpoint must hold."""
     out_dir = Path(checkpoint_path).expanduser()
-    if checkpoint_kind(out_dir) == "rl":  # an rvn-rl out_dir: its own loader
-        from rvn_rl.policy import load_rl_policy
-        return load_rl_policy(out_dir, device, model, **overrides)
+    other = recorded_loader(out_dir)
+    if other is not None:  # another trainer's out_dir (rvn-rl): the loader it names
+        from hydra.utils import get_method
+        return get_method(other)(out_dir, device, model, **overrides)
     cfg = read_config(out_dir)
     model_cfg = resolve_size(cfg["model"])
     name = model_cfg["name"]

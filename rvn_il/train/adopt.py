@@ -1,6 +1,6 @@
 """NoMaD-Neg's NoMaD_e taken from a trained NoMaD-PointGoal run (``train.expert_from``).
 
-NoMaD_e is a NoMaD-PointGoal network trained on expert data (SPEC.md "Baselines"), so a
+NoMaD_e is a NoMaD-PointGoal network trained on expert data (the paper's NoMaD-Neg), so a
 finished NoMaD-PointGoal run can serve as NoMaD_e instead of a second expert training (the
 longest step of a small experiment). The paper's NoMaD_e sees 93.75 % of the expert
 trajectories (the rest are replaced by negatives); an adopted one saw all of them. The

@@ -23,7 +23,7 @@ from tqdm import tqdm
 
 from ..data import BatchView, EpochSampler, crop_setting, depth_setting, make_dataset
 from ..data.depth import REGENERATE, has_depth
-from ..data.gnm import list_trajectories
+from rvn_data.dataset.reader import list_trajectories
 from ..models import build_model, resolve_size
 from ..models.checkpoint import (latest_checkpoint, load_state_dict_checked, members_of, read_config, read_weights,
                                  save_checkpoint, write_config)

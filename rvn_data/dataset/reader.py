@@ -1,24 +1,30 @@
-"""Read GNM trajectory folders (ours and third-party), SPEC.md "GNM format".
+"""The one reader of GNM trajectory folders (ours and third-party); every consumer uses it:
+rvn-gen on resume, the clip inspector, rvn_il's packed cache and training, the agreement tool.
 
 ``<root>/<traj>/{0..T-1}.jpg`` + ``traj_data.pkl`` (``position`` [T,2] metres, ``yaw`` [T]
-radians). Splits from ``<splits_dir>/<name>/<split>/traj_names.txt`` when present, else every
-folder holding ``traj_data.pkl``. ``metric_waypoint_spacing`` from the config, else
-``<root>/data_config.yaml`` (top level or under the dataset name), else ``d_step`` (0.25 m).
-Third-party pickles are coerced: position → float64 [T,2], yaw → float64 [T] (a [T,1] yaw is
-squeezed), as GoStanford2 needs.
+radians), and for rvn-gen's folders the sidecar ``rvn_meta.json``. Splits from
+``<splits_dir>/<name>/<split>/traj_names.txt`` when present, else every folder holding
+``traj_data.pkl``. ``metric_waypoint_spacing`` from the config, else ``<root>/data_config.yaml``
+(top level or under the dataset name), else ``d_step`` (0.25 m). Third-party pickles are
+coerced: position → float64 [T,2], yaw → float64 [T] (a [T,1] yaw is squeezed), as
+GoStanford2 needs.
 """
 from __future__ import annotations
 
-import hashlib
+import json
 import os
 import pickle
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import cv2
 import numpy as np
 import yaml
 
-DEFAULT_SPACING = 0.25  # m, d_step of SPEC.md
+DEFAULT_SPACING = 0.25  # m, the default d_step
+TRAJ_DATA = "traj_data.pkl"
+DEPTH_NAME = "depth.npy"  # optional sidecar (dataset.save_depth): float16 [T, S, S] metres
+META_NAME = "rvn_meta.json"  # rvn-gen's sidecar: scene, start, goal, actions, collision
 
 
 @dataclass
@@ -43,7 +49,7 @@ class GNMSource:
 
 def load_traj_data(folder: Path) -> tuple[np.ndarray, np.ndarray]:
     """(position float64 [T,2], yaw float64 [T]) of one trajectory folder; ValueError if corrupt."""
-    pkl = folder / "traj_data.pkl"
+    pkl = Path(folder) / TRAJ_DATA
     try:
         with open(pkl, "rb") as f:
             data = pickle.load(f)
@@ -133,11 +139,31 @@ def load_gnm(root: str | Path, split: str = "train", splits_dir: str | Path | No
     return GNMSource(root, name, split, names, positions, yaws, read_spacing(root, name, spacing))
 
 
-def fingerprint(source: GNMSource, *extra: object) -> str:
-    """Hash of every file name, size and mtime in the split's folders, plus ``extra`` settings."""
-    h = hashlib.sha256(repr(extra).encode())
-    for n in source.names:
-        entries = sorted((e.name, e.stat().st_size, e.stat().st_mtime_ns) for e in os.scandir(source.root / n) if e.is_file())
-        h.update(n.encode())
-        h.update(repr(entries).encode())
-    return h.hexdigest()[:32]
+def read_rgb(path: str | Path) -> np.ndarray:
+    """Decode an image file to uint8 RGB [h,w,3]; ValueError naming the file if unreadable."""
+    bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    if bgr is None:
+        raise ValueError(f"cannot decode image {path}: the file is missing or corrupt; regenerate the trajectory or remove it from the split")
+    return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+
+
+def read_meta(folder: str | Path) -> dict:
+    """rvn-gen's sidecar ``rvn_meta.json`` of one trajectory folder; ValueError if missing or corrupt."""
+    path = Path(folder) / META_NAME
+    try:
+        return json.loads(path.read_text())
+    except FileNotFoundError:
+        raise ValueError(f"trajectory {folder} has no {META_NAME}: not written by rvn-gen, or incomplete") from None
+    except (OSError, ValueError) as e:
+        raise ValueError(f"corrupt {path}: {e}; regenerate the trajectory") from None
+
+
+def is_complete(folder: str | Path) -> bool:
+    """An rvn-gen trajectory folder with both its pose file and its sidecar (written last)."""
+    folder = Path(folder)
+    return not folder.name.startswith(".") and (folder / TRAJ_DATA).is_file() and (folder / META_NAME).is_file()
+
+
+def rvn_trajectories(root: str | Path) -> list[str]:
+    """Names of the complete rvn-gen trajectory folders under ``root``, sorted."""
+    return sorted(p.parent.name for p in Path(root).glob(f"*/{META_NAME}") if is_complete(p.parent))

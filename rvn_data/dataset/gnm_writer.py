@@ -1,0 +1,101 @@
+"""rvn-gen's GNM dataset writer, one lifecycle (the way LeRobot's dataset writer reads):
+
+    w = GNMWriter.open(out_dir, settings)     # writable? made with these settings? (records them)
+    w.write_trajectory(name, jpegs, position, yaw, meta, depth)   # one folder, atomically
+    w.close_scene(slug, record)               # the scene's record, last: a scene with one is done
+    w.finalise(specs)                         # data_splits/, data_config.yaml, manifest.json
+
+Scene jobs in worker processes write through ``GNMWriter(out_dir, settings)`` (opened once by
+the parent). On resume, folders already complete are read back with `rvn_data.dataset.reader`.
+Layout and atomicity of one folder: `rvn_data.dataset.writer`.
+"""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from rvn_data.dataset import finalise as _finalise
+from rvn_data.dataset import writer
+from rvn_data.dataset.reader import is_complete, read_meta
+from rvn_data.dataset.settings import GenSettings
+from rvn_data.identity import check_identity
+
+SETTING_GROUPS = ("agent", "navmesh", "camera", "seed", "renderer")  # other identity keys are dataset.*
+
+
+class GNMWriter:
+    """An rvn-gen output folder being written (see the module docstring)."""
+
+    def __init__(self, out_dir: str | Path, settings: GenSettings):
+        self.out_dir, self.settings = Path(out_dir), settings
+
+    @classmethod
+    def open(cls, out_dir: str | Path, settings: GenSettings) -> "GNMWriter":
+        """Check that ``out_dir`` is writable and holds no dataset made with other settings
+        (ValueError naming the setting), and record the settings; then write into it."""
+        w = cls(out_dir, settings)
+        w._check_writable()
+        w._check_identity()
+        return w
+
+    def _check_writable(self) -> None:
+        try:
+            (self.out_dir / ".rvn").mkdir(parents=True, exist_ok=True)
+            probe = self.out_dir / ".rvn" / f".probe{os.getpid()}"
+            probe.write_bytes(b"")
+            probe.unlink()
+        except OSError as e:
+            raise ValueError(f"out_dir={self.out_dir}: cannot write there ({e.strerror or e}); "
+                             "choose a writable out_dir") from None
+
+    def _check_identity(self) -> None:
+        path = self.out_dir / ".rvn" / "settings.json"
+        mine = self.settings.identity()
+        if path.is_file():
+            check_identity(path, json.loads(path.read_text()), json.loads(writer.dumps_json(mine)),
+                           f"out_dir={self.out_dir} holds a dataset:",
+                           "use another out_dir, or the same settings to resume or extend it",
+                           name=lambda k: k if k.split(".")[0] in SETTING_GROUPS else f"dataset.{k}")
+            return
+        writer.write_text_atomic(path, writer.dumps_json(mine))
+
+    # -- one scene ------------------------------------------------------------------------
+    def scene_record(self, slug: str) -> dict | None:
+        """The record of a scene already closed, or None."""
+        path = writer.record_path(self.out_dir, slug)
+        return json.loads(path.read_text()) if path.is_file() else None
+
+    def done_trajectory(self, name: str) -> dict | None:
+        """The sidecar of a trajectory already on disk (folders only appear complete), or None."""
+        return read_meta(self.out_dir / name) if is_complete(self.out_dir / name) else None
+
+    def write_trajectory(self, name: str, jpegs: list[bytes], position: np.ndarray, yaw: np.ndarray,
+                         meta: dict, depth: np.ndarray | None = None) -> None:
+        writer.write_trajectory(self.out_dir, name, jpegs, position, yaw, meta, depth)
+
+    def write_map(self, slug: str, png: bytes) -> None:
+        writer.write_text_atomic(self.out_dir / "maps" / f"{slug}.png", png)
+
+    def close_scene(self, slug: str, record: dict) -> None:
+        """Write the scene's record (deterministic, no timings): the scene is done."""
+        writer.write_text_atomic(writer.record_path(self.out_dir, slug), writer.dumps_json(record))
+
+    def note_failure(self, slug: str, error: str | None) -> None:
+        """Keep (or, after a success, remove) the note of a scene whose job failed."""
+        note = _finalise.failure_path(self.out_dir, slug)
+        if error is not None:
+            writer.write_text_atomic(note, error + "\n")
+        elif note.is_file():
+            note.unlink()
+
+    # -- the dataset ----------------------------------------------------------------------
+    def missing_scenes(self, specs: list[str]) -> list[str]:
+        return _finalise.missing_scenes(self.out_dir, specs)
+
+    def finalise(self, specs: list[str], allow_missing: bool = False) -> list[str]:
+        """Splits, data_config.yaml and manifest.json from the scene records; returns the
+        specs still missing."""
+        return _finalise.finalise(self.out_dir, self.settings, specs, allow_missing)
