@@ -27,6 +27,7 @@ def plain(cfg) -> dict:
     return OmegaConf.to_container(cfg, resolve=True)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("module, typo, wrong_type, messages", [
     ("rvn_data.gen.cli", "camera.widht=3", "camera.width=abc", ("Key 'widht' not in 'CameraConfig'", "camera.width")),
     ("rvn_il.train.cli", "train.bach_size=4", "train.max_steps=many", ("Key 'bach_size' not in 'TrainLoopConfig'",

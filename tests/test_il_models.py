@@ -18,6 +18,7 @@ def root(tmp_path_factory):
     return write_synthetic_gnm(tmp_path_factory.mktemp("il_models") / "expert", 3, 24, image_size=64)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["vint_pointgoal", "nomad_pointgoal"])
 def test_loss_falls_when_overfitting_8_samples(root, name):
     cfg = load_model_config(name, "small")

@@ -4,6 +4,7 @@ episode's first, and returns do not bootstrap across the episode boundary."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import torch
 
 from rvn_data.conventions import Action, relative_goal
@@ -14,6 +15,7 @@ KW = dict(mode="train", split="train", scenes={"num_scenes": 2}, camera={"width"
           renderer={"backend": "raycast"}, episodes={"n_goals": 2})
 
 
+@pytest.mark.slow
 def test_autoreset_gives_the_next_episodes_first_observation():
     envs = BatchEnv(KW, 2, seed=3)
     try:
