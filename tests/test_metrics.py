@@ -101,3 +101,18 @@ def test_tracker_builds_records():
     assert m["SPL_1"] == pytest.approx(1.0) and m["CPK"] == pytest.approx(1 / 0.0011)
     with pytest.raises(ValueError, match="termination"):
         EpisodeTracker("s", 0, 0, "s#0").finish("bored")
+
+
+def test_eval_run_written_before_the_benchmark_package_resumes(tmp_path):
+    """run.json of an rvn-eval out_dir written when the reference policies lived in rvn_data.policies:
+    its records are kept; any other difference is still refused."""
+    from rvn_data.benchmark.results import RunDir
+
+    ident = {"policy": {"_target_": "rvn_data.benchmark.policies.RandomPolicy"}, "split": "val"}
+    old = {"policy": {"_target_": "rvn_data.policies.RandomPolicy"}, "split": "val"}
+    (tmp_path / "run.json").write_text(json.dumps(old))
+    (tmp_path / "episodes.jsonl").write_text(json.dumps({"scene_index": 0, "episode_index": 1}) + "\n")
+    assert list(RunDir(tmp_path, ident).open()) == [(0, 1)]
+    other = {"policy": {"_target_": "rvn_data.benchmark.policies.OraclePolicy"}, "split": "val"}
+    with pytest.raises(ValueError, match="policy._target_"):
+        RunDir(tmp_path, other).open()

@@ -30,6 +30,19 @@ def run_identity(cfg: dict) -> dict:
     return json.loads(json.dumps(ident, sort_keys=True))
 
 
+MOVED = {"rvn_data.policies.": "rvn_data.benchmark.policies."}  # reference policies' old module
+
+
+def moved_targets(identity: dict) -> dict:
+    """A stored run identity with the reference policies' ``_target_`` under today's module, so an
+    out_dir written before the benchmark became a package resumes."""
+    target = (identity.get("policy") or {}).get("_target_")
+    for old, new in MOVED.items():
+        if isinstance(target, str) and target.startswith(old):
+            identity["policy"]["_target_"] = new + target[len(old):]
+    return identity
+
+
 def record_key(rec: dict) -> tuple[int, int]:
     return int(rec["scene_index"]), int(rec["episode_index"])
 
@@ -50,7 +63,7 @@ class RunDir:
         self.dir.mkdir(parents=True, exist_ok=True)
         done: dict[tuple[int, int], dict] = {}
         if resume and self.run_path.exists():
-            check_settings(self.run_path, json.loads(self.run_path.read_text()), self.identity, what="rvn-eval run",
+            check_settings(self.run_path, moved_targets(json.loads(self.run_path.read_text())), self.identity, what="rvn-eval run",
                            hint="use another out_dir, or resume=false to start it over")
             if self.records_path.exists():
                 for rec in read_records(self.records_path, drop_partial_tail=True):
