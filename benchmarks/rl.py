@@ -1,7 +1,8 @@
 """RL figures (issue 16): env steps/s of rvn-rl's collection alone and of collection + learning,
 at 128x128 RGB with the ResNet-18 policy (goals on a 2-core CPU: >= 800 and >= 200).
 
-1. env: the batched envs stepped with random actions (no network);
+1. env: the batched envs stepped with random actions (no network), with the goal pool and
+   with fresh goals per draw (``env.goal_pool=0``, the ratio against it printed);
 2. collection: envs + the policy's act() (what a rollout costs);
 3. collection + learning: rvn-rl's own loop (``train()``) for a few PPO updates, its fps.
 Train-mode envs on ``--scenes`` procedural train scenes, their loading excluded (warm-up).
@@ -23,7 +24,8 @@ def overrides(args, out_dir: str) -> list[str]:
             f"env.num_scenes={args.scenes}", "model.backbone=resnet18", f"model.base_planes={args.base_planes}",
             f"model.ngroups={min(16, args.base_planes // 2)}", f"ppo.num_steps={args.num_steps}",
             f"train.threads={args.threads}", "progress=false", f"renderer={args.renderer}", f"out_dir={out_dir}",
-            f"train.total_steps={args.updates * args.num_steps * args.envs}", "train.checkpoint_every=1000"]
+            f"train.total_steps={args.updates * args.num_steps * args.envs}", "train.checkpoint_every=1000",
+            f"env.goal_pool={args.goal_pool}"]
 
 
 def collection(cfg: dict, steps: int, with_policy: bool) -> float:
@@ -73,6 +75,7 @@ def main() -> None:
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--base-planes", type=int, default=32, help="ResNet base width (32: DD-PPO's half width)")
     p.add_argument("--renderer", default="auto")
+    p.add_argument("--goal-pool", type=int, default=64, help="env.goal_pool (0: fresh goals, two Dijkstra solves each)")
     args = p.parse_args()
     torch.set_num_threads(args.threads)
     from rvn_rl.cli import compose
@@ -81,6 +84,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         cfg = compose(overrides(args, f"{tmp}/run"))
         env_sps = collection(cfg, args.steps, with_policy=False)
+        fresh_sps = collection(compose(overrides(args, f"{tmp}/run") + ["env.goal_pool=0"]), args.steps, False)
         col_sps = collection(cfg, args.steps, with_policy=True)
         train(cfg)
         rows = [json.loads(line) for line in open(f"{tmp}/run/metrics.jsonl")]
@@ -88,7 +92,8 @@ def main() -> None:
     fps = sum(r["fps"] for r in learn) / len(learn)
     print(f"rvn-rl at {args.size}x{args.size} RGB, resnet18 (base planes {args.base_planes}), {args.envs} envs, workers={args.workers}, "
           f"{args.threads} torch threads:")
-    print(f"  env steps/s, envs alone (random actions): {env_sps:8.0f}")
+    print(f"  env steps/s, envs alone (random actions): {env_sps:8.0f}   (goal_pool={args.goal_pool}; "
+          f"{fresh_sps:.0f} with fresh goals, x{env_sps / fresh_sps:.2f})")
     print(f"  env steps/s, collection (envs + policy) : {col_sps:8.0f}   (goal >= 800)")
     print(f"  env steps/s, collection + learning      : {fps:8.0f}   (goal >= 200; PPO {learn[0]['rollout_steps']:.0f}-step "
           f"rollouts, 2 epochs x 2 mini-batches)")

@@ -66,7 +66,7 @@ def env_kwargs(cfg: dict) -> dict:
     return {"mode": "train", "split": "train", "scenes": scenes, "agent": cfg["agent"], "navmesh": cfg["navmesh"],
             "camera": cfg["camera"], "renderer": cfg.get("renderer") or {}, "episodes": dict(cfg["episodes"]),
             "t_max": env["t_max"], "scene_switch_every": env["scene_switch_every"],
-            "depth": bool(env.get("depth")) or uses_true_depth(cfg)}
+            "goal_pool": int(env.get("goal_pool", 0)), "depth": bool(env.get("depth")) or uses_true_depth(cfg)}
 
 
 def model_kwargs(cfg: dict) -> dict:

@@ -153,3 +153,27 @@ def test_train_mode_switches_scene(tmp_path):
     assert all(scenes[i] == scenes[i + 1] for i in range(0, 8, 2))  # K = 2 resets per scene
     assert set(scenes) == {"procedural:val/0", "procedural:val/1"}
     e.close()
+
+
+def test_train_goals_from_the_scene_pool(tmp_path):
+    """goal_pool=G: every train goal is one of the scene's G pool points, 4-8 m from where
+    it is given, its field equal to a fresh solve; the pool is a function of the scene alone."""
+    kw = dict(mode="train", split="val", scene_specs=["procedural:val/0"], goal_pool=12, episodes={"n_goals": 2})
+    a, b = make_env(tmp_path, **kw), make_env(tmp_path, **kw)
+    a.reset(seed=3)
+    pool = a._scene.goal_sampler(a.config).goals
+    assert pool.shape == (12, 3)
+    goals = []
+    for i in range(6):
+        _, info = a.reset() if i else a.reset(seed=3)
+        _, info_b = b.reset() if i else b.reset(seed=3)
+        assert info == info_b and np.array_equal(a.goal, b.goal)  # same seed, same draws
+        assert np.min(np.linalg.norm(pool - a.goal, axis=1)) < 1e-9
+        assert 4.0 - 1e-4 <= info["distance_to_goal"] <= 8.0 + 1e-4
+        fresh = a.navmesh.distance_field(a.goal).distance(a.position)
+        assert abs(a.goal_field.distance(a.position) - fresh) < 1e-4
+        goals.append(tuple(a.goal))
+    assert len(set(goals)) > 1
+    a.close(), b.close()
+    with pytest.raises(ValueError, match="goal_pool=-1 must be a non-negative integer"):
+        make_env(tmp_path, mode="train", goal_pool=-1)

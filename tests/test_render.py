@@ -177,6 +177,15 @@ def test_two_gl_renderers_in_one_process_keep_their_own_context():
         b.render([0.0, 0.0, 0.0], 0.0)
 
 
+@needs_egl
+def test_gl_without_depth_skips_its_read_back_and_keeps_the_rgb():
+    r = make_renderer(coloured_room(), CameraConfig(width=24, height=24), "gl")
+    rgb, depth = r.render([0.0, 0.0, 0.0], 0.7)
+    rgb_only, none = r.render([0.0, 0.0, 0.0], 0.7, depth=False)
+    assert none is None and depth is not None and np.array_equal(rgb, rgb_only)
+    r.close()
+
+
 def test_chunk_culling_skips_what_is_behind_the_camera():
     from rvn_data.render.chunks import build_chunks, order_faces, visible_runs
 

@@ -15,7 +15,8 @@ scene and pose kept; after N_goal goals the episode terminates (success). A coll
 ``stop_far_is_failure``). Otherwise reward −Δ(geodesic distance to goal) − 0.01. No goal
 within ``t_max`` steps of being given → truncated (failure).
 
-Modes: ``train`` draws random episodes with the benchmark sampler from ``np_random``
+Modes: ``train`` draws random episodes with the benchmark sampler from ``np_random`` (goals
+from a fixed per-scene pool with ``goal_pool`` > 0: `rvn_data.benchmark.goal_pool`)
 and switches scene every ``scene_switch_every`` resets; ``eval`` walks the fixed episode
 set of the split in order (scene, then episode); ``reset(seed=...)`` rewinds it to the
 first episode and ``options={"episode": k}`` (k-th of the set) or
@@ -72,25 +73,11 @@ class RVNEnv(gym.Env):
         """The current `Scene` (its triangles: what the trajectory oracle's planner rasterises)."""
         return self._scene.scene
 
-    @property
-    def navmesh(self):
-        return self._scene.navmesh
-
-    @property
-    def simulator(self):
-        return self._scene.simulator
-
-    @property
-    def position(self) -> np.ndarray:
-        return self._pos
-
-    @property
-    def yaw(self) -> float:
-        return self._yaw
-
-    @property
-    def goal(self) -> np.ndarray:
-        return self._goal
+    navmesh = property(lambda self: self._scene.navmesh)
+    simulator = property(lambda self: self._scene.simulator)
+    position = property(lambda self: self._pos, doc="The agent's floor position [3].")
+    yaw = property(lambda self: self._yaw, doc="The agent's heading (rad).")
+    goal = property(lambda self: self._goal, doc="The current goal [3].")
 
     @property
     def goal_field(self):
@@ -191,21 +178,31 @@ class RVNEnv(gym.Env):
 
     def _next_goal(self) -> bool:
         """Give the next goal; False when none could be sampled (train mode)."""
-        s = self.config.episodes
         if self.config.mode == "eval":
-            goal = self._episode.goals[self._goals_reached]
+            goal, field = self._episode.goals[self._goals_reached], None
         else:
-            found = sample_goal(self.navmesh, self.navmesh.distance_field(self._pos), self.np_random,
-                                s.d_min, s.d_max, s.max_tries)
+            found = self._draw_goal()
             if found is None:
                 return False
-            goal = found[0]
+            goal, field = found
         self._goal = np.asarray(goal, dtype=np.float64)
-        self._field = self.navmesh.distance_field(self._goal)
+        self._field = field or self.navmesh.distance_field(self._goal)
         self._dist = self.distance_to_goal()
         self._goal_steps = 0
         self._tracker.new_goal(self._dist)
         return True
+
+    def _draw_goal(self):
+        """(goal, its field or None) for train mode: from the scene's goal pool when
+        ``goal_pool`` > 0 and one is in range, else a fresh uniform draw; None if none found."""
+        s = self.config.episodes
+        if self.config.goal_pool:
+            found = self._scene.goal_sampler(self.config).sample(self._pos, self.np_random, s.d_min, s.d_max)
+            if found is not None:
+                return found
+        found = sample_goal(self.navmesh, self.navmesh.distance_field(self._pos), self.np_random,
+                            s.d_min, s.d_max, s.max_tries)
+        return None if found is None else (found[0], None)
 
     def step(self, action):
         if self._done:
@@ -258,7 +255,7 @@ class RVNEnv(gym.Env):
         return self._tracker.record
 
     def _observe(self) -> dict:
-        rgb, depth = self._scene.renderer.render(self._pos, self._yaw)
+        rgb, depth = self._scene.renderer.render(self._pos, self._yaw, depth=self.config.depth)
         obs = {"rgb": np.ascontiguousarray(rgb, dtype=np.uint8),
                "pointgoal": relative_goal(self._pos, self._yaw, self._goal)}
         if self.config.depth:

@@ -50,6 +50,7 @@ class EnvConfig:
     stop_far_is_failure: bool = False
     depth: bool = False
     scene_switch_every: int = 8
+    goal_pool: int = 0
     reward_goal: float = 1.0
     reward_collision: float = -0.1
     slack_penalty: float = 0.01
@@ -99,10 +100,11 @@ class EnvConfig:
             self.success_distance = self.agent.success_distance
         if self.per_scene is None:
             self.per_scene = DEFAULT_PER_SCENE[self.split]
-        for name in ("t_max", "per_scene", "scene_switch_every"):
+        for name in ("t_max", "per_scene", "scene_switch_every", "goal_pool"):
             v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-                raise ValueError(f"RVNEnv setting {name}={v!r} must be a positive integer")
+            if isinstance(v, bool) or not isinstance(v, int) or v < (0 if name == "goal_pool" else 1):
+                raise ValueError(f"RVNEnv setting {name}={v!r} must be a "
+                                 f"{'non-negative' if name == 'goal_pool' else 'positive'} integer")
         if not self.success_distance > 0:
             raise ValueError(f"RVNEnv setting success_distance={self.success_distance!r} must be > 0")
 
@@ -148,7 +150,7 @@ class SceneSlot:
     def __init__(self, pos, spec, scene_index, scene, navmesh, simulator, renderer):
         self.pos, self.spec, self.scene_index = pos, spec, scene_index
         self.scene, self.navmesh, self.simulator, self.renderer = scene, navmesh, simulator, renderer
-        self._episodes = None
+        self._episodes = self._goal_sampler = None
 
     @property
     def scene_id(self) -> str:
@@ -172,6 +174,15 @@ class SceneSlot:
             self._episodes = store.episodes_for(self.scene_index, self.spec, config.per_scene, None,
                                                 loaded=(self.scene, self.navmesh))
         return self._episodes
+
+    def goal_sampler(self, config: EnvConfig):
+        """This scene's train-mode goal pool (`rvn_data.benchmark.goal_pool`), built on first use."""
+        if self._goal_sampler is None:
+            from rvn_data.benchmark.goal_pool import PoolSampler, pool_for
+            key = (self.spec, repr(config.navmesh), repr(sorted(config.scenes.items())))
+            pool = pool_for(self.navmesh, key, config.goal_pool, config.split_code, self.scene_index)
+            self._goal_sampler = PoolSampler(self.navmesh, pool)
+        return self._goal_sampler
 
     def close(self) -> None:
         if self.renderer is not None:

@@ -39,8 +39,9 @@ class Renderer(abc.ABC):
         self.camera = camera
 
     @abc.abstractmethod
-    def render(self, position, yaw: float) -> tuple[np.ndarray, np.ndarray]:
-        """(rgb uint8 [H, W, 3], depth float32 [H, W] planar metres, 0 = no hit)."""
+    def render(self, position, yaw: float, depth: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+        """(rgb uint8 [H, W, 3], depth float32 [H, W] planar metres, 0 = no hit). With
+        ``depth=False`` a back-end may skip the depth (returned as None) where that is cheaper."""
 
     @abc.abstractmethod
     def close(self) -> None:

@@ -159,13 +159,13 @@ class GLRenderer(base.Renderer):
         self._objects.append(obj)
         return obj
 
-    def render(self, position, yaw: float) -> tuple[np.ndarray, np.ndarray]:
+    def render(self, position, yaw: float, depth: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
         if self.ctx is None:
             raise RuntimeError("render() on a closed GL renderer")
         with self.ctx:  # current for this frame, previous context restored after
-            return self._render(position, yaw)
+            return self._render(position, yaw, depth)
 
-    def _render(self, position, yaw: float) -> tuple[np.ndarray, np.ndarray]:
+    def _render(self, position, yaw: float, with_depth: bool) -> tuple[np.ndarray, np.ndarray | None]:
         cam, ctx = self.camera, self.ctx
         eye, rot = cam.pose(position, yaw)
         view = np.eye(4)
@@ -190,8 +190,10 @@ class GLRenderer(base.Renderer):
                 current = i
             vao.render(self._mgl.TRIANGLES, vertices=count, first=first)
         rgb = np.empty((cam.height, cam.width, 3), np.uint8)
-        depth = np.empty((cam.height, cam.width), np.float32)
         self.fbo.read_into(rgb, components=3, attachment=0)
+        if not with_depth:  # the second read-back costs about as much as the first
+            return rgb, None
+        depth = np.empty((cam.height, cam.width), np.float32)
         self.fbo.read_into(depth, components=1, attachment=1, dtype="f4")
         return rgb, depth
 

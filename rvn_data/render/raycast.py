@@ -118,8 +118,8 @@ class RaycastRenderer(base.Renderer):
         self._tfar = np.empty(npx, np.float32)
         self.info = f"embree (embreex) + numba, 1 thread, {len(self._faces)} triangles"
 
-    def render(self, position, yaw: float) -> tuple[np.ndarray, np.ndarray]:
-        if self._embree is None:
+    def render(self, position, yaw: float, depth: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        if self._embree is None:  # depth comes free with the hit distances: always returned
             raise RuntimeError("render() on a closed raycast renderer")
         cam = self.camera
         eye, rot = cam.pose(position, yaw)
