@@ -13,6 +13,8 @@ import numpy as np
 import torch
 from torch import nn
 
+from rvn_data.numba_note import note_first_compile
+
 from . import checkpoint as ck
 from .config import env_kwargs, load_depth_fn, model_kwargs, validate
 from .distrib import Dist, all_sum, init
@@ -114,6 +116,8 @@ def _train(cfg: dict, d: Dist) -> dict:
         learner = DDP(learner, device_ids=[device.index] if device.type == "cuda" else None,
                       broadcast_buffers=False, find_unused_parameters=False, gradient_as_bucket_view=True)
     gen = torch.Generator().manual_seed(int(np.random.SeedSequence([int(cfg["seed"]), d.rank, updates]).generate_state(1)[0]))
+    if d.rank == 0:
+        note_first_compile("rvn-rl")
     envs = make_envs(cfg, seed=int(cfg["seed"]) + 7919 * updates, rank=d.rank, device=device)
     logging.getLogger("rvn").setLevel(logging.WARNING)  # the first scenes' renderer lines are enough
     log = RunLog(out_dir, d.rank == 0)

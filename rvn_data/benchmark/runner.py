@@ -17,6 +17,7 @@ from collections.abc import Callable, Iterable, Iterator
 import numpy as np
 
 from rvn_data.conventions import Action
+from rvn_data.numba_note import note_first_compile
 
 ENV_KEYS = ("t_max", "success_distance", "success_metric", "stop_far_is_failure", "depth")
 
@@ -134,6 +135,7 @@ def _pool(workers: int, cfg: dict | None = None):
 
 def prepare_episodes(cfg: dict, slots: list, workers: int, progress: Callable | None = None) -> None:
     """Generate and cache the episode files of every scene (in parallel when workers > 1)."""
+    note_first_compile("rvn-eval")
     tasks = [(cfg, slot) for slot in slots]
     if not tasks:  # every episode already done (a resumed run): no pool of zero processes
         return

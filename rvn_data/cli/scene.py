@@ -14,7 +14,8 @@ import numpy as np
 
 
 def _add_scene_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("scene", help="mesh path (GLB/glTF/OBJ/PLY) or procedural:<split>/<index>")
+    p.add_argument("scene", nargs="?", default="procedural:train/0",
+                   help="mesh path (GLB/glTF/OBJ/PLY) or procedural:<split>/<index> (default: procedural:train/0)")
     p.add_argument("--up-axis", choices=("y", "z"), default="y", help="up axis of the file (HM3D: z)")
     p.add_argument("--unit-scale", type=float, default=1.0, help="metres per file unit (mm: 0.001)")
     p.add_argument("--level", action="store_true", help="rotate so the dominant floor normal is +y")

@@ -19,6 +19,7 @@ from rvn_data.dataset.gnm_writer import GNMWriter
 from rvn_data.dataset.scene_job import TIMERS, SceneResult, run_scene
 from rvn_data.dataset.settings import GenSettings
 from rvn_data.gen.summary import summary
+from rvn_data.numba_note import note_first_compile
 
 
 def list_scenes(cfg: Any) -> list[str]:
@@ -89,6 +90,7 @@ def generate(cfg: Any) -> GenReport:
     mine = specs[shard_index::num_shards]
     scene_cfg = {k: v for k, v in dict(cfg["scenes"]).items()}
     jobs = [(spec, settings, str(out_dir), n, scene_cfg) for spec in mine]
+    note_first_compile("rvn-gen")
     results = _run(jobs, int(cfg.get("workers", 1)), n, bool(cfg.get("progress", True)))
     for r in results:
         gnm.note_failure(r.slug, r.error)
