@@ -146,3 +146,26 @@ def test_significance_between_rows(runs, tmp_path):
     assert sr1_p(Row("a", 100, 200, 0, 1.0), Row("b", 10, 200, 0, 1.0)) < 1e-10
     bad = report(str(runs / "eval" / "oracle"), "-o", str(tmp_path / "r.md"), "--compare", "Oracle=PPO")
     assert bad.returncode == 1 and "'PPO'" in bad.stderr and "Traceback" not in bad.stderr
+
+
+def test_bar_plot_legend_key_beside_its_text(tmp_path, monkeypatch):
+    """The paper's black tick has a short key of its own in the legend, left of the text, not over it."""
+    from types import SimpleNamespace
+
+    import numpy as np
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from rvn_data.benchmark import plots
+
+    figs = []
+    monkeypatch.setattr(plots, "_save", lambda fig, path: figs.append(fig))
+    runs = [SimpleNamespace(label="NoMaD-PointGoal", metrics={"SR_1": 0.5}, paper=lambda: (0.75, 3.7, 35.7)),
+            SimpleNamespace(label="Oracle", metrics={"SR_1": 0.9}, paper=lambda: None)]
+    plots.bar_plot(runs, "SR_1", 0, "SR_1", "SR_1", 3, tmp_path / "sr1.png", top=1.0)
+    canvas = FigureCanvasAgg(figs[0])
+    canvas.draw()
+    legend = figs[0].axes[0].get_legend()
+    assert [t.get_text() for t in legend.get_texts()] == ["paper (same method and split)"]
+    key = legend.legend_handles[0].get_window_extent(canvas.get_renderer())
+    text = legend.get_texts()[0].get_window_extent(canvas.get_renderer())
+    assert np.isfinite([key.x0, key.x1]).all() and 0 < key.width and key.x1 <= text.x0

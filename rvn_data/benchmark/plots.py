@@ -20,6 +20,7 @@ def bar_plot(runs: list, key: str, index: int, title: str, ylabel: str, digits: 
              top: float | None = None, symlog: bool = False) -> None:
     """Bars of ``key`` per run (``index``: the metric's place in the paper's rows), saved to ``path``."""
     from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
 
     fig = Figure(figsize=(max(5.0, 1.3 * len(runs) + 2), 4), layout="constrained")
     ax = fig.add_subplot()
@@ -31,8 +32,10 @@ def bar_plot(runs: list, key: str, index: int, title: str, ylabel: str, digits: 
     ref = [(i, r.paper()[index]) for i, r in enumerate(runs) if r.paper() is not None]
     if ref:
         ax.scatter([i for i, _ in ref], [v for _, v in ref], marker="_", s=900, linewidths=3, color="black",
-                   zorder=3, label="paper (same method and split)")
-        ax.legend(fontsize=8, loc="best")
+                   zorder=3)
+        # a short line of its own as the legend's key: the 30-point tick itself would cover the text
+        key = Line2D([], [], color="black", lw=3, label="paper (same method and split)")
+        ax.legend(handles=[key], fontsize=8, loc="best", handlelength=1.5)
     if top is not None:
         ax.set_ylim(0, top)
     if symlog:  # CPK spans 0 (oracle) to thousands (random)

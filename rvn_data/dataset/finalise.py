@@ -7,8 +7,17 @@ Each shard writes only its scenes' trajectory folders, maps and records
 - ``data_splits/<name>/{train,test}/traj_names.txt``: split by scene, seeded (a seeded
   permutation of the sorted scene names; round((1 − train_fraction)·N) scenes, at least
   one when N ≥ 2 and train_fraction < 1, go to test);
-- ``data_config.yaml``: ``<name>: {metric_waypoint_spacing: d_step}``;
+- ``data_config.yaml``: ``<name>: {metric_waypoint_spacing: d_step}``, with comments for users of
+  visualnav-transformer (spacing vs turns in place; negative clips are for NoMaD-Neg only);
 - ``manifest.json``: counts and statistics per scene and in total.
+
+The splits never shrink silently: they hold the union of every complete trajectory folder of
+this dataset on disk, i.e. the scenes of the run's list plus the scenes done (or begun) by
+earlier runs into the same out_dir with other lists, and folders beyond a scene's record (an
+earlier run with more ``trajectories_per_scene``); the manifest names what came from earlier
+runs (``kept_from_earlier_runs``) and rvn-gen's summary says so. When a ``traj_names.txt``
+changes, the caches visualnav-transformer keeps beside it (``dataset_<name>.lmdb``,
+``dataset_dist_*.pkl``; built once, never checked again) are removed.
 
 The last shard to finish calls it and succeeds; earlier ones find scenes missing and
 leave it to the others (or to ``rvn-gen mode=merge``). Running it twice writes the same bytes.
@@ -16,12 +25,17 @@ leave it to the others (or to ``rvn-gen mode=merge``). Running it twice writes t
 from __future__ import annotations
 
 import json
+import os
+import re
+import shutil
 from collections import Counter
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from rvn_data.dataset import naming, writer
+from rvn_data.dataset.reader import is_complete, read_meta
 from rvn_data.dataset.settings import GenSettings
 
 
@@ -67,35 +81,160 @@ def _stats(values: list[float]) -> dict:
             "max": round(float(v.max()), 4)}
 
 
+@dataclass
+class Finalised:
+    """What `finalise_dataset` did: ``missing`` specs (nothing written unless allowed),
+    ``earlier`` slugs of scenes not in the run's list kept from earlier runs, ``extra``
+    trajectory folders kept beyond their scene's record, ``removed`` stale caches of the
+    official GNM tooling (paths relative to out_dir)."""
+
+    missing: list[str]
+    written: bool = False
+    earlier: list[str] = field(default_factory=list)
+    extra: list[str] = field(default_factory=list)
+    removed: list[str] = field(default_factory=list)
+
+
 def finalise(out_dir: Path, settings: GenSettings, specs: list[str], allow_missing: bool = False) -> list[str]:
     """Write splits, data_config and manifest over `specs` once every scene is done or has
     failed; returns the specs still missing (then nothing is written unless `allow_missing`).
-    Failed scenes are listed in the manifest; their trajectories are simply absent."""
+    Failed scenes are listed in the manifest; their trajectories are simply absent.
+    See `finalise_dataset` for the details."""
+    return finalise_dataset(out_dir, settings, specs, allow_missing).missing
+
+
+def finalise_dataset(out_dir: Path, settings: GenSettings, specs: list[str], allow_missing: bool = False) -> Finalised:
+    """`finalise` with a report: the splits and manifest cover the union of the scenes of
+    `specs` and every complete trajectory of this dataset already on disk (module docstring)."""
     out_dir = Path(out_dir)
     missing = missing_scenes(out_dir, specs)
     if missing and not allow_missing:
-        return missing
+        return Finalised(missing)
     failed = failed_scenes(out_dir, specs)
+    listed = [naming.scene_slug(spec) for spec in specs]
     records = {}
-    for spec in specs:
-        path = writer.record_path(out_dir, naming.scene_slug(spec))
+    for slug in listed:
+        path = writer.record_path(out_dir, slug)
         if path.is_file():
-            records[naming.scene_slug(spec)] = json.loads(path.read_text())
-    train, test = split_scenes([naming.scene_slug(s) for s in specs], settings.seed, settings.train_fraction)
+            records[slug] = json.loads(path.read_text())
+    # the union with what is on disk: scenes done by earlier runs with other scene lists, folders
+    # beyond a record (an earlier, larger trajectories_per_scene) and scenes begun but never finished
+    earlier = _earlier_records(out_dir, set(listed))
+    records.update(earlier)
+    kept = [t["name"] for r in earlier.values() for t in r["trajectories"]]
+    for slug, metas in _extra_trajectories(out_dir, settings.kind, records).items():
+        if slug in records:
+            records[slug]["trajectories"] = sorted(records[slug]["trajectories"] + [_entry(m) for m in metas],
+                                                   key=_index)
+        elif slug not in listed:  # a listed scene without a record has failed or is missing: reported as such
+            records[slug] = earlier[slug] = _unfinished_record(metas)
+        else:
+            continue
+        kept += [m["name"] for m in metas]
+    train, test = split_scenes(sorted(set(listed) | set(records)), settings.seed, settings.train_fraction)
     base = out_dir / "data_splits" / settings.name
+    removed = []
     for part, slugs in (("train", train), ("test", test)):
         names = [t["name"] for slug in slugs if slug in records for t in records[slug]["trajectories"]]
-        writer.write_text_atomic(base / part / "traj_names.txt", "".join(f"{n}\n" for n in names))
-    writer.write_text_atomic(out_dir / "data_config.yaml",
-                             f"# GNM data config (visualnav-transformer): metres between consecutive frames' "
-                             f"positions of a MOVE_FORWARD\n{settings.name}:\n"
-                             f"  metric_waypoint_spacing: {settings.agent.d_step}\n")
+        removed += _write_split(out_dir, base / part, "".join(f"{n}\n" for n in names))
+    writer.write_text_atomic(out_dir / "data_config.yaml", data_config_text(settings))
     writer.write_text_atomic(out_dir / "manifest.json", writer.dumps_json(
-        _manifest(settings, specs, records, train, test, missing, failed)))
-    return missing
+        _manifest(settings, specs, records, train, test, missing, failed, sorted(earlier), sorted(kept))))
+    return Finalised(missing, True, sorted(earlier), sorted(kept), removed)
 
 
-def _manifest(s: GenSettings, specs, records, train, test, missing, failed) -> dict:
+# visualnav-transformer's ViNT_Dataset builds these beside traj_names.txt once and never checks them again
+GNM_CACHE_PATTERNS = ("dataset_*.lmdb", "dataset_*.lmdb-lock", "dataset_dist_*.pkl")
+
+
+def _write_split(out_dir: Path, folder: Path, text: str) -> list[str]:
+    """Write ``folder/traj_names.txt``; when its list changes, remove the official tooling's
+    caches of the old list there. Returns the removed paths (relative to out_dir)."""
+    path = folder / "traj_names.txt"
+    old = path.read_text() if path.is_file() else None
+    removed = []
+    if old != text and folder.is_dir():
+        for pattern in GNM_CACHE_PATTERNS:
+            for cache in sorted(folder.glob(pattern)):
+                if cache.is_dir() and not cache.is_symlink():
+                    shutil.rmtree(cache)
+                else:
+                    cache.unlink()
+                removed.append(cache.relative_to(out_dir).as_posix())
+    if old != text:
+        writer.write_text_atomic(path, text)
+    return removed
+
+
+def data_config_text(s: GenSettings) -> str:
+    """``data_config.yaml``: the entry visualnav-transformer's data_config needs, with what a
+    user of the official tooling must know about it."""
+    head = ("# GNM data config (visualnav-transformer): metres between consecutive frames' "
+            "positions of a MOVE_FORWARD\n"
+            "# = agent.d_step, one forward step. About 45 % of the steps are turns in place (no motion),\n"
+            "# so consecutive frames are on average only ~0.14 m apart (default agent); see docs/DATASET.md.\n")
+    if s.kind == "negative":
+        head += ("# NEGATIVE clips: every trajectory ends in a collision. Only RVN's NoMaD-Neg trainer uses them\n"
+                 "# (rvn-train model=nomad_neg data.negative_root=<this folder>); do not add this dataset to\n"
+                 "# visualnav-transformer's data_config: its trainer would learn the collisions as demonstrations.\n")
+    else:
+        head += "# To train with visualnav-transformer, copy the entry below into its data_config.yaml.\n"
+    return head + f"{s.name}:\n  metric_waypoint_spacing: {s.agent.d_step}\n"
+
+
+def _earlier_records(out_dir: Path, listed: set[str]) -> dict[str, dict]:
+    """slug → record of the scenes done by earlier runs whose scene list did not hold them."""
+    folder = out_dir / ".rvn" / "scenes"
+    if not folder.is_dir():
+        return {}
+    out = {}
+    for path in sorted(folder.glob("*.json")):
+        if not path.name.startswith(".") and path.stem not in listed:
+            out[path.stem] = json.loads(path.read_text())
+    return out
+
+
+def _extra_trajectories(out_dir: Path, kind: str, records: dict[str, dict]) -> dict[str, list[dict]]:
+    """slug → sidecars of the complete trajectory folders of this kind that no record lists."""
+    known = {t["name"] for r in records.values() for t in r["trajectories"]}
+    pattern = re.compile(rf".+_{re.escape(kind)}_\d+")
+    out: dict[str, list[dict]] = {}
+    with os.scandir(out_dir) as it:
+        names = sorted(e.name for e in it if e.is_dir() and pattern.fullmatch(e.name) and e.name not in known)
+    for name in names:
+        if not is_complete(out_dir / name):
+            continue
+        try:
+            meta = read_meta(out_dir / name)
+        except ValueError:
+            continue
+        if meta.get("kind") != kind or not meta.get("spec") or meta.get("name") != name:
+            continue
+        out.setdefault(naming.scene_slug(meta["spec"]), []).append(meta)
+    return out
+
+
+def _index(t: dict) -> int:
+    return int(t["index"]) if t.get("index") is not None else int(t["name"].rsplit("_", 1)[1])
+
+
+def _entry(m: dict) -> dict:
+    return {"name": m["name"], "index": m["index"], "frames": m["frames"], "t_c": m["t_c"],
+            "path_length": m["path_length"], "attempt": m["attempt"]}
+
+
+def _unfinished_record(metas: list[dict]) -> dict:
+    """A scene record rebuilt from the sidecars of a scene begun but not finished."""
+    rejected = Counter()
+    for m in metas:
+        rejected.update(m.get("rejected") or {})
+    return {"scene": metas[0]["scene"], "spec": metas[0]["spec"], "unfinished": True,
+            "trajectories": sorted((_entry(m) for m in metas), key=_index), "failed": [],
+            "rejected": dict(sorted(rejected.items())), "attempts": int(sum(rejected.values()) + len(metas)),
+            "renderers": sorted({m["renderer"] for m in metas if m.get("renderer")})}
+
+
+def _manifest(s: GenSettings, specs, records, train, test, missing, failed, earlier=(), kept=()) -> dict:
     trajs = [t for r in records.values() for t in r["trajectories"]]
     rejected = Counter()
     for r in records.values():
@@ -104,7 +243,7 @@ def _manifest(s: GenSettings, specs, records, train, test, missing, failed) -> d
     out = {
         "dataset": s.name, "kind": s.kind, "seed": s.seed, "format": "GNM",
         "metric_waypoint_spacing": s.agent.d_step,
-        "scenes": {"listed": len(specs), "done": len(records), "train": len(train), "test": len(test),
+        "scenes": {"listed": len(specs), "done": sum(not r.get("unfinished") for r in records.values()), "train": len(train), "test": len(test),
                    "missing": [str(m) for m in missing], "failed": {str(k): v for k, v in sorted(failed.items())}},
         "trajectories": len(trajs),
         "trajectories_failed": sum(len(r["failed"]) for r in records.values()),
@@ -120,6 +259,11 @@ def _manifest(s: GenSettings, specs, records, train, test, missing, failed) -> d
                       for slug, r in sorted(records.items())},
         "settings": s.identity(),
     }
+    for slug, r in records.items():
+        if r.get("unfinished"):
+            out["per_scene"][slug]["unfinished"] = True
+    if earlier or kept:  # on disk from earlier runs, not in this run's scene list or trajectories_per_scene
+        out["kept_from_earlier_runs"] = {"scenes": list(earlier), "trajectories": list(kept)}
     if s.kind == "negative":
         out["t_c"] = _stats([t["t_c"] for t in trajs])
     return out

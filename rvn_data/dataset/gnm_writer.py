@@ -99,3 +99,7 @@ class GNMWriter:
         """Splits, data_config.yaml and manifest.json from the scene records; returns the
         specs still missing."""
         return _finalise.finalise(self.out_dir, self.settings, specs, allow_missing)
+
+    def finalise_dataset(self, specs: list[str], allow_missing: bool = False) -> _finalise.Finalised:
+        """`finalise` with a report: what was kept from earlier runs, stale caches removed."""
+        return _finalise.finalise_dataset(self.out_dir, self.settings, specs, allow_missing)

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from rvn_data.dataset import naming
+from rvn_data.dataset.finalise import Finalised
 from rvn_data.dataset.gnm_writer import GNMWriter
 from rvn_data.dataset.scene_job import TIMERS, SceneResult, run_scene
 from rvn_data.dataset.settings import GenSettings
@@ -94,9 +95,10 @@ def generate(cfg: Any) -> GenReport:
     results = _run(jobs, int(cfg.get("workers", 1)), n, bool(cfg.get("progress", True)))
     for r in results:
         gnm.note_failure(r.slug, r.error)
-    missing = gnm.finalise(specs)
+    done = gnm.finalise_dataset(specs)
     seconds = time.perf_counter() - t_start
-    print(summary(settings, out_dir, results, specs, missing, shard_index, num_shards, seconds))
+    print(summary(settings, out_dir, results, specs, done.missing, shard_index, num_shards, seconds))
+    _report_finalised(done, settings.name)
     return GenReport(1 if any(r.error for r in results) else 0, results, seconds)
 
 
@@ -106,10 +108,23 @@ def merge(gnm: GNMWriter, specs: list[str], allow_partial: bool) -> int:
     if missing and not allow_partial:
         raise ValueError(f"out_dir={gnm.out_dir}: {len(missing)} of {len(specs)} scenes are not generated yet "
                          f"(first: {missing[0]}); run the missing shards, or merge with allow_partial=true")
-    gnm.finalise(specs, allow_missing=True)
+    done = gnm.finalise_dataset(specs, allow_missing=True)
     print(f"rvn-gen merge: {gnm.out_dir}: wrote data_splits/{gnm.settings.name}/, data_config.yaml, manifest.json "
           f"({len(specs) - len(missing)} of {len(specs)} scenes)")
+    _report_finalised(done, gnm.settings.name)
     return 0
+
+
+def _report_finalised(done: Finalised, name: str) -> None:
+    """Say what the splits kept from earlier runs and which stale caches were removed."""
+    if done.extra:
+        what = (f"of {len(done.earlier)} scenes that are not in this run's scene list (e.g. {done.earlier[0]})"
+                if done.earlier else f"beyond trajectories_per_scene (e.g. {done.extra[0]})")
+        print(f"  note: the splits and manifest.json keep {len(done.extra)} trajectories earlier runs wrote here {what}; "
+              "manifest.json lists them under kept_from_earlier_runs; for a dataset without them use a new out_dir")
+    if done.removed:
+        print(f"  removed {len(done.removed)} stale visualnav-transformer cache(s) of the old split lists "
+              f"(rebuilt on its next training): {', '.join(done.removed)}")
 
 
 def _run(jobs: list[tuple], workers: int, n: int, progress: bool) -> list[SceneResult]:

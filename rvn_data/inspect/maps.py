@@ -76,12 +76,21 @@ def scene_map(meta: dict, scale: int = 3, up_axis: str = "y", unit_scale: float 
     return SceneMap(img, grid.origin, grid.resolution, int(scale))
 
 
+# RGB colours of `draw_clip`, shared with the legends of `rvn_data.inspect.plots`
+ASTAR, START, GOAL, POSES, COMMANDED, HIT, HEADING = ((150, 150, 150), (0, 170, 0), (0, 80, 200), (240, 130, 0),
+                                                      (220, 0, 0), (220, 0, 0), (0, 0, 0))
+LEGEND = [("thin", ASTAR, "A* path"), ("dot", START, "start"), ("square", GOAL, "goal"),
+          ("line", POSES, "poses up to t_c"), ("dashed", COMMANDED, "commanded after t_c"),
+          ("ring", HIT, "pose at t_c"), ("cross", HIT, "contact point"), ("arrow", HEADING, "heading (last pose)")]
+
+
 def draw_clip(smap: SceneMap, meta: dict, planar: np.ndarray, upto: int | None = None,
               t_c: int | None = None, yaw: np.ndarray | None = None) -> np.ndarray:
     """RGB copy of the map with the A* path (grey), start (green) and goal (blue), the clip's
-    poses 0..``upto`` (orange before the collision, red dashed after it: the commanded
-    motion), the current pose as an arrow, and, once reached, the pose at t_c (red ring) and
-    the contact point on the navmesh boundary (red cross)."""
+    poses 0..``upto`` (orange up to the collision), once reached the pose at t_c (red ring) and
+    the contact point on the navmesh boundary (red cross), then on top of those the commanded
+    motion after t_c (red dashes on a white casing) and the heading at the last pose drawn
+    (black arrow). `LEGEND` lists these marks."""
     img = np.ascontiguousarray(smap.image.copy())
     upto = len(planar) - 1 if upto is None else int(upto)
 
@@ -90,29 +99,32 @@ def draw_clip(smap: SceneMap, meta: dict, planar: np.ndarray, upto: int | None =
 
     wps = meta.get("waypoints_planar")
     if wps:
-        cv2.polylines(img, [pts(wps).reshape(-1, 1, 2)], False, (150, 150, 150), 1, cv2.LINE_AA)
+        cv2.polylines(img, [pts(wps).reshape(-1, 1, 2)], False, ASTAR, 1, cv2.LINE_AA)
     if meta.get("start") is not None:
         s = pts([meta["start"][0], -meta["start"][2]])[0]
-        cv2.circle(img, tuple(int(v) for v in s), 4, (0, 170, 0), -1, cv2.LINE_AA)
+        cv2.circle(img, tuple(int(v) for v in s), 4, START, -1, cv2.LINE_AA)
     if meta.get("goal_planar") is not None:
         g = pts(meta["goal_planar"])[0]
-        cv2.rectangle(img, (int(g[0]) - 4, int(g[1]) - 4), (int(g[0]) + 4, int(g[1]) + 4), (0, 80, 200), -1)
+        cv2.rectangle(img, (int(g[0]) - 4, int(g[1]) - 4), (int(g[0]) + 4, int(g[1]) + 4), GOAL, -1)
     p = pts(planar[: upto + 1])
     cut = upto + 1 if t_c is None else min(upto, t_c) + 1
-    cv2.polylines(img, [p[:cut].reshape(-1, 1, 2)], False, (240, 130, 0), 2, cv2.LINE_AA)
-    for a, b in zip(p[max(cut - 1, 0):-1], p[cut:]):  # after t_c: dashed (every other segment)
-        cv2.line(img, tuple(int(v) for v in a), tuple(int(v) for v in (a + b) // 2), (220, 0, 0), 2, cv2.LINE_AA)
-    if t_c is not None and upto >= t_c:
+    cv2.polylines(img, [p[:cut].reshape(-1, 1, 2)], False, POSES, 2, cv2.LINE_AA)
+    if t_c is not None and upto >= t_c:  # the collision marks, under the commanded motion
         c = pts(planar[t_c])[0]
-        cv2.circle(img, (int(c[0]), int(c[1])), 6, (220, 0, 0), 2, cv2.LINE_AA)
+        cv2.circle(img, (int(c[0]), int(c[1])), 6, HIT, 2, cv2.LINE_AA)
         if meta.get("contact") is not None:
             c = pts([meta["contact"][0], -meta["contact"][2]])[0]
-        cv2.drawMarker(img, (int(c[0]), int(c[1])), (220, 0, 0), cv2.MARKER_TILTED_CROSS, 14, 2)
+        cv2.drawMarker(img, (int(c[0]), int(c[1])), HIT, cv2.MARKER_TILTED_CROSS, 14, 2)
+    dashes = [(tuple(int(v) for v in a), tuple(int(v) for v in (a + b) // 2))
+              for a, b in zip(p[max(cut - 1, 0):-1], p[cut:])]  # after t_c: every other half-step
+    for width, colour in ((4, (255, 255, 255)), (2, COMMANDED)):  # a white casing keeps them visible on the cross
+        for a, b in dashes:
+            cv2.line(img, a, b, colour, width, cv2.LINE_AA)
     if yaw is not None and len(p):
         tip = pts(planar[upto] + 0.4 * np.array([np.cos(yaw[upto]), np.sin(yaw[upto])]))[0]
-        cv2.arrowedLine(img, tuple(int(v) for v in p[-1]), tuple(int(v) for v in tip), (0, 0, 0), 2,
+        cv2.arrowedLine(img, tuple(int(v) for v in p[-1]), tuple(int(v) for v in tip), HEADING, 2,
                         cv2.LINE_AA, tipLength=0.4)
     return img
 
 
-__all__ = ["SceneMap", "draw_clip", "scene_map"]
+__all__ = ["LEGEND", "SceneMap", "draw_clip", "scene_map"]

@@ -1,10 +1,11 @@
 """Figures and animations of collision clips (matplotlib `Figure` objects, no pyplot state).
 
-- `clip_figure`: the clip's frames in a grid beside the map with the path; the collision
-  frame has a red border, frames after it (frozen at I_{t_c}) are labelled so.
+- `clip_figure`: the clip's frames in a grid beside the map with the path and a legend of
+  its marks (`rvn_data.inspect.maps.LEGEND`); the collision frame has a red border, frames
+  after it (frozen at I_{t_c}) are labelled so.
 - `animation_frames` / `write_animation`: per step, the frame (scaled up) beside the map
-  cropped around the clip with the path so far and the current pose; GIF (PIL) or MP4
-  (OpenCV), written under a temporary name and moved into place.
+  cropped around the clip with the path so far and the current pose, a legend strip under
+  both; GIF (PIL) or MP4 (OpenCV), written under a temporary name and moved into place.
 - `stats_figure`: trajectory lengths, t_c, path lengths and collisions per scene.
 """
 from __future__ import annotations
@@ -18,7 +19,8 @@ from matplotlib.ticker import MaxNLocator
 
 from rvn_data.atomic import atomic_path
 from rvn_data.inspect.clips import Clip
-from rvn_data.inspect.maps import SceneMap, draw_clip
+from rvn_data.dataset.topdown import legend_strip
+from rvn_data.inspect.maps import LEGEND, SceneMap, draw_clip
 
 RED = (220, 0, 0)
 
@@ -43,7 +45,7 @@ def clip_figure(clip: Clip, smap: SceneMap, cols: int = 5, frame_inches: float =
     map_img = draw_clip(_around(clip, smap, pad), clip.meta, clip.planar, t_c=clip.t_c, yaw=clip.yaw)
     aspect = map_img.shape[1] / map_img.shape[0]
     map_w = rows * frame_inches * aspect
-    fig = Figure(figsize=(cols * frame_inches + map_w, rows * frame_inches + 0.6), layout="constrained")
+    fig = Figure(figsize=(cols * frame_inches + map_w, rows * frame_inches + 1.0), layout="constrained")
     grid = fig.add_gridspec(rows, cols + 1, width_ratios=[1.0] * cols + [map_w / frame_inches])
     for t in range(rows * cols):
         ax = fig.add_subplot(grid[t // cols, t % cols])
@@ -62,18 +64,32 @@ def clip_figure(clip: Clip, smap: SceneMap, cols: int = 5, frame_inches: float =
     ax.imshow(map_img)
     ax.set_xticks([])
     ax.set_yticks([])
-    ax.set_title("A* path (grey), poses (orange), commanded after t_c (red),\n"
-                 "pose at t_c (o), contact (x), start (green), goal (blue)", fontsize=7)
+    fig.legend(handles=legend_handles(), loc="outside lower right", ncol=4, fontsize=7, frameon=False,
+               handlelength=2.2)
     tc = "none" if clip.t_c is None else f"{clip.t_c} of {n} frames ({clip.meta.get('t_c_episode')} steps from start)"
     fig.suptitle(f"{clip.name} ({clip.scene}): collision frame {tc}", fontsize=9)
     return fig
 
 
+def legend_handles() -> list:
+    """Matplotlib legend entries of `draw_clip`'s marks (`rvn_data.inspect.maps.LEGEND`)."""
+    from matplotlib.lines import Line2D
+
+    style = {"thin": {"lw": 1}, "line": {"lw": 2}, "dashed": {"lw": 2, "ls": (0, (2, 2))},
+             "dot": {"ls": "", "marker": "o", "ms": 5}, "square": {"ls": "", "marker": "s", "ms": 5},
+             "ring": {"ls": "", "marker": "o", "ms": 7, "mfc": "none", "mew": 1.5},
+             "cross": {"ls": "", "marker": "x", "ms": 6, "mew": 1.5},
+             "arrow": {"ls": "", "marker": r"$\rightarrow$", "ms": 10}}
+    return [Line2D([], [], color=tuple(c / 255 for c in colour), label=text, **style[icon])
+            for icon, colour, text in LEGEND]
+
+
 def animation_frames(clip: Clip, smap: SceneMap, height: int = 256, pad: float = 1.5) -> list[np.ndarray]:
     """One RGB image per step: frame t (nearest-neighbour scaled to ``height``) beside the
-    map cropped ``pad`` m around the clip, path up to t; red border from t_c on."""
+    map cropped ``pad`` m around the clip, path up to t; red border from t_c on; the legend
+    of the map's marks under both."""
     local = _around(clip, smap, pad)
-    out = []
+    out, legend = [], None
     for t in range(len(clip)):
         frame = clip.frames[t]
         w = int(round(frame.shape[1] * height / frame.shape[0]))
@@ -88,7 +104,9 @@ def animation_frames(clip: Clip, smap: SceneMap, height: int = 256, pad: float =
         cv2.putText(img, _label(clip, t), (6, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (0, 0, 0), 3, cv2.LINE_AA)
         cv2.putText(img, _label(clip, t), (6, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.5, RED if hit else (255, 255, 255), 1,
                     cv2.LINE_AA)
-        out.append(img)
+        if legend is None or legend.shape[1] != img.shape[1]:
+            legend = legend_strip(img.shape[1], LEGEND)
+        out.append(np.concatenate([img, legend], 0))
     return out
 
 
