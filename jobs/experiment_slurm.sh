@@ -13,6 +13,7 @@
 set -euo pipefail
 
 OUT=${OUT:-/data/rvn}
+export RVN_CACHE_DIR=${RVN_CACHE_DIR:-$OUT/cache}   # packed frames shared by the trainings (README, Caches)
 SCENES=${SCENES:-800}             # train scenes (paper: 800)
 TRAJ=${TRAJ:-400}                 # expert trajectories per scene (paper: 400)
 NEG_FRACTION=${NEG_FRACTION:-0.0625}  # NoMaD-Neg: share of expert trajectories replaced by negatives

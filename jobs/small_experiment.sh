@@ -83,6 +83,7 @@ neg_splits() {
 }
 
 export OMP_NUM_THREADS=$THREADS MKL_NUM_THREADS=$THREADS
+export RVN_CACHE_DIR=${RVN_CACHE_DIR:-$OUT/cache}   # one packed-frame cache for the three trainings (README, Caches)
 echo "small_experiment: SCALE=$SCALE OUT=$OUT: $TRAIN_SCENES train scenes x $TRAJ_PER_SCENE expert (+ $NEG_PER_SCENE negative)," \
      "${IMAGE}x$IMAGE images, epochs ViNT $VINT_EPOCHS / NoMaD $NOMAD_EPOCHS${MAX_STEPS:+ (max_steps $MAX_STEPS)}; eval $EVAL_SCENES val scenes x $EVAL_EPISODES episodes x $N_GOALS goals"
 

@@ -20,15 +20,21 @@ lists its collisions by scene, plays one clip (frames beside a top-down map with
 collision marked) and plots the dataset's statistics. The map is rebuilt from the clip's scene
 (procedural scenes need nothing; mesh scenes need their file at the sidecar's `spec`).
 
-Set `DATASET` below, or the environment variable `RVN_DATASET` (e.g.
-`RVN_DATASET=outputs/rvn_negative jupyter lab`). `RVN_CLIP` picks a trajectory by name."""),
+Install and start it from the repository root (`pip install -e '.[notebooks]'`, then
+`RVN_DATASET=outputs/rvn_negative jupyter lab`), or pass a folder to `dataset_path` below.
+Relative paths are read from the folder Jupyter was started in (`$PWD`, or `RVN_LAUNCH_DIR`),
+not from `notebooks/`. `RVN_CLIP` picks a trajectory by name. The animation goes to
+`RVN_CLIPS_OUT`, else under the cache root: `$RVN_CACHE_DIR/clips/`, else
+`outputs/cache/clips/` (never into the dataset or the repository)."""),
     ("code", """import os
-from pathlib import Path
 
-DATASET = Path(os.environ.get("RVN_DATASET", "../outputs/rvn_negative"))  # an rvn-gen dataset=negative out_dir
+from rvn_data.inspect.paths import clips_dir, dataset_path
+
+DATASET = dataset_path()  # $RVN_DATASET or outputs/rvn_negative (an rvn-gen dataset=negative out_dir)
 CLIP = os.environ.get("RVN_CLIP")  # trajectory name; None = the first clip that ends in a collision
-OUT = Path(os.environ.get("RVN_CLIPS_OUT", "clips"))  # the animation is written here
-SCENE_OPTIONS = {}  # loader options for mesh scenes, e.g. {"up_axis": "z"} for HM3D"""),
+OUT = clips_dir(DATASET)  # the animation is written here
+SCENE_OPTIONS = {}  # loader options for mesh scenes, e.g. {"up_axis": "z"} for HM3D
+print(f"dataset {DATASET}; clips go to {OUT}")"""),
     ("code", """%matplotlib inline
 from IPython.display import Image, Markdown, display
 

@@ -46,7 +46,8 @@ class EvalEpisodesConfig:
     """rvn-eval's ``episodes``: which episodes are run, and how they are drawn (the fields of
     `EpisodeSettings`, with its defaults and meaning)."""
 
-    dir: str | None = None  # cache of generated episode sets (null: $RVN_EPISODES_DIR or ~/.cache/rvn/episodes)
+    # cache of generated episode sets, one folder per episode settings inside (null: <cache root>/episodes)
+    dir: str | None = None
     num_scenes: int | None = None  # null = every scene of the split (paper: 800 train / 50 val / 50 test)
     first_scene: int = 0
     per_scene: int | None = None  # null = paper: 2 per train scene, 20 per val / test scene
@@ -83,6 +84,9 @@ class EvalConfig:
     seed: int = 0
     method: str | None = None  # row label in the table; null = the policy config's name
     out_dir: str = "runs/eval/${split}/${hydra:runtime.choices.policy}"
+    # cache root (rvn_data/cache_root.py): null = $RVN_CACHE_DIR, else <out_dir>/cache; set
+    # RVN_CACHE_DIR (or cache_dir=) to one folder to share episode sets between evaluations
+    cache_dir: str | None = None
     workers: int = 1  # worker processes, each with its own env and renderer
     resume: bool = True  # skip episodes already in out_dir/episodes.jsonl
     progress: bool = True

@@ -83,7 +83,7 @@ def test_eval_config_defaults():
 
 def test_train_config_defaults_and_completion():
     cfg = plain(load_config("train", ["model=vint_pointgoal", "train.lr=1e-3"]))
-    assert list(cfg) == ["agent", "model", "seed", "device", "out_dir", "data", "train"]
+    assert list(cfg) == ["agent", "model", "seed", "device", "out_dir", "cache_dir", "data", "train"]
     assert cfg["data"] == asdict(DataConfig())
     assert cfg["train"] == {**asdict(TrainLoopConfig()), "lr": 1e-3}
     assert cfg["out_dir"] == "runs/train/vint_pointgoal"

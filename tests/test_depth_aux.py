@@ -142,12 +142,12 @@ def test_train_with_depth_loss_needs_depth(data, tmp_path):
 
 def test_cache_with_depth_needs_every_sidecar(data, tmp_path):
     root = tmp_path / "partial"
-    shutil.copytree(data / "depth", root, ignore=shutil.ignore_patterns(".rvn_cache"))
+    shutil.copytree(data / "depth", root)
     (trajectories(root)[1] / "depth.npy").unlink()
     cfg = load_model_config("nomad_pointgoal", "small", depth_aux_weight=0.5)
     with pytest.raises(ValueError, match=rf"dataset {root}: trajectory .*_0001 has no depth.npy; regenerate with "
                                          r"rvn-gen dataset.save_depth=true"):
-        make_dataset(root, cfg, {"progress": False})
-    assert not list((root / ".rvn_cache").glob("*.h5"))
+        make_dataset(root, cfg, {"progress": False, "cache_dir": str(tmp_path / "cache")})
+    assert not list((tmp_path / "cache").rglob("*.h5"))
     with pytest.raises(ValueError, match=r"model.depth_size=8; rvn-gen dataset.depth_size must match"):
         make_dataset(data / "depth", {**cfg, "depth_size": 8}, {"progress": False, "cache_dir": str(tmp_path)})

@@ -1,6 +1,7 @@
 """Episode sets: goal chains, determinism, reproducible files, settings checks."""
 import gzip
 import json
+import shutil
 
 import numpy as np
 import pytest
@@ -83,14 +84,34 @@ def test_store_bytes_reproducible_and_prefix(tmp_path, loaded):
     assert [e.to_json() for e in again] == [e.to_json() for e in eps[:2]]
 
 
-def test_settings_mismatch_is_an_error(tmp_path, loaded):
-    store_for(tmp_path).episodes_for(0, SPEC, 1, lambda: loaded)
-    path = store_for(tmp_path).scene_path(0, SPEC)
+def test_other_settings_get_their_own_folder(tmp_path, loaded):
+    base = store_for(tmp_path)
+    base.episodes_for(0, SPEC, 1, lambda: loaded)
+    base.write_index()
     other = store_for(tmp_path, EpisodeSettings(n_goals=5, seed=3))
+    bigger = store_for(tmp_path, agent=AgentConfig(r_robot=0.2))
+    assert len({base.dir, other.dir, bigger.dir}) == 3 and base.dir.parent == tmp_path / "procedural"
+    assert base.dir.name.startswith("val-") and store_for(tmp_path).dir == base.dir  # the key is stable
+    assert len(other.episodes_for(0, SPEC, 1, lambda: loaded)[0].goals) == 5
+    assert len(base.episodes_for(0, SPEC, 1, lambda: pytest.fail("regenerated"))[0].goals) == 6
+    elsewhere = EpisodeStore(tmp_path, "val", base.settings, scenes_root=tmp_path / "meshes")
+    assert elsewhere.dir != base.dir  # another scenes.root, another set
+
+
+def test_file_with_other_settings_is_an_error(tmp_path, loaded):
+    """A file copied by hand into another settings' folder is still refused, naming the setting."""
+    base = store_for(tmp_path)
+    base.episodes_for(0, SPEC, 1, lambda: loaded)
+    base.write_index()
+    other = store_for(tmp_path, EpisodeSettings(n_goals=5, seed=3))
+    path = other.scene_path(0, SPEC)
+    path.parent.mkdir(parents=True)
+    shutil.copy(base.scene_path(0, SPEC), path)
     with pytest.raises(ValueError, match=rf"{path}.*episodes.n_goals=6.*episodes.n_goals=5"):
         other.episodes_for(0, SPEC, 1, lambda: loaded)
-    store_for(tmp_path).write_index()
     bigger = store_for(tmp_path, agent=AgentConfig(r_robot=0.2))
+    bigger.dir.mkdir(parents=True)
+    shutil.copy(base.index_path, bigger.index_path)
     with pytest.raises(ValueError, match=r"index.json.*agent.r_robot=0.18.*agent.r_robot=0.2"):
         bigger.episodes_for(0, SPEC, 1, lambda: loaded)
 
@@ -111,7 +132,9 @@ def test_env_config_caches_episodes(tmp_path):
                                 episodes={"n_goals": 3, "dir": str(tmp_path)})
     assert cfg.scene_slots() == [(SPEC, 0)]
     assert ensure_scene_episodes(cfg, (SPEC, 0)) == 2
-    assert (tmp_path / "procedural" / "val" / "00000_proc_val_0000.json.gz").exists()
+    assert [p.relative_to(tmp_path).parts[::2] for p in tmp_path.rglob("*.json.gz")] == \
+        [("procedural", "00000_proc_val_0000.json.gz")]
+    assert cfg.store().scene_path(0, SPEC).exists()
 
 
 def test_scene_too_small_is_named(navmesh):

@@ -71,8 +71,10 @@ def test_aspect_and_none_unchanged_and_bad_values_named():
 def test_one_cache_file_per_crop(tmp_path):
     root = write_synthetic_gnm(tmp_path / "ds", 2, 12, image_size=32)
     src = load_gnm(root)
-    paths = {c: ensure_cache(src, (16, 16), c, progress=False) for c in ("aspect", "official", "none")}
-    assert paths["aspect"] == cache_path(src, (16, 16), True, None) and paths["aspect"].name.endswith("_16x16_crop.h5")
+    paths = {c: ensure_cache(src, (16, 16), c, tmp_path / "cache", progress=False)
+             for c in ("aspect", "official", "none")}
+    assert paths["aspect"] == cache_path(src, (16, 16), True, tmp_path / "cache")
+    assert paths["aspect"].name.endswith("_16x16_crop.h5")
     assert paths["none"].name.endswith("_16x16.h5") and paths["official"].name.endswith("_16x16_official.h5")
     first = np.asarray(PackedCache(paths["official"]).images[0]).transpose(1, 2, 0)
     want = preprocess_image(read_rgb(src.frame_path(0, 0)), (16, 16), "official")

@@ -109,18 +109,19 @@ def test_third_party_pickles_splits_and_spacing(tmp_path):
 
 def test_cache_rebuilt_when_source_changes(tmp_path):
     root = write_synthetic_gnm(tmp_path / "ds", 2, 12, image_size=32)
-    size = (16, 16)
-    path = ensure_cache(load_gnm(root), size, progress=False)
+    size, cache = (16, 16), tmp_path / "cache"
+    path = ensure_cache(load_gnm(root), size, cache_dir=cache, progress=False)
+    assert path.is_relative_to(cache) and not list(root.rglob("*.h5"))  # the dataset is only read
     mtime = path.stat().st_mtime_ns
-    assert ensure_cache(load_gnm(root), size, progress=False).stat().st_mtime_ns == mtime  # reused
+    assert ensure_cache(load_gnm(root), size, cache_dir=cache, progress=False).stat().st_mtime_ns == mtime  # reused
     frame = root / "traj_000_0000" / "3.jpg"
     cv2.imwrite(str(frame), np.full((32, 32, 3), 255, np.uint8))
     os.utime(frame, ns=(mtime + 10**9, mtime + 10**9))
-    path2 = ensure_cache(load_gnm(root), size, progress=False)
+    path2 = ensure_cache(load_gnm(root), size, cache_dir=cache, progress=False)
     assert path2 == path and path2.stat().st_mtime_ns != mtime
     assert np.asarray(PackedCache(path2).images[3]).min() > 240  # the new white frame is in the cache
     assert not list(path.parent.glob("*.tmp*"))  # no temporary file left (rvn_data.atomic: .<name>.*.tmp<suffix>)
-    assert ensure_cache(load_gnm(root), (8, 8), progress=False) != path  # other image size, other file
+    assert ensure_cache(load_gnm(root), (8, 8), cache_dir=cache, progress=False) != path  # other image size, other file
 
 
 def test_epoch_sampler_shards_and_resumes():
@@ -153,8 +154,8 @@ def test_bad_inputs_name_the_culprit(tmp_path):
     write_traj(jpg / "t", position, yaw)
     (jpg / "t" / "4.jpg").write_bytes(b"\xff\xd8garbage")
     with pytest.raises(ValueError, match=r"cannot decode image .*4\.jpg"):
-        ensure_cache(load_gnm(jpg), (16, 16), progress=False)
-    assert not list((jpg / ".rvn_cache").glob("*"))  # nothing half-written
+        ensure_cache(load_gnm(jpg), (16, 16), cache_dir=tmp_path / "cache", progress=False)
+    assert not [p for p in (tmp_path / "cache").rglob("*") if p.is_file()]  # nothing half-written
     short = tmp_path / "short"
     write_traj(short / "long", position, yaw)
     write_traj(short / "tiny", position[:4], yaw[:4])

@@ -137,21 +137,29 @@ def test_notebook_file_is_generated_from_its_script():
 
 @pytest.mark.slow
 def test_notebook_runs_headless(dataset, tmp_path, monkeypatch):
+    """The README's recipe: `RVN_DATASET=<relative path> jupyter lab` from the launch folder, the
+    kernel running in notebooks/ with the launch shell's environment; clips under the cache root."""
     import nbformat
     from nbclient import NotebookClient
 
-    monkeypatch.setenv("RVN_DATASET", str(dataset))
-    monkeypatch.setenv("RVN_CLIPS_OUT", str(tmp_path / "clips"))
+    launch = dataset.parent
+    monkeypatch.setenv("PWD", str(launch))  # what the shell exports after `cd <launch>`
+    monkeypatch.setenv("RVN_DATASET", dataset.name)  # relative to the launch folder, not to notebooks/
+    for name in ("RVN_CLIPS_OUT", "RVN_CACHE_DIR", "RVN_LAUNCH_DIR"):
+        monkeypatch.delenv(name, raising=False)
     monkeypatch.setenv("MPLBACKEND", "module://matplotlib_inline.backend_inline")
+    repo_before = sorted(NOTEBOOK.parent.iterdir())
     nb = nbformat.read(str(NOTEBOOK), as_version=4)
-    NotebookClient(nb, timeout=300, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}}).execute()
+    kernel_dir = {"metadata": {"path": str(NOTEBOOK.parent)}}  # as Jupyter runs it: in notebooks/
+    NotebookClient(nb, timeout=300, kernel_name="python3", resources=kernel_dir).execute()
+    assert sorted(NOTEBOOK.parent.iterdir()) == repo_before  # nothing written into the repository
     outputs = [o for c in nb.cells if c.cell_type == "code" for o in c.outputs]
     assert not [o for o in outputs if o.output_type == "error"]
     mimes = [m for o in outputs for m in o.get("data", {})]
     assert mimes.count("image/png") == 2 and mimes.count("image/gif") == 1  # clip figure, stats; animation
     markdown = "".join(o["data"]["text/markdown"] for o in outputs if "text/markdown" in o.get("data", {}))
     assert "procedural:train/0" in markdown and "| scene | trajectories | collisions |" in markdown
-    gifs = list((tmp_path / "clips").glob("*.gif"))
+    gifs = list((launch / "outputs" / "cache" / "clips").glob(f"{dataset.name}-*/*.gif"))
     assert len(gifs) == 1 and gifs[0].stem == first_collision(list_trajectories(dataset))
     with Image.open(gifs[0]) as im:
         assert im.n_frames == len(load_clip(dataset, gifs[0].stem))

@@ -3,9 +3,9 @@ scene with its navmesh, simulator, renderer and cached episodes (`SceneSlot`), a
 order in which an evaluation walks a fixed episode set (`eval_schedule`)."""
 from __future__ import annotations
 
-import os
 from dataclasses import asdict, dataclass, field, fields, replace
 
+from rvn_data.cache_root import cache_root
 from rvn_data.render import RendererConfig
 from rvn_data.scenes.sets import ScenesConfig
 from rvn_data.conventions import AgentConfig
@@ -14,7 +14,6 @@ from rvn_data.benchmark.episodes_store import EpisodeStore, make_settings
 from rvn_data.navmesh.settings import NavMeshSettings
 from rvn_data.render.camera import CameraConfig
 
-DEFAULT_EPISODES_DIR = os.environ.get("RVN_EPISODES_DIR", "~/.cache/rvn/episodes")
 SCENE_DEFAULTS = {k: v for k, v in asdict(ScenesConfig()).items() if k != "split"}
 
 
@@ -30,7 +29,9 @@ class EnvConfig:
     Hydra groups ``agent``, ``navmesh``, ``camera``, ``scenes``, ``renderer``, ``episodes``).
 
     scene_specs: explicit scene specs (overrides ``scenes``); per_scene: eval episodes per
-    scene (default 2 train / 20 val, test); scene_switch_every: train-mode resets per scene.
+    scene (default 2 train / 20 val, test); scene_switch_every: train-mode resets per scene;
+    episodes_dir: cache of eval episode sets (None: ``<cache root>/episodes``,
+    `rvn_data.cache_root`; one folder per settings inside).
     """
 
     mode: str = "train"
@@ -42,7 +43,7 @@ class EnvConfig:
     camera: CameraConfig = field(default_factory=CameraConfig)
     renderer: dict = field(default_factory=dict)
     episodes: EpisodeSettings = field(default_factory=EpisodeSettings)
-    episodes_dir: str = DEFAULT_EPISODES_DIR
+    episodes_dir: str | None = None
     per_scene: int | None = None
     t_max: int = 500
     success_distance: float | None = None
@@ -82,8 +83,6 @@ class EnvConfig:
             name = "episodes_dir" if key == "dir" else key
             if eps_map.get(key) is not None and kw.get(name) is None:
                 kw[name] = eps_map[key]
-        if kw.get("episodes_dir") is None:
-            kw.pop("episodes_dir", None)
         cfg = cls(**kw)
         cfg._validate()
         return cfg
@@ -128,7 +127,8 @@ class EnvConfig:
 
     def store(self) -> EpisodeStore:
         settings = make_settings(self.episodes, self.agent, self.navmesh, self.scenes, self.split)
-        return EpisodeStore(self.episodes_dir, self.split, settings)
+        root = self.episodes_dir or cache_root() / "episodes"
+        return EpisodeStore(root, self.split, settings, self.scenes.get("root"))
 
     def with_(self, **changes) -> "EnvConfig":
         return replace(self, **changes)

@@ -1,9 +1,11 @@
 """Episode files: one gzip JSON per scene plus ``index.json``, generated on demand and cached.
 
-Layout: ``<dir>/<scene source>/<split>/<NNNNN>_<scene name>.json.gz`` and
-``<dir>/<scene source>/<split>/index.json``. Every file carries the settings that made
-it (generator version, episode settings, agent, navmesh settings, scene loading
-options, split); reading a file made with other settings raises ValueError naming the
+Layout: ``<dir>/<scene source>/<split>-<key>/<NNNNN>_<scene name>.json.gz`` and
+``<dir>/<scene source>/<split>-<key>/index.json``, ``<dir>`` = ``episodes.dir``, by default
+``<cache root>/episodes`` (`rvn_data.cache_root`), ``<key>`` a hash of the settings below and
+of the scenes' root folder, so sets made with other settings never meet. Every file carries
+the settings that made it (generator version, episode settings, agent, navmesh settings,
+scene loading options, split); reading a file made with other settings raises ValueError naming the
 file and the first differing setting. Bytes are reproducible: JSON with sorted keys,
 gzip with mtime 0. Episode ``e`` does not depend on how many were asked for, so a file
 holding more episodes serves a request for fewer, and a short file is extended.
@@ -21,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from rvn_data.atomic import write_bytes_atomic
+from rvn_data.cache_root import absolute, settings_key
 from rvn_data.dataset.naming import scene_slug
 from rvn_data.identity import check_identity
 from rvn_data.navmesh.settings import recorded
@@ -79,11 +82,12 @@ def scene_fingerprint(scene) -> str:
 class EpisodeStore:
     """The cached episode set of one split under ``root`` (config ``episodes.dir``)."""
 
-    def __init__(self, root: str | Path, split: str, settings: dict):
+    def __init__(self, root: str | Path, split: str, settings: dict, scenes_root: str | Path | None = None):
         self.split = split
         self.settings = settings
         source = settings["scenes"].get("source") or "scenes"
-        self.dir = Path(root).expanduser() / re.sub(r"[^A-Za-z0-9_.-]", "_", str(source)) / split
+        key = settings_key({"settings": settings, "scenes_root": absolute(scenes_root)})
+        self.dir = Path(root).expanduser() / re.sub(r"[^A-Za-z0-9_.-]", "_", str(source)) / f"{split}-{key}"
         self.index_path = self.dir / "index.json"
 
     def scene_path(self, scene_index: int, spec: str) -> Path:
@@ -136,7 +140,11 @@ class EpisodeStore:
             "fingerprint": fingerprint,
             "episodes": [e.to_json() for e in episodes],
         }
-        write_bytes_atomic(path, dumps_gzip_json(payload))
+        try:
+            write_bytes_atomic(path, dumps_gzip_json(payload))
+        except OSError as err:
+            raise ValueError(f"cannot write episode file {path} ({err.strerror or err}); set cache_dir= or "
+                             "RVN_CACHE_DIR (or episodes.dir=) to a writable folder") from None
         return path
 
     def check_scene(self, stored: dict, scene_index: int, spec: str, scene_id: str, fingerprint: str) -> None:

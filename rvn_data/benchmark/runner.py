@@ -16,6 +16,7 @@ from collections.abc import Callable, Iterable, Iterator
 
 import numpy as np
 
+from rvn_data.cache_root import cache_root
 from rvn_data.conventions import Action
 from rvn_data.numba_note import note_first_compile
 
@@ -34,7 +35,8 @@ def env_kwargs(cfg: dict) -> dict:
         "mode": "eval", "split": cfg["split"], "scenes": scenes, "agent": cfg["agent"],
         "navmesh": cfg["navmesh"], "camera": cfg["camera"], "renderer": cfg.get("renderer") or {},
         "episodes": {k: v for k, v in eps.items() if k not in ("dir", "per_scene", "num_scenes", "first_scene")},
-        "episodes_dir": eps.get("dir"), "per_scene": eps.get("per_scene"),
+        "episodes_dir": str(eps.get("dir") or cache_root(cfg.get("cache_dir"), cfg.get("out_dir")) / "episodes"),
+        "per_scene": eps.get("per_scene"),
         **{k: v for k, v in dict(cfg.get("env") or {}).items() if k in ENV_KEYS},
     }
 

@@ -1,7 +1,10 @@
 """Packed HDF5 cache of a GNM split: every frame resized once to the model's image size.
 
-File ``<cache_dir>/<name>_<split>_<W>x<H><suffix>.h5`` (suffix of ``data.crop``: ``_crop`` for
-aspect, ``_official`` for official, none for none) holds ``images`` uint8 [N,3,H,W]
+File ``<cache_dir>/<key>/<name>_<split>_<W>x<H><suffix>.h5`` (suffix of ``data.crop``: ``_crop``
+for aspect, ``_official`` for official, none for none; ``<key>`` a hash of the dataset's identity,
+its absolute root, name, split and trajectory list, and of the cache settings, so different
+datasets, splits or settings never share a file; ``cache_dir`` is ``data.cache_dir``, by default ``<cache root>/packed``, see
+`rvn_data.cache_root`; the dataset folder itself is only read) holds ``images`` uint8 [N,3,H,W]
 (channel-first as the models take them; contiguous, so workers read it through ``np.memmap`` and share the page cache),
 ``position`` float64 [N,2], ``yaw`` float64 [N], ``traj_index`` int32 [N], ``traj_start`` and
 ``traj_len`` int64 [M], ``names`` and attributes (fingerprint, spacing, image size). It is
@@ -26,6 +29,7 @@ import numpy as np
 from tqdm import tqdm
 
 from rvn_data.atomic import atomic_path
+from rvn_data.cache_root import absolute, cache_root, settings_key
 from rvn_data.dataset.reader import GNMSource, read_rgb
 
 from .depth import load_traj_depth, require_depth
@@ -48,10 +52,16 @@ def fingerprint(source: GNMSource, *extra: object) -> str:
 
 def cache_path(source: GNMSource, image_size: Sequence[int], crop: str | bool, cache_dir: str | Path | None,
                depth: int | None = None) -> Path:
-    d = Path(cache_dir) if cache_dir else source.root / ".rvn_cache"
+    """Where the cache of ``source`` with these settings lives (``cache_dir`` None: the cache root's
+    ``packed/`` folder, `rvn_data.cache_root.cache_root`)."""
+    crop = check_crop(crop)
+    d = Path(cache_dir).expanduser() if cache_dir else cache_root() / "packed"
     w, h = int(image_size[0]), int(image_size[1])
+    key = settings_key({"root": absolute(source.root), "name": source.name, "split": source.split,
+                        "trajectories": settings_key(source.names, 32), "version": CACHE_VERSION, "image_size": [w, h], "crop": crop,
+                        "depth": int(depth) if depth else None, "spacing": source.spacing})
     extra = f"_depth{int(depth)}" if depth else ""
-    return d / f"{source.name}_{source.split}_{w}x{h}{SUFFIX[check_crop(crop)]}{extra}.h5"
+    return d / key / f"{source.name}_{source.split}_{w}x{h}{SUFFIX[crop]}{extra}.h5"
 
 
 def _crop_key(crop: str) -> object:
@@ -87,7 +97,8 @@ def build_cache(source: GNMSource, path: Path, image_size: Sequence[int], crop: 
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
     except OSError as e:
-        raise ValueError(f"cannot create cache folder {path.parent} ({e}); set data.cache_dir= to a writable folder") from None
+        raise ValueError(f"cannot create cache folder {path.parent} ({e}); set cache_dir= or RVN_CACHE_DIR "
+                         "to a writable folder") from None
     with atomic_path(path) as tmp:
         with h5py.File(tmp, "w") as f:
             images = f.create_dataset("images", shape=(n, 3, h, w), dtype=np.uint8)  # contiguous

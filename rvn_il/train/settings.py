@@ -31,7 +31,7 @@ class DataConfig:
     goal_offset: list[int] = field(default_factory=lambda: [1, 20])  # goal frame offset range (frames ahead)
     end_slack: int = 0  # frames ignored at each trajectory's end
     skip_short: bool = False  # skip (true) or reject (false) trajectories too short for the context
-    cache_dir: str | None = None  # null: <root>/.rvn_cache
+    cache_dir: str | None = None  # packed HDF5 frames; null: <cache root>/packed (top-level cache_dir)
     cache_threads: int = 4  # JPEG decoding threads when building the cache
     num_workers: int = 2  # DataLoader workers
     # expert GNM dataset on other scenes (e.g. rvn-gen split=val): held-out loss and open-loop
@@ -76,6 +76,9 @@ class TrainConfig:
     seed: int = 0
     device: str = "auto"  # auto (cuda if available) | cpu | cuda | cuda:1
     out_dir: str = "runs/train/${model.name}"
+    # cache root (rvn_data/cache_root.py): null = $RVN_CACHE_DIR, else <out_dir>/cache; the datasets
+    # are only read, so they may sit on read-only storage
+    cache_dir: str | None = None
     data: DataConfig = field(default_factory=DataConfig)
     train: TrainLoopConfig = field(default_factory=TrainLoopConfig)
 

@@ -24,6 +24,7 @@ from tqdm import tqdm
 from ..data import BatchView, EpochSampler, crop_setting, depth_setting, make_dataset
 from ..data.depth import REGENERATE, has_depth
 from rvn_data.dataset.reader import list_trajectories
+from rvn_data.cache_root import cache_root
 from ..models import build_model, resolve_size
 from ..models.checkpoint import (latest_checkpoint, load_state_dict_checked, members_of, read_config, read_weights,
                                  save_checkpoint, write_config)
@@ -141,6 +142,7 @@ def train_member(cfg: Mapping, member: str, index: int, root: str, out_dir: Path
             dist.barrier()
         return
     data_cfg["progress"] = rank == 0
+    data_cfg["cache_dir"] = str(data_cfg["cache_dir"] or cache_root(cfg["cache_dir"], out_dir) / "packed")
     if rank == 0:
         dataset = make_dataset(root, model_cfg, data_cfg, seed)
     if world > 1:

@@ -52,9 +52,7 @@ class Validator:
             raise ValueError(f"data.val_root={root} does not exist; generate one with rvn-gen split=val "
                              "(expert) or set data.val_root=null")
         split = data_cfg["val_split"] or "all"
-        cache_dir = data_cfg["cache_dir"]
-        val_data = {**data_cfg, "split": split, "splits_dir": None, "name": None, "skip_short": True,
-                    "cache_dir": str(Path(cache_dir) / "val") if cache_dir else None}
+        val_data = {**data_cfg, "split": split, "splits_dir": None, "name": None, "skip_short": True}  # own cache key
         self.dataset = make_dataset(self.root, model_cfg, val_data, seed, depth=False)
         self.trajectories = expert_trajectories(self.root, None if split == "all" else split,
                                                 int(tcfg["val_trajectories"]))

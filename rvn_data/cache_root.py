@@ -1,0 +1,60 @@
+"""The one cache root: where RVN keeps what it can rebuild (rvn-train's packed HDF5 frames,
+rvn-eval's episode sets, the notebook's clips).
+
+Resolution, first that applies:
+
+1. the setting ``cache_dir=`` of the command (rvn-train, rvn-eval);
+2. the environment variable ``RVN_CACHE_DIR`` (share caches between runs, e.g. on a cluster's
+   scratch disk);
+3. ``<out_dir>/cache`` of the run;
+4. with no run (library calls such as ``make_dataset`` or ``RVNEnv``): a per-user folder in the
+   system's temporary directory, and a warning saying so.
+
+Input datasets, the package and the home folder are never written to. Inside the root every
+cache has its own folder (``packed/``, ``episodes/``, ``clips/``), and below that a key
+(`settings_key`) of whatever its content depends on, so runs with different settings never
+share, or fight over, a file.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+ENV = "RVN_CACHE_DIR"
+log = logging.getLogger(__name__)
+_warned: set[str] = set()
+
+
+def cache_root(setting: str | os.PathLike | None = None, out_dir: str | os.PathLike | None = None) -> Path:
+    """The cache root for a run: ``setting``, else ``$RVN_CACHE_DIR``, else ``<out_dir>/cache``,
+    else a per-user temporary folder (with a warning)."""
+    if os.environ.get("RVN_EPISODES_DIR") and "RVN_EPISODES_DIR" not in _warned:
+        _warned.add("RVN_EPISODES_DIR")
+        log.warning("RVN_EPISODES_DIR is no longer read: episode sets go to <cache root>/episodes; set %s", ENV)
+    for value in (setting, os.environ.get(ENV)):
+        if value not in (None, ""):
+            return Path(value).expanduser()
+    if out_dir not in (None, ""):
+        return Path(out_dir).expanduser() / "cache"
+    tmp = Path(tempfile.gettempdir()) / f"rvn-cache-{os.getuid() if hasattr(os, 'getuid') else 'user'}"
+    if str(tmp) not in _warned:
+        _warned.add(str(tmp))
+        log.warning("no cache folder given: caching in %s (set %s or pass cache_dir= to keep caches elsewhere)",
+                    tmp, ENV)
+    return tmp
+
+
+def settings_key(settings: Any, length: int = 12) -> str:
+    """Short stable hash of JSON-able ``settings`` (key order does not matter)."""
+    text = json.dumps(settings, sort_keys=True, separators=(",", ":"), default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:length]
+
+
+def absolute(path: str | os.PathLike | None) -> str | None:
+    """``path`` made absolute (``~`` expanded, symlinks resolved), for use in a key; None stays None."""
+    return None if path in (None, "") else str(Path(path).expanduser().resolve())
