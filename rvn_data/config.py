@@ -69,8 +69,24 @@ def register_configs() -> None:
                              ("renderer", "base_renderer", RendererConfig), ("scenes", "base_scenes", ScenesConfig),
                              (None, "base_gen", GenConfig), (None, "base_eval", EvalConfig)):
         register(name, cls, group)
+    _register_resolvers()
     for hook in _hooks:
         hook()
+
+
+def eval_run_name(method: str | None, policy: str | None, checkpoint_path: str | None = None) -> str:
+    """rvn-eval's default out_dir leaf (``${rvn_eval_name:...}`` in `EvalConfig.out_dir`): the
+    method label, else the checkpoint folder's name, else the policy config's name; so two
+    models' evaluations land in two folders (runs/eval/val/NoMaD-Neg, runs/eval/val/nomad)."""
+    name = method or (Path(str(checkpoint_path)).expanduser().name if checkpoint_path else None) or policy or "policy"
+    return "_".join(str(name).replace("/", "_").replace("\\", "_").split()) or "policy"
+
+
+def _register_resolvers() -> None:
+    from omegaconf import OmegaConf
+
+    if not OmegaConf.has_resolver("rvn_eval_name"):
+        OmegaConf.register_new_resolver("rvn_eval_name", eval_run_name)
 
 
 _hooks: list[Callable[[], None]] = []
@@ -97,5 +113,5 @@ def load_config(name: str, overrides: Sequence[str] = ()):
         return compose(config_name=name, overrides=list(overrides))
 
 
-__all__ = ["CONF_DIR", "add_registration", "load_config",
+__all__ = ["CONF_DIR", "add_registration", "eval_run_name", "load_config",
            "register", "register_configs", "schema_node"]

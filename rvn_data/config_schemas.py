@@ -83,7 +83,9 @@ class EvalConfig:
     split: str = "val"
     seed: int = 0
     method: str | None = None  # row label in the table; null = the policy config's name
-    out_dir: str = "runs/eval/${split}/${hydra:runtime.choices.policy}"
+    # runs/eval/<split>/<method, else the checkpoint folder's name, else the policy's> (config.eval_run_name)
+    out_dir: str = ("runs/eval/${split}/${rvn_eval_name:${method},${hydra:runtime.choices.policy},"
+                    "${oc.select:policy.checkpoint_path,null}}")
     # cache root (rvn_data/cache_root.py): null = $RVN_CACHE_DIR, else <out_dir>/cache; set
     # RVN_CACHE_DIR (or cache_dir=) to one folder to share episode sets between evaluations
     cache_dir: str | None = None

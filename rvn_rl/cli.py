@@ -1,6 +1,8 @@
 """``rvn-rl``: train an RL baseline on RVN-v0. Hydra config ``conf/rl.yaml`` with the groups
 ``algo`` (conf/rl/algo: ppo, ppo_lag, ddppo, ddppo_depth) and ``scale`` (conf/rl/scale:
-small, paper). DD-PPO: ``torchrun --nproc_per_node=N -m rvn_rl.cli algo=ddppo ...``."""
+small, paper). DD-PPO: ``torchrun --nproc_per_node=N -m rvn_rl.cli algo=ddppo ...``.
+Bad input exits with status 2 and one line, writing nothing; a failed run with status 1
+(`rvn_data.cli.common`)."""
 from __future__ import annotations
 
 import json
@@ -34,7 +36,7 @@ def check_choices(argv: list[str]) -> None:
             names = sorted(p.stem for p in (CONF_RL / key).glob("*.yaml"))
             if value not in names:
                 print(f"rvn-rl: error: {key}={value!r} is unknown; choose one of {', '.join(names)}", file=sys.stderr)
-                sys.exit(1)
+                sys.exit(2)
 
 
 def compose(overrides: list[str] = ()) -> dict:
@@ -49,23 +51,25 @@ def compose(overrides: list[str] = ()) -> dict:
     return OmegaConf.to_container(cfg, resolve=True, throw_on_missing=True)
 
 
-def run(cfg: dict) -> dict:
+def run(cfg: dict, on_checked=None) -> dict:
     from .trainer import train
 
-    return train(cfg)
+    return train(cfg, on_checked)
 
 
 @hydra.main(config_path=CONF_DIR, config_name="rl", version_base="1.3")
 def _main(cfg: DictConfig) -> None:
-    from rvn_data.scenes import SceneError
+    from rvn_data.cli.common import ConfigError, entered_task, fail, record_run
 
+    entered_task()
     try:
         plain = OmegaConf.to_container(cfg, resolve=True, throw_on_missing=True)
-        result = run(plain)
-    except (ValueError, TypeError, SceneError, OSError, OmegaConfBaseException) as err:
-        msg = (str(err).splitlines() or [type(err).__name__])[0]
-        print(f"rvn-rl: error: {msg}", file=sys.stderr)
-        sys.exit(1)
+    except OmegaConfBaseException as err:
+        fail("rvn-rl", ConfigError(str(err)))
+    try:
+        result = run(plain, lambda: record_run(cfg, Path(plain["out_dir"]).expanduser(), "rvn-rl"))
+    except (ValueError, TypeError, OSError) as err:  # SceneError is a ValueError; ConfigError: status 2
+        fail("rvn-rl", err)
     if "summary" in result:
         print(result.pop("summary"))
         print(json.dumps({k: v for k, v in result.items() if isinstance(v, (int, float))}))
@@ -83,10 +87,12 @@ def _register_task_schemas() -> None:
 
 
 def main() -> None:
+    from rvn_data.cli.common import run_hydra
+
     check_choices(sys.argv[1:])
     _register_task_schemas()
     register_groups()
-    _main()
+    run_hydra(_main)
 
 
 if __name__ == "__main__":

@@ -13,6 +13,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from rvn_data.cli.common import check_writable_dir, validating
 from rvn_data.numba_note import note_first_compile
 
 from . import checkpoint as ck
@@ -76,23 +77,28 @@ def _check_out_dir(out_dir: Path, cfg: dict) -> Path | None:
     return ck.latest(out_dir) if cfg["train"]["resume"] else None
 
 
-def train(cfg: dict) -> dict:
+def train(cfg: dict, on_checked=None) -> dict:
+    """Train; settings, device and out_dir are checked first (`ConfigError`, nothing written),
+    then ``on_checked()`` runs."""
     d = init(cfg["ddppo"]["backend"], "cuda" if str(cfg["device"]).startswith("cuda") or
              (cfg["device"] == "auto" and torch.cuda.is_available()) else "cpu")
     try:
-        return _train(cfg, d)
+        return _train(cfg, d, on_checked)
     finally:
         from .distrib import shutdown
         shutdown()
 
 
-def _train(cfg: dict, d: Dist) -> dict:
-    validate(cfg, d.world_size)
+def _train(cfg: dict, d: Dist, on_checked=None) -> dict:
+    with validating():
+        validate(cfg, d.world_size)
+        device = pick_device(str(cfg["device"]), d)
+        out_dir = check_writable_dir(Path(cfg["out_dir"]).expanduser())
+        resume_from = _check_out_dir(out_dir, cfg)
+    if on_checked is not None:
+        on_checked()
     if cfg["train"].get("threads"):
         torch.set_num_threads(int(cfg["train"]["threads"]))
-    device = pick_device(str(cfg["device"]), d)
-    out_dir = Path(cfg["out_dir"]).expanduser()
-    resume_from = _check_out_dir(out_dir, cfg)
     ppo = PPOConfig(**{f.name: cfg["ppo"][f.name] for f in fields(PPOConfig)})
     lag = cfg["algo"] if cfg["algo"]["lagrangian"] else None
     torch.manual_seed(int(cfg["seed"]))  # identical initial weights on every rank

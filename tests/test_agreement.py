@@ -79,7 +79,7 @@ def test_training_settings_fail_before_any_work(trained):
     base = ["-m", "rvn_il.train.cli", "model=nomad_pointgoal", "model.size=small", f"data.root={trained / 'data'}",
             "data.num_workers=0", "device=cpu"]
     proc = run(*base, f"out_dir={trained / 'bad1'}", f"data.val_root={trained / 'nowhere'}", check=False)
-    assert proc.returncode == 1 and "data.val_root" in proc.stderr and "does not exist" in proc.stderr
+    assert proc.returncode == 2 and "data.val_root" in proc.stderr and "does not exist" in proc.stderr
     assert not (trained / "bad1" / "model").exists()
     proc = run(*base, f"out_dir={trained / 'bad2'}", "train.precision=fp16", check=False)
-    assert proc.returncode == 1 and "train.precision='fp16'" in proc.stderr and "Traceback" not in proc.stderr
+    assert proc.returncode == 2 and "train.precision='fp16'" in proc.stderr and "Traceback" not in proc.stderr

@@ -39,7 +39,7 @@ def test_cli_rejects_typo_and_wrong_type_at_start_up(tmp_path, module, typo, wro
     for arg, message in ((typo, messages[0]), (wrong_type, "could not be converted to Integer")):
         r = subprocess.run([sys.executable, "-m", module, f"out_dir={tmp_path / 'out'}", arg],
                            capture_output=True, text=True, env=ENV, timeout=120)
-        assert r.returncode == 1, (arg, r.stdout, r.stderr)
+        assert r.returncode == 2, (arg, r.stdout, r.stderr)  # bad input, as every tool
         assert message in r.stderr and (arg == typo or messages[1] in r.stderr), r.stderr
     assert not (tmp_path / "out").exists()  # nothing was started
 

@@ -134,10 +134,10 @@ def test_train_with_depth_loss_needs_depth(data, tmp_path):
     proc = run("-m", "rvn_il.train.cli", *TRAIN, f"data.root={data / 'plain'}", f"out_dir={out}",
                "model.depth_aux_weight=0.5", check=False)
     lines = proc.stderr.strip().splitlines()
-    assert proc.returncode == 1 and len(lines) == 1 and "Traceback" not in proc.stderr, proc.stderr[-2000:]
+    assert proc.returncode == 2 and len(lines) == 1 and "Traceback" not in proc.stderr, proc.stderr[-2000:]
     assert f"data.root={data / 'plain'} has no depth.npy sidecars" in lines[0]
     assert "dataset.save_depth=true" in lines[0] and "model.depth_aux_weight=0" in lines[0]
-    assert not (out / "model").exists() and not (data / "plain" / ".rvn_cache").exists()
+    assert not out.exists() and not (data / "plain" / ".rvn_cache").exists()
 
 
 def test_cache_with_depth_needs_every_sidecar(data, tmp_path):

@@ -120,7 +120,7 @@ def test_table_merges_metrics(tmp_path, capsys):
     assert "| RVN (ours) | NoMaD-Neg (ours) |  |  |  | 0.500 | 1.25 | 12.3 | 0.250 | 1.25 | – |" in table
     assert "| RL (paper) | DD-PPO | 0.899 | 13.28 | 9.2 | 0.865 | 11.86 | 10.5 | 0.886 | 13.90 | 8.7 |" in table
     assert "paper" not in render_table([{**base, "split": "val"}], reference=False)
-    assert table_main([str(tmp_path / "missing.json")]) == 1
+    assert table_main([str(tmp_path / "missing.json")]) == 2
     assert "missing.json" in capsys.readouterr().err
 
 
@@ -128,7 +128,7 @@ def test_bad_checkpoint_is_one_line_error(runs, tmp_path):
     ckpt = tmp_path / "not_a_checkpoint"
     ckpt.mkdir()
     proc = rvn_eval(runs, "policy=checkpoint", f"policy.checkpoint_path={ckpt}", f"out_dir={tmp_path / 'y'}")
-    assert proc.returncode == 1
+    assert proc.returncode == 2 and not (tmp_path / "y").exists()
     assert "policy 'checkpoint'" in proc.stderr and str(ckpt) in proc.stderr and "rvn-train" in proc.stderr
     assert "Traceback" not in proc.stderr and "Error executing job" not in proc.stderr
 

@@ -64,6 +64,8 @@ def runs(data):
 @pytest.mark.parametrize("name", ["vint_pointgoal", "nomad_pointgoal", "nomad_neg"])
 def test_cli_trains_and_writes_a_self_contained_checkpoint(runs, name):
     out_dir = runs[name]
+    # Hydra's record and the log, written once the settings were checked (Hydra itself writes nothing)
+    assert (out_dir / ".hydra" / "config.yaml").is_file() and "rvn_il" in (out_dir / "rvn-train.log").read_text()
     cfg = yaml.safe_load((out_dir / "config.yaml").read_text())
     assert cfg["model"]["name"] == name and cfg["train"]["max_steps"] == 3
     members = ["expert", "negative"] if name == "nomad_neg" else ["model"]
@@ -144,7 +146,7 @@ def test_cli_bad_input_one_line(data, tmp_path):
     empty = tmp_path / "empty"
     empty.mkdir()
     r = rvn_train("model=vint_pointgoal", f"data.root={empty}", f"out_dir={tmp_path / 'o1'}", *SMALL)
-    assert r.returncode == 1 and "holds no trajectory" in r.stderr and "Traceback" not in r.stderr
+    assert r.returncode == 2 and "holds no trajectory" in r.stderr and "Traceback" not in r.stderr
     with pytest.raises(ValueError, match="data.negative_root"):
         train(["model=nomad_neg", f"data.root={data / 'expert'}", "data.negative_root=null", f"out_dir={tmp_path / 'o2'}"])
     with pytest.raises(ValueError, match="fewer than context_size.*skip_short"):
@@ -157,7 +159,7 @@ def test_cli_bad_input_one_line(data, tmp_path):
     if not torch.cuda.is_available():  # a CPU build of torch: one line naming the setting, nothing written
         r = rvn_train("model=vint_pointgoal", f"data.root={data / 'expert'}", f"out_dir={tmp_path / 'o5'}", "device=cuda",
                       *SMALL)
-        assert r.returncode == 1 and "Traceback" not in r.stderr
+        assert r.returncode == 2 and "Traceback" not in r.stderr
         assert "device=cuda" in r.stderr and "use device=cpu" in r.stderr and len(r.stderr.strip().splitlines()) == 1
         assert not (tmp_path / "o5" / "model").exists()
         with pytest.raises(ValueError, match="policy.device=cuda"):

@@ -103,9 +103,19 @@ def test_scene_specs(tmp_path):
         (tmp_path / "meshes" / "val" / name).write_text("x")
     assert [s.split("/")[-1] for s in scene_specs("mesh_dir", "val", root=tmp_path / "meshes")] == ["a.obj", "b.glb"]
     listing = tmp_path / "list.txt"
-    listing.write_text("# scenes\nmeshes/val/b.glb\n\n/abs/c.ply\n")
-    assert scene_specs("mesh_dir", "train", root=listing) == [str(tmp_path / "meshes/val/b.glb"), "/abs/c.ply"]
-    assert scene_specs("list_file", "train", root=listing)[1] == "/abs/c.ply"
+    (tmp_path / "abs").mkdir()
+    (tmp_path / "abs" / "c.ply").write_text("x")
+    listing.write_text(f"# scenes\nmeshes/val/b.glb\n\n{tmp_path}/abs/c.ply\n")
+    assert scene_specs("mesh_dir", "train", root=listing) == [str(tmp_path / "meshes/val/b.glb"), f"{tmp_path}/abs/c.ply"]
+    assert scene_specs("list_file", "train", root=listing)[1] == f"{tmp_path}/abs/c.ply"
+    # one mesh file is a set of one scene; a listed file that does not exist, or a binary file, is named
+    assert scene_specs("mesh_dir", "val", root=tmp_path / "meshes" / "val" / "b.glb") == [str(tmp_path / "meshes/val/b.glb")]
+    listing.write_text("meshes/val/b.glb\nmeshes/val/gone.glb\n")
+    with pytest.raises(SceneError, match="1 mesh file.*do not exist.*gone.glb"):
+        scene_specs("list_file", "val", root=listing)
+    (tmp_path / "blob.bin").write_bytes(b"glTF\xdf\xff\x00")
+    with pytest.raises(SceneError, match="neither a text file listing meshes nor a mesh file"):
+        scene_specs("mesh_dir", "val", root=tmp_path / "blob.bin")
     for sid, files in (("00800-TEEsavR23oF", ["TEEsavR23oF.basis.glb", "TEEsavR23oF.glb"]),
                        ("00801-HaxA7YrQdEC", ["HaxA7YrQdEC.basis.glb", "HaxA7YrQdEC.basis.navmesh"])):
         d = tmp_path / "hm3d" / "val" / sid

@@ -87,7 +87,7 @@ def test_bad_runs(runs, tmp_path):
     shutil.copytree(runs / "eval" / "oracle", unfinished)
     (unfinished / "metrics.json").unlink()
     proc = report(str(unfinished), "-o", str(tmp_path / "r.md"))
-    assert proc.returncode == 1 and "unfinished" in proc.stderr and "Traceback" not in proc.stderr
+    assert proc.returncode == 2 and "unfinished" in proc.stderr and "Traceback" not in proc.stderr
     assert not (tmp_path / "r.md").exists()
     torn = tmp_path / "torn"
     shutil.copytree(runs / "eval" / "oracle", torn)
@@ -145,7 +145,7 @@ def test_significance_between_rows(runs, tmp_path):
     assert cpk_p(Row("a", 0, 1, 10, 1.0), Row("b", 0, 1, 0, 1.0)) == pytest.approx(2 * 0.5 ** 10)
     assert sr1_p(Row("a", 100, 200, 0, 1.0), Row("b", 10, 200, 0, 1.0)) < 1e-10
     bad = report(str(runs / "eval" / "oracle"), "-o", str(tmp_path / "r.md"), "--compare", "Oracle=PPO")
-    assert bad.returncode == 1 and "'PPO'" in bad.stderr and "Traceback" not in bad.stderr
+    assert bad.returncode == 2 and "'PPO'" in bad.stderr and "Traceback" not in bad.stderr
 
 
 def test_bar_plot_legend_key_beside_its_text(tmp_path, monkeypatch):

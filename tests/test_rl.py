@@ -115,7 +115,7 @@ def test_ppo_lag_logs_lambda_and_episode_cost(tmp_path):
 ])
 def test_bad_input_one_line(tmp_path, args, words):
     proc = rvn_rl(f"out_dir={tmp_path / 'x'}", "train.total_steps=8", *TINY, *args, check=False)
-    assert proc.returncode == 1
+    assert proc.returncode == 2 and not (tmp_path / "x").exists()  # bad input: nothing written
     err = [line for line in proc.stderr.splitlines() if line.strip() and "INFO" not in line]
     assert len(err) == 1 and err[0].startswith("rvn-rl: error:") and words in err[0], proc.stderr
 
@@ -129,7 +129,7 @@ def test_checkpoint_of_another_kind_is_refused(tmp_path):
     with pytest.raises(ValueError, match="not an rvn-rl"):
         load_rl_policy(il)
     proc = rvn_rl("algo=ppo", f"out_dir={il}", "train.total_steps=8", *TINY, check=False)
-    assert proc.returncode == 1 and "not an rvn-rl" in proc.stderr
+    assert proc.returncode == 2 and "not an rvn-rl" in proc.stderr
     other = tmp_path / "other"
     other.mkdir()
     (other / "config.yaml").write_text(yaml.safe_dump({"kind": "rl", "algo": {"name": "sac"}, "policy": {}}))

@@ -101,7 +101,7 @@ def test_pairs_are_reproducible_and_reused(run, tmp_path):
 ])
 def test_bad_input_gets_a_one_line_error(tmp_path, arg, words):
     proc = depth_cli(f"out_dir={tmp_path / 'x'}", *TINY, arg, check=False)
-    assert proc.returncode == 1
+    assert proc.returncode == 2 and not (tmp_path / "x").exists()
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and words in lines[0] and lines[0].startswith("rvn_rl.depth.cli: error:"), proc.stderr
 

@@ -5,12 +5,15 @@ paper's protocol: sequential point goals, SR_1, E(G), CPK). Hydra config ``conf/
     rvn-eval policy=checkpoint policy.checkpoint_path=runs/train/nomad method=NoMaD-PointGoal
 
 Writes ``out_dir/metrics.json``, ``out_dir/episodes.jsonl`` and ``out_dir/table.md``;
-an interrupted run resumes where it stopped (``resume=false`` starts over).
+an interrupted run resumes where it stopped (``resume=false`` starts over). The default
+out_dir, ``runs/eval/<split>/<method>``, takes the method label, else the checkpoint folder's
+name, else the policy's. Every path and setting (scenes, the policy and its checkpoint, the
+out_dir, a finished run there with other settings) is checked before any episode is generated:
+bad input exits with status 2 and one line, writing nothing; a failed run exits with status 1.
 """
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 import hydra
@@ -18,25 +21,33 @@ from omegaconf import DictConfig, OmegaConf
 from omegaconf.errors import OmegaConfBaseException
 
 from rvn_data.benchmark.results import RunDir, record_key, run_identity
-from rvn_data.benchmark.runner import env_kwargs, prepare_episodes, run_episodes
+from rvn_data.benchmark.runner import env_kwargs, make_policy, policy_name, prepare_episodes, run_episodes
 from rvn_data.benchmark.table import render_table
 from rvn_data.config import CONF_DIR, register_configs
+from rvn_data.cli.common import ConfigError, check_writable_dir, entered_task, fail, record_run, run_hydra, validating
 
 register_configs()
 
 
-def evaluate(cfg: dict) -> dict:
-    """Run the benchmark described by a resolved config dict; returns metrics.json's content."""
+def evaluate(cfg: dict, on_checked=None) -> dict:
+    """Run the benchmark described by a resolved config dict; returns metrics.json's content.
+    Settings, scenes, policy and out_dir are checked first (`ConfigError`; nothing written but
+    the run's own run.json); then ``on_checked()`` runs and the episodes are generated and run."""
     from tqdm import tqdm
 
     from rvn_data.benchmark.episodes_source import EnvConfig, eval_schedule
     from rvn_data.benchmark.metrics import compute_metrics
 
-    env_cfg = EnvConfig.from_kwargs(**env_kwargs(cfg))
-    slots = env_cfg.scene_slots()
-    keys = [(slots[pos][1], e) for pos, e in eval_schedule(slots, env_cfg.per_scene)]
-    run = RunDir(cfg["out_dir"], run_identity(cfg))
-    done = run.open(resume=bool(cfg.get("resume", True)))
+    with validating():
+        env_cfg = EnvConfig.from_kwargs(**env_kwargs(cfg))
+        slots = env_cfg.scene_slots()
+        keys = [(slots[pos][1], e) for pos, e in eval_schedule(slots, env_cfg.per_scene)]
+        make_policy(cfg["policy"], None, policy_name(cfg))  # a checkpoint that does not load fails here, not after the episodes
+        check_writable_dir(cfg["out_dir"])
+        run = RunDir(cfg["out_dir"], run_identity(cfg))
+        done = run.open(resume=bool(cfg.get("resume", True)))
+    if on_checked is not None:
+        on_checked()
     todo = [k for k, key in enumerate(keys) if key not in done]
     workers = max(1, int(cfg.get("workers", 1)))
     show = bool(cfg.get("progress", True))
@@ -73,24 +84,25 @@ def _plain_config(cfg: DictConfig) -> dict:
 
 @hydra.main(config_path=CONF_DIR, config_name="eval", version_base="1.3")
 def _main(cfg: DictConfig) -> None:
-    from rvn_data.scenes import SceneError
-
+    entered_task()
     try:
         plain = _plain_config(cfg)
-        metrics = evaluate(plain)
-    except (ValueError, TypeError, SceneError, OSError, OmegaConfBaseException) as err:
+    except OmegaConfBaseException as err:  # e.g. policy.checkpoint_path=??? not given
         msg = (str(err).splitlines() or [type(err).__name__])[0]
-        if isinstance(err, OmegaConfBaseException) and getattr(err, "full_key", None):
+        if getattr(err, "full_key", None):
             msg = f"{msg} (config key {err.full_key}: set it on the command line, e.g. {err.full_key}=...)"
-        print(f"rvn-eval: error: {msg}", file=sys.stderr)
-        sys.exit(1)
+        fail("rvn-eval", ConfigError(msg))
+    try:
+        metrics = evaluate(plain, lambda: record_run(cfg, Path(plain["out_dir"]), "rvn-eval"))
+    except (ValueError, TypeError, OSError) as err:  # SceneError is a ValueError; ConfigError: status 2
+        fail("rvn-eval", err)
     keys = ("SR_1", "E_G", "CPK", "SPL_1", "episodes")
     print(json.dumps({"method": plain["method"], "split": plain["split"], **{k: metrics[k] for k in keys}}))
     print(f"wrote {Path(plain['out_dir']) / 'metrics.json'}")
 
 
 def main() -> None:
-    _main()
+    run_hydra(_main)
 
 
 if __name__ == "__main__":

@@ -247,7 +247,7 @@ def main(argv: list[str] | None = None) -> int:
                             compare=compare)
     except (ValueError, KeyError, OSError) as err:
         print(f"report: error: {err}", file=sys.stderr)
-        return 1
+        return 2  # bad input (rvn_data.cli.common: 2 bad input, 1 a failed run)
     print(f"wrote {path} ({len(runs)} runs)")
     return 0
 

@@ -46,7 +46,8 @@ def policy_name(cfg: dict) -> str:
 
 
 def make_policy(policy_cfg: dict, env, name: str):
-    """Instantiate a policy config and bind it to ``env`` when it has ``bind``."""
+    """Instantiate a policy config and bind it to ``env`` when it has ``bind`` (and ``env`` is
+    not None: rvn-eval builds it once without an env to check it before any work)."""
     from hydra.errors import InstantiationException
     from hydra.utils import instantiate
 
@@ -59,7 +60,7 @@ def make_policy(policy_cfg: dict, env, name: str):
         if not callable(getattr(policy, method, None)):
             raise TypeError(f"policy {name!r} ({type(policy).__name__}) has no {method}() method; "
                             "a policy needs reset() and act(obs) -> int")
-    if callable(getattr(policy, "bind", None)):
+    if env is not None and callable(getattr(policy, "bind", None)):
         policy.bind(env)
     return policy
 

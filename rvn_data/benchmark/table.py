@@ -88,7 +88,7 @@ def main(argv: list[str] | None = None) -> int:
         text = render_table(load_metrics(args.metrics), reference=not args.no_reference)
     except (ValueError, KeyError) as err:
         print(f"table: error: {err}", file=sys.stderr)
-        return 1
+        return 2  # bad input (rvn_data.cli.common: 2 bad input, 1 a failed run)
     if args.output:
         write_text_atomic(args.output, text)
     else:

@@ -2,13 +2,15 @@
 sample views (`views`), write its navmesh as a Habitat/Recast file (`navmesh`). SCENE is a
 mesh path or `procedural:<split>/<index>`.
 
-Bad input prints one line on stderr and exits with code 2.
+Bad input prints one line on stderr and exits with code 2 (-o is checked before the scene is
+loaded), the convention of every RVN tool (`rvn_data.cli.common`).
 """
 from __future__ import annotations
 
 import argparse
 import json
 import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -47,6 +49,23 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", required=True, help=".navmesh path")
     p.add_argument("--tile-cells", type=int, default=64, help="tile size in cells")
     return ap
+
+
+def _check_output(args) -> None:
+    """-o can be written (a folder for views, a file in an existing folder otherwise)."""
+    from rvn_data.cli.common import ConfigError, check_writable_dir
+
+    out = Path(args.output).expanduser()
+    if args.command == "views":
+        check_writable_dir(out, "-o ")
+        return
+    if out.is_dir():
+        raise ConfigError(f"-o {out} is a folder; give the path of the {args.command} file to write")
+    parent = out.absolute().parent
+    if not parent.is_dir():
+        what = "is not a folder" if parent.exists() else "does not exist"
+        raise ConfigError(f"-o {out}: {parent} {what}; create that folder or choose another path")
+    check_writable_dir(out.absolute().parent, "-o ")
 
 
 def _load(args):
@@ -123,14 +142,16 @@ def cmd_navmesh(args) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    from rvn_data.scenes.scene import SceneError
+    from rvn_data.cli.common import BAD_INPUT
 
     try:
+        if getattr(args, "output", None) is not None:
+            _check_output(args)
         {"info": cmd_info, "map": cmd_map, "views": cmd_views, "navmesh": cmd_navmesh}[args.command](args)
-    except (SceneError, ValueError, OSError, RuntimeError) as exc:  # RuntimeError: no EGL for --backend gl
+    except (ValueError, OSError, RuntimeError) as exc:  # SceneError is a ValueError; RuntimeError: no EGL for gl
         msg = " ".join(str(exc).split())
         print(f"rvn-scene {args.command}: error: {msg}", file=sys.stderr)
-        return 2
+        return BAD_INPUT  # a scene, setting, path or renderer this machine cannot use
     return 0
 
 

@@ -1,7 +1,6 @@
 """Top-down map of a navmesh: islands in colour, eroded walkable margin, obstacles, scale bar."""
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
@@ -62,9 +61,7 @@ def write_map(scene, navmesh, path: str | Path) -> None:
     ax.legend(handles=[Patch(color=c, label=t) for t, c in legend], loc="upper left",
               bbox_to_anchor=(1.01, 1.0), fontsize=8)
     try:
-        with atomic_path(path) as tmp:
+        with atomic_path(path) as tmp:  # removes its temporary file on error
             fig.savefig(tmp, format="png", bbox_inches="tight")
     finally:
         plt.close(fig)
-        if os.path.exists(tmp):
-            os.unlink(tmp)

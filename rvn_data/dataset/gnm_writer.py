@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -20,8 +21,8 @@ import numpy as np
 from rvn_data.dataset import finalise as _finalise
 from rvn_data.dataset import writer
 from rvn_data.dataset.reader import is_complete, read_meta
-from rvn_data.dataset.settings import GenSettings
-from rvn_data.identity import check_identity
+from rvn_data.dataset.settings import DatasetConfig, GenSettings
+from rvn_data.identity import check_identity, differences
 
 SETTING_GROUPS = ("agent", "navmesh", "camera", "seed", "renderer")  # other identity keys are dataset.*
 
@@ -55,12 +56,22 @@ class GNMWriter:
         path = self.out_dir / ".rvn" / "settings.json"
         mine = self.settings.identity()
         if path.is_file():
-            check_identity(path, json.loads(path.read_text()), json.loads(writer.dumps_json(mine)),
-                           f"out_dir={self.out_dir} holds a dataset:",
-                           "use another out_dir, or the same settings to resume or extend it",
+            stored, wanted = json.loads(path.read_text()), json.loads(writer.dumps_json(mine))
+            check_identity(path, stored, wanted, f"out_dir={self.out_dir} holds a dataset:",
+                           f"use another out_dir (e.g. out_dir={self._other_dir(stored, wanted)}), "
+                           "or the same settings to resume or extend it",
                            name=lambda k: k if k.split(".")[0] in SETTING_GROUPS else f"dataset.{k}")
             return
         writer.write_text_atomic(path, writer.dumps_json(mine))
+
+    def _other_dir(self, stored: dict, wanted: dict) -> Path:
+        """A folder beside out_dir named after the settings that differ (rvn_expert_perturb_prob0.1),
+        those at their default left out."""
+        diff = differences(stored, wanted)
+        changed = [(k, b) for k, _, b in diff if getattr(DatasetConfig, k.split(".")[-1], None) != b] or \
+            [(k, b) for k, _, b in diff]
+        tags = [re.sub(r"[^A-Za-z0-9._-]+", "", f"{k.split('.')[-1]}{b}") for k, b in changed[:2]]
+        return self.out_dir.parent / "_".join([self.out_dir.name, *tags])
 
     # -- one scene ------------------------------------------------------------------------
     def scene_record(self, slug: str) -> dict | None:

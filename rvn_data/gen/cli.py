@@ -1,7 +1,8 @@
 """`rvn-gen`: Hydra CLI for trajectory dataset generation (config: conf/gen.yaml).
 
-Bad input ends with a one-line message on stderr and a non-zero exit status; a run in
-which some scenes failed lists them in the summary and exits with status 1.
+Bad input (checked before anything is written) ends with a one-line message on stderr and
+exit status 2; a run in which some scenes failed lists them in the summary and exits with
+status 1, as does a run that fails otherwise (`rvn_data.cli.common`).
 """
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import sys
 import hydra
 from omegaconf import DictConfig, OmegaConf
 
+from rvn_data.cli.common import entered_task, fail, run_hydra
 from rvn_data.config import CONF_DIR, register_configs
 
 register_configs()
@@ -21,19 +23,19 @@ def _main(cfg: DictConfig) -> None:
 
     from rvn_data.gen.run import generate
 
+    entered_task()
     container = OmegaConf.to_container(cfg, resolve=True)
     container["out_dir"] = to_absolute_path(container["out_dir"])
     try:
         status = generate(container).status
-    except (ValueError, OSError) as e:  # SceneError is a ValueError
-        print(f"rvn-gen: error: {e}", file=sys.stderr)
-        sys.exit(2)
+    except (ValueError, OSError) as e:  # ConfigError (a ValueError): status 2; a run that failed: 1
+        fail("rvn-gen", e)
     if status:
         sys.exit(status)
 
 
 def main() -> None:
-    _main()
+    run_hydra(_main)
 
 
 if __name__ == "__main__":

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from rvn_data.cli.common import ConfigError, validating
 from rvn_data.dataset import naming
 from rvn_data.dataset.finalise import Finalised
 from rvn_data.dataset.gnm_writer import GNMWriter
@@ -70,20 +71,23 @@ class GenReport:
 def generate(cfg: Any) -> GenReport:
     """Generate this shard's scenes and finalise when every shard is done."""
     t_start = time.perf_counter()
-    settings = GenSettings.from_config(cfg)
-    out_dir = Path(cfg["out_dir"]).expanduser().resolve()
-    shard_index, num_shards = int(cfg["shard_index"]), int(cfg["num_shards"])
-    if not 0 <= shard_index < num_shards:
-        raise ValueError(f"shard_index={shard_index} must be in [0, num_shards={num_shards})")
-    n = int(cfg["trajectories_per_scene"])
-    if n < 0:
-        raise ValueError(f"trajectories_per_scene={n} must be >= 0")
-    specs = list_scenes(cfg)
-    gnm = GNMWriter.open(out_dir, settings)
+    with validating():  # bad input: ConfigError (exit status 2), before anything is written
+        settings = GenSettings.from_config(cfg)
+        out_dir = Path(cfg["out_dir"]).expanduser().resolve()
+        shard_index, num_shards = int(cfg["shard_index"]), int(cfg["num_shards"])
+        if not 0 <= shard_index < num_shards:
+            raise ValueError(f"shard_index={shard_index} must be in [0, num_shards={num_shards})")
+        n = int(cfg["trajectories_per_scene"])
+        if n < 0:
+            raise ValueError(f"trajectories_per_scene={n} must be >= 0")
+        if cfg.get("mode", "generate") not in ("generate", "merge"):
+            raise ValueError(f"mode={cfg.get('mode')!r} must be generate or merge")
+        if int(cfg.get("workers", 1)) < 1:
+            raise ValueError(f"workers={cfg.get('workers')} must be >= 1")
+        specs = list_scenes(cfg)
+        gnm = GNMWriter.open(out_dir, settings)
     if cfg.get("mode", "generate") == "merge":
         return GenReport(merge(gnm, specs, bool(cfg.get("allow_partial", False))))
-    if cfg.get("mode", "generate") != "generate":
-        raise ValueError(f"mode={cfg.get('mode')!r} must be generate or merge")
     if settings.kind == "expert" and settings.margin <= settings.agent.r_robot:
         print(f"warning: expert dataset.margin={settings.margin} m is not larger than r_robot={settings.agent.r_robot} m")
     if settings.kind == "negative" and settings.margin >= settings.agent.r_robot:
@@ -105,8 +109,8 @@ def generate(cfg: Any) -> GenReport:
 def merge(gnm: GNMWriter, specs: list[str], allow_partial: bool) -> int:
     """`mode=merge`: write splits, data_config and manifest from the scenes done so far."""
     missing = gnm.missing_scenes(specs)
-    if missing and not allow_partial:
-        raise ValueError(f"out_dir={gnm.out_dir}: {len(missing)} of {len(specs)} scenes are not generated yet "
+    if missing and not allow_partial:  # bad input: ConfigError (exit status 2)
+        raise ConfigError(f"out_dir={gnm.out_dir}: {len(missing)} of {len(specs)} scenes are not generated yet "
                          f"(first: {missing[0]}); run the missing shards, or merge with allow_partial=true")
     done = gnm.finalise_dataset(specs, allow_missing=True)
     print(f"rvn-gen merge: {gnm.out_dir}: wrote data_splits/{gnm.settings.name}/, data_config.yaml, manifest.json "

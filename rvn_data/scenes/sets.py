@@ -1,8 +1,8 @@
 """Scene lists of a split: `scene_specs(source, split, ...)` → specs for `load_scene`.
 
 Sources: `procedural` (`procedural:<split>/<i>`; 800 train / 50 val / 50 test), `mesh_dir`
-(a directory of GLB/glTF/OBJ/PLY files, `<root>/<split>/` when it exists, or a text file
-listing paths), `list_file` (a text file listing paths; relative paths are relative to the
+(a directory of GLB/glTF/OBJ/PLY files, `<root>/<split>/` when it exists, one mesh file, or
+a text file listing paths), `list_file` (a text file listing paths; relative paths are relative to the
 file; blank lines and `#` comments ignored) and `hm3d` (`<root>/<split>/<NNNNN-id>/<id>.glb`).
 """
 from __future__ import annotations
@@ -33,18 +33,29 @@ class ScenesConfig:
 
 
 def _list_file(path: Path) -> list[str]:
+    try:
+        text = path.read_text()
+    except UnicodeDecodeError:
+        raise SceneError(f"scenes.root={path} is neither a text file listing meshes nor a mesh file "
+                         f"({', '.join(SUFFIXES)}); point it at a folder of mesh files, one mesh, or a list") from None
     out = []
-    for line in path.read_text().splitlines():
+    for line in text.splitlines():
         line = line.split("#", 1)[0].strip()
         if line:
             p = Path(line).expanduser()
             out.append(str(p if p.is_absolute() else path.parent / p))
     if not out:
         raise SceneError(f"scene list {str(path)!r} names no mesh files")
+    missing = [p for p in out if not Path(p).is_file()]
+    if missing:
+        raise SceneError(f"scene list {str(path)!r} names {len(missing)} mesh file(s) that do not exist, "
+                         f"e.g. {missing[0]!r}")
     return out
 
 
 def _mesh_dir(root: Path, split: str) -> list[str]:
+    if root.is_file() and root.name.lower().endswith(SUFFIXES):
+        return [str(root)]  # one mesh: a set of one scene
     if root.is_file():
         return _list_file(root)
     if not root.is_dir():

@@ -80,6 +80,9 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
     """Policy with ``reset()``/``act(obs)`` from an rvn-train ``out_dir``. ``model`` (optional)
     asserts which model the checkpoint must hold."""
     out_dir = Path(checkpoint_path).expanduser()
+    if not out_dir.exists():
+        raise ValueError(f"policy.checkpoint_path={checkpoint_path} does not exist; pass the out_dir of an "
+                         "rvn-train or rvn-rl run")
     other = recorded_loader(out_dir)
     if other is not None:  # another trainer's out_dir (rvn-rl): the loader it names
         from hydra.utils import get_method

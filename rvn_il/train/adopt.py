@@ -23,10 +23,13 @@ log = logging.getLogger(__name__)
 SAME = ("image_size", "crop", "context_size", "len_traj_pred", "metric_waypoint_spacing")
 
 
-def adopt_expert(source: str | Path, member_dir: Path, model_cfg: Mapping, stats: Mapping) -> Path:
-    """Copy the latest checkpoint of the NoMaD-PointGoal run ``source`` into ``member_dir``
-    (NoMaD-Neg's ``expert``) unless that already holds it; returns the adopted checkpoint."""
+def expert_source(source: str | Path, model_cfg: Mapping) -> Path:
+    """The latest checkpoint of the finished NoMaD-PointGoal run ``source`` (``train.expert_from``);
+    a ValueError naming the setting when there is none or it cannot serve as NoMaD_e."""
     src_dir = Path(source).expanduser()
+    if not src_dir.exists():
+        raise ValueError(f"train.expert_from={source} does not exist; pass the out_dir of a finished "
+                         "rvn-train model=nomad_pointgoal run, or leave train.expert_from unset")
     src_model = read_config(src_dir)["model"]
     name = src_model["name"]
     if name != "nomad_pointgoal":
@@ -39,6 +42,13 @@ def adopt_expert(source: str | Path, member_dir: Path, model_cfg: Mapping, stats
     if ckpt is None:
         raise ValueError(f"train.expert_from={source} has no finished checkpoint (no {src_dir / 'model' / 'latest'}); "
                          "train it first")
+    return ckpt
+
+
+def adopt_expert(source: str | Path, member_dir: Path, model_cfg: Mapping, stats: Mapping) -> Path:
+    """Copy the latest checkpoint of the NoMaD-PointGoal run ``source`` into ``member_dir``
+    (NoMaD-Neg's ``expert``) unless that already holds it; returns the adopted checkpoint."""
+    ckpt = expert_source(source, model_cfg)
     mine = latest_checkpoint(member_dir)
     if mine is not None:
         if read_stats(mine).get("adopted_from") == str(ckpt.resolve()):

@@ -4,29 +4,32 @@
     rvn-train model=nomad_neg data.root=data/expert data.negative_root=data/negative model.size=small
     torchrun --nproc_per_node=4 -m rvn_il.train.cli model=vint_pointgoal data.root=...
 
-Config: conf/train.yaml and conf/model/*.yaml. Bad input exits with status 1 and one line.
+Config: conf/train.yaml and conf/model/*.yaml. Bad input (a path that does not exist, an
+unwritable out_dir, a device this machine lacks, a typo'd key) is found before any work and
+exits with status 2 and one line, writing nothing; a training that fails exits with status 1.
 """
 from __future__ import annotations
 
 import logging
 import os
-import sys
 from pathlib import Path
 from typing import Sequence
 
 import hydra
 from omegaconf import DictConfig, OmegaConf
 from rvn_data.config import CONF_DIR, load_config, register_configs
+from rvn_data.cli.common import entered_task, fail, record_run, run_hydra
 
 from . import settings  # noqa: F401  (registers conf/train.yaml's schema, base_train)
 from .trainer import run_training
 
 register_configs()
 
-def _run(cfg: DictConfig) -> Path:
+def _run(cfg: DictConfig, record: bool = False) -> Path:
     container = OmegaConf.to_container(cfg, resolve=True)
     container.pop("hydra", None)
-    return run_training(container)
+    on_checked = (lambda checked: record_run(cfg, Path(checked["out_dir"]).expanduser(), "rvn-train")) if record else None
+    return run_training(container, on_checked)
 
 
 def compose(overrides: Sequence[str] = ()) -> DictConfig:
@@ -41,18 +44,18 @@ def train(overrides: Sequence[str] = ()) -> Path:
 
 @hydra.main(config_path=CONF_DIR, config_name="train", version_base="1.3")
 def _hydra_main(cfg: DictConfig) -> None:
+    entered_task()
     logging.getLogger("rvn_il").setLevel(logging.INFO)
     try:
-        out = _run(cfg)
-    except (ValueError, OSError) as e:
-        print(f"rvn-train: error: {e}", file=sys.stderr)
-        sys.exit(1)
+        out = _run(cfg, record=True)
+    except (ValueError, OSError) as e:  # ConfigError (a ValueError): status 2; a failed training: 1
+        fail("rvn-train", e)
     if os.environ.get("RANK", "0") == "0":
         print(f"rvn-train: checkpoint in {out}")
 
 
 def main() -> None:
-    _hydra_main()
+    run_hydra(_hydra_main)
 
 
 if __name__ == "__main__":

@@ -12,7 +12,7 @@ import logging
 import math
 import os
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
 import numpy as np
 import torch
@@ -21,22 +21,16 @@ from torch.utils.data import BatchSampler, DataLoader
 from safetensors.torch import load_file
 from tqdm import tqdm
 
-from ..data import BatchView, EpochSampler, crop_setting, depth_setting, make_dataset
-from ..data.depth import REGENERATE, has_depth
-from rvn_data.dataset.reader import list_trajectories
+from ..data import BatchView, EpochSampler, crop_setting, make_dataset
 from rvn_data.cache_root import cache_root
 from ..models import build_model, resolve_size
-from ..models.checkpoint import (latest_checkpoint, load_state_dict_checked, members_of, read_config, read_weights,
-                                 save_checkpoint, write_config)
+from ..models.checkpoint import latest_checkpoint, load_state_dict_checked, read_weights, save_checkpoint, write_config
 from ..models.encoders import IMAGENET_MEAN, IMAGENET_STD
-from ..models.nomad import check_prediction_type
-from ..policies.loader import resolve_device
 from .adopt import adopt_expert
 from .ema import EMA
+from .preflight import data_roots, preflight
 from .settings import complete_config
 from .validate import Validator
-
-PRECISIONS = ("fp32", "bf16")
 
 log = logging.getLogger(__name__)
 
@@ -63,62 +57,21 @@ def _dist_info() -> tuple[int, int, int]:
     return rank, world, int(os.environ.get("LOCAL_RANK", 0))
 
 
-def data_roots(cfg: Mapping) -> dict[str, str]:
-    """Member → dataset folder: ``data.root`` (expert) and, for nomad_neg, ``data.negative_root``."""
-    members = members_of(cfg["model"]["name"])
-    if members == ["model"]:
-        return {"model": cfg["data"]["root"]}
-    neg = cfg["data"]["negative_root"]
-    if not neg:
-        raise ValueError("model=nomad_neg needs data.negative_root= (the negative GNM dataset for NoMaD_n) besides data.root=")
-    return {"expert": cfg["data"]["root"], "negative": neg}
-
-
-def check_settings(cfg: Mapping) -> None:
-    """Settings that would otherwise fail after minutes of training."""
-    tcfg, data, model = cfg["train"], cfg["data"], cfg["model"]
-    if "prediction_type" in model:
-        check_prediction_type(model["prediction_type"])
-    if tcfg["precision"] not in PRECISIONS:
-        raise ValueError(f"train.precision={tcfg['precision']!r}; choose one of {', '.join(PRECISIONS)}")
-    val_root = data["val_root"]
-    if val_root and not Path(val_root).expanduser().is_dir():
-        raise ValueError(f"data.val_root={val_root} does not exist; generate an expert dataset on other scenes "
-                         "(rvn-gen split=val out_dir=...) or set data.val_root=null")
-    for key in ("val_every", "val_batches", "val_trajectories"):
-        if val_root and not int(tcfg[key]) > 0:
-            raise ValueError(f"train.{key}={tcfg[key]} must be a positive integer")
-    if depth_setting(resolve_size(model)) is not None:  # the depth loss reads rvn-gen's depth.npy sidecars
-        for member, root in data_roots(cfg).items():
-            if member == "expert" and tcfg["expert_from"]:
-                continue
-            key = "data.negative_root" if member == "negative" else "data.root"
-            _, names = list_trajectories(Path(root).expanduser(), data["split"],
-                                         Path(data["splits_dir"]) if data["splits_dir"] else None, data["name"])
-            if not has_depth(Path(root).expanduser(), names):
-                raise ValueError(f"{key}={root} has no depth.npy sidecars; {REGENERATE}")
-
-
-def run_training(cfg: Mapping[str, Any]) -> Path:
+def run_training(cfg: Mapping[str, Any], on_checked: Callable[[dict], None] | None = None) -> Path:
     """Train every member of ``cfg['model']`` into ``cfg['out_dir']``; returns the out_dir.
     ``cfg`` is rvn-train's config (`rvn_il.train.settings.TrainConfig`); what it leaves out
-    takes the schema's default."""
+    takes the schema's default. Every path and setting is checked first (`preflight`:
+    `ConfigError`, nothing written); then ``on_checked(cfg)`` runs, before anything is written."""
     cfg = complete_config(cfg)
     rank, world, local_rank = _dist_info()
-    device = resolve_device(cfg["device"])
+    device = preflight(cfg)
     if device.type == "cuda" and world > 1:
         device = torch.device("cuda", local_rank)
         torch.cuda.set_device(device)
     out_dir = Path(cfg["out_dir"]).expanduser()
-    name = resolve_size(cfg["model"])["name"]  # validates model.size before anything is written
-    trained = any((out_dir / m / "latest").is_file() for m in ("model", "expert", "negative"))
-    if trained and (out_dir / "config.yaml").is_file():
-        old = read_config(out_dir)["model"]
-        if old["name"] != name or old.get("size", "full") != cfg["model"].get("size", "full"):
-            raise ValueError(f"{out_dir} holds a checkpoint of model {old['name']!r} (size {old.get('size', 'full')}), not "
-                             f"{name!r} (size {cfg['model'].get('size', 'full')}); choose another out_dir=")
-    check_settings(cfg)
     roots = data_roots(cfg)
+    if on_checked is not None:
+        on_checked(cfg)
     if rank == 0:
         write_config(out_dir, cfg)
     for index, (member, root) in enumerate(roots.items()):

@@ -5,7 +5,8 @@ Hydra config ``conf/rl_depth.yaml`` (composed with Hydra's compose API: override
 the command line, no Hydra run folder). Writes into ``out_dir``: ``model.safetensors`` +
 ``model.json`` (load with `rvn_rl.depth.load_depth_model`), ``metrics.json`` (val AbsRel,
 delta1, RMSE; the two baselines; AbsRel on training frames at init and after training; the
-training log), ``predictions.png``, ``config.yaml`` and ``pairs/{train,val}.h5``.
+training log), ``predictions.png``, ``config.yaml`` and ``pairs/{train,val}.h5``. Bad input
+exits with status 2 and one line, a run that fails with status 1 (`rvn_data.cli.common`).
 """
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ import numpy as np
 import yaml
 
 from rvn_data.atomic import write_text_atomic
+from rvn_data.cli.common import BAD_INPUT, RUN_FAILED, ConfigError, check_writable_dir, one_line, validating
 
 PROG = "rvn_rl.depth.cli"
 TRAIN_SUBSET = 64  # training frames on which AbsRel is measured at init and after training
@@ -71,14 +73,18 @@ def run(cfg: dict) -> dict:
     import torch
 
     from .model import DepthNet, save_depth_model
-    from .pairs import read_pairs
+    from .pairs import read_pairs, split_scenes
     from .report import summary, write_predictions_png
     from .train import (TrainSettings, baseline_metrics, depth_metrics, evaluate, median_depth, predict,
                         train_depth as fit)
 
-    check(cfg)
-    settings = TrainSettings(**cfg["train"]).validate()
-    out_dir = Path(cfg["out_dir"]).expanduser()
+    with validating():  # bad input: exit status 2, nothing written
+        check(cfg)
+        settings = TrainSettings(**cfg["train"]).validate()
+        out_dir = check_writable_dir(Path(cfg["out_dir"]).expanduser())
+        p = cfg["pairs"]
+        for split in ("train", "val"):
+            split_scenes(p["source"], split, p[f"{split}_scenes"], root=p["root"])
     if cfg["threads"] is not None:
         torch.set_num_threads(cfg["threads"])
     torch.manual_seed(cfg["seed"])
@@ -129,14 +135,18 @@ def main(argv: list[str] | None = None) -> int:
     if any(a in ("-h", "--help") for a in argv):
         print(__doc__)
         return 0
-    try:
-        from hydra.errors import HydraException
+    from hydra.errors import HydraException
 
-        metrics = run(compose(argv))
-    except (ValueError, TypeError, KeyError, SceneError, OSError, OmegaConfBaseException, HydraException) as err:
-        msg = (str(err).strip().splitlines() or [type(err).__name__])[0]
-        print(f"{PROG}: error: {msg}", file=sys.stderr)
-        return 1
+    try:
+        cfg = compose(argv)
+    except (ValueError, TypeError, KeyError, OmegaConfBaseException, HydraException) as err:
+        print(f"{PROG}: error: {one_line(err)}", file=sys.stderr)
+        return BAD_INPUT
+    try:
+        metrics = run(cfg)
+    except (ValueError, TypeError, KeyError, SceneError, OSError) as err:  # ConfigError: BAD_INPUT
+        print(f"{PROG}: error: {one_line(err)}", file=sys.stderr)
+        return BAD_INPUT if isinstance(err, ConfigError) else RUN_FAILED
     print(metrics["summary"])
     return 0
 

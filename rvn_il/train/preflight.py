@@ -1,0 +1,110 @@
+"""rvn-train's checks before any work: every path and setting that would otherwise fail after
+minutes of training (or, for nomad_neg, after its first member is trained).
+
+`preflight` checks the device, the model size, the out_dir (writable, not another model's
+checkpoints), the datasets of every member (``data.root``; ``data.negative_root`` for
+nomad_neg) with the setting that names them, ``train.expert_from``, ``data.val_root`` and the
+loop settings, and raises `rvn_data.cli.common.ConfigError` (exit status 2) with one line
+naming the setting. Nothing is written.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Mapping
+
+import torch
+
+from rvn_data.dataset.reader import list_trajectories
+from rvn_data.cli.common import ConfigError, check_writable_dir, validating
+
+from ..data import depth_setting
+from ..data.depth import REGENERATE, has_depth
+from ..models import resolve_size
+from ..models.checkpoint import members_of, read_config
+from ..models.nomad import check_prediction_type
+from ..policies.loader import resolve_device
+from .adopt import expert_source
+
+PRECISIONS = ("fp32", "bf16")
+GENERATE = {"data.root": "generate it with rvn-gen (out_dir=...)",
+            "data.negative_root": "generate it with rvn-gen dataset=negative (out_dir=...)"}
+
+
+def data_roots(cfg: Mapping) -> dict[str, str]:
+    """Member → dataset folder: ``data.root`` (expert) and, for nomad_neg, ``data.negative_root``."""
+    members = members_of(cfg["model"]["name"])
+    if members == ["model"]:
+        return {"model": cfg["data"]["root"]}
+    neg = cfg["data"]["negative_root"]
+    if not neg:
+        raise ValueError("model=nomad_neg needs data.negative_root= (the negative GNM dataset for NoMaD_n) besides data.root=")
+    return {"expert": cfg["data"]["root"], "negative": neg}
+
+
+def root_key(member: str) -> str:
+    return "data.negative_root" if member == "negative" else "data.root"
+
+
+def preflight(cfg: Mapping) -> torch.device:
+    """Check a complete rvn-train config (`rvn_il.train.settings.complete_config`); returns the
+    device. `ConfigError` naming the setting on the first problem."""
+    with validating():
+        device = resolve_device(cfg["device"])
+        name = resolve_size(cfg["model"])["name"]  # validates model.size
+        check_settings(cfg)
+        check_datasets(cfg)
+        check_out_dir(cfg, name)
+    return device
+
+
+def check_out_dir(cfg: Mapping, name: str) -> None:
+    """out_dir writable, and not holding checkpoints of another model or size."""
+    out_dir = Path(cfg["out_dir"]).expanduser()
+    trained = any((out_dir / m / "latest").is_file() for m in ("model", "expert", "negative"))
+    if trained and (out_dir / "config.yaml").is_file():
+        old = read_config(out_dir)["model"]
+        size = cfg["model"].get("size", "full")
+        if old["name"] != name or old.get("size", "full") != size:
+            raise ValueError(f"{out_dir} holds a checkpoint of model {old['name']!r} (size {old.get('size', 'full')}), not "
+                             f"{name!r} (size {size}); choose another out_dir=")
+    check_writable_dir(out_dir)
+
+
+def check_settings(cfg: Mapping) -> None:
+    """Loop and validation settings."""
+    tcfg, data, model = cfg["train"], cfg["data"], cfg["model"]
+    if "prediction_type" in model:
+        check_prediction_type(model["prediction_type"])
+    if tcfg["precision"] not in PRECISIONS:
+        raise ValueError(f"train.precision={tcfg['precision']!r}; choose one of {', '.join(PRECISIONS)}")
+    val_root = data["val_root"]
+    if val_root and not Path(val_root).expanduser().is_dir():
+        raise ValueError(f"data.val_root={val_root} does not exist; generate an expert dataset on other scenes "
+                         "(rvn-gen split=val out_dir=...) or set data.val_root=null")
+    for key in ("val_every", "val_batches", "val_trajectories"):
+        if val_root and not int(tcfg[key]) > 0:
+            raise ValueError(f"train.{key}={tcfg[key]} must be a positive integer")
+
+
+def check_datasets(cfg: Mapping) -> None:
+    """Every member's dataset exists and lists trajectories (and has depth sidecars when the
+    depth loss is on); ``train.expert_from`` for nomad_neg."""
+    data, tcfg = cfg["data"], cfg["train"]
+    depth = depth_setting(resolve_size(cfg["model"])) is not None  # the depth loss reads rvn-gen's depth.npy
+    for member, root in data_roots(cfg).items():
+        if member == "expert" and tcfg["expert_from"]:
+            expert_source(tcfg["expert_from"], resolve_size(cfg["model"]))
+            continue
+        key, path = root_key(member), Path(str(root)).expanduser()
+        if not path.is_dir():
+            raise ConfigError(f"{key}={root} does not exist; {GENERATE[key]} or set {key}= to a GNM dataset folder")
+        try:
+            _, names = list_trajectories(path, data["split"], Path(data["splits_dir"]) if data["splits_dir"] else None,
+                                         data["name"])
+        except ValueError as err:
+            raise ConfigError(f"{key}={root}: {err}") from None
+        if depth and not has_depth(path, names):
+            raise ConfigError(f"{key}={root} has no depth.npy sidecars; {REGENERATE}")
+
+
+__all__ = ["PRECISIONS", "check_datasets", "check_out_dir", "check_settings", "data_roots", "preflight", "root_key"]
