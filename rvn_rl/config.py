@@ -53,6 +53,8 @@ def validate(cfg: dict, world_size: int = 1) -> None:
                 raise ValueError(f"depth.model_path={path}: no such file or directory")
     if algo["lagrangian"] and not float(algo["cost_limit"]) >= 0.0:
         raise ValueError(f"algo.cost_limit={algo['cost_limit']!r} must be >= 0")
+    if algo["lagrangian"] and algo.get("lambda_max") is not None and not float(algo["lambda_max"]) > 0.0:
+        raise ValueError(f"algo.lambda_max={algo['lambda_max']!r} must be > 0 (or null: no upper bound)")
 
 
 def uses_true_depth(cfg: dict) -> bool:

@@ -16,7 +16,8 @@ from PIL import Image
 from rvn_data.inspect import (animation_frames, clip_figure, collisions, collisions_by_scene, dataset_stats,
                               first_collision, list_trajectories, load_clip, markdown_table, scene_map,
                               stats_figure, write_animation)
-from rvn_data.inspect.maps import OCCUPIED
+from rvn_data.dataset.topdown import legend_strip
+from rvn_data.inspect.maps import LEGEND, OCCUPIED
 
 REPO = Path(__file__).resolve().parents[1]
 NOTEBOOK = REPO / "notebooks" / "collision_clips.ipynb"
@@ -87,7 +88,9 @@ def test_map_transform_puts_poses_on_free_floor(clip_and_map):
 def test_animation_gif_and_mp4(clip_and_map, tmp_path):
     clip, smap = clip_and_map
     frames = animation_frames(clip, smap, height=128)
-    assert len(frames) == len(clip) and {f.shape for f in frames} == {frames[0].shape} and frames[0].shape[0] == 128
+    legend_rows = legend_strip(frames[0].shape[1], LEGEND).shape[0]  # the map's legend under the 128-px panels
+    assert len(frames) == len(clip) and {f.shape for f in frames} == {frames[0].shape}
+    assert frames[0].shape[0] == 128 + legend_rows and legend_rows > 0
     assert not np.array_equal(frames[0], frames[-1])  # the path grows, the border turns red
     gif = write_animation(frames, tmp_path / "clip.gif")
     with Image.open(gif) as im:

@@ -95,7 +95,7 @@ def test_bad_runs(runs, tmp_path):
     (torn / "episodes.jsonl").write_text(lines[0] + "\n")
     with pytest.raises(ValueError, match="holds 1 episodes but"):
         load_run(torn)
-    assert report_main([str(tmp_path / "missing"), "-o", str(tmp_path / "r.md")]) == 1
+    assert report_main([str(tmp_path / "missing"), "-o", str(tmp_path / "r.md")]) == 2  # bad input: exit status 2 (rvn_data/cli/common.py)
     empty = tmp_path / "empty"
     empty.mkdir()
     with pytest.raises(ValueError, match="holds no rvn-eval output"):

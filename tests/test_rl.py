@@ -13,7 +13,7 @@ import yaml
 
 pytestmark = pytest.mark.slow  # end-to-end runs of the CLIs; the fast tier is -m "not slow"
 
-TINY = ["env.size=32", "env.num_envs=2", "env.num_scenes=2", "ppo.num_steps=8", "model.backbone=resnet18",
+TINY = ["env.size=32", "env.num_envs=2", "env.num_scenes=2", "ppo.num_steps=8", "ppo.num_mini_batch=2", "model.backbone=resnet18",
         "train.threads=1", "progress=false", "renderer=raycast"]
 ENV = {**os.environ, "OMP_NUM_THREADS": "1"}
 

@@ -23,7 +23,7 @@ def test_ddppo_two_ranks_gloo(tmp_path):
     port = free_port()
     cmd = [sys.executable, "-m", "torch.distributed.run", "--nproc_per_node=2", f"--master_port={port}",
            "-m", "rvn_rl.cli", "algo=ddppo", f"out_dir={out}", "env.size=32", "env.num_envs=2", "env.num_scenes=2",
-           "ppo.num_steps=8", "train.total_steps=64", "model.backbone=resnet18", "train.threads=1", "progress=false",
+           "ppo.num_steps=8", "ppo.num_mini_batch=2", "train.total_steps=64", "model.backbone=resnet18", "train.threads=1", "progress=false",
            "renderer=raycast", "ddppo.backend=gloo"]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=900,
                           env={**os.environ, "OMP_NUM_THREADS": "1"})
