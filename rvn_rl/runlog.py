@@ -70,15 +70,16 @@ def read_rows(out_dir: Path) -> list[dict]:
 
 
 def plot_learning_curve(out_dir: Path, title: str) -> Path | None:
-    """``learning_curve.png``: episode return, goals per episode, collisions/km and (PPO-Lag) lambda."""
-    rows = [r for r in read_rows(out_dir) if "reward" in r]
+    """``learning_curve.png``: episode return, goals per episode, collisions/km, (PPO-Lag) lambda and the
+    policy's entropy; a run in which no episode has ended yet still gets its entropy curve."""
+    rows = [r for r in read_rows(out_dir) if "env_steps" in r]
     if not rows:
         return None
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    keys = [k for k in ("reward", "goals", "collisions_per_km", "lambda", "ep_cost") if any(k in r for r in rows)]
+    keys = [k for k in ("reward", "goals", "collisions_per_km", "lambda", "ep_cost", "entropy") if any(k in r for r in rows)]
     fig, axes = plt.subplots(1, len(keys), figsize=(3.6 * len(keys), 3.2))
     for ax, key in zip(list(axes) if len(keys) > 1 else [axes], keys):
         pts = [(r["env_steps"], r[key]) for r in rows if key in r]
