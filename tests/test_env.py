@@ -148,7 +148,8 @@ def test_train_mode_switches_scene(tmp_path):
     scenes = []
     for i in range(8):
         _, info = e.reset() if i else e.reset(seed=4)
-        assert 4.0 - 1e-6 <= info["distance_to_goal"] <= 8.0 + 1e-6
+        # drawn on the start's distance field, reported on the goal's: the two agree to about a cell
+        assert 4.0 - 0.05 <= info["distance_to_goal"] <= 8.0 + 0.05
         scenes.append(info["scene_id"])
     assert all(scenes[i] == scenes[i + 1] for i in range(0, 8, 2))  # K = 2 resets per scene
     assert set(scenes) == {"procedural:val/0", "procedural:val/1"}

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from rvn_data.conventions import AgentConfig
-from rvn_data.benchmark.episodes import EpisodeSettings, episode_rng, sample_episode, sample_episodes
+from rvn_data.benchmark.episodes import (GENERATOR_VERSION, EpisodeSettings, episode_rng, sample_episode,
+                                        sample_episodes)
 from rvn_data.benchmark.episodes_source import EnvConfig, ensure_scene_episodes, open_scene
 from rvn_data.benchmark.episodes_store import EpisodeStore, make_settings, scene_fingerprint
 from rvn_data.navmesh import NavMeshSettings
@@ -76,7 +77,7 @@ def test_store_bytes_reproducible_and_prefix(tmp_path, loaded):
     index = json.loads(s1.index_path.read_text())
     assert index["scenes"] == [{"file": p1.name, "scene_id": SPEC, "scene_index": 0, "episodes": 3,
                                 "fingerprint": scene_fingerprint(loaded[0])}]
-    assert index["settings"]["episodes"]["n_goals"] == 6 and index["settings"]["generator_version"] == 1
+    assert index["settings"]["episodes"]["n_goals"] == 6 and index["settings"]["generator_version"] == GENERATOR_VERSION
     data = json.loads(gzip.decompress(p1.read_bytes()))
     assert data["settings"]["agent"]["r_robot"] == 0.18 and data["settings"]["navmesh"]["cell_size"] == 0.05
     # fewer episodes are served from the file without regenerating (no navmesh needed)

@@ -43,6 +43,24 @@ def test_gap_030_impassable_050_passable():
     assert wide.geodesic_distance(a, b) == pytest.approx(2.0, rel=0.01)
 
 
+@pytest.mark.parametrize("shift", [0.0, 0.001, -0.001, 0.013, 0.025, 0.049])
+def test_doorway_clearance_is_symmetric_under_a_lintel(shift):
+    """A 0.9 m doorway with a lintel 2 m up (above the agent): both jambs keep the agent
+    radius, at any sub-cell offset (the lintel's piece in the jamb's cell is above the band)."""
+    z0, z1 = 1 + shift - 0.45, 1 + shift + 0.45
+    boxes = room_boxes(4.0, 2.0, origin=(shift, shift))
+    boxes += [((shift + 1.95, 0, shift), (shift + 2.05, 2.5, z0)),
+              ((shift + 1.95, 0, z1), (shift + 2.05, 2.5, shift + 2)),
+              ((shift + 1.95, 2.0, z0), (shift + 2.05, 2.5, z1))]  # lintel
+    nm = NavMesh.build(box_scene(boxes, "doorway"))
+    zs = np.linspace(z0, z1, 1801)
+    for x in (1.97, 2.0, 2.03):  # inside the doorway, between the wall's faces
+        nav = nm.is_navigable(np.stack([np.full_like(zs, shift + x), np.zeros_like(zs), zs], 1))
+        assert nav.any()
+        lo, hi = zs[nav].min() - z0, z1 - zs[nav].max()
+        assert lo == pytest.approx(R, abs=0.005) and hi == pytest.approx(R, abs=0.005), (x, lo, hi)
+
+
 def test_low_table_blocks_high_overhang_does_not():
     table = [((1.0, 0.67, 1.0), (2.0, 0.70, 2.0))] + [  # top and four 4 cm legs
         ((x, 0, z), (x + 0.04, 0.67, z + 0.04)) for x in (1.0, 1.96) for z in (1.0, 1.96)]

@@ -27,6 +27,8 @@ def _add_scene_args(p: argparse.ArgumentParser) -> None:
                    help="read the navmesh from this Habitat/Recast .navmesh instead of building it")
     p.add_argument("--navmesh-source", choices=("auto", "build", "file"), default="auto",
                    help="auto: --navmesh, else a .navmesh beside the scene file, else build")
+    p.add_argument("--profile", choices=("rvn", "habitat"), default="rvn",
+                   help="how a built navmesh erodes: rvn (exact radius) or habitat (Recast's whole cells)")
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -74,7 +76,7 @@ def _load(args):
     from rvn_data.scenes import load_scene
 
     settings = NavMeshSettings(agent_radius=args.agent_radius, agent_height=args.agent_height,
-                               source=args.navmesh_source, file=args.navmesh)
+                               source=args.navmesh_source, file=args.navmesh, profile=args.profile)
     scene = load_scene(args.scene, up_axis=args.up_axis, unit_scale=args.unit_scale, level=args.level)
     return scene, settings, open_navmesh
 
@@ -108,7 +110,8 @@ def cmd_info(args) -> None:
     for i, a in enumerate(nm.island_areas):
         print(f"  island {i}: {a:8.2f} m²" + ("  (main)" if i == 0 else ""))
     print(f"navigable  {nm.navigable_area:.2f} m² on the main island")
-    print(f"navmesh    {'built from the scene' if nm.source_file is None else 'read from ' + nm.source_file}")
+    built = f"built from the scene (profile {settings.profile})"
+    print(f"navmesh    {built if nm.source_file is None else 'read from ' + nm.source_file}")
 
 
 def cmd_map(args) -> None:

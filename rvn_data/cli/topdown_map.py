@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 
 from rvn_data.atomic import atomic_path
-from rvn_data.navmesh.heightfield import rasterize
+from rvn_data.navmesh.build import scene_heightfield
 
 
 def map_image(scene, navmesh) -> tuple[np.ndarray, list[tuple[str, tuple]]]:
@@ -15,7 +15,7 @@ def map_image(scene, navmesh) -> tuple[np.ndarray, list[tuple[str, tuple]]]:
 
     st = navmesh.settings
     v, f = scene.triangles()
-    hf = rasterize(v, f, st.cell_size, st.cell_height, st.max_slope_deg, st.max_climb)
+    hf, _, _ = scene_heightfield(v, f, st)
     geometry = (np.diff(hf.start) > 0).reshape(hf.nz, hf.nx)
     island, free = navmesh.topdown()
     img = np.ones(island.shape + (3,))

@@ -6,6 +6,8 @@ geometry clipped into it, `scipy.ndimage.distance_transform_edt` finds the neare
 cell and the clearance is the distance from the cell centre to that box (and to the boxes
 of the 8 neighbours). A cell is navigable when its clearance is at least the agent radius.
 Island areas integrate the sub-cell coverage clip((clearance - r)/cs + 1/2, 0, 1).
+`navmesh.profile=habitat` swaps the heightfield and the erosion for Recast's
+(`recast_profile`); surfaces, layers, seams and islands are shared.
 """
 from __future__ import annotations
 
@@ -16,6 +18,8 @@ from scipy.sparse.csgraph import connected_components
 
 from rvn_data.navmesh.grid import NavGrid
 from rvn_data.navmesh.heightfield import Heightfield, rasterize
+from rvn_data.navmesh.recast_profile import (HABITAT_CELL_HEIGHT, ledge_surfaces, recast_layer, recast_voxels,
+                                             surface_heights)
 from rvn_data.navmesh.settings import NavMeshSettings
 from rvn_data.navmesh.surfaces import (build_regions, find_surfaces, link_surfaces,
                                        edge_clearance, obstacle_boxes, portal_surfaces, voxels)
@@ -54,8 +58,10 @@ def _clearance(box: np.ndarray, xc: np.ndarray, zc: np.ndarray) -> np.ndarray:
     return dist
 
 
-def _layer(hf: Heightfield, rid, region, surf, nbr, seams, keep, st: NavMeshSettings, climb, hcells):
-    """Arrays of one region's layer: surface index per cell (own and seam portals), clearance."""
+def _layer(hf: Heightfield, rid, region, surf, nbr, seams, keep, st: NavMeshSettings, climb, hcells,
+           recast=None):
+    """Arrays of one region's layer: surface index per cell (own and seam portals), clearance.
+    `recast`: (ledge per surface, true floor height per surface) under the habitat profile."""
     span, cell, height = surf
     own = np.flatnonzero(region == rid)
     # seam portals: surfaces of other kept regions near the seams, where the cell is empty
@@ -74,11 +80,16 @@ def _layer(hf: Heightfield, rid, region, surf, nbr, seams, keep, st: NavMeshSett
     lsurf[cell[own] // hf.nx - r0, cell[own] % hf.nx - c0] = own
     is_own = np.zeros(lsurf.shape, bool)
     is_own[cell[own] // hf.nx - r0, cell[own] % hf.nx - c0] = True
+    if recast is not None:
+        ledge, yfloor = recast
+        clearance = recast_layer(lsurf, ledge, nbr, st)
+        hgt = np.where(is_own, yfloor[np.maximum(lsurf, 0)], np.nan)
+        return int(r0), int(c0), lsurf, is_own, hgt, clearance
     free = lsurf >= 0
     _, (ii, jj) = ndimage.distance_transform_edt(~free, return_indices=True)
     href = height[lsurf[ii, jj]].astype(np.float64)
-    box, edge = obstacle_boxes(r0, c0, lsurf, href, hf.nx, hf.start, hf.smin, hf.smax, hf.box, hf.allbox,
-                         nbr, climb, hcells, hf.x0, hf.z0, hf.cs)
+    box, edge = obstacle_boxes(r0, c0, lsurf, href, hf.nx, hf.rstart, hf.rmin, hf.rmax, hf.rwalk, hf.rbox,
+                               nbr, climb, hcells, hf.x0, hf.z0, hf.cs)
     xc = hf.x0 + (c0 + np.arange(lsurf.shape[1]) + 0.5) * hf.cs
     zc = hf.z0 + (r0 + np.arange(lsurf.shape[0]) + 0.5) * hf.cs
     clearance = _clearance(box, xc[None, :], zc[:, None])
@@ -89,21 +100,36 @@ def _layer(hf: Heightfield, rid, region, surf, nbr, seams, keep, st: NavMeshSett
     return int(r0), int(c0), lsurf, is_own, hgt, clearance
 
 
+def scene_heightfield(verts: np.ndarray, faces: np.ndarray, st: NavMeshSettings) -> tuple[Heightfield, int, int]:
+    """The heightfield of the settings' profile and its (climb, clearance) in voxels."""
+    if st.profile == "habitat":
+        climb, hcells = recast_voxels(st)
+        ch = HABITAT_CELL_HEIGHT
+        return rasterize(verts, faces, st.cell_size, ch, st.max_slope_deg, climb * ch + 1e-6, recast=True), \
+            climb, hcells
+    climb = voxels(st.max_climb, st.cell_height, up=False)
+    hcells = voxels(st.agent_height, st.cell_height, up=True)
+    return rasterize(verts, faces, st.cell_size, st.cell_height, st.max_slope_deg, st.max_climb), climb, hcells
+
+
 def build_layers(scene: Scene, st: NavMeshSettings):
     """Returns (layers: list[NavGrid], island_areas: list[float] (largest first), scene grid
     (x0, z0, rows, cols), seam links int64 [K, 6] = (layer, row, col, layer, row, col))."""
     verts, faces = scene.triangles()
     if len(faces) == 0:
         raise SceneError(f"scene {scene.scene_id!r}: no triangles, nothing to build a navmesh from")
-    hf = rasterize(verts, faces, st.cell_size, st.cell_height, st.max_slope_deg, st.max_climb)
-    climb = voxels(st.max_climb, st.cell_height, up=False)
-    hcells = voxels(st.agent_height, st.cell_height, up=True)
+    habitat = st.profile == "habitat"
+    hf, climb, hcells = scene_heightfield(verts, faces, st)
     span, cell, height, ceiling, sstart = find_surfaces(hf.start, hf.smin, hf.smax, hf.walk, hcells)
     if len(span) == 0:
         raise SceneError(f"scene {scene.scene_id!r}: no walkable surface (no upward face with "
                          f"slope <= {st.max_slope_deg} deg and {st.agent_height} m of clearance); "
                          "check the up axis (--up-axis) and the unit scale")
     nbr = link_surfaces(cell, height, ceiling, sstart, hf.nx, hf.nz, climb, hcells)
+    recast = None
+    if habitat:
+        recast = (ledge_surfaces(hf.start, hf.smin, hf.smax, span, cell, hf.nx, hf.nz, climb, hcells),
+                  surface_heights(span, cell, hf.smax, hf.rstart, hf.rmax, hf.rwalk, hf.rytop, hf.y0, hf.ch))
     region, nreg, seams = build_regions(cell, nbr, hf.nx * hf.nz)
     # regions joined by seams form one raw component; erosion only shrinks it
     comp = _components(nreg, np.stack([region[seams[:, 0]], region[seams[:, 1]]], 1))
@@ -115,7 +141,7 @@ def build_layers(scene: Scene, st: NavMeshSettings):
     where = {}  # region id -> layer index
     for rid in np.flatnonzero(keep):
         r0, c0, lsurf, is_own, hgt, clr = _layer(hf, rid, region, (span, cell, height), nbr, seams,
-                                                 keep, st, climb, hcells)
+                                                 keep, st, climb, hcells, recast)
         nav = is_own & (clr >= r - 1e-9)
         lab, n = ndimage.label(nav)
         lab = np.where(lab > 0, lab - 1 + total, -1)

@@ -4,8 +4,10 @@ Every triangle is clipped against each grid cell it overlaps (Recast's `dividePo
 a 3 cm pillar or a thin table leg marks every cell it touches. A cell keeps a sorted list
 of solid spans [smin, smax] (in `cell_height` voxels above `y0`); overlapping spans merge
 with Recast's rule (the span whose top is highest decides walkability, walkable wins when
-the tops are within `max_climb`). Each span remembers the x/z bounding box of the
-non-walkable geometry clipped into its cell (sub-cell obstacle position, used by erosion).
+the tops are within `max_climb`). The clipped pieces themselves are kept too, per cell: their
+height range, walkability and x/z bounding box (sub-cell obstacle position, used by erosion:
+only the pieces within the band an agent's body occupies count, so a lintel above a doorway
+does not block the floor cell beside the jamb that its span merged with).
 """
 from __future__ import annotations
 
@@ -15,49 +17,15 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from rvn_data.navmesh.clip import divide_poly
+from rvn_data.navmesh.recast_profile import rasterize_recast
+
 _EPS_VOXEL = 1e-4
 
 
 @njit(cache=True)
-def _divide(inp, n, out1, out2, offset, axis):
-    """Split polygon `inp[:n]` by the plane v[axis] = offset: out1 (<=), out2 (>=)."""
-    d = np.empty(n)
-    for i in range(n):
-        d[i] = offset - inp[i, axis]
-    m = 0
-    k = 0
-    j = n - 1
-    for i in range(n):
-        ina = d[i] >= 0.0
-        inb = d[j] >= 0.0
-        if ina != inb:
-            s = d[j] / (d[j] - d[i])
-            for c in range(3):
-                v = inp[j, c] + (inp[i, c] - inp[j, c]) * s
-                out1[m, c] = v
-                out2[k, c] = v
-            m += 1
-            k += 1
-            if d[i] > 0.0:
-                out1[m, :] = inp[i, :]
-                m += 1
-            elif d[i] < 0.0:
-                out2[k, :] = inp[i, :]
-                k += 1
-        else:
-            if d[i] >= 0.0:
-                out1[m, :] = inp[i, :]
-                m += 1
-            if d[i] <= 0.0:
-                out2[k, :] = inp[i, :]
-                k += 1
-        j = i
-    return m, k
-
-
-@njit(cache=True)
 def _rasterize(verts, faces, walk, x0, z0, cs, nx, nz, y0, ch, emit,
-               o_cell, o_smin, o_smax, o_walk, o_box):
+               o_cell, o_smin, o_smax, o_walk, o_box, o_ytop):
     """Clip every triangle to the cells it overlaps; count (emit=False) or write records."""
     rest = np.empty((12, 3))
     rest2 = np.empty((12, 3))
@@ -78,7 +46,7 @@ def _rasterize(verts, faces, walk, x0, z0, cs, nx, nz, y0, ch, emit,
         r1 = min(int(math.floor((zmax - z0) / cs)), nz - 1)
         nrest = 3
         for r in range(r0, r1 + 1):
-            nrow, nr2 = _divide(rest, nrest, row, rest2, z0 + (r + 1) * cs, 2)
+            nrow, nr2 = divide_poly(rest, nrest, row, rest2, z0 + (r + 1) * cs, 2)
             rest, rest2 = rest2, rest
             nrest = nr2
             if nrow < 3:
@@ -96,7 +64,7 @@ def _rasterize(verts, faces, walk, x0, z0, cs, nx, nz, y0, ch, emit,
                 rrest[a, :] = row[a, :]
             nrr = nrow
             for col in range(c0, c1 + 1):
-                ncell, nrr2 = _divide(rrest, nrr, cell, rrest2, x0 + (col + 1) * cs, 0)
+                ncell, nrr2 = divide_poly(rrest, nrr, cell, rrest2, x0 + (col + 1) * cs, 0)
                 rrest, rrest2 = rrest2, rrest
                 nrr = nrr2
                 if ncell < 3:
@@ -118,10 +86,11 @@ def _rasterize(verts, faces, walk, x0, z0, cs, nx, nz, y0, ch, emit,
                         bz0 = min(bz0, cell[a, 2])
                         bz1 = max(bz1, cell[a, 2])
                     smin = int(math.floor((ylo - y0) / ch + 1e-4))
-                    smax = int(math.ceil((yhi - y0) / ch - 1e-4))
+                    smax = max(int(math.ceil((yhi - y0) / ch - 1e-4)), smin)
                     o_cell[count] = r * nx + col
                     o_smin[count] = smin
-                    o_smax[count] = max(smax, smin)
+                    o_smax[count] = smax
+                    o_ytop[count] = yhi
                     o_walk[count] = walk[t]
                     o_box[count, 0] = bx0
                     o_box[count, 1] = bx1
@@ -132,15 +101,13 @@ def _rasterize(verts, faces, walk, x0, z0, cs, nx, nz, y0, ch, emit,
 
 
 @njit(cache=True)
-def _merge(cell, smin, smax, walk, box, ncells, climb):
+def _merge(cell, smin, smax, walk, ncells, climb):
     """Merge sorted records into spans per cell; then Recast's low-hanging-obstacle filter."""
     n = cell.shape[0]
     start = np.zeros(ncells + 1, np.int64)
     s_min = np.empty(n, np.int32)
     s_max = np.empty(n, np.int32)
     s_walk = np.empty(n, np.bool_)
-    s_box = np.full((n, 4), np.nan, np.float32)  # non-walkable geometry x0, x1, z0, z1
-    s_all = np.empty((n, 4), np.float32)  # all geometry
     m = -1
     prev_cell = -1
     for i in range(n):
@@ -150,11 +117,6 @@ def _merge(cell, smin, smax, walk, box, ncells, climb):
             s_min[m] = smin[i]
             s_max[m] = smax[i]
             s_walk[m] = walk[i]
-            for q in range(4):
-                s_all[m, q] = box[i, q]
-            if not walk[i]:
-                for q in range(4):
-                    s_box[m, q] = box[i, q]
             if c != prev_cell:
                 for cc in range(prev_cell + 1, c + 1):
                     start[cc] = m
@@ -165,19 +127,6 @@ def _merge(cell, smin, smax, walk, box, ncells, climb):
         elif smax[i] > s_max[m]:
             s_walk[m] = walk[i]
         s_max[m] = max(s_max[m], smax[i])
-        s_all[m, 0] = min(s_all[m, 0], box[i, 0])
-        s_all[m, 1] = max(s_all[m, 1], box[i, 1])
-        s_all[m, 2] = min(s_all[m, 2], box[i, 2])
-        s_all[m, 3] = max(s_all[m, 3], box[i, 3])
-        if not walk[i]:
-            if np.isnan(s_box[m, 0]):
-                for q in range(4):
-                    s_box[m, q] = box[i, q]
-            else:
-                s_box[m, 0] = min(s_box[m, 0], box[i, 0])
-                s_box[m, 1] = max(s_box[m, 1], box[i, 1])
-                s_box[m, 2] = min(s_box[m, 2], box[i, 2])
-                s_box[m, 3] = max(s_box[m, 3], box[i, 3])
     m += 1
     for cc in range(prev_cell + 1, ncells + 1):
         start[cc] = m
@@ -192,7 +141,7 @@ def _merge(cell, smin, smax, walk, box, ncells, climb):
                 s_walk[k] = True
             prev_walk = w
             prev_top = s_max[k]
-    return start, s_min[:m].copy(), s_max[:m].copy(), s_walk[:m].copy(), s_box[:m].copy(), s_all[:m].copy()
+    return start, s_min[:m].copy(), s_max[:m].copy(), s_walk[:m].copy()
 
 
 @dataclass
@@ -211,37 +160,56 @@ class Heightfield:
     smin: np.ndarray   # int32 [S]
     smax: np.ndarray   # int32 [S]
     walk: np.ndarray   # bool [S]
-    box: np.ndarray    # float32 [S, 4] non-walkable geometry bbox (x0, x1, z0, z1), NaN if none
-    allbox: np.ndarray  # float32 [S, 4] bbox of all geometry in the span
+    rstart: np.ndarray  # int64 [nz*nx + 1], clipped pieces of cell c are rstart[c]:rstart[c+1]
+    rmin: np.ndarray    # int32 [P] voxel range of each piece
+    rmax: np.ndarray    # int32 [P]
+    rwalk: np.ndarray   # bool [P] walkable (upward, not too steep)
+    rbox: np.ndarray    # float32 [P, 4] x/z bbox of the piece (x0, x1, z0, z1)
+    rytop: np.ndarray   # float32 [P] highest y of the piece (m)
 
 
 def rasterize(vertices: np.ndarray, faces: np.ndarray, cs: float, ch: float,
-              max_slope_deg: float, max_climb: float) -> Heightfield:
-    """Rasterise a triangle soup (y up) conservatively into a span heightfield."""
+              max_slope_deg: float, max_climb: float, recast: bool = False) -> Heightfield:
+    """Rasterise a triangle soup (y up) conservatively into a span heightfield. `recast`:
+    Recast's grid (origin at the bounds minimum, one cell of margin) and span snapping."""
     v = np.ascontiguousarray(vertices, dtype=np.float64)
     f = np.ascontiguousarray(faces, dtype=np.int64)
     n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
     norm = np.linalg.norm(n, axis=1)
     walk = n[:, 1] > math.cos(math.radians(max_slope_deg)) * np.maximum(norm, 1e-30)
-    lo, hi = v.min(0), v.max(0)
-    x0 = math.floor(lo[0] / cs) * cs - cs
-    z0 = math.floor(lo[2] / cs) * cs - cs
-    y0 = math.floor(lo[1] / ch) * ch - ch
-    nx = int(math.ceil((hi[0] - x0) / cs)) + 2
-    nz = int(math.ceil((hi[2] - z0) / cs)) + 2
+    if recast:  # Recast's grid: origin at the float32 bounds minimum, width (bmax - bmin)/cs + 0.5
+        v32 = v.astype(np.float32)
+        lo32, hi32 = v32.min(0), v32.max(0)
+        x0, z0, y0 = float(lo32[0]) - cs, float(lo32[2]) - cs, float(lo32[1])
+        nx = int((hi32[0] - lo32[0]) / np.float32(cs) + np.float32(0.5)) + 2
+        nz = int((hi32[2] - lo32[2]) / np.float32(cs) + np.float32(0.5)) + 2
+        raster = lambda emit, *out: rasterize_recast(v32, f, walk, lo32, hi32, cs, ch, nx, nz, emit, *out)  # noqa: E731
+    else:
+        lo, hi = v.min(0), v.max(0)
+        x0 = math.floor(lo[0] / cs) * cs - cs
+        z0 = math.floor(lo[2] / cs) * cs - cs
+        y0 = math.floor(lo[1] / ch) * ch - ch
+        nx = int(math.ceil((hi[0] - x0) / cs)) + 2
+        nz = int(math.ceil((hi[2] - z0) / cs)) + 2
+        raster = lambda emit, *out: _rasterize(v, f, walk, x0, z0, cs, nx, nz, y0, ch, emit, *out)  # noqa: E731
     e_i = np.zeros(0, np.int64)
     e_f = np.zeros((0, 4), np.float32)
     e_s = np.zeros(0, np.int32)
     e_b = np.zeros(0, np.bool_)
-    count = _rasterize(v, f, walk, x0, z0, cs, nx, nz, y0, ch, False, e_i, e_s, e_s, e_b, e_f)
+    e_y = np.zeros(0, np.float32)
+    count = raster(False, e_i, e_s, e_s, e_b, e_f, e_y)
     o_cell = np.empty(count, np.int64)
     o_smin = np.empty(count, np.int32)
     o_smax = np.empty(count, np.int32)
     o_walk = np.empty(count, np.bool_)
     o_box = np.empty((count, 4), np.float32)
-    _rasterize(v, f, walk, x0, z0, cs, nx, nz, y0, ch, True, o_cell, o_smin, o_smax, o_walk, o_box)
+    o_ytop = np.empty(count, np.float32)
+    raster(True, o_cell, o_smin, o_smax, o_walk, o_box, o_ytop)
     order = np.lexsort((o_smax, o_smin, o_cell))
+    o_cell, o_smin, o_smax, o_walk, o_box, o_ytop = (
+        a[order] for a in (o_cell, o_smin, o_smax, o_walk, o_box, o_ytop))
     climb = int(math.floor(max_climb / ch + _EPS_VOXEL))
-    start, smin, smax, swalk, sbox, sall = _merge(
-        o_cell[order], o_smin[order], o_smax[order], o_walk[order], o_box[order], nx * nz, climb)
-    return Heightfield(x0, z0, y0, cs, ch, nx, nz, start, smin, smax, swalk, sbox, sall)
+    start, smin, smax, swalk = _merge(o_cell, o_smin, o_smax, o_walk, nx * nz, climb)
+    rstart = np.searchsorted(o_cell, np.arange(nx * nz + 1, dtype=np.int64)).astype(np.int64)
+    return Heightfield(x0, z0, y0, cs, ch, nx, nz, start, smin, smax, swalk, rstart, o_smin, o_smax,
+                       o_walk, o_box, o_ytop)

@@ -22,6 +22,11 @@ class NavMeshSettings:
     one, else build); see `rvn_data.navmesh.source.open_navmesh`. The default is "build" so
     that a run never changes navmesh because a file appeared beside a scene; HM3D users who
     want Habitat's shipped navmeshes say `navmesh.source=auto` (recorded in the run identity).
+    profile: how a navmesh is built from triangles (`rvn_data.navmesh.profiles`): "rvn" (exact
+    sub-cell clearance: the edge lies `agent_radius` from the obstacle geometry, convex corners
+    rounded) or "habitat" (Recast's build semantics as habitat-sim bakes it: cell height 0.2 m,
+    radius rounded up to whole cells, climb in cell-height units, cells partly covered count as
+    blocked, corners cut square, gaps narrower than the rounded diameter closed).
     """
 
     cell_size: float = 0.05  # m, horizontal grid cell
@@ -33,17 +38,20 @@ class NavMeshSettings:
     min_island_area: float = 1.0  # m², smaller connected islands are dropped
     source: str = "build"  # build | auto | file: auto uses `file`, else <scene>.navmesh beside the scene file, else builds
     file: str | None = None  # path of a Habitat/Recast .navmesh (source=file, or auto)
+    profile: str = "rvn"  # rvn (exact clearance) | habitat (Recast's cell-rounded build)
 
     def __post_init__(self) -> None:
         if self.source not in SOURCES:
             raise ValueError(f"navmesh setting source={self.source!r} must be one of {list(SOURCES)}")
+        if self.profile not in PROFILES:
+            raise ValueError(f"navmesh setting profile={self.profile!r} must be one of {list(PROFILES)}")
         if self.file is not None and not isinstance(self.file, str):
             object.__setattr__(self, "file", str(self.file))
         if self.file is not None and self.source == "build":
             raise ValueError(f"navmesh.file={self.file!r} is set but navmesh.source=build ignores it; "
                              "add navmesh.source=file (or auto)")
         for f in fields(self):
-            if f.name in ("source", "file"):
+            if f.name in ("source", "file", "profile"):
                 continue
             value = getattr(self, f.name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
@@ -76,7 +84,7 @@ class NavMeshSettings:
         if unknown:
             raise ValueError(f"unknown navmesh setting(s) {unknown}; known: {sorted(known)}")
         return cls(**{k: (float(v) if isinstance(v, (int, float)) and not isinstance(v, bool)
-                          and k not in ("source", "file") else v)
+                          and k not in ("source", "file", "profile") else v)
                       for k, v in values.items()})
 
     def to_dict(self) -> dict[str, float]:
@@ -84,12 +92,16 @@ class NavMeshSettings:
 
 
 SOURCES = ("auto", "build", "file")
+PROFILES = ("rvn", "habitat")
 
 
 def recorded(navmesh: Mapping[str, Any]) -> dict[str, Any]:
     """Navmesh settings as recorded in episode and run files: `source` and `file` only when
-    they differ from their defaults (build, none), so records made before they existed match."""
+    they differ from their defaults (build, none), `profile` only when it is not "rvn", so
+    records made before they existed match."""
     out = dict(navmesh)
+    if out.get("profile", "rvn") == "rvn":
+        out.pop("profile", None)
     if out.get("source", "build") == "build" and out.get("file") is None:
         out.pop("source", None)
         out.pop("file", None)

@@ -123,12 +123,15 @@ def build_regions(cell, nbr, ncells):
 
 
 @njit(cache=True)
-def obstacle_boxes(r0, c0, lsurf, href, nx, start, smin, smax, box, allbox, nbr,
+def obstacle_boxes(r0, c0, lsurf, href, nx, rstart, rmin, rmax, rwalk, rbox, nbr,
                    climb, hcells, x0, z0, cs):
     """x/z box [nzl, nxl, 4] of the obstacle in each cell of a layer (NaN: none).
 
     The obstacle of a cell is the geometry within the height band (href + climb,
-    href + agent_height) of the layer's floor there; a cell without a surface of the layer
+    href + agent_height) of the layer's floor there: the box of the non-walkable pieces
+    clipped into the cell that reach into the band (of the walkable ones when there are no
+    others: the top of a step too high to climb), whatever spans they merged into, so a lintel
+    above the band does not widen a jamb's box to the whole cell. A cell without a surface of the layer
     and without such geometry (a drop, an unlinked surface) is blocked entirely. Second
     output: for a free cell whose 4-neighbour holds a surface of the layer while no surface
     there is linked to it, the box of the shared edge(s) (see `edge_clearance`); a neighbour
@@ -145,9 +148,18 @@ def obstacle_boxes(r0, c0, lsurf, href, nx, start, smin, smax, box, allbox, nbr,
             bz0 = 1e30
             bz1 = -1e30
             found = False
-            for k in range(start[c], start[c + 1]):
-                if smax[k] > h + climb and smin[k] < h + hcells:
-                    b = box[k] if not np.isnan(box[k, 0]) else allbox[k]
+            solid = False  # a non-walkable piece in the band: walkable pieces no longer count
+            for k in range(rstart[c], rstart[c + 1]):
+                if rmax[k] > h + climb and rmin[k] < h + hcells:
+                    if not rwalk[k] and not solid:
+                        solid = True
+                        bx0 = 1e30
+                        bx1 = -1e30
+                        bz0 = 1e30
+                        bz1 = -1e30
+                    elif rwalk[k] and solid:
+                        continue
+                    b = rbox[k]
                     bx0 = min(bx0, b[0])
                     bx1 = max(bx1, b[1])
                     bz0 = min(bz0, b[2])
