@@ -162,5 +162,5 @@ def test_goal_follower_drives_straight_at_the_goal(runs):
     ok(rvn_eval(runs, "policy=goal_follower", f"out_dir={out}", "method=Goal follower"))
     records = read_records(out / "episodes.jsonl")
     assert len(records) == 4 and load(out)["method"] == "Goal follower"
-    for r in records:  # it moves (forward steps, not turning on the spot) and ends at a wall or a goal
-        assert r["path_length"] > 0.5 and (r["termination"] == "collision" or r["goals_reached"] > 0), r
+    for r in records:  # it moves (at least one 0.25 m forward step, not turning on the spot) and ends at a wall or a goal
+        assert r["path_length"] > 0.2 and (r["termination"] == "collision" or r["goals_reached"] > 0), r
