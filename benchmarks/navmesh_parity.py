@@ -84,21 +84,22 @@ def navigable_on_grid(nm, xs: np.ndarray, zs: np.ndarray) -> np.ndarray:
     return out
 
 
-def compare(nm, ref, scene, rng: np.random.Generator, n_sources: int = 30, per_source: int = 10) -> dict:
-    """The parity figures of navmesh `nm` against the reference `ref` (both RVN NavMesh)."""
-    pts = []
-    for _ in range(20 * n_sources * 2):
-        if len(pts) >= n_sources * (per_source + 1):
-            break
-        p = (nm if len(pts) % 2 else ref).sample(rng, island=0)
-        if nm.island_of(p) >= 0 and ref.island_of(p) >= 0:
-            pts.append(np.asarray(p, np.float64))
-    pts = np.array(pts).reshape(-1, per_source + 1, 3)
-    rel, mismatch, pairs = [], 0, 0
+def compare(nm, ref, scene, rng: np.random.Generator, n_pairs: int = 300, per_source: int = 10) -> dict:
+    """The parity figures of navmesh `nm` against the reference `ref` (both RVN NavMesh) on
+    `n_pairs` point pairs at least 1 m apart, `per_source` targets per source point."""
+    def draw(k: int) -> np.ndarray:  # a point navigable in both, proposed by each mesh in turn
+        for i in range(1000):
+            p = (nm if (k + i) % 2 else ref).sample(rng, island=0)
+            if nm.island_of(p) >= 0 and ref.island_of(p) >= 0:
+                return np.asarray(p, np.float64)
+        raise RuntimeError(f"{scene.scene_id}: no point navigable in both navmeshes")
+
+    rel, mismatch, pairs, draws = [], 0, 0, 0
     on = lambda m, p: np.array([p[0], m.floor_height(p), p[2]])  # noqa: E731  each mesh's own floor
-    for group in pts:
-        a, targets = group[0], group[1:]
-        for t in targets:
+    while pairs < n_pairs and draws < 50 * n_pairs:
+        a = draw(draws)
+        for _ in range(min(per_source, n_pairs - pairs)):
+            t, draws = draw(draws + 1), draws + 2
             if np.linalg.norm((t - a)[[0, 2]]) < 1.0:
                 continue
             # string-pulled shortest paths (one Dijkstra per source, cached): exact lengths, where a
@@ -132,7 +133,7 @@ def main(argv=None) -> int:
     ap.add_argument("--scenes", nargs="+", default=DEFAULT_SCENES, help="dream_apartment and/or procedural:<split>/<i>")
     ap.add_argument("--dream", type=Path, default=ROOT.parent / "shared" / "scenes" / "dream_apartment.glb")
     ap.add_argument("--profiles", default="rvn,habitat")
-    ap.add_argument("--sources", type=int, default=30, help="geodesic sources per scene (10 targets each)")
+    ap.add_argument("--pairs", type=int, default=300, help="point pairs per scene (10 per source point)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--bake", action="store_true", help="re-bake the Recast fixtures with node (--recast-dir)")
     ap.add_argument("--recast-dir", type=Path, default=None, help="folder whose node_modules has the packages")
@@ -161,7 +162,7 @@ def main(argv=None) -> int:
         ref = load_navmesh_file(fixture, NavMeshSettings(agent_radius=0.18, agent_height=1.0), scene)
         for prof in profiles:
             nm = NavMesh.build(scene, NavMeshSettings(agent_radius=0.18, agent_height=1.0, profile=prof))
-            f = compare(nm, ref, scene, np.random.default_rng(args.seed), args.sources)
+            f = compare(nm, ref, scene, np.random.default_rng(args.seed), args.pairs)
             rows.append({"scene": spec, "profile": prof, **f})
             print(f"{spec:<18} {prof:<8} {f['area']:8.2f} {f['area_recast']:9.2f} {f['area_ratio']:6.3f} "
                   f"{f['geo_median_pct']:9.2f} {f['geo_p95_pct']:9.2f} {f['pairs']:5d} {100 * f['mismatch']:9.1f} "

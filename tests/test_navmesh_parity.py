@@ -25,8 +25,8 @@ ROOM = [((-0.1, -0.1, -0.1), (4.1, 0.0, 4.1)), ((-0.1, 0, -0.1), (0, 4, 4.1)), (
 def test_a_navmesh_against_itself():
     scene = box_scene(ROOM, "room")
     nm = NavMesh.build(scene, NavMeshSettings(agent_height=1.5))
-    f = navmesh_parity.compare(nm, nm, scene, np.random.default_rng(0), n_sources=3)
-    assert f["area_ratio"] == 1.0 and f["pairs"] > 10
+    f = navmesh_parity.compare(nm, nm, scene, np.random.default_rng(0), n_pairs=30)
+    assert f["area_ratio"] == 1.0 and f["pairs"] == 30
     assert f["geo_median_pct"] == f["geo_p95_pct"] == 0.0 and f["mismatch"] == 0.0 and f["grid_disagree"] == 0.0
 
 
@@ -37,16 +37,16 @@ def test_habitat_profile_matches_the_recast_room():
     st = dict(agent_height=1.5, min_island_area=0.1)
     ref = load_navmesh_file(DATA / "recast_room_solo.navmesh", NavMeshSettings(**st), scene)
     hab = navmesh_parity.compare(NavMesh.build(scene, NavMeshSettings(profile="habitat", **st)), ref, scene,
-                                 np.random.default_rng(0), n_sources=4)
+                                 np.random.default_rng(0), n_pairs=40)
     rvn = navmesh_parity.compare(NavMesh.build(scene, NavMeshSettings(**st)), ref, scene,
-                                 np.random.default_rng(0), n_sources=4)
+                                 np.random.default_rng(0), n_pairs=40)
     assert all(navmesh_parity.passes(hab).values()), hab
     assert hab["grid_disagree"] < 0.02
     assert rvn["area_ratio"] > 1.05
 
 
 def test_cli_on_a_procedural_scene(capsys):
-    navmesh_parity.main(["--scenes", "procedural:val/3", "--profiles", "habitat", "--sources", "3"])
+    navmesh_parity.main(["--scenes", "procedural:val/3", "--profiles", "habitat", "--pairs", "30"])
     out = capsys.readouterr().out
     row = next(line for line in out.splitlines() if line.startswith("procedural:val/3"))
     ratio = float(row.split()[4])
