@@ -102,14 +102,14 @@ def _layer(hf: Heightfield, rid, region, surf, nbr, seams, keep, st: NavMeshSett
 
 def scene_heightfield(verts: np.ndarray, faces: np.ndarray, st: NavMeshSettings) -> tuple[Heightfield, int, int]:
     """The heightfield of the settings' profile and its (climb, clearance) in voxels."""
-    if st.profile == "habitat":
-        climb, hcells = recast_voxels(st)
+    habitat = st.profile == "habitat"
+    if habitat:
         ch = HABITAT_CELL_HEIGHT
-        return rasterize(verts, faces, st.cell_size, ch, st.max_slope_deg, climb * ch + 1e-6, recast=True), \
-            climb, hcells
-    climb = voxels(st.max_climb, st.cell_height, up=False)
-    hcells = voxels(st.agent_height, st.cell_height, up=True)
-    return rasterize(verts, faces, st.cell_size, st.cell_height, st.max_slope_deg, st.max_climb), climb, hcells
+        climb, hcells = recast_voxels(st)
+    else:
+        ch = st.cell_height
+        climb, hcells = voxels(st.max_climb, ch, up=False), voxels(st.agent_height, ch, up=True)
+    return rasterize(verts, faces, st.cell_size, ch, st.max_slope_deg, climb, recast=habitat), climb, hcells
 
 
 def build_layers(scene: Scene, st: NavMeshSettings):

@@ -20,7 +20,6 @@ from numba import njit
 from rvn_data.navmesh.clip import divide_poly
 from rvn_data.navmesh.recast_profile import rasterize_recast
 
-_EPS_VOXEL = 1e-4
 
 
 @njit(cache=True)
@@ -169,8 +168,9 @@ class Heightfield:
 
 
 def rasterize(vertices: np.ndarray, faces: np.ndarray, cs: float, ch: float,
-              max_slope_deg: float, max_climb: float, recast: bool = False) -> Heightfield:
-    """Rasterise a triangle soup (y up) conservatively into a span heightfield. `recast`:
+              max_slope_deg: float, climb: int, recast: bool = False) -> Heightfield:
+    """Rasterise a triangle soup (y up) conservatively into a span heightfield; `climb` (voxels)
+    is the merge and low-hanging-obstacle threshold. `recast`:
     Recast's grid (origin at the bounds minimum, one cell of margin) and span snapping."""
     v = np.ascontiguousarray(vertices, dtype=np.float64)
     f = np.ascontiguousarray(faces, dtype=np.int64)
@@ -208,7 +208,6 @@ def rasterize(vertices: np.ndarray, faces: np.ndarray, cs: float, ch: float,
     order = np.lexsort((o_smax, o_smin, o_cell))
     o_cell, o_smin, o_smax, o_walk, o_box, o_ytop = (
         a[order] for a in (o_cell, o_smin, o_smax, o_walk, o_box, o_ytop))
-    climb = int(math.floor(max_climb / ch + _EPS_VOXEL))
     start, smin, smax, swalk = _merge(o_cell, o_smin, o_smax, o_walk, nx * nz, climb)
     rstart = np.searchsorted(o_cell, np.arange(nx * nz + 1, dtype=np.int64)).astype(np.int64)
     return Heightfield(x0, z0, y0, cs, ch, nx, nz, start, smin, smax, swalk, rstart, o_smin, o_smax,
