@@ -61,6 +61,13 @@ def test_bad_setting_names_it(tmp_path):
     assert proc.returncode == 2 and "dataset.d_min=9" in proc.stderr and "Traceback" not in proc.stderr
 
 
+def test_bad_navmesh_setting_fails_before_any_scene(tmp_path):
+    out = tmp_path / "o"
+    proc = rvn_gen(f"out_dir={out}", "navmesh.profile=recast", *TINY)
+    assert proc.returncode == 2 and "profile='recast'" in proc.stderr and "Traceback" not in proc.stderr
+    assert proc.stderr.count("profile='recast'") == 1 and not out.exists()
+
+
 def room_glb(path: Path) -> None:
     """An 8 x 3 m room with 2.5 m walls, y up."""
     parts = [trimesh.creation.box(extents=(8.0, 0.02, 3.0), transform=trimesh.transformations.translation_matrix((0, -0.01, 0)))]

@@ -12,7 +12,7 @@ from dataclasses import asdict, dataclass, field
 from typing import Any, Mapping
 
 from rvn_data.conventions import AgentConfig
-from rvn_data.navmesh.settings import recorded
+from rvn_data.navmesh.settings import NavMeshSettings, recorded
 
 KINDS = ("expert", "negative")
 
@@ -177,5 +177,7 @@ class GenSettings:
             raise ValueError(f"unknown dataset setting(s) {unknown}; known: {sorted(known)}")
         floats = {"margin", "clearance_pref", "clearance_weight", "perturb_prob", "d_min", "d_max", "resolution", "stop_radius", "train_fraction"}
         ds = {k: (float(v) if k in floats and isinstance(v, int) and not isinstance(v, bool) else v) for k, v in ds.items()}
+        navmesh = dict(cfg.get("navmesh", {}))
+        NavMeshSettings.from_config(navmesh)  # checked here, before any scene: a bad value is one error, not one per scene
         return cls(seed=cfg.get("seed", 0), renderer=str(renderer), render_device=device, agent=agent,
-                   navmesh=dict(cfg.get("navmesh", {})), camera=dict(cfg.get("camera", {})), **ds)
+                   navmesh=navmesh, camera=dict(cfg.get("camera", {})), **ds)
