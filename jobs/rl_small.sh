@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
-# Small-scale RL baselines on a CPU machine (issue 16): rvn-rl PPO and PPO-Lagrangian at reduced size
-# (ResNet-18 at base width 16, 64x64 RGB, 50 train scenes), rvn-eval on 200 val episodes (50 val scenes x 4) for each,
-# the blind goal follower as the reference row, then the report with significance tests.
+# Small-scale RL baselines on a CPU machine (issue 16): rvn-rl PPO, PPO-Lagrangian and (ALGOS=...) DD-PPO at
+# reduced size (ResNet-18 at base width 16, 64x64 RGB, 50 train scenes), rvn-eval on 200 val episodes (50 val
+# scenes x 4) for each, the blind goal follower as the reference row, then the report with significance tests.
 #
-#   bash jobs/rl_small.sh [OUT]                  # SCALE=small: < 2 h on 2 CPU cores
+#   bash jobs/rl_small.sh [OUT]                  # SCALE=small: PPO and PPO-Lagrangian, < 2 h on 2 CPU cores
+#   ALGOS=ddppo bash jobs/rl_small.sh [OUT]      # DD-PPO: torchrun, RANKS ranks x NUM_ENVS/RANKS envs
 #   SCALE=tiny bash jobs/rl_small.sh /tmp/x      # smoke test: a few hundred steps, 1 episode
-#   IL_RUNS="runs/small_experiment_small/eval/nomad_pointgoal ..." bash jobs/rl_small.sh   # IL rows beside
+#   IL_RUNS="runs/small_experiment_small/eval/nomad_pointgoal ..." bash jobs/rl_small.sh   # other rows beside
 #
 # Every knob below can be set in the environment. Rerunning resumes: a step whose exact command
 # already succeeded is skipped (OUT/.done/); rvn-rl continues from its latest checkpoint and rvn-eval
@@ -18,7 +19,7 @@ case "$SCALE" in
     : "${TOTAL_STEPS:=400000}" "${IMAGE:=64}" "${NUM_ENVS:=8}" "${TRAIN_SCENES:=50}" "${ROLLOUT:=64}" "${MINI_BATCHES:=4}"
     : "${EVAL_SCENES:=50}" "${EVAL_EPISODES:=4}" "${N_GOALS:=32}" "${T_MAX:=500}" ;;
   tiny)   # smoke test of the whole chain
-    : "${TOTAL_STEPS:=64}" "${IMAGE:=32}" "${NUM_ENVS:=2}" "${TRAIN_SCENES:=2}" "${ROLLOUT:=16}" "${MINI_BATCHES:=2}"
+    : "${TOTAL_STEPS:=64}" "${IMAGE:=32}" "${NUM_ENVS:=4}" "${TRAIN_SCENES:=2}" "${ROLLOUT:=16}" "${MINI_BATCHES:=2}"
     : "${EVAL_SCENES:=1}" "${EVAL_EPISODES:=1}" "${N_GOALS:=2}" "${T_MAX:=50}" ;;
   *) echo "rl_small.sh: error: SCALE=$SCALE; choose small or tiny" >&2; exit 2 ;;
 esac
@@ -31,44 +32,76 @@ esac
                               # ~0.035 per update and the policy learns to turn in place; 1.0 weighs cost like reward
 : "${WORKERS:=2}"             # rvn-eval worker processes
 : "${ENV_WORKERS:=0}"         # rvn-rl env worker processes (0: in the learner's process)
+: "${ALGOS:=ppo ppo_lag}"     # any of ppo ppo_lag ddppo; ppo and ppo_lag train side by side (PARALLEL), ddppo after
+: "${RANKS:=2}"               # DD-PPO ranks (torchrun, gloo on CPU, 1 torch thread each); NUM_ENVS is split over them
 : "${PARALLEL:=1}"            # 1: train PPO and PPO-Lagrangian at the same time (one process per core)
 : "${THREADS:=$([[ $PARALLEL == 1 ]] && echo 1 || echo 2)}"   # torch threads per training
 : "${SEED:=0}"
 : "${DEVICE:=cpu}"
 : "${RENDERER:=auto}"
 : "${IL_RUNS:=}"              # rvn-eval out_dirs of other rows (same val episodes) to put in the report
+: "${COMPARE:=}"              # extra "A=B" method pairs to test in the report, separated by ';' (e.g. "DD-PPO=PPO" with
+                              # a PPO row among IL_RUNS)
+has() { [[ " $ALGOS " == *" $1 "* ]]; }
+for algo in $ALGOS; do
+  case "$algo" in ppo|ppo_lag|ddppo) ;; *) echo "rl_small.sh: error: ALGOS contains '$algo'; choose among ppo ppo_lag ddppo" >&2; exit 2 ;; esac
+done
+if has ddppo && (( RANKS < 1 || NUM_ENVS % RANKS || NUM_ENVS / RANKS < MINI_BATCHES )); then
+  echo "rl_small.sh: error: NUM_ENVS=$NUM_ENVS must split over RANKS=$RANKS DD-PPO ranks into at least" \
+       "MINI_BATCHES=$MINI_BATCHES envs each" >&2; exit 2
+fi
 PY=${PYTHON:-python}
 mkdir -p "$OUT/logs" "$OUT/.done"
 OUT=$(cd "$OUT" && pwd)
 source "$(dirname "${BASH_SOURCE[0]}")/lib.sh"   # step NAME CMD...: skip if done, log, time
 export OMP_NUM_THREADS=$THREADS MKL_NUM_THREADS=$THREADS
 CAMERA=("camera.width=$IMAGE" "camera.height=$IMAGE")
-RL=("scale=small" "env.size=$IMAGE" "env.num_envs=$NUM_ENVS" "env.num_scenes=$TRAIN_SCENES" "env.workers=$ENV_WORKERS"
+RL=("scale=small" "env.size=$IMAGE" "env.num_scenes=$TRAIN_SCENES" "env.workers=$ENV_WORKERS"
     "model.backbone=$BACKBONE" "model.base_planes=$BASE_PLANES" "model.ngroups=$((BASE_PLANES / 2))"
-    "env.goal_pool=$GOAL_POOL" "ppo.num_steps=$ROLLOUT" "ppo.num_mini_batch=$MINI_BATCHES" "train.total_steps=$TOTAL_STEPS" "train.threads=$THREADS"
+    "env.goal_pool=$GOAL_POOL" "ppo.num_steps=$ROLLOUT" "ppo.num_mini_batch=$MINI_BATCHES" "train.total_steps=$TOTAL_STEPS"
     "train.checkpoint_every=20" "env.t_max=$T_MAX" "seed=$SEED" "device=$DEVICE" "renderer=$RENDERER" "progress=false")
 EVAL=("split=val" "episodes.num_scenes=$EVAL_SCENES" "episodes.per_scene=$EVAL_EPISODES" "episodes.n_goals=$N_GOALS"
       "env.t_max=$T_MAX" "episodes.dir=$OUT/episodes" "workers=$WORKERS" "progress=false" "seed=$SEED" "renderer=$RENDERER"
       "${CAMERA[@]}")
-echo "rl_small: SCALE=$SCALE OUT=$OUT: PPO and PPO-Lagrangian, $TOTAL_STEPS env steps each, $BACKBONE, ${IMAGE}x$IMAGE," \
+echo "rl_small: SCALE=$SCALE OUT=$OUT: $ALGOS, $TOTAL_STEPS env steps each, $BACKBONE, ${IMAGE}x$IMAGE," \
      "$NUM_ENVS envs, $TRAIN_SCENES train scenes; eval $EVAL_SCENES val scenes x $EVAL_EPISODES episodes x $N_GOALS goals"
-if [[ "$PARALLEL" == 1 ]]; then  # the two trainings side by side, THREADS torch threads each
-  step train_ppo rvn-rl algo=ppo out_dir="$OUT/train/ppo" "${RL[@]}" & ppo_pid=$!
-  step train_ppo_lag rvn-rl algo=ppo_lag out_dir="$OUT/train/ppo_lag" algo.cost_limit="$COST_LIMIT" algo.lambda_max="$LAMBDA_MAX" "${RL[@]}" & lag_pid=$!
+SINGLE=("env.num_envs=$NUM_ENVS" "train.threads=$THREADS" "${RL[@]}")
+train_ppo() { step train_ppo rvn-rl algo=ppo out_dir="$OUT/train/ppo" "${SINGLE[@]}"; }
+train_ppo_lag() {
+  step train_ppo_lag rvn-rl algo=ppo_lag out_dir="$OUT/train/ppo_lag" algo.cost_limit="$COST_LIMIT" \
+    algo.lambda_max="$LAMBDA_MAX" "${SINGLE[@]}"
+}
+if [[ "$PARALLEL" == 1 ]] && has ppo && has ppo_lag; then  # the two trainings side by side, THREADS torch threads each
+  train_ppo & ppo_pid=$!
+  train_ppo_lag & lag_pid=$!
   wait $ppo_pid && wait $lag_pid || { echo "rl_small: a training failed (logs in $OUT/logs/)" >&2; exit 1; }
 else
-  step train_ppo rvn-rl algo=ppo out_dir="$OUT/train/ppo" "${RL[@]}"
-  step train_ppo_lag rvn-rl algo=ppo_lag out_dir="$OUT/train/ppo_lag" algo.cost_limit="$COST_LIMIT" algo.lambda_max="$LAMBDA_MAX" \
-    "${RL[@]}"
+  if has ppo; then train_ppo; fi
+  if has ppo_lag; then train_ppo_lag; fi
+fi
+if has ddppo; then  # decentralised PPO: the same env steps in all, over RANKS processes of 1 thread
+  step train_ddppo env OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $PY -m torch.distributed.run --standalone \
+    --nproc_per_node="$RANKS" -m rvn_rl.cli algo=ddppo out_dir="$OUT/train/ddppo" \
+    "env.num_envs=$((NUM_ENVS / RANKS))" "train.threads=1" "${RL[@]}"
 fi
 step eval_goal_follower rvn-eval policy=goal_follower "method=Goal follower" out_dir="$OUT/eval/goal_follower" "${EVAL[@]}"
-step eval_ppo rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/ppo" method=PPO out_dir="$OUT/eval/ppo" "${EVAL[@]}"
-step eval_ppo_lag rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/ppo_lag" method=PPO-Lagrangian \
-  out_dir="$OUT/eval/ppo_lag" "${EVAL[@]}"
-RUNS=("$OUT/eval/goal_follower" "$OUT/eval/ppo" "$OUT/eval/ppo_lag")
+RUNS=("$OUT/eval/goal_follower")
+declare -A METHOD=([ppo]=PPO [ppo_lag]=PPO-Lagrangian [ddppo]=DD-PPO)
+for algo in $ALGOS; do
+  step "eval_$algo" rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/$algo" "method=${METHOD[$algo]}" \
+    out_dir="$OUT/eval/$algo" "${EVAL[@]}"
+  RUNS+=("$OUT/eval/$algo")
+done
 for run in $IL_RUNS; do RUNS+=("$run"); done
-COMPARE=("PPO=Goal follower" "PPO-Lagrangian=PPO" "PPO-Lagrangian=Goal follower")
-$PY -m rvn_data.benchmark.report "${RUNS[@]}" -o "$OUT/report.md" "${COMPARE[@]/#/--compare=}" \
+PAIRS=()
+for algo in $ALGOS; do PAIRS+=("${METHOD[$algo]}=Goal follower"); done
+if has ppo && has ppo_lag; then PAIRS+=("PPO-Lagrangian=PPO"); fi
+if has ppo && has ddppo; then PAIRS+=("DD-PPO=PPO"); fi
+IFS=';' read -ra EXTRA <<<"$COMPARE"
+for pair in "${EXTRA[@]}"; do
+  [[ -n "$pair" && " ${PAIRS[*]/%/;} " != *" $pair; "* ]] && PAIRS+=("$pair")
+done
+$PY -m rvn_data.benchmark.report "${RUNS[@]}" -o "$OUT/report.md" "${PAIRS[@]/#/--compare=}" \
   --title "RL baselines, small scale (SCALE=$SCALE)"
 echo "rl_small: this run took $SECONDS s ($STEPS_SECONDS s in steps run now); report: $OUT/report.md;" \
      "learning curves: $OUT/train/*/learning_curve.png"

@@ -120,3 +120,17 @@ def test_channels_last_training_layout_keeps_values_and_checkpoints(name, tmp_pa
         back = build_model(cfg).eval()
         load_state_dict_checked(back, read_weights(ckpt, name), ckpt)
         torch.testing.assert_close(back.encode_frames(images), nchw.encode_frames(images), rtol=1e-4, atol=1e-5)
+
+
+def test_encoder_width_whose_channels_16_does_not_divide(root):
+    """width_coefficient 0.5 gives EfficientNet stages of 56 channels (56 // 16 = 3 groups would not divide
+    them): the GroupNorm swap takes whole groups (2 of 28), and the model trains one step and predicts."""
+    cfg = load_model_config("nomad_pointgoal", "small", width_coefficient=0.5, encoding_size=128)
+    model = build_model(cfg)
+    norms = [m for m in model.obs_encoder.modules() if isinstance(m, torch.nn.GroupNorm)]
+    assert norms and all(m.num_channels % m.num_groups == 0 for m in norms)
+    assert any(m.num_channels == 56 and m.num_groups == 2 for m in norms)
+    batch = make_dataset(root, cfg, {"progress": False}).get_batch(range(4))
+    out = model(batch, torch.Generator().manual_seed(0))
+    out["loss"].backward()
+    assert torch.isfinite(out["loss"])

@@ -58,17 +58,25 @@ def test_straggler_preemption_rule():
 
 @pytest.mark.slow
 def test_rl_small_recipe_smoke(tmp_path):
-    """jobs/rl_small.sh end to end at SCALE=tiny: two trainings, three evaluations, the report."""
+    """jobs/rl_small.sh end to end at SCALE=tiny: PPO, PPO-Lagrangian and DD-PPO (2 ranks under torchrun),
+    four evaluations, the report with its tests; a bad ALGOS or env split stops before any work."""
     from pathlib import Path
 
     script = Path(__file__).resolve().parents[1] / "jobs" / "rl_small.sh"
     out = tmp_path / "rl"
+    env = {**os.environ, "SCALE": "tiny", "THREADS": "1", "WORKERS": "1", "RENDERER": "raycast"}
+    for bad, said in (({"ALGOS": "ppo dqn"}, "ALGOS contains 'dqn'"), ({"ALGOS": "ddppo", "NUM_ENVS": "2"}, "RANKS=2")):
+        proc = subprocess.run(["bash", str(script), str(tmp_path / "bad")], capture_output=True, text=True,
+                              timeout=60, cwd=script.parents[1], env={**env, **bad})
+        assert proc.returncode == 2 and said in proc.stderr, proc.stderr
+        assert not (tmp_path / "bad").exists()
     proc = subprocess.run(["bash", str(script), str(out)], capture_output=True, text=True, timeout=900,
-                          cwd=script.parents[1], env={**os.environ, "SCALE": "tiny", "THREADS": "1", "WORKERS": "1",
-                                                      "RENDERER": "raycast"})
+                          cwd=script.parents[1], env={**env, "ALGOS": "ppo ppo_lag ddppo",
+                                                      "COMPARE": "DD-PPO=PPO;DD-PPO=PPO-Lagrangian"})
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-3000:]
     report = (out / "report.md").read_text()
     assert "PPO-Lagrangian" in report and "Goal follower" in report
-    for algo in ("ppo", "ppo_lag"):
+    assert report.count("| DD-PPO | PPO |") == 1 and "| DD-PPO | PPO-Lagrangian |" in report
+    for algo in ("ppo", "ppo_lag", "ddppo"):
         assert (out / "train" / algo / "learning_curve.png").is_file()
         assert json.loads((out / "eval" / algo / "metrics.json").read_text())["episodes"] == 1

@@ -16,11 +16,16 @@ IMAGENET_STD = (0.229, 0.224, 0.225)
 
 
 def replace_bn_with_gn(module: nn.Module, group_size: int = 16) -> nn.Module:
-    """Replace every BatchNorm2d by GroupNorm(channels // group_size), as NoMaD does."""
+    """Replace every BatchNorm2d by GroupNorm(channels // group_size), as NoMaD does. Where that
+    count does not divide the channels (a width_coefficient other than NoMaD's 1.0 or 0.25 can give
+    56 channels), the largest group count below it that does, so groups stay whole."""
     for name, child in module.named_children():
         if isinstance(child, nn.BatchNorm2d):
             c = child.num_features
-            setattr(module, name, nn.GroupNorm(max(1, c // group_size), c))
+            groups = max(1, c // group_size)
+            while c % groups:
+                groups -= 1
+            setattr(module, name, nn.GroupNorm(groups, c))
         else:
             replace_bn_with_gn(child, group_size)
     return module
