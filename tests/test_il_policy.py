@@ -112,6 +112,9 @@ def test_vote_follows_the_action_most_samples_lead_to():
     np.testing.assert_array_equal(policy.choose([samples], goal), left)
     np.testing.assert_array_equal(policy.choose([np.stack([right, straight, straight, right])], goal), right)
     np.testing.assert_array_equal(PointGoalPolicy([], CTRL).choose([samples], goal), straight)  # first
+    # an ensemble pools its members' samples: member 0 alone ties (straight first), the pool says left
+    pooled = policy.choose([np.stack([straight, right]), np.stack([left, straight, left, left])], goal)
+    np.testing.assert_array_equal(pooled, left)
     with pytest.raises(ValueError, match="aggregate"):
         PointGoalPolicy([], CTRL, aggregate="mean")
 

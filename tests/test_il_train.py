@@ -118,6 +118,35 @@ def test_checkpoint_of_another_model_is_named(runs, data):
         train(["model=nomad_pointgoal", f"data.root={data / 'expert'}", f"out_dir={runs['vint_pointgoal']}", *SMALL])
 
 
+def test_ensemble_vote_pools_checkpoints(runs, data, tmp_path):
+    """policy.ensemble: a second NoMaD run (here a copy) joins the vote as a second member, through
+    the Hydra instantiation rvn-eval uses; bad ensembles are named."""
+    from hydra.utils import instantiate
+    from omegaconf import OmegaConf
+
+    twin = tmp_path / "twin"
+    shutil.copytree(runs["nomad_pointgoal"], twin)
+    cfg = OmegaConf.create({"_target_": "rvn_il.policies.load_policy", "checkpoint_path": str(runs["nomad_pointgoal"]),
+                            "device": "cpu", "aggregate": "vote", "ensemble": [str(twin)], "num_samples": 3})
+    policy = instantiate(cfg)
+    assert len(policy.members) == 2
+    frames = [render_frame(np.array([0.25 * t, 0.0]), 0.1 * t, 128) for t in range(4)]
+    policy.reset()
+    first = [policy.act({"rgb": f, "pointgoal": np.array([3.0, 1.0], np.float32)}) for f in frames]
+    policy.reset()
+    assert first == [policy.act({"rgb": f, "pointgoal": np.array([3.0, 1.0], np.float32)}) for f in frames]
+    assert all(a in (1, 2, 3) for a in first)
+    nomad = runs["nomad_pointgoal"]
+    with pytest.raises(ValueError, match="needs policy.aggregate=vote"):
+        load_policy(nomad, ensemble=[twin])
+    with pytest.raises(ValueError, match="holds a 'vint_pointgoal' model, not 'nomad_pointgoal'"):
+        load_policy(nomad, aggregate="vote", ensemble=str(runs["vint_pointgoal"]))
+    with pytest.raises(ValueError, match="missing does not exist"):
+        load_policy(nomad, aggregate="vote", ensemble=[data / "missing"])
+    with pytest.raises(ValueError, match="NoMaD-Neg already pairs"):
+        load_policy(runs["nomad_neg"], ensemble=[twin])
+
+
 def test_resume_continues_exactly(data, tmp_path):
     args = [f"data.root={data / 'expert'}", "model=nomad_pointgoal", "train.max_steps=4", "train.ckpt_every=2",
             "data.num_workers=0", *SMALL]

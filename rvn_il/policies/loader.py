@@ -3,8 +3,12 @@
 Hydra: ``{_target_: rvn_il.policies.load_policy, checkpoint_path: <out_dir>, device: cpu,
 selection: argmin}`` — every keyword besides ``checkpoint_path``/``device``/``model`` overrides
 a ``model.policy`` setting (lookahead_min_dist, waypoint_index, num_samples, aggregate, stop_radius,
-selection, cor_alpha), the seed, ``threads`` (torch intra-op threads of a decision on CPU, default
+selection, cor_alpha, ensemble), the seed, ``threads`` (torch intra-op threads of a decision on CPU, default
 1, null: torch's setting; see :mod:`.policy`) or an agent setting (r_robot, d_step, theta_step_deg).
+
+``ensemble``: more rvn-train out_dirs of the same model (ViNT- or NoMaD-PointGoal) whose samples join
+the first checkpoint's in ``aggregate=vote`` (every member draws ``num_samples``; ties go to the
+earliest sample, the first checkpoint's first). Control and agent settings are the first checkpoint's.
 """
 from __future__ import annotations
 
@@ -24,7 +28,7 @@ from .control import ControlConfig
 from .policy import Member, NoMaDNegPolicy, PointGoalPolicy
 
 POLICY_KEYS = {"lookahead_min_dist", "waypoint_index", "num_samples", "aggregate", "stop_radius", "selection", "cor_alpha",
-               "seed", "threads"}
+               "seed", "threads", "ensemble"}
 AGENT_KEYS = {f.name for f in dataclasses.fields(AgentConfig)}
 
 
@@ -104,8 +108,38 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
     common = dict(num_samples=int(pol.get("num_samples", 8)), seed=int(pol["seed"]), device=dev,
                   threads=pol.get("threads", 1))
     if name == "nomad_neg":
+        if ensemble_dirs(pol.get("ensemble")):
+            raise ValueError("policy.ensemble: NoMaD-Neg already pairs two networks (expert, negative); ensembles "
+                             "are for ViNT- and NoMaD-PointGoal")
         if pol.get("aggregate", "first") != "first":
             raise ValueError(f"policy aggregate={pol['aggregate']!r}: NoMaD-Neg chooses its sample by CoR (policy.selection)")
         return NoMaDNegPolicy(members, control, selection=pol.get("selection", "argmax"),
                               cor_alpha=float(pol.get("cor_alpha", 1.0)), **common)
-    return PointGoalPolicy(members, control, aggregate=str(pol.get("aggregate", "first")), **common)
+    aggregate = str(pol.get("aggregate", "first"))
+    extra = ensemble_dirs(pol.get("ensemble"))
+    if extra and aggregate != "vote":
+        raise ValueError(f"policy.ensemble needs policy.aggregate=vote (got {aggregate!r}): the members' samples are pooled "
+                         "into one vote")
+    members += [load_ensemble_member(d, name, dev) for d in extra]
+    return PointGoalPolicy(members, control, aggregate=aggregate, **common)
+
+
+def ensemble_dirs(value: Any) -> list[Path]:
+    """``policy.ensemble`` as a list of paths: null/empty → [], one path or a list of them."""
+    if value is None or value == "":
+        return []
+    items = [value] if isinstance(value, (str, Path)) else list(value)
+    return [Path(str(v)).expanduser() for v in items]
+
+
+def load_ensemble_member(out_dir: Path, name: str, device: torch.device) -> Member:
+    """The network of another rvn-train out_dir of model ``name``, as one more voting member."""
+    if not out_dir.is_dir():
+        raise ValueError(f"policy.ensemble: {out_dir} does not exist; pass rvn-train out_dirs of {name!r} runs")
+    if recorded_loader(out_dir) is not None:
+        raise ValueError(f"policy.ensemble: {out_dir} is not an rvn-train run of {name!r} (its config names another loader)")
+    model_cfg = resolve_size(read_config(out_dir)["model"])
+    if model_cfg["name"] != name:
+        raise ValueError(f"policy.ensemble: {out_dir} holds a {model_cfg['name']!r} model, not {name!r} like the "
+                         "first checkpoint")
+    return load_member(out_dir, members_of(name)[0], model_cfg, device)

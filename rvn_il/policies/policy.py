@@ -63,7 +63,8 @@ class PointGoalPolicy:
     ``first`` follows sample 0 (as NoMaD's deployment code); ``vote`` turns every sample into
     an action and takes the most frequent one (ties: the earliest sample's), which cancels the
     sampling noise of an under-trained diffusion head while keeping a multi-modal choice (left or
-    right around an obstacle) whole, where the mean trajectory would run between the two."""
+    right around an obstacle) whole, where the mean trajectory would run between the two.
+    With several members (``policy.ensemble``), ``vote`` pools every member's samples, member 0's first."""
 
     AGGREGATES = ("first", "vote")
 
@@ -109,13 +110,14 @@ class PointGoalPolicy:
         return out
 
     def choose(self, samples: list[np.ndarray], pointgoal: np.ndarray) -> np.ndarray:
-        """The trajectory to follow, of the first member's samples [S,len,2]."""
+        """The trajectory to follow: ``first``, member 0's sample 0; ``vote``, of all members' samples [S,len,2]."""
         if self.aggregate == "first":
             return samples[0][0]
-        actions = [int(waypoints_to_action(wp, pointgoal, self.control)) for wp in samples[0]]
+        pooled = [wp for member in samples for wp in member]
+        actions = [int(waypoints_to_action(wp, pointgoal, self.control)) for wp in pooled]
         counts = np.bincount(actions, minlength=len(Action))
         best = max(actions, key=lambda a: (counts[a], -actions.index(a)))
-        return samples[0][actions.index(best)]
+        return pooled[actions.index(best)]
 
     @staticmethod
     def _check(obs) -> tuple[np.ndarray, np.ndarray]:
