@@ -94,13 +94,13 @@ for algo in $ALGOS; do
 done
 for run in $IL_RUNS; do RUNS+=("$run"); done
 PAIRS=()
-for algo in $ALGOS; do PAIRS+=("${METHOD[$algo]}=Goal follower"); done
-if has ppo && has ppo_lag; then PAIRS+=("PPO-Lagrangian=PPO"); fi
-if has ppo && has ddppo; then PAIRS+=("DD-PPO=PPO"); fi
+declare -A SEEN=()
+pair() { if [[ -n "$1" && -z "${SEEN[$1]:-}" ]]; then SEEN[$1]=1; PAIRS+=("$1"); fi; }   # each pair once
+for algo in $ALGOS; do pair "${METHOD[$algo]}=Goal follower"; done
+if has ppo && has ppo_lag; then pair "PPO-Lagrangian=PPO"; fi
+if has ppo && has ddppo; then pair "DD-PPO=PPO"; fi
 IFS=';' read -ra EXTRA <<<"$COMPARE"
-for pair in "${EXTRA[@]}"; do
-  [[ -n "$pair" && " ${PAIRS[*]/%/;} " != *" $pair; "* ]] && PAIRS+=("$pair")
-done
+for p in "${EXTRA[@]}"; do pair "$p"; done
 $PY -m rvn_data.benchmark.report "${RUNS[@]}" -o "$OUT/report.md" "${PAIRS[@]/#/--compare=}" \
   --title "RL baselines, small scale (SCALE=$SCALE)"
 echo "rl_small: this run took $SECONDS s ($STEPS_SECONDS s in steps run now); report: $OUT/report.md;" \

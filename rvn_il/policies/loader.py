@@ -92,10 +92,8 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
         from hydra.utils import get_method
         return get_method(other)(out_dir, device, model, **overrides)
     cfg = read_config(out_dir)
-    model_cfg = resolve_size(cfg["model"])
+    model_cfg = checked_model_config(cfg, out_dir, model, "checkpoint")
     name = model_cfg["name"]
-    if model is not None and model != name:
-        raise ValueError(f"checkpoint {out_dir} holds a {name!r} model, not {model!r}")
     unknown = set(overrides) - POLICY_KEYS - AGENT_KEYS
     if unknown:
         raise ValueError(f"unknown policy setting(s) {sorted(unknown)}; valid: {sorted(POLICY_KEYS | AGENT_KEYS)}")
@@ -107,8 +105,9 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
     members = [load_member(out_dir, m, model_cfg, dev) for m in members_of(name)]
     common = dict(num_samples=int(pol.get("num_samples", 8)), seed=int(pol["seed"]), device=dev,
                   threads=pol.get("threads", 1))
+    extra = ensemble_dirs(pol.get("ensemble"))
     if name == "nomad_neg":
-        if ensemble_dirs(pol.get("ensemble")):
+        if extra:
             raise ValueError("policy.ensemble: NoMaD-Neg already pairs two networks (expert, negative); ensembles "
                              "are for ViNT- and NoMaD-PointGoal")
         if pol.get("aggregate", "first") != "first":
@@ -116,12 +115,20 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
         return NoMaDNegPolicy(members, control, selection=pol.get("selection", "argmax"),
                               cor_alpha=float(pol.get("cor_alpha", 1.0)), **common)
     aggregate = str(pol.get("aggregate", "first"))
-    extra = ensemble_dirs(pol.get("ensemble"))
     if extra and aggregate != "vote":
         raise ValueError(f"policy.ensemble needs policy.aggregate=vote (got {aggregate!r}): the members' samples are pooled "
                          "into one vote")
     members += [load_ensemble_member(d, name, dev) for d in extra]
     return PointGoalPolicy(members, control, aggregate=aggregate, **common)
+
+
+def checked_model_config(cfg: dict, out_dir: Path, model: str | None, what: str) -> dict:
+    """The resolved model config of an rvn-train run's ``cfg``; a ValueError naming ``what`` and ``out_dir``
+    when ``model`` (None: any) is not the model it holds."""
+    model_cfg = resolve_size(cfg["model"])
+    if model is not None and model_cfg["name"] != model:
+        raise ValueError(f"{what} {out_dir} holds a {model_cfg['name']!r} model, not {model!r}")
+    return model_cfg
 
 
 def ensemble_dirs(value: Any) -> list[Path]:
@@ -138,8 +145,5 @@ def load_ensemble_member(out_dir: Path, name: str, device: torch.device) -> Memb
         raise ValueError(f"policy.ensemble: {out_dir} does not exist; pass rvn-train out_dirs of {name!r} runs")
     if recorded_loader(out_dir) is not None:
         raise ValueError(f"policy.ensemble: {out_dir} is not an rvn-train run of {name!r} (its config names another loader)")
-    model_cfg = resolve_size(read_config(out_dir)["model"])
-    if model_cfg["name"] != name:
-        raise ValueError(f"policy.ensemble: {out_dir} holds a {model_cfg['name']!r} model, not {name!r} like the "
-                         "first checkpoint")
+    model_cfg = checked_model_config(read_config(out_dir), out_dir, name, "policy.ensemble: checkpoint")
     return load_member(out_dir, members_of(name)[0], model_cfg, device)
