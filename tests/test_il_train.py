@@ -147,6 +147,21 @@ def test_ensemble_vote_pools_checkpoints(runs, data, tmp_path):
         load_policy(runs["nomad_neg"], ensemble=[twin])
 
 
+def test_sampler_setting_reaches_every_network(runs):
+    """policy.sampler=ddim sets DDIM on each NoMaD network (NoMaD-Neg: both), the policy still acts;
+    ViNT and unknown samplers are refused with the setting named."""
+    for name, n in (("nomad_pointgoal", 1), ("nomad_neg", 2)):
+        policy = load_policy(runs[name], sampler="ddim", num_samples=2)
+        assert [m.model.sampler for m in policy.members] == ["ddim"] * n
+        policy.reset()
+        assert policy.act({"rgb": render_frame(np.zeros(2), 0.0, 128), "pointgoal": np.array([3.0, 1.0], np.float32)}) in (0, 1, 2, 3)
+    assert [m.model.sampler for m in load_policy(runs["nomad_pointgoal"]).members] == ["ddpm"]
+    with pytest.raises(ValueError, match="policy.sampler='ddim': ViNT-PointGoal predicts its waypoints directly"):
+        load_policy(runs["vint_pointgoal"], sampler="ddim")
+    with pytest.raises(ValueError, match="policy.sampler='ddim2'"):
+        load_policy(runs["nomad_pointgoal"], sampler="ddim2")
+
+
 def test_resume_continues_exactly(data, tmp_path):
     args = [f"data.root={data / 'expert'}", "model=nomad_pointgoal", "train.max_steps=4", "train.ckpt_every=2",
             "data.num_workers=0", *SMALL]

@@ -11,7 +11,12 @@ official code) predicts: ``epsilon`` (the noise; the paper's and official NoMaD'
 ``sample`` (the clean normalised action sequence, "x0") or ``v_prediction`` (the velocity
 √ᾱ·ε − √(1−ᾱ)·x0). With 10 steps of this schedule the last steps keep almost no signal
 (ᾱ ≈ 2e-5 at t=9), so an ε-loss there teaches nothing about the action, while an x0-loss
-still asks which way to go: see docs/results for the measured effect."""
+still asks which way to go: see docs/results for the measured effect.
+
+``sampler`` picks the reverse process at inference (``policy.sampler``; training is the same for
+both): ``ddpm`` (the paper's and official NoMaD's ancestral sampling, fresh noise at every step but
+the last) or ``ddim`` (Song et al. 2021, η = 0: deterministic given the initial noise, diffusers'
+DDIMScheduler over the same timesteps), so the samples differ only by where they start."""
 from __future__ import annotations
 
 from typing import Mapping, NamedTuple
@@ -24,12 +29,20 @@ from .base import PointGoalModel, masked_mean
 from .unet1d import ConditionalUnet1D
 
 PREDICTION_TYPES = ("epsilon", "sample", "v_prediction")
+SAMPLERS = ("ddpm", "ddim")
 
 
 def check_prediction_type(value: object) -> str:
     """``model.prediction_type`` as one of :data:`PREDICTION_TYPES`; a ValueError naming it otherwise."""
     if value not in PREDICTION_TYPES:
         raise ValueError(f"model.prediction_type={value!r}; choose one of {', '.join(PREDICTION_TYPES)}")
+    return str(value)
+
+
+def check_sampler(value: object) -> str:
+    """``policy.sampler`` as one of :data:`SAMPLERS`; a ValueError naming it otherwise."""
+    if value not in SAMPLERS:
+        raise ValueError(f"policy.sampler={value!r}; choose one of {', '.join(SAMPLERS)}")
     return str(value)
 
 
@@ -105,7 +118,8 @@ class NoMaDPointGoal(PointGoalModel):
             return naction
         return self.scheduler.get_velocity(naction, noise, t)
 
-    fast_sampling = True  # predict's default path; False: module forward + diffusers' DDPMScheduler.step
+    fast_sampling = True  # predict's default path; False: module forward + diffusers' scheduler.step
+    sampler = "ddpm"  # the reverse process of predict (module docstring); set by the policy loader
 
     @torch.inference_mode()
     def predict(self, tokens: torch.Tensor, goal: torch.Tensor, num_samples: int = 8,
@@ -117,12 +131,13 @@ class NoMaDPointGoal(PointGoalModel):
 
         ``fast`` (default ``self.fast_sampling``) runs the denoiser's packed inference form
         (:meth:`ConditionalUnet1D.forward_packed`, with the FiLM biases of all steps from
-        :meth:`~ConditionalUnet1D.packed_film_biases`) and :func:`ddpm_plan`'s precomputed DDPM
-        update; ``fast=False`` (the reference path) runs the module's ``forward`` and diffusers'
-        ``DDPMScheduler.step``. Both draw the same noise from ``generator`` in the same order, so
+        :meth:`~ConditionalUnet1D.packed_film_biases`) and the precomputed update of
+        :func:`ddpm_plan` or :func:`ddim_plan` (``self.sampler``); ``fast=False`` (the reference
+        path) runs the module's ``forward`` and diffusers' ``DDPMScheduler.step`` or
+        ``DDIMScheduler.step``. Both draw the same noise from ``generator`` in the same order, so
         for a given seed they give the same trajectories up to float rounding."""
         fast = self.fast_sampling if fast is None else bool(fast)
-        plan = self._ddpm_plan() if fast else None  # None: a scheduler setting it does not reproduce
+        plan = self._plan() if fast else None  # None: a scheduler setting it does not reproduce
         b = tokens.shape[0]
         cond = self.condition(tokens, goal, goal_mask)
         if b > 1:
@@ -130,13 +145,14 @@ class NoMaDPointGoal(PointGoalModel):
         x = torch.randn((b * num_samples, self.len_traj_pred, 2), generator=generator, device=tokens.device)
         net = self.noise_pred_net
         if plan is None:
-            self.scheduler.set_timesteps(self.num_diffusion_iters)
-            timesteps, bc = self.scheduler.timesteps, cond.shape[0]
+            scheduler = self._inference_scheduler()
+            scheduler.set_timesteps(self.num_diffusion_iters)
+            timesteps, bc = scheduler.timesteps, cond.shape[0]
             biases = net.film_biases(timesteps.to(x.device).repeat_interleave(bc),
                                      cond.repeat(len(timesteps), 1))  # [steps*Bc, C, 1] per block
             for k, t in enumerate(timesteps):
                 out = net(x, biases=[bias[k * bc:(k + 1) * bc] for bias in biases])
-                x = self.scheduler.step(out, int(t), x, generator=generator).prev_sample
+                x = scheduler.step(out, int(t), x, generator=generator).prev_sample
         else:
             packed = net.packed_weights()
             biases = net.packed_film_biases(torch.tensor([s.t for s in plan]), cond, packed)
@@ -144,13 +160,23 @@ class NoMaDPointGoal(PointGoalModel):
                 x = step.update(net.forward_packed(x, step_biases, packed), x, generator)
         return self.unnormalize_actions(x).view(b, num_samples, self.len_traj_pred, 2)
 
-    def _ddpm_plan(self) -> list[DDPMStep] | None:
-        """:func:`ddpm_plan` of this model's scheduler, computed once (again if either changes)."""
+    def _plan(self) -> list[DDPMStep] | list[DDIMStep] | None:
+        """:func:`ddpm_plan` or :func:`ddim_plan` of this model's scheduler for ``self.sampler``,
+        computed once (again if any of them changes)."""
+        key = (self.scheduler, self.num_diffusion_iters, check_sampler(self.sampler))
         cache = getattr(self, "_plan_cache", None)
-        if cache is None or cache[0] is not self.scheduler or cache[1] != self.num_diffusion_iters:
-            cache = self._plan_cache = (self.scheduler, self.num_diffusion_iters,
-                                        ddpm_plan(self.scheduler, self.num_diffusion_iters))
-        return cache[2]
+        if cache is None or cache[0] != key:
+            make = ddpm_plan if self.sampler == "ddpm" else ddim_plan
+            cache = self._plan_cache = (key, make(self.scheduler, self.num_diffusion_iters))
+        return cache[1]
+
+    def _inference_scheduler(self):
+        """The diffusers scheduler of the reference path: the training DDPMScheduler, or a
+        DDIMScheduler with its config (same betas, clipping and prediction type)."""
+        if check_sampler(self.sampler) == "ddpm":
+            return self.scheduler
+        from diffusers import DDIMScheduler
+        return DDIMScheduler.from_config(self.scheduler.config)
 
 
 class DDPMStep(NamedTuple):
@@ -210,4 +236,53 @@ def ddpm_plan(scheduler, num_steps: int) -> list[DDPMStep] | None:
                              float(cfg.clip_sample_range) if cfg.clip_sample else None,
                              float(a_prev ** 0.5 * cur_b / b_t), float(cur_a ** 0.5 * b_prev / b_t),
                              float(var ** 0.5) if t > 0 else 0.0))
+    return plan
+
+
+class DDIMStep(NamedTuple):
+    """One reverse step of diffusers' DDIMScheduler with η = 0 as plain numbers: the predicted x0
+    (clipped) and noise from the model output, then ``√ᾱ_prev·x0 + √(1-ᾱ_prev)·ε``; no noise drawn."""
+
+    t: int
+    kind: str  # prediction_type
+    sqrt_a: float  # √ᾱ_t
+    sqrt_b: float  # √(1-ᾱ_t)
+    clip: float | None  # clip_sample_range, or None without clipping
+    c_x0: float  # √ᾱ_prev
+    c_eps: float  # √(1-ᾱ_prev)
+
+    def update(self, out: torch.Tensor, x: torch.Tensor, generator: torch.Generator | None = None) -> torch.Tensor:
+        """x_{t-1} from the model output ``out`` and x_t, in the operation order of
+        ``DDIMScheduler.step`` (ε from the unclipped x0, as its default ``use_clipped_model_output=False``)."""
+        if self.kind == "epsilon":
+            x0, eps = (x - self.sqrt_b * out) / self.sqrt_a, out
+        elif self.kind == "sample":
+            x0 = out
+            eps = (x - self.sqrt_a * x0) / self.sqrt_b
+        else:  # v_prediction
+            x0 = self.sqrt_a * x - self.sqrt_b * out
+            eps = self.sqrt_a * out + self.sqrt_b * x
+        if self.clip is not None:
+            x0 = x0.clamp(-self.clip, self.clip)
+        return self.c_x0 * x0 + self.c_eps * eps
+
+
+def ddim_plan(scheduler, num_steps: int) -> list[DDIMStep] | None:
+    """The η = 0 DDIM reverse steps over ``num_steps`` inference steps for the betas of
+    ``scheduler`` (the model's DDPMScheduler), with the timesteps and coefficients diffusers'
+    DDIMScheduler uses (ᾱ_prev = 1 after the last step); None where the config has thresholding."""
+    from diffusers import DDIMScheduler
+    ddim = DDIMScheduler.from_config(scheduler.config)
+    cfg = ddim.config
+    if cfg.thresholding or cfg.prediction_type not in PREDICTION_TYPES:
+        return None
+    ddim.set_timesteps(num_steps)
+    ratio = cfg.num_train_timesteps // ddim.num_inference_steps
+    plan = []
+    for t in (int(t) for t in ddim.timesteps):
+        a_t = ddim.alphas_cumprod[t]
+        a_prev = ddim.alphas_cumprod[t - ratio] if t - ratio >= 0 else ddim.final_alpha_cumprod
+        plan.append(DDIMStep(t, cfg.prediction_type, float(a_t ** 0.5), float((1 - a_t) ** 0.5),
+                             float(cfg.clip_sample_range) if cfg.clip_sample else None,
+                             float(a_prev ** 0.5), float((1 - a_prev) ** 0.5)))
     return plan

@@ -3,12 +3,15 @@
 Hydra: ``{_target_: rvn_il.policies.load_policy, checkpoint_path: <out_dir>, device: cpu,
 selection: argmin}`` — every keyword besides ``checkpoint_path``/``device``/``model`` overrides
 a ``model.policy`` setting (lookahead_min_dist, waypoint_index, num_samples, aggregate, stop_radius,
-selection, cor_alpha, ensemble), the seed, ``threads`` (torch intra-op threads of a decision on CPU, default
+selection, cor_alpha, ensemble, sampler), the seed, ``threads`` (torch intra-op threads of a decision on CPU, default
 1, null: torch's setting; see :mod:`.policy`) or an agent setting (r_robot, d_step, theta_step_deg).
 
 ``ensemble``: more rvn-train out_dirs of the same model (ViNT- or NoMaD-PointGoal) whose samples join
 the first checkpoint's in ``aggregate=vote`` (every member draws ``num_samples``; ties go to the
 earliest sample, the first checkpoint's first). Control and agent settings are the first checkpoint's.
+
+``sampler``: NoMaD's reverse process, ``ddpm`` (default, the paper's) or ``ddim`` (η = 0), for every
+network of the policy (:mod:`rvn_il.models.nomad`); ViNT has none, so anything but ddpm is an error.
 """
 from __future__ import annotations
 
@@ -24,11 +27,12 @@ from ..data.images import crop_setting
 from ..models import build_model, resolve_size
 from ..models.checkpoint import (latest_checkpoint, load_state_dict_checked, members_of, read_config, read_stats,
                                  read_weights)
+from ..models.nomad import check_sampler
 from .control import ControlConfig
 from .policy import Member, NoMaDNegPolicy, PointGoalPolicy
 
 POLICY_KEYS = {"lookahead_min_dist", "waypoint_index", "num_samples", "aggregate", "stop_radius", "selection", "cor_alpha",
-               "seed", "threads", "ensemble"}
+               "seed", "threads", "ensemble", "sampler"}
 AGENT_KEYS = {f.name for f in dataclasses.fields(AgentConfig)}
 
 
@@ -112,6 +116,7 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
                              "are for ViNT- and NoMaD-PointGoal")
         if pol.get("aggregate", "first") != "first":
             raise ValueError(f"policy aggregate={pol['aggregate']!r}: NoMaD-Neg chooses its sample by CoR (policy.selection)")
+        set_sampler(members, pol.get("sampler"), name)
         return NoMaDNegPolicy(members, control, selection=pol.get("selection", "argmax"),
                               cor_alpha=float(pol.get("cor_alpha", 1.0)), **common)
     aggregate = str(pol.get("aggregate", "first"))
@@ -119,6 +124,7 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
         raise ValueError(f"policy.ensemble needs policy.aggregate=vote (got {aggregate!r}): the members' samples are pooled "
                          "into one vote")
     members += [load_ensemble_member(d, name, dev) for d in extra]
+    set_sampler(members, pol.get("sampler"), name)
     return PointGoalPolicy(members, control, aggregate=aggregate, **common)
 
 
@@ -129,6 +135,20 @@ def checked_model_config(cfg: dict, out_dir: Path, model: str | None, what: str)
     if model is not None and model_cfg["name"] != model:
         raise ValueError(f"{what} {out_dir} holds a {model_cfg['name']!r} model, not {model!r}")
     return model_cfg
+
+
+def set_sampler(members: list[Member], sampler: Any, name: str) -> None:
+    """``policy.sampler`` (None: ddpm) on every member's NoMaD network; a ValueError for ViNT, which
+    does not sample by diffusion, or for an unknown sampler."""
+    sampler = "ddpm" if sampler is None else sampler
+    if name == "vint_pointgoal":
+        if sampler != "ddpm":
+            raise ValueError(f"policy.sampler={sampler!r}: ViNT-PointGoal predicts its waypoints directly; the "
+                             "sampler applies to NoMaD-PointGoal and NoMaD-Neg")
+        return
+    sampler = check_sampler(sampler)
+    for m in members:
+        m.model.sampler = sampler
 
 
 def ensemble_dirs(value: Any) -> list[Path]:
