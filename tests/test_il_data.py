@@ -72,6 +72,33 @@ def test_sample_dict_matches_hand_computed_waypoints(tmp_path):
     assert not np.allclose(last[1], last[2]) or not np.allclose(last[0], last[1])
 
 
+def test_moving_waypoints_skip_turns_in_place(tmp_path):
+    position, yaw = hand_trajectory()
+    write_traj(tmp_path / "ds" / "a", position, yaw)
+    write_traj(tmp_path / "ds" / "b", position + 5, yaw)  # starts elsewhere: a seam in the cache after a's end
+    cfg = nomad_small(context_size=2, len_traj_pred=4, goal_mask_prob=0.0, image_size=[16, 16])
+    data = {"goal_offset": [3, 3], "progress": False}
+    gnm = make_dataset(tmp_path / "ds", cfg, data, seed=0)
+    ds = make_dataset(tmp_path / "ds", cfg, {**data, "waypoint_frames": "moving"}, seed=0)
+    c, h = math.cos(math.radians(30)), math.sin(math.radians(30))
+    # t = 2: F (frame 3), L (4, no move), F (5), F (6), R, R (7, 8, no move), F (9)
+    np.testing.assert_allclose(ds[0]["actions"].numpy(), [[1, 0], [1 + c, h], [1 + 2 * c, 2 * h], [1 + 3 * c, h]],
+                               atol=1e-5)
+    # t = 6 (next: R, R, F, F, F, F): the first label is where the robot moves next, turns or not
+    moving, frames = ds[4]["actions"].numpy(), gnm[4]["actions"].numpy()
+    np.testing.assert_allclose(frames[:2], 0, atol=1e-9)  # GNM's: two waypoints on the spot
+    np.testing.assert_allclose(moving[0], frames[2], atol=1e-9)
+    assert np.all(np.linalg.norm(np.diff(moving, axis=0, prepend=0 * moving[:1]), axis=1) > 0.99)  # d_step apart
+    # the rest of the sample is unchanged: same images, goal, distance
+    for k in ("obs_image", "goal_pos", "distance"):
+        assert torch.equal(ds[4][k], gnm[4][k]), k
+    # t = 13 (L, F, F to the end at frame 16): padded with a's last pose, not b's first; same at b's end
+    for last in (11, len(ds) - 1):
+        np.testing.assert_allclose(ds[last]["actions"].numpy(), [[c, h]] + [[2 * c, 2 * h]] * 3, atol=1e-5)
+    with pytest.raises(ValueError, match="data.waypoint_frames='every'.*all.*moving"):
+        make_dataset(tmp_path / "ds", cfg, {**data, "waypoint_frames": "every"})
+
+
 def test_goal_mask_probability_and_determinism(tmp_path):
     root = write_synthetic_gnm(tmp_path / "ds", 3, 30, image_size=32)
     ds = make_dataset(root, nomad_small(), {"progress": False}, seed=3)

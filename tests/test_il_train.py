@@ -43,7 +43,7 @@ def rvn_train(*args):
 def runs(data):
     """One rvn-train run per model (3 steps, small size): ViNT's and NoMaD's call the CLI's main()
     in this process (ViNT's with 2 loader workers), NoMaD-Neg's runs the console script in a
-    subprocess with data-derived action_stats."""
+    subprocess with data-derived action_stats and the moving waypoint labels."""
     out = {}
     common = [f"data.root={data / 'expert'}", f"data.negative_root={data / 'negative'}", "train.max_steps=3", *SMALL]
     for name, workers in (("vint_pointgoal", 2), ("nomad_pointgoal", 0)):
@@ -56,7 +56,7 @@ def runs(data):
             sys.argv = argv
     out["nomad_neg"] = data / "run_nomad_neg"
     r = subprocess.run(["rvn-train", "model=nomad_neg", f"out_dir={out['nomad_neg']}", "data.num_workers=0",
-                        "model.action_stats=auto", *common], capture_output=True, text=True, env=ENV, timeout=300)
+                        "model.action_stats=auto", "data.waypoint_frames=moving", *common], capture_output=True, text=True, env=ENV, timeout=300)
     assert r.returncode == 0, r.stderr[-3000:]
     return out
 
@@ -68,6 +68,7 @@ def test_cli_trains_and_writes_a_self_contained_checkpoint(runs, name):
     assert (out_dir / ".hydra" / "config.yaml").is_file() and "rvn_il" in (out_dir / "rvn-train.log").read_text()
     cfg = yaml.safe_load((out_dir / "config.yaml").read_text())
     assert cfg["model"]["name"] == name and cfg["train"]["max_steps"] == 3
+    assert cfg["data"]["waypoint_frames"] == ("moving" if name == "nomad_neg" else "all")
     members = ["expert", "negative"] if name == "nomad_neg" else ["model"]
     for m in members:
         ckpt = latest_checkpoint(out_dir / m)
@@ -200,6 +201,10 @@ def test_cli_bad_input_one_line(data, tmp_path):
         train(["model=nomad_pointgoal", f"data.root={data / 'expert'}", f"out_dir={tmp_path / 'o4'}",
                "model.prediction_type=x0", *SMALL])
     assert not (tmp_path / "o4").exists()
+    r = rvn_train("model=nomad_pointgoal", f"data.root={data / 'expert'}", f"out_dir={tmp_path / 'o6'}",
+                  "data.waypoint_frames=moved", *SMALL)
+    assert r.returncode == 2 and "Traceback" not in r.stderr and "data.waypoint_frames='moved'" in r.stderr
+    assert not (tmp_path / "o6").exists()
     if not torch.cuda.is_available():  # a CPU build of torch: one line naming the setting, nothing written
         r = rvn_train("model=vint_pointgoal", f"data.root={data / 'expert'}", f"out_dir={tmp_path / 'o5'}", "device=cuda",
                       *SMALL)

@@ -6,7 +6,7 @@ from pathlib import Path
 from typing import Mapping
 
 from .cache import PackedCache, cache_path, ensure_cache
-from .dataset import BatchView, EpochSampler, GNMDataset
+from .dataset import BatchView, EpochSampler, GNMDataset, check_waypoint_frames
 from .depth import depth_setting
 from rvn_data.dataset.reader import GNMSource, load_gnm
 from .images import crop_setting, preprocess_image
@@ -16,11 +16,12 @@ def make_dataset(root: str | Path, model_cfg: Mapping, data_cfg: Mapping | None 
                  build: bool = True, depth: bool = True) -> GNMDataset:
     """GNM folder → (cached) GNMDataset for a size-resolved model config. ``data_cfg`` keys:
     split, splits_dir, name, metric_waypoint_spacing, crop (aspect | official | none; see
-    :mod:`.images`), cache_dir, cache_threads, goal_offset, end_slack, skip_short.
+    :mod:`.images`), cache_dir, cache_threads, goal_offset, end_slack, skip_short, waypoint_frames (all | moving).
     ``build=False`` only opens an existing cache (DDP non-zero ranks). Items carry the depth
     target when ``model.depth_aux_weight`` > 0, unless ``depth=False``."""
     d = dict(data_cfg or {})
     crop = crop_setting(d, model_cfg)  # checked before anything is read
+    waypoint_frames = check_waypoint_frames(d.get("waypoint_frames", "all"))
     size = depth_setting(model_cfg) if depth else None
     source = load_gnm(root, d.get("split", "train"), d.get("splits_dir"), d.get("name"), d.get("metric_waypoint_spacing"))
     if build:
@@ -30,8 +31,8 @@ def make_dataset(root: str | Path, model_cfg: Mapping, data_cfg: Mapping | None 
         path = cache_path(source, model_cfg["image_size"], crop, d.get("cache_dir"), size)
     return GNMDataset(PackedCache(path), model_cfg["context_size"], model_cfg["len_traj_pred"],
                       d.get("goal_offset", (1, 20)), float(model_cfg.get("goal_mask_prob", 0.0)),
-                      int(d.get("end_slack", 0)), seed, bool(d.get("skip_short", False)))
+                      int(d.get("end_slack", 0)), seed, bool(d.get("skip_short", False)), waypoint_frames)
 
 
-__all__ = ["make_dataset", "BatchView", "load_gnm", "ensure_cache", "PackedCache", "GNMDataset", "EpochSampler",
+__all__ = ["make_dataset", "check_waypoint_frames", "BatchView", "load_gnm", "ensure_cache", "PackedCache", "GNMDataset", "EpochSampler",
            "GNMSource", "preprocess_image", "crop_setting", "depth_setting"]

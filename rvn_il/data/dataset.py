@@ -8,6 +8,12 @@ frames ``t+1 .. t+len_traj_pred`` (past the trajectory end the last pose is repe
 expressed in the frame of pose ``t`` (x forward, y left) and divided by
 ``metric_waypoint_spacing``. Unlike the official code the last ``len_traj_pred`` frames are
 kept (padded), so short negative trajectories still yield their collision steps.
+With ``waypoint_frames="moving"`` (``data.waypoint_frames``; a departure from GNM, off by default) the
+waypoints are the poses of the next ``len_traj_pred`` frames whose position differs from the frame
+before (turns in place skipped): a discrete-action expert turns in place on ~45 % of its steps, so
+the GNM labels mix zero-displacement waypoints of varying count into the path; the moving labels are
+the path itself, and the first of them is the point the expert moves to next (what the action
+adapter steers to), whether or not it turns first.
 When the cache holds depth maps (``model.depth_aux_weight`` > 0) an item also has ``depth``
 float32 [S,S], the current frame's (metres, 0 where nothing was hit).
 Each item's randomness comes from ``default_rng([seed, index])``; indices past ``len(self)``
@@ -26,12 +32,24 @@ from rvn_data.conventions import to_local
 from .cache import PackedCache
 
 
+WAYPOINT_FRAMES = ("all", "moving")
+MOVE_EPS = 1e-6  # m: a frame "moved" when its position is farther than this from the previous frame's
+
+
+def check_waypoint_frames(value: object) -> str:
+    if value not in WAYPOINT_FRAMES:
+        raise ValueError(f"data.waypoint_frames={value!r}: choose all (the poses of frames t+1..t+len_traj_pred, GNM's)"
+                         f" or moving (the next len_traj_pred frames where the robot moved; turns in place skipped)")
+    return str(value)
+
+
 class GNMDataset(Dataset):
     """Items are the sample dict of docs/ARCHITECTURE.md."""
 
     def __init__(self, cache: PackedCache, context_size: int, len_traj_pred: int,
                  goal_offset: Sequence[int] = (1, 20), goal_mask_prob: float = 0.0,
-                 end_slack: int = 0, seed: int = 0, skip_short: bool = False):
+                 end_slack: int = 0, seed: int = 0, skip_short: bool = False, waypoint_frames: str = "all"):
+        self.waypoint_frames = check_waypoint_frames(waypoint_frames)
         lo, hi = int(goal_offset[0]), int(goal_offset[1])
         if not 1 <= lo <= hi:
             raise ValueError(f"data.goal_offset={list(goal_offset)} must satisfy 1 <= min <= max")
@@ -58,6 +76,9 @@ class GNMDataset(Dataset):
         self.curr = np.concatenate(curr).astype(np.int64)  # global frame index of the current frame
         self.last = np.concatenate(last).astype(np.int64)  # global index of the last usable frame
         self.end = cache.traj_start[cache.traj_index[self.curr]] + cache.traj_len[cache.traj_index[self.curr]] - 1
+        step = np.linalg.norm(np.diff(cache.position, axis=0), axis=1)  # across trajectory seams too: clipped below
+        # global indices of the frames reached by a move, then a sentinel past every frame (clipped to the end)
+        self.moved = np.append(np.flatnonzero(step > MOVE_EPS) + 1, np.iinfo(np.int64).max)
 
     def __len__(self) -> int:
         return len(self.curr)
@@ -100,7 +121,12 @@ class GNMDataset(Dataset):
     def waypoints(self, n: np.ndarray) -> np.ndarray:
         """Normalised future waypoints [len(n), len_traj_pred, 2] of samples ``n`` (< len(self))."""
         g = self.curr[n]
-        future = np.minimum(g[:, None] + np.arange(1, self.len_traj_pred + 1), self.end[n][:, None])
+        if self.waypoint_frames == "moving":
+            picks = np.searchsorted(self.moved, g, side="right")[:, None] + np.arange(self.len_traj_pred)
+            future = self.moved[np.minimum(picks, len(self.moved) - 1)]  # the last entry: past every move
+        else:
+            future = g[:, None] + np.arange(1, self.len_traj_pred + 1)
+        future = np.minimum(future, self.end[n][:, None])  # past the trajectory's end: its last pose
         pos = self.cache.position
         return to_local(pos[future], pos[g][:, None], self.cache.yaw[g][:, None]) / self.spacing
 

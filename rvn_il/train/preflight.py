@@ -17,7 +17,7 @@ import torch
 from rvn_data.dataset.reader import list_trajectories
 from rvn_data.cli.common import ConfigError, check_writable_dir, validating
 
-from ..data import depth_setting
+from ..data import check_waypoint_frames, depth_setting
 from ..data.depth import REGENERATE, has_depth
 from ..models import resolve_size
 from ..models.checkpoint import members_of, read_config
@@ -75,6 +75,7 @@ def check_settings(cfg: Mapping) -> None:
     tcfg, data, model = cfg["train"], cfg["data"], cfg["model"]
     if "prediction_type" in model:
         check_prediction_type(model["prediction_type"])
+    check_waypoint_frames(data["waypoint_frames"])
     if tcfg["precision"] not in PRECISIONS:
         raise ValueError(f"train.precision={tcfg['precision']!r}; choose one of {', '.join(PRECISIONS)}")
     val_root = data["val_root"]

@@ -31,6 +31,9 @@ class DataConfig:
     goal_offset: list[int] = field(default_factory=lambda: [1, 20])  # goal frame offset range (frames ahead)
     end_slack: int = 0  # frames ignored at each trajectory's end
     skip_short: bool = False  # skip (true) or reject (false) trajectories too short for the context
+    # waypoint labels: all (poses of frames t+1..t+len_traj_pred, GNM's) | moving (the next len_traj_pred frames where
+    # the robot moved: turns in place skipped; a departure, see rvn_il/data/dataset.py)
+    waypoint_frames: str = "all"
     cache_dir: str | None = None  # packed HDF5 frames; null: <cache root>/packed (top-level cache_dir)
     cache_threads: int = 4  # JPEG decoding threads when building the cache
     num_workers: int = 2  # DataLoader workers
