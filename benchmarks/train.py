@@ -69,9 +69,11 @@ def train_rate(root: Path, cfg: dict, batch: int, steps: int, channels_last: boo
     return batch / statistics.median(times[1:])
 
 
-def decision_ms(name: str, size: str, decisions: int, threads: int | None = 1) -> tuple[float, float | None]:
+def decision_ms(name: str, size: str, decisions: int, threads: int | None = 1,
+                sampler: str = "ddpm") -> tuple[float, float | None]:
     """Median ms per ``act`` of the policy and, for NoMaD models, of the same policy on the
-    reference sampling path (same weights and frames, the two timed alternately)."""
+    reference sampling path (same weights and frames, the two timed alternately); NoMaD samples
+    with ``sampler`` (policy.sampler)."""
     cfg = load_model_config("nomad_pointgoal" if name == "nomad_neg" else name, size)
     ctrl = ControlConfig.from_agent(AgentConfig())
     paths = (True, False) if name != "vint_pointgoal" else (True,)
@@ -81,6 +83,8 @@ def decision_ms(name: str, size: str, decisions: int, threads: int | None = 1) -
         members = [Member(build_model(cfg).eval(), 0.25) for _ in range(2 if name == "nomad_neg" else 1)]
         for m in members:
             m.model.fast_sampling = fast
+            if name != "vint_pointgoal":
+                m.model.sampler = sampler
         policies.append(NoMaDNegPolicy(members, ctrl, 8, threads=threads) if name == "nomad_neg"
                         else PointGoalPolicy(members, ctrl, 1 if name == "vint_pointgoal" else 8, threads=threads))
     frames = [render_frame(np.array([0.25 * t, 0.0]), 0.05 * t, 256) for t in range(decisions + 3)]
@@ -125,6 +129,7 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2, help="DataLoader workers for the loader figure")
     ap.add_argument("--quick", action="store_true", help="fewer repetitions")
     ap.add_argument("--latency-only", action="store_true", help="only the per-decision latency figures")
+    ap.add_argument("--sampler", choices=("ddpm", "ddim"), default="ddpm", help="NoMaD's reverse process (policy.sampler)")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
     reps = 3 if args.quick else 10
@@ -133,12 +138,12 @@ def main() -> None:
         data_figures(args.workers, reps)
     policy_threads = args.policy_threads or None
     print(f"\nper-decision latency on CPU (256x256 frame -> action; median; policy threads "
-          f"{policy_threads or args.threads}; NoMaD: beside the reference sampling path):")
+          f"{policy_threads or args.threads}; NoMaD: {args.sampler}, beside the reference sampling path):")
     goals = {("nomad_pointgoal", "full"): "  (goal <= 100 ms)", ("nomad_neg", "full"): "  (goal <= 200 ms)"}
     for name, what in (("vint_pointgoal", "1 pass"), ("nomad_pointgoal", "8 samples x 10 steps"),
                        ("nomad_neg", "2 x 8 samples x 10 steps")):
         for size in ("full", "small"):
-            ms, ref = decision_ms(name, size, reps * 2, policy_threads)
+            ms, ref = decision_ms(name, size, reps * 2, policy_threads, args.sampler)
             old = f"; reference path {ref:7.1f} ms, x{ref / ms:.2f}" if ref is not None else ""
             print(f"  {name:16s} {size:5s} {what:26s}: {ms:7.1f} ms{goals.get((name, size), '')}{old}")
 
