@@ -129,7 +129,8 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2, help="DataLoader workers for the loader figure")
     ap.add_argument("--quick", action="store_true", help="fewer repetitions")
     ap.add_argument("--latency-only", action="store_true", help="only the per-decision latency figures")
-    ap.add_argument("--sampler", choices=("ddpm", "ddim"), default="ddpm", help="NoMaD's reverse process (policy.sampler)")
+    ap.add_argument("--sampler", choices=("ddpm", "ddim"), default="ddpm",
+                    help="NoMaD's reverse process (policy.sampler)")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
     reps = 3 if args.quick else 10

@@ -56,7 +56,8 @@ def runs(data):
             sys.argv = argv
     out["nomad_neg"] = data / "run_nomad_neg"
     r = subprocess.run(["rvn-train", "model=nomad_neg", f"out_dir={out['nomad_neg']}", "data.num_workers=0",
-                        "model.action_stats=auto", "data.waypoint_frames=moving", *common], capture_output=True, text=True, env=ENV, timeout=300)
+                        "model.action_stats=auto", "data.waypoint_frames=moving", *common],
+                       capture_output=True, text=True, env=ENV, timeout=300)
     assert r.returncode == 0, r.stderr[-3000:]
     return out
 
@@ -155,7 +156,8 @@ def test_sampler_setting_reaches_every_network(runs):
         policy = load_policy(runs[name], sampler="ddim", num_samples=2)
         assert [m.model.sampler for m in policy.members] == ["ddim"] * n
         policy.reset()
-        assert policy.act({"rgb": render_frame(np.zeros(2), 0.0, 128), "pointgoal": np.array([3.0, 1.0], np.float32)}) in (0, 1, 2, 3)
+        obs = {"rgb": render_frame(np.zeros(2), 0.0, 128), "pointgoal": np.array([3.0, 1.0], np.float32)}
+        assert policy.act(obs) in (0, 1, 2, 3)
     assert [m.model.sampler for m in load_policy(runs["nomad_pointgoal"]).members] == ["ddpm"]
     with pytest.raises(ValueError, match="policy.sampler='ddim': ViNT-PointGoal predicts its waypoints directly"):
         load_policy(runs["vint_pointgoal"], sampler="ddim")

@@ -34,5 +34,5 @@ def make_dataset(root: str | Path, model_cfg: Mapping, data_cfg: Mapping | None 
                       int(d.get("end_slack", 0)), seed, bool(d.get("skip_short", False)), waypoint_frames)
 
 
-__all__ = ["make_dataset", "check_waypoint_frames", "BatchView", "load_gnm", "ensure_cache", "PackedCache", "GNMDataset", "EpochSampler",
-           "GNMSource", "preprocess_image", "crop_setting", "depth_setting"]
+__all__ = ["make_dataset", "check_waypoint_frames", "BatchView", "load_gnm", "ensure_cache", "PackedCache", "GNMDataset",
+           "EpochSampler", "GNMSource", "preprocess_image", "crop_setting", "depth_setting"]

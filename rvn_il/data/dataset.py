@@ -37,10 +37,19 @@ MOVE_EPS = 1e-6  # m: a frame "moved" when its position is farther than this fro
 
 
 def check_waypoint_frames(value: object) -> str:
+    """``data.waypoint_frames`` as one of :data:`WAYPOINT_FRAMES`; a ValueError naming it otherwise."""
     if value not in WAYPOINT_FRAMES:
         raise ValueError(f"data.waypoint_frames={value!r}: choose all (the poses of frames t+1..t+len_traj_pred, GNM's)"
                          f" or moving (the next len_traj_pred frames where the robot moved; turns in place skipped)")
     return str(value)
+
+
+def moved_frames(position: np.ndarray) -> np.ndarray:
+    """Global indices of the frames reached by a move (position [N,2] of the whole cache; seams
+    between trajectories count too, the caller clips to each trajectory's end), then a sentinel
+    past every frame."""
+    step = np.linalg.norm(np.diff(position, axis=0), axis=1)
+    return np.append(np.flatnonzero(step > MOVE_EPS) + 1, np.iinfo(np.int64).max)
 
 
 class GNMDataset(Dataset):
@@ -76,9 +85,7 @@ class GNMDataset(Dataset):
         self.curr = np.concatenate(curr).astype(np.int64)  # global frame index of the current frame
         self.last = np.concatenate(last).astype(np.int64)  # global index of the last usable frame
         self.end = cache.traj_start[cache.traj_index[self.curr]] + cache.traj_len[cache.traj_index[self.curr]] - 1
-        step = np.linalg.norm(np.diff(cache.position, axis=0), axis=1)  # across trajectory seams too: clipped below
-        # global indices of the frames reached by a move, then a sentinel past every frame (clipped to the end)
-        self.moved = np.append(np.flatnonzero(step > MOVE_EPS) + 1, np.iinfo(np.int64).max)
+        self.moved = moved_frames(cache.position) if self.waypoint_frames == "moving" else None
 
     def __len__(self) -> int:
         return len(self.curr)
@@ -121,7 +128,7 @@ class GNMDataset(Dataset):
     def waypoints(self, n: np.ndarray) -> np.ndarray:
         """Normalised future waypoints [len(n), len_traj_pred, 2] of samples ``n`` (< len(self))."""
         g = self.curr[n]
-        if self.waypoint_frames == "moving":
+        if self.moved is not None:
             picks = np.searchsorted(self.moved, g, side="right")[:, None] + np.arange(self.len_traj_pred)
             future = self.moved[np.minimum(picks, len(self.moved) - 1)]  # the last entry: past every move
         else:
