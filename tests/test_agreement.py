@@ -35,6 +35,8 @@ def test_agreement_replays_every_expert_frame(trained):
     blind, needs_image = result["blind_goal_follower"], result["policy_where_blind_is_wrong"]
     assert blind["steps"] == frames and 0 < needs_image["steps"] < frames
     assert needs_image["steps"] == round(frames * (1 - blind["agreement"]))
+    # and apart on each trajectory's first context_size (3) decisions, whose context is padded
+    assert result["policy_first_decisions"]["steps"] == 3 * 3 and "first 3 decisions" in proc.stdout
     # the last-waypoint rule cannot reproduce every turn even from the true future
     last = run("-m", "rvn_il.eval.agreement", str(trained / "run"), str(trained / "data"), "--waypoint-index", "-1")
     assert "adapter ceiling 1.000" not in last.stdout
@@ -66,13 +68,14 @@ def test_training_logs_val_loss_and_the_agreement_tool_figure(trained):
     assert list(history) == ["2", "3"]
     for figures in history.values():
         assert figures["loss"] > 0 and 0.0 <= figures["agreement"] <= 1.0 and figures["steps"] > 0
-        assert set(figures) >= {"diffusion_loss", "dist_loss", "agreement_blind", "agreement_image"}
+        assert set(figures) >= {"diffusion_loss", "dist_loss", "agreement_blind", "agreement_image", "agreement_start"}
     tool = trained / "val_agreement.json"
     run("-m", "rvn_il.eval.agreement", str(out), str(trained / "data"), "--max-trajectories", "2", "--json", str(tool))
     result = json.loads(tool.read_text())
     assert history["3"]["steps"] == result["policy"]["steps"]
     assert history["3"]["agreement"] == pytest.approx(result["policy"]["agreement"], abs=1e-4)
     assert history["3"]["agreement_blind"] == pytest.approx(result["blind_goal_follower"]["agreement"], abs=1e-4)
+    assert history["3"]["agreement_start"] == pytest.approx(result["policy_first_decisions"]["agreement"], abs=1e-4)
 
 
 def test_training_settings_fail_before_any_work(trained):

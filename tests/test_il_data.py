@@ -99,6 +99,30 @@ def test_moving_waypoints_skip_turns_in_place(tmp_path):
         make_dataset(tmp_path / "ds", cfg, {**data, "waypoint_frames": "every"})
 
 
+def test_pad_context_trains_the_first_decisions_with_frame_0_repeated(tmp_path):
+    position, yaw = hand_trajectory()
+    write_traj(tmp_path / "ds" / "a", position, yaw)
+    write_traj(tmp_path / "ds" / "b", position + 5, yaw, seed=1)  # b's first context must not reach into a's frames
+    cfg = nomad_small(context_size=2, len_traj_pred=4, goal_mask_prob=0.0, image_size=[16, 16])
+    data = {"goal_offset": [3, 3], "progress": False}
+    gnm = make_dataset(tmp_path / "ds", cfg, data, seed=0)
+    ds = make_dataset(tmp_path / "ds", cfg, {**data, "pad_context": True}, seed=0)
+    assert len(ds) == len(gnm) + 2 * 2  # t = 0 and 1 of each trajectory
+    images = torch.from_numpy(np.array(PackedCache(ds.cache.path).images)).float() / 255
+    b0 = len(position)  # global index of b's frame 0
+    for i, (context, start) in enumerate([([0, 0, 0], 0), ([0, 0, 1], 0), ([b0, b0, b0], b0), ([b0, b0, b0 + 1], b0)]):
+        item = ds[[0, 1, 14, 15][i]]
+        torch.testing.assert_close(item["obs_image"], images[context])
+        assert int(item["distance"]) == 3
+    # t = 0 of a: the labels are frames 1..4 (F, F, F, L) in pose 0's frame, the goal frame 3
+    np.testing.assert_allclose(ds[0]["actions"].numpy(), [[1, 0], [2, 0], [3, 0], [3, 0]], atol=1e-5)
+    np.testing.assert_allclose(ds[0]["goal_pos"].numpy(), [3, 0], atol=1e-5)
+    for k, v in gnm[0].items():  # from t = context_size on, the samples are GNM's
+        torch.testing.assert_close(ds[2][k], v)
+    with pytest.raises(ValueError, match="fewer than 1\\+goal_offset\\[0\\]\\+end_slack = 21"):
+        make_dataset(tmp_path / "ds", cfg, {**data, "pad_context": True, "goal_offset": [20, 20]})
+
+
 def test_goal_mask_probability_and_determinism(tmp_path):
     root = write_synthetic_gnm(tmp_path / "ds", 3, 30, image_size=32)
     ds = make_dataset(root, nomad_small(), {"progress": False}, seed=3)

@@ -43,7 +43,7 @@ def rvn_train(*args):
 def runs(data):
     """One rvn-train run per model (3 steps, small size): ViNT's and NoMaD's call the CLI's main()
     in this process (ViNT's with 2 loader workers), NoMaD-Neg's runs the console script in a
-    subprocess with data-derived action_stats and the moving waypoint labels."""
+    subprocess with data-derived action_stats, the moving waypoint labels and the padded first contexts."""
     out = {}
     common = [f"data.root={data / 'expert'}", f"data.negative_root={data / 'negative'}", "train.max_steps=3", *SMALL]
     for name, workers in (("vint_pointgoal", 2), ("nomad_pointgoal", 0)):
@@ -56,7 +56,7 @@ def runs(data):
             sys.argv = argv
     out["nomad_neg"] = data / "run_nomad_neg"
     r = subprocess.run(["rvn-train", "model=nomad_neg", f"out_dir={out['nomad_neg']}", "data.num_workers=0",
-                        "model.action_stats=auto", "data.waypoint_frames=moving", *common],
+                        "model.action_stats=auto", "data.waypoint_frames=moving", "data.pad_context=true", *common],
                        capture_output=True, text=True, env=ENV, timeout=300)
     assert r.returncode == 0, r.stderr[-3000:]
     return out
@@ -70,6 +70,7 @@ def test_cli_trains_and_writes_a_self_contained_checkpoint(runs, name):
     cfg = yaml.safe_load((out_dir / "config.yaml").read_text())
     assert cfg["model"]["name"] == name and cfg["train"]["max_steps"] == 3
     assert cfg["data"]["waypoint_frames"] == ("moving" if name == "nomad_neg" else "all")
+    assert cfg["data"]["pad_context"] == (name == "nomad_neg")
     members = ["expert", "negative"] if name == "nomad_neg" else ["model"]
     for m in members:
         ckpt = latest_checkpoint(out_dir / m)

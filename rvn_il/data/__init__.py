@@ -16,7 +16,8 @@ def make_dataset(root: str | Path, model_cfg: Mapping, data_cfg: Mapping | None 
                  build: bool = True, depth: bool = True) -> GNMDataset:
     """GNM folder → (cached) GNMDataset for a size-resolved model config. ``data_cfg`` keys:
     split, splits_dir, name, metric_waypoint_spacing, crop (aspect | official | none; see
-    :mod:`.images`), cache_dir, cache_threads, goal_offset, end_slack, skip_short, waypoint_frames (all | moving).
+    :mod:`.images`), cache_dir, cache_threads, goal_offset, end_slack, skip_short, waypoint_frames (all | moving),
+    pad_context.
     ``build=False`` only opens an existing cache (DDP non-zero ranks). Items carry the depth
     target when ``model.depth_aux_weight`` > 0, unless ``depth=False``."""
     d = dict(data_cfg or {})
@@ -31,7 +32,8 @@ def make_dataset(root: str | Path, model_cfg: Mapping, data_cfg: Mapping | None 
         path = cache_path(source, model_cfg["image_size"], crop, d.get("cache_dir"), size)
     return GNMDataset(PackedCache(path), model_cfg["context_size"], model_cfg["len_traj_pred"],
                       d.get("goal_offset", (1, 20)), float(model_cfg.get("goal_mask_prob", 0.0)),
-                      int(d.get("end_slack", 0)), seed, bool(d.get("skip_short", False)), waypoint_frames)
+                      int(d.get("end_slack", 0)), seed, bool(d.get("skip_short", False)), waypoint_frames,
+                      bool(d.get("pad_context", False)))
 
 
 __all__ = ["make_dataset", "check_waypoint_frames", "BatchView", "load_gnm", "ensure_cache", "PackedCache", "GNMDataset",

@@ -14,6 +14,10 @@ before (turns in place skipped): a discrete-action expert turns in place on ~45 
 the GNM labels mix zero-displacement waypoints of varying count into the path; the moving labels are
 the path itself, and the first of them is the point the expert moves to next (what the action
 adapter steers to), whether or not it turns first.
+With ``pad_context=True`` (``data.pad_context``; a departure from GNM, off by default) ``t`` starts at 0
+and context frames before the trajectory's first repeat frame 0, as the policy fills its context after
+``reset()``: GNM never trains the first ``context_size`` decisions of a trajectory, which are an
+episode's first decisions at deployment (where the expert mostly turns in place to face its path).
 When the cache holds depth maps (``model.depth_aux_weight`` > 0) an item also has ``depth``
 float32 [S,S], the current frame's (metres, 0 where nothing was hit).
 Each item's randomness comes from ``default_rng([seed, index])``; indices past ``len(self)``
@@ -57,7 +61,8 @@ class GNMDataset(Dataset):
 
     def __init__(self, cache: PackedCache, context_size: int, len_traj_pred: int,
                  goal_offset: Sequence[int] = (1, 20), goal_mask_prob: float = 0.0,
-                 end_slack: int = 0, seed: int = 0, skip_short: bool = False, waypoint_frames: str = "all"):
+                 end_slack: int = 0, seed: int = 0, skip_short: bool = False, waypoint_frames: str = "all",
+                 pad_context: bool = False):
         self.waypoint_frames = check_waypoint_frames(waypoint_frames)
         lo, hi = int(goal_offset[0]), int(goal_offset[1])
         if not 1 <= lo <= hi:
@@ -70,13 +75,14 @@ class GNMDataset(Dataset):
         curr, last = [], []
         for j, (start, length) in enumerate(zip(cache.traj_start, cache.traj_len)):
             e = int(length) - 1 - int(end_slack)
-            first, final = self.context_size, e - lo
+            first, final = (0 if pad_context else self.context_size), e - lo
             if final < first:
                 if skip_short:
                     continue
+                need = ("" if pad_context else "context_size+") + "1+goal_offset[0]+end_slack"
                 raise ValueError(
-                    f"trajectory {cache.names[j]!r} ({cache.path}) has {length} frames, fewer than context_size+1+"
-                    f"goal_offset[0]+end_slack = {self.context_size + 1 + lo + end_slack}; remove it or set data.skip_short=true")
+                    f"trajectory {cache.names[j]!r} ({cache.path}) has {length} frames, fewer than {need} = "
+                    f"{first + 1 + lo + end_slack}; remove it or set data.skip_short=true")
             ts = np.arange(first, final + 1)
             curr.append(start + ts)
             last.append(np.full(len(ts), start + e))
@@ -84,7 +90,8 @@ class GNMDataset(Dataset):
             raise ValueError(f"no trajectory in {cache.path} is long enough for context_size={self.context_size}")
         self.curr = np.concatenate(curr).astype(np.int64)  # global frame index of the current frame
         self.last = np.concatenate(last).astype(np.int64)  # global index of the last usable frame
-        self.end = cache.traj_start[cache.traj_index[self.curr]] + cache.traj_len[cache.traj_index[self.curr]] - 1
+        self.start = cache.traj_start[cache.traj_index[self.curr]]  # global index of the trajectory's frame 0
+        self.end = self.start + cache.traj_len[cache.traj_index[self.curr]] - 1
         self.moved = moved_frames(cache.position) if self.waypoint_frames == "moving" else None
 
     def __len__(self) -> int:
@@ -105,7 +112,8 @@ class GNMDataset(Dataset):
             rng = np.random.default_rng([self.seed, i])
             ks[j] = rng.integers(lo, top + 1)
             masked[j] = self.goal_mask_prob > 0 and rng.random() < self.goal_mask_prob
-        frames = self.cache.read_frames((g[:, None] + np.arange(-self.context_size, 1)).ravel())
+        context = np.maximum(g[:, None] + np.arange(-self.context_size, 1), self.start[n][:, None])  # pad: frame 0
+        frames = self.cache.read_frames(context.ravel())
         obs = torch.from_numpy(np.ascontiguousarray(frames)).view(len(n), self.context_size + 1, *frames.shape[1:])
         actions = self.waypoints(n)
         pos, yaw = self.cache.position, self.cache.yaw[g]

@@ -12,7 +12,10 @@ same waypoint → action rule fed the ground-truth future poses (the best a perf
 trajectory predictor could reach with these policy settings), and the *blind* baseline: the
 agreement of the goal follower (``rvn_data.benchmark.policies.GoalFollowerPolicy``: steer straight at
 the point goal, no image), with the policy's agreement on the frames where the blind rule is
-wrong: the frames where only the image tells the expert's action (a wall, a detour).
+wrong: the frames where only the image tells the expert's action (a wall, a detour), and on
+the first ``context_size`` decisions of each trajectory, whose context the policy pads with
+the first frame (an episode's first decisions, where the expert mostly turns in place; GNM's
+sampling never trains them unless ``rvn-train data.pad_context=true``).
 
 Closed-loop success needs far more than this (errors compound), but it is minutes cheaper
 than ``rvn-eval``, and a policy that disagrees with the expert on its own data is not yet
@@ -54,10 +57,11 @@ def expert_trajectories(root: Path, split: str | None, limit: int | None) -> lis
     return dirs
 
 
-def agreement(policy, dirs: list[Path], len_traj_pred: int) -> dict:
+def agreement(policy, dirs: list[Path], len_traj_pred: int, first_steps: int = 0) -> dict:
     """Confusion matrices [expert, chosen] of the policy, of the adapter ceiling, of the blind goal
-    follower, and of the policy on the frames where the blind goal follower is wrong."""
-    conf, ceiling, blind, needs_image = (np.zeros((4, 4), np.int64) for _ in range(4))
+    follower, of the policy on the frames where the blind goal follower is wrong, and of the
+    policy on the first ``first_steps`` frames of each trajectory."""
+    conf, ceiling, blind, needs_image, start = (np.zeros((4, 4), np.int64) for _ in range(5))
     follower = GoalFollowerPolicy(stop_radius=policy.control.stop_radius,
                                   theta_step_deg=np.degrees(policy.control.theta_step))
     for d in dirs:
@@ -69,6 +73,8 @@ def agreement(policy, dirs: list[Path], len_traj_pred: int) -> dict:
             pointgoal = relative_goal(from_planar(pos[t]), float(yaw[t]), goal)
             chosen = int(policy.act({"rgb": read_rgb(d / f"{t}.jpg"), "pointgoal": pointgoal}))
             conf[expert, chosen] += 1
+            if t < first_steps:
+                start[expert, chosen] += 1
             blind_action = follower.act({"pointgoal": pointgoal})
             blind[expert, blind_action] += 1
             if blind_action != expert:
@@ -76,7 +82,7 @@ def agreement(policy, dirs: list[Path], len_traj_pred: int) -> dict:
             future = pos[np.minimum(np.arange(t + 1, t + 1 + len_traj_pred), len(pos) - 1)]
             ideal = waypoints_to_action(to_local(future, pos[t], yaw[t]), pointgoal, policy.control)
             ceiling[expert, int(ideal)] += 1
-    return {"confusion": conf, "ceiling": ceiling, "blind": blind, "needs_image": needs_image}
+    return {"confusion": conf, "ceiling": ceiling, "blind": blind, "needs_image": needs_image, "start": start}
 
 
 def summary(conf: np.ndarray) -> dict:
@@ -111,14 +117,15 @@ def main(argv: list[str] | None = None) -> int:
             overrides["waypoint_index"] = None if args.waypoint_index.lower() in ("none", "null") else int(args.waypoint_index)
         policy = load_policy(args.checkpoint, **overrides)
         dirs = expert_trajectories(Path(args.dataset), None if args.split == "all" else args.split, args.max_trajectories)
-        len_pred = int(policy.members[0].model.len_traj_pred)
-        result = agreement(policy, dirs, len_pred)
+        model = policy.members[0].model
+        result = agreement(policy, dirs, int(model.len_traj_pred), int(model.context_size))
     except (ValueError, OSError) as e:
         print(f"agreement: error: {e}", file=sys.stderr)
         return 2
     out = {"checkpoint": str(args.checkpoint), "dataset": str(args.dataset), "trajectories": len(dirs),
            "policy": summary(result["confusion"]), "adapter_ceiling": summary(result["ceiling"]),
            "blind_goal_follower": summary(result["blind"]), "policy_where_blind_is_wrong": summary(result["needs_image"]),
+           "policy_first_decisions": summary(result["start"]),
            "confusion": result["confusion"].tolist()}
     p, c = out["policy"], out["adapter_ceiling"]
     print(f"{args.checkpoint}: {len(dirs)} expert trajectories, {p['steps']} steps")
@@ -128,6 +135,9 @@ def main(argv: list[str] | None = None) -> int:
           f"tell), the policy agrees on {n['agreement']:.3f}\n    there, recall  " +
           "  ".join(f"{k} {v:.2f}" for k, v in n["recall"].items()))
     print("  recall  " + "  ".join(f"{k} {v:.2f}" for k, v in p["recall"].items()))
+    f = out["policy_first_decisions"]
+    print(f"  first {model.context_size} decisions of each trajectory (context padded with the first frame): "
+          f"agreement {f['agreement']:.3f} on {f['steps']} steps")
     print("  confusion (rows expert, columns policy: " + " ".join(NAMES) + ")")
     for a in range(4):
         print(f"    {NAMES[a]:<13}" + " ".join(f"{v:6d}" for v in result["confusion"][a]))

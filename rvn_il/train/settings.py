@@ -34,6 +34,9 @@ class DataConfig:
     # waypoint labels: all (poses of frames t+1..t+len_traj_pred, GNM's) | moving (the next len_traj_pred frames where
     # the robot moved: turns in place skipped; a departure, see rvn_il/data/dataset.py)
     waypoint_frames: str = "all"
+    # true: also train the first context_size decisions of each trajectory, their context padded with frame 0 as the
+    # policy's after reset() (GNM starts at t=context_size; a departure, see rvn_il/data/dataset.py)
+    pad_context: bool = False
     cache_dir: str | None = None  # packed HDF5 frames; null: <cache root>/packed (top-level cache_dir)
     cache_threads: int = 4  # JPEG decoding threads when building the cache
     num_workers: int = 2  # DataLoader workers

@@ -13,7 +13,8 @@ scores the weights a policy would load (the EMA weights when the model keeps the
   ``train.val_trajectories`` expert trajectories exactly as ``python -m rvn_il.eval.agreement``
   does, beside ``val/agreement_blind`` (the blind goal follower on the same frames) and
   ``val/agreement_image``, the policy's agreement on the frames where the blind rule is wrong
-  (only the image tells the expert's action there).
+  (only the image tells the expert's action there), and ``val/agreement_start`` on each
+  trajectory's first ``context_size`` decisions (context padded with the first frame).
 
 The figures go to TensorBoard (``out_dir/tb/<member>``), to the log, and to
 ``out_dir/<member>/val.json`` (step → figures; rewritten whole, so a resumed run leaves no
@@ -93,11 +94,11 @@ class Validator:
         device = next(model.parameters()).device
         policy = PointGoalPolicy([Member(model, self.spacing, self.crop)], self.control, num_samples=1,
                                  seed=self.seed, device=device)
-        result = agreement(policy, self.trajectories, model.len_traj_pred)
-        image = summary(result["needs_image"])
+        result = agreement(policy, self.trajectories, model.len_traj_pred, model.context_size)
         return {"agreement": summary(result["confusion"])["agreement"],
                 "agreement_blind": summary(result["blind"])["agreement"],
-                "agreement_image": image["agreement"], "steps": summary(result["confusion"])["steps"]}
+                "agreement_image": summary(result["needs_image"])["agreement"],
+                "agreement_start": summary(result["start"])["agreement"], "steps": summary(result["confusion"])["steps"]}
 
     def __call__(self, model: PointGoalModel, ema_shadow: Mapping[str, torch.Tensor] | None, step: int,
                  writer=None) -> dict[str, float]:
