@@ -127,6 +127,37 @@ def test_train_with_depth_loss_end_to_end(data, tmp_path):
     policy.reset()
     frame = np.full((32, 32, 3), 128, np.uint8)
     assert policy.act({"rgb": frame, "pointgoal": np.array([2.0, 0.5], np.float32)}) in (0, 1, 2, 3)
+    check_depth_veto(out, frame)
+
+
+def check_depth_veto(out, frame):
+    """policy.depth_veto: a MOVE_FORWARD becomes a turn when the depth head predicts the way ahead
+    blocked (here its output forced to 0.1 m), and stays when it predicts it open (5 m). The lookahead
+    is set beyond every waypoint, so the policy steers at the point goal: forward when it lies ahead."""
+    rng = np.random.default_rng(0)
+    goals = [rng.uniform([-1, -3], [4, 3]).astype(np.float32) for _ in range(40)]
+
+    def first_actions(policy, depth_m=None):
+        if depth_m is not None:
+            last = policy.members[0].model.depth_head[2]
+            torch.nn.init.zeros_(last.weight)
+            torch.nn.init.constant_(last.bias, float(np.log(depth_m)))
+        out = []
+        for g in goals:
+            policy.reset()
+            out.append((policy.act({"rgb": frame, "pointgoal": g}), policy.vetoes))
+        return out
+
+    steer = {"aggregate": "vote", "lookahead_min_dist": 50.0}
+    plain = first_actions(load_policy(out, **steer))
+    assert 0 < sum(a == 1 for a, _ in plain) < len(goals)
+    open_ = first_actions(load_policy(out, depth_veto=0.5, **steer), depth_m=5.0)
+    assert open_ == plain  # nothing vetoed: same actions, no veto counted
+    blocked = first_actions(load_policy(out, depth_veto=0.5, **steer), depth_m=0.1)
+    for (a, _), (b, vetoes) in zip(plain, blocked):
+        assert (b, vetoes) == ((a, 0) if a != 1 else (b, 1)) and b != 1
+    with pytest.raises(ValueError, match=r"policy.depth_veto=-1: give the clearance in metres"):
+        load_policy(out, depth_veto=-1)
 
 
 def test_train_with_depth_loss_needs_depth(data, tmp_path):

@@ -109,6 +109,8 @@ def test_checkpoint_of_another_model_is_named(runs, data):
         load_policy(runs["vint_pointgoal"], lookahead=3)
     with pytest.raises(ValueError, match="not an rvn-train checkpoint directory"):
         load_policy(data)
+    with pytest.raises(ValueError, match=r"policy.depth_veto=0.5: this checkpoint has no depth head.*depth_aux_weight > 0"):
+        load_policy(runs["nomad_pointgoal"], depth_veto=0.5)
     # weights of a ViNT run copied into a NoMaD run: refused, naming the checkpoint
     fake = data / "fake"
     shutil.copytree(runs["nomad_pointgoal"], fake)

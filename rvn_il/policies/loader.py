@@ -3,8 +3,8 @@
 Hydra: ``{_target_: rvn_il.policies.load_policy, checkpoint_path: <out_dir>, device: cpu,
 selection: argmin}`` — every keyword besides ``checkpoint_path``/``device``/``model`` overrides
 a ``model.policy`` setting (lookahead_min_dist, waypoint_index, num_samples, aggregate, stop_radius,
-selection, cor_alpha, ensemble, sampler), the seed, ``threads`` (torch intra-op threads of a decision on CPU, default
-1, null: torch's setting; see :mod:`.policy`) or an agent setting (r_robot, d_step, theta_step_deg).
+selection, cor_alpha, ensemble, sampler, depth_veto), the seed, ``threads`` (torch intra-op threads of a decision
+on CPU, default 1, null: torch's setting; see :mod:`.policy`) or an agent setting (r_robot, d_step, theta_step_deg).
 
 ``ensemble``: more rvn-train out_dirs of the same model (ViNT- or NoMaD-PointGoal) whose samples join
 the first checkpoint's in ``aggregate=vote`` (every member draws ``num_samples``; ties go to the
@@ -12,6 +12,9 @@ earliest sample, the first checkpoint's first). Control and agent settings are t
 
 ``sampler``: NoMaD's reverse process, ``ddpm`` (default, the paper's) or ``ddim`` (η = 0), for every
 network of the policy (:mod:`rvn_il.models.nomad`); ViNT has none, so anything but ddpm is an error.
+
+``depth_veto``: metres (null: off); a MOVE_FORWARD whose clearance ahead, predicted by the
+checkpoint's auxiliary depth head, is below it becomes a turn (:mod:`.depth_veto`; a departure).
 """
 from __future__ import annotations
 
@@ -32,7 +35,7 @@ from .control import ControlConfig
 from .policy import Member, NoMaDNegPolicy, PointGoalPolicy
 
 POLICY_KEYS = {"lookahead_min_dist", "waypoint_index", "num_samples", "aggregate", "stop_radius", "selection", "cor_alpha",
-               "seed", "threads", "ensemble", "sampler"}
+               "seed", "threads", "ensemble", "sampler", "depth_veto"}
 AGENT_KEYS = {f.name for f in dataclasses.fields(AgentConfig)}
 
 
@@ -108,7 +111,7 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
     dev = resolve_device(device, "policy.device")
     members = [load_member(out_dir, m, model_cfg, dev) for m in members_of(name)]
     common = dict(num_samples=int(pol.get("num_samples", 8)), seed=int(pol["seed"]), device=dev,
-                  threads=pol.get("threads", 1))
+                  threads=pol.get("threads", 1), depth_veto=pol.get("depth_veto"))
     extra = ensemble_dirs(pol.get("ensemble"))
     if name == "nomad_neg":
         if extra:

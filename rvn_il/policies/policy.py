@@ -30,6 +30,7 @@ from ..data.images import check_crop, preprocess_image
 from ..models import PointGoalModel
 from .control import ControlConfig, waypoints_to_action
 from .cor import SELECTIONS, select_expert
+from .depth_veto import check_depth_veto, clearance, predicted_depth, turn_instead
 
 
 @contextmanager
@@ -64,12 +65,15 @@ class PointGoalPolicy:
     an action and takes the most frequent one (ties: the earliest sample's), which cancels the
     sampling noise of an under-trained diffusion head while keeping a multi-modal choice (left or
     right around an obstacle) whole, where the mean trajectory would run between the two.
-    With several members (``policy.ensemble``), ``vote`` pools every member's samples, member 0's first."""
+    With several members (``policy.ensemble``), ``vote`` pools every member's samples, member 0's first.
+    ``depth_veto`` (metres, None: off): turn instead of a MOVE_FORWARD that member 0's depth head
+    sees blocked (:mod:`.depth_veto`); ``vetoes`` counts them since ``reset()``."""
 
     AGGREGATES = ("first", "vote")
 
     def __init__(self, members: list[Member], control: ControlConfig, num_samples: int = 8, seed: int = 0,
-                 device: str | torch.device = "cpu", aggregate: str = "first", threads: int | None = 1):
+                 device: str | torch.device = "cpu", aggregate: str = "first", threads: int | None = 1,
+                 depth_veto: float | None = None):
         if aggregate not in self.AGGREGATES:
             raise ValueError(f"policy aggregate={aggregate!r}; choose one of {self.AGGREGATES}")
         if threads is not None and not (isinstance(threads, int) and threads >= 1):
@@ -77,12 +81,14 @@ class PointGoalPolicy:
         self.aggregate, self.threads = aggregate, threads
         self.members, self.control = members, control
         self.num_samples, self.seed, self.device = int(num_samples), int(seed), torch.device(device)
+        self.depth_veto = check_depth_veto(depth_veto, getattr(members[0].model, "depth_head", None) is not None)
         self.last_waypoints: np.ndarray | None = None  # metres, robot frame (for plots/debugging)
         self.reset()
 
     def reset(self) -> None:
         self.queues = [deque(maxlen=m.model.context_size + 1) for m in self.members]
         self.generator = torch.Generator(device=self.device).manual_seed(self.seed)
+        self.vetoes = 0
 
     def _push(self, rgb: np.ndarray) -> list[torch.Tensor]:
         """Encode the frame for every member; return each member's context tokens [1,C+1,D].
@@ -135,8 +141,16 @@ class PointGoalPolicy:
             tokens = self._push(rgb)
             if np.linalg.norm(pointgoal) < self.control.stop_radius:
                 return int(Action.STOP)
-            self.last_waypoints = self.choose(self.sample(tokens, pointgoal), pointgoal)
-        return int(waypoints_to_action(self.last_waypoints, pointgoal, self.control))
+            samples = self.sample(tokens, pointgoal)
+            self.last_waypoints = self.choose(samples, pointgoal)
+            action = int(waypoints_to_action(self.last_waypoints, pointgoal, self.control))
+            if action == Action.MOVE_FORWARD and self.depth_veto is not None:
+                depth = predicted_depth(self.members[0].model.depth_head, tokens[0][0, -1])
+                if clearance(depth) < self.depth_veto:
+                    self.vetoes += 1
+                    actions = [int(waypoints_to_action(wp, pointgoal, self.control)) for wp in samples[0]]
+                    action = turn_instead(actions, depth)
+        return action
 
 
 class NoMaDNegPolicy(PointGoalPolicy):
@@ -145,13 +159,13 @@ class NoMaDNegPolicy(PointGoalPolicy):
 
     def __init__(self, members: list[Member], control: ControlConfig, num_samples: int = 8, seed: int = 0,
                  device: str | torch.device = "cpu", selection: str = "argmax", cor_alpha: float = 1.0,
-                 threads: int | None = 1):
+                 threads: int | None = 1, depth_veto: float | None = None):
         if len(members) != 2:
             raise ValueError("NoMaD-Neg needs two members: expert and negative")
         if selection not in SELECTIONS:
             raise ValueError(f"policy selection={selection!r}; choose argmax or argmin")
         self.selection, self.cor_alpha = selection, float(cor_alpha)
-        super().__init__(members, control, num_samples, seed, device, threads=threads)
+        super().__init__(members, control, num_samples, seed, device, threads=threads, depth_veto=depth_veto)
 
     def choose(self, samples: list[np.ndarray], pointgoal: np.ndarray) -> np.ndarray:
         expert, negative = samples
