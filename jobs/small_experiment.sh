@@ -20,9 +20,11 @@ set -euo pipefail
 SCALE=${SCALE:-small}
 OUT=${1:-${OUT:-runs/small_experiment_${SCALE}}}
 case "$SCALE" in
-  small)  # sized for < 2 h on a quiet 2-core machine (jobs/paper_scale.md, "Time budget"): NoMaD 3 epochs, the measured
-          # recipe (docs/results/2026-11-23_small_experiment_3/); it under-fits, so raise NOMAD_EPOCHS where time allows
-    : "${TRAIN_SCENES:=64}" "${TRAJ_PER_SCENE:=32}" "${IMAGE:=64}" "${VINT_EPOCHS:=1}" "${NOMAD_EPOCHS:=3}" "${MAX_STEPS:=}"
+  small)  # sized for < 2 h on a quiet 2-core machine (jobs/paper_scale.md, "Time budget"). The measured recipe
+          # (docs/results/2026-11-25_small_experiment_5/ to _7/): twice the scenes for 2 epochs instead of 3 (10-11k
+          # steps), the auxiliary depth loss, the first decisions trained (PAD_CONTEXT)
+    : "${TRAIN_SCENES:=128}" "${TRAJ_PER_SCENE:=32}" "${IMAGE:=64}" "${VINT_EPOCHS:=1}" "${NOMAD_EPOCHS:=2}" "${MAX_STEPS:=}"
+    : "${DEPTH_AUX:=0.5}"
     : "${VINT_MAX_STEPS:=900}"  # ViNT: 900 of its 2,200 steps per epoch (~15 min); NoMaD gets the time budget
     : "${EVAL_SCENES:=50}" "${EVAL_EPISODES:=4}" "${N_GOALS:=32}" "${T_MAX:=500}" "${LR:=1e-3}"  # 200 val episodes a row
     : "${VAL_SCENES:=10}" "${VAL_TRAJ:=4}" ;;
@@ -47,10 +49,18 @@ esac
 : "${PREDICTION:=sample}"    # NoMaD denoiser target: sample (x0; measured best at this scale, docs/results) | epsilon (the paper's) | v_prediction
 : "${DEPTH_AUX:=0}"           # > 0: rvn-gen writes depth sidecars and the models train with this auxiliary depth-loss
                               # weight (model.depth_aux_weight; off by default, a departure from the paper's RGB-only models)
+: "${PAD_CONTEXT:=true}"      # true: also train each trajectory's first context_size decisions, their context padded with
+                              # frame 0 as the policy's after reset() (data.pad_context; GNM's sampling: false)
+: "${DEPTH_VETO:=}"           # metres, with DEPTH_AUX > 0: one more row, NoMaD-PointGoal-vote with policy.depth_veto (its
+                              # depth head turns it away from a blocked forward step; rvn_il/policies/depth_veto.py)
 : "${SEED:=0}"
 : "${DEVICE:=cpu}"            # rvn-train device (cpu | cuda | auto); rvn-eval's policies stay on the CPU
 : "${RENDERER:=auto}"         # rvn-gen / rvn-eval renderer: auto | gl | raycast
 PY=${PYTHON:-python}
+[[ "$PAD_CONTEXT" =~ ^(true|false)$ ]] || { echo "small_experiment.sh: error: PAD_CONTEXT=$PAD_CONTEXT; choose true or false" >&2; exit 2; }
+if [[ -n "$DEPTH_VETO" && "$DEPTH_AUX" == 0 ]]; then
+  echo "small_experiment.sh: error: DEPTH_VETO=$DEPTH_VETO needs the depth head: set DEPTH_AUX > 0 (e.g. 0.5)" >&2; exit 2
+fi
 
 # negatives per scene: round(TRAJ_PER_SCENE * NEG_FRACTION), at least 1
 NEG_PER_SCENE=$($PY -c "print(max(1, round($TRAJ_PER_SCENE * $NEG_FRACTION)))")
@@ -65,6 +75,7 @@ TRAIN_SIZE=("model.size=small" "train.batch_size=$BATCH" "data.num_workers=0" "d
 DEPTH_GEN=()
 if [[ "$DEPTH_AUX" != 0 ]]; then TRAIN_SIZE+=("model.depth_aux_weight=$DEPTH_AUX"); DEPTH_GEN=("dataset.save_depth=true"); fi
 [[ -n "$LR" ]] && TRAIN_SIZE+=("train.lr=$LR")
+TRAIN_SIZE+=("data.pad_context=$PAD_CONTEXT")
 EVAL=("split=val" "episodes.num_scenes=$EVAL_SCENES" "episodes.per_scene=$EVAL_EPISODES" "episodes.n_goals=$N_GOALS"
       "env.t_max=$T_MAX" "episodes.dir=$OUT/episodes" "workers=$WORKERS" "progress=false" "seed=$SEED" "renderer=$RENDERER" "${CAMERA[@]}")
 
@@ -127,6 +138,12 @@ step eval_nomad rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/no
 # NoMaD-PointGoal with policy.aggregate=vote: the action most of its 8 samples lead to (rvn_il/policies/policy.py)
 step eval_nomad_vote rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_pointgoal" method=NoMaD-PointGoal-vote \
   +policy.aggregate=vote out_dir="$OUT/eval/nomad_pointgoal_vote" "${EVAL[@]}"
+VETO_RUN=()
+if [[ -n "$DEPTH_VETO" ]]; then
+  step eval_nomad_vote_veto rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_pointgoal" \
+    method=NoMaD-PointGoal-vote-veto +policy.aggregate=vote +policy.depth_veto="$DEPTH_VETO" out_dir="$OUT/eval/nomad_pointgoal_vote_veto" "${EVAL[@]}"
+  VETO_RUN=("$OUT/eval/nomad_pointgoal_vote_veto")
+fi
 step eval_nomad_neg rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_neg" method=NoMaD-Neg +policy.waypoint_index="$LOOKAHEAD" \
   out_dir="$OUT/eval/nomad_neg" "${EVAL[@]}"
 # the paper writes argmin CoR; by its equation argmax keeps away from the negatives
@@ -134,12 +151,13 @@ step eval_nomad_neg_argmin rvn-eval policy=checkpoint policy.checkpoint_path="$O
   method=NoMaD-Neg-argmin +policy.waypoint_index="$LOOKAHEAD" +policy.selection=argmin out_dir="$OUT/eval/nomad_neg_argmin" "${EVAL[@]}"
 
 RUNS=("$OUT/eval/random" "$OUT/eval/oracle" "$OUT/eval/goal_follower" "$OUT/eval/trajectory_oracle" "$OUT/eval/vint_pointgoal" "$OUT/eval/nomad_pointgoal"
-      "$OUT/eval/nomad_pointgoal_vote" "$OUT/eval/nomad_neg"
+      "$OUT/eval/nomad_pointgoal_vote" "${VETO_RUN[@]}" "$OUT/eval/nomad_neg"
       "$OUT/eval/nomad_neg_argmin")
 # significance (Fisher's exact test on SR_1, two Poisson rates on CPK) of the comparisons the experiment is about
 COMPARE=("NoMaD-PointGoal=Goal follower" "NoMaD-PointGoal=Random" "NoMaD-PointGoal=Trajectory oracle"
          "NoMaD-PointGoal-vote=NoMaD-PointGoal" "NoMaD-Neg=NoMaD-PointGoal" "NoMaD-Neg-argmin=NoMaD-Neg"
          "ViNT-PointGoal=Goal follower" "Goal follower=Random")
+[[ -n "$DEPTH_VETO" ]] && COMPARE+=("NoMaD-PointGoal-vote-veto=NoMaD-PointGoal-vote")
 $PY -m rvn_data.benchmark.report "${RUNS[@]}" -o "$OUT/report.md" "${COMPARE[@]/#/--compare=}" \
   --title "RVN small-scale experiment (SCALE=$SCALE: $TRAIN_SCENES train scenes x $TRAJ_PER_SCENE trajectories, val $EVAL_SCENES x $EVAL_EPISODES)"
 echo "small_experiment: this run took $SECONDS s ($STEPS_SECONDS s in steps run now); report: $OUT/report.md"

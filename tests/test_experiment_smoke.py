@@ -58,7 +58,7 @@ def test_tiny_experiment_end_to_end_and_rerun(tmp_path):
     history = json.loads((out / "train" / "nomad_pointgoal" / "model" / "val.json").read_text())
     assert list(history) == ["2"] and 0.0 <= history["2"]["agreement"] <= 1.0
     config = (out / "train" / "nomad_pointgoal" / "config.yaml").read_text()
-    assert "prediction_type: sample" in config
+    assert "prediction_type: sample" in config and "pad_context: true" in config  # the small recipe's first decisions
     assert "| NoMaD-Neg | NoMaD-PointGoal |" in report and "| NoMaD-PointGoal | Goal follower |" in report
     # a rerun skips every step and rewrites the same report
     again = small_experiment(out)
@@ -70,6 +70,10 @@ def test_tiny_experiment_end_to_end_and_rerun(tmp_path):
 def test_bad_scale_is_refused(tmp_path):
     proc = small_experiment(tmp_path / "x", SCALE="huge")
     assert proc.returncode == 2 and "SCALE=huge" in proc.stderr and not (tmp_path / "x").exists()
+    proc = small_experiment(tmp_path / "x", SCALE="tiny", PAD_CONTEXT="yes")
+    assert proc.returncode == 2 and "PAD_CONTEXT=yes; choose true or false" in proc.stderr and not (tmp_path / "x").exists()
+    proc = small_experiment(tmp_path / "x", SCALE="tiny", DEPTH_VETO="0.5")
+    assert proc.returncode == 2 and "DEPTH_VETO=0.5 needs the depth head" in proc.stderr and not (tmp_path / "x").exists()
 
 
 def _compose_check(cmd: list[str]) -> None:
