@@ -81,8 +81,7 @@ class PointGoalPolicy:
         self.aggregate, self.threads = aggregate, threads
         self.members, self.control = members, control
         self.num_samples, self.seed, self.device = int(num_samples), int(seed), torch.device(device)
-        has_head = bool(members) and getattr(members[0].model, "depth_head", None) is not None
-        self.depth_veto = check_depth_veto(depth_veto, has_head)
+        self.depth_veto = check_depth_veto(depth_veto, bool(members) and members[0].model.depth_head is not None)
         self.last_waypoints: np.ndarray | None = None  # metres, robot frame (for plots/debugging)
         self.reset()
 

@@ -95,10 +95,11 @@ class Validator:
         policy = PointGoalPolicy([Member(model, self.spacing, self.crop)], self.control, num_samples=1,
                                  seed=self.seed, device=device)
         result = agreement(policy, self.trajectories, model.len_traj_pred, model.context_size)
-        return {"agreement": summary(result["confusion"])["agreement"],
+        policy_figures = summary(result["confusion"])
+        return {"agreement": policy_figures["agreement"],
                 "agreement_blind": summary(result["blind"])["agreement"],
                 "agreement_image": summary(result["needs_image"])["agreement"],
-                "agreement_start": summary(result["start"])["agreement"], "steps": summary(result["confusion"])["steps"]}
+                "agreement_start": summary(result["start"])["agreement"], "steps": policy_figures["steps"]}
 
     def __call__(self, model: PointGoalModel, ema_shadow: Mapping[str, torch.Tensor] | None, step: int,
                  writer=None) -> dict[str, float]:
