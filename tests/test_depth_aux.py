@@ -14,7 +14,7 @@ from conftest import run_python as run
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
 from rvn_data.dataset.writer import downsample_depth
-from rvn_il.data import make_dataset
+from rvn_il.data import make_dataset, make_depth_frames
 from rvn_il.models import build_model, load_model_config
 from rvn_il.models.checkpoint import latest_checkpoint
 from rvn_il.policies import load_policy
@@ -169,6 +169,68 @@ def test_train_with_depth_loss_needs_depth(data, tmp_path):
     assert f"data.root={data / 'plain'} has no depth.npy sidecars" in lines[0]
     assert "dataset.save_depth=true" in lines[0] and "model.depth_aux_weight=0" in lines[0]
     assert not out.exists() and not (data / "plain" / ".rvn_cache").exists()
+
+
+def test_depth_frames_are_every_frame_of_the_depth_root(data, tmp_path):
+    cfg = load_model_config("nomad_pointgoal", "small", depth_aux_weight=0.5)
+    frames = make_depth_frames(data / "negative", cfg, {"cache_dir": str(tmp_path), "progress": False})
+    negatives = trajectories(data / "negative")
+    depths = np.concatenate([np.load(t / "depth.npy") for t in negatives])
+    assert len(frames) == len(depths)
+    batch = frames[[len(depths) - 1, 0, len(depths) + 2]]  # indices past the end wrap (later epochs)
+    assert batch["depth_image"].shape == (3, 3, *cfg["image_size"][::-1]) and batch["depth_image"].dtype == torch.float32
+    assert 0 <= batch["depth_image"].min() and batch["depth_image"].max() <= 1
+    for row, i in enumerate([len(depths) - 1, 0, 2]):
+        np.testing.assert_array_equal(batch["depth_target"][row].numpy(), depths[i].astype(np.float32))
+    # the model adds their loss, with the depth weight, to what the samples give
+    samples = make_dataset(data / "depth", cfg, {"split": "train", "cache_dir": str(tmp_path), "progress": False})
+    torch.manual_seed(0)
+    model = build_model(cfg).eval()  # no dropout: the two calls see the same weights and noise
+    plain = model(samples.get_batch([0, 5]), torch.Generator().manual_seed(0))
+    both = model({**samples.get_batch([0, 5]), **batch}, torch.Generator().manual_seed(0))
+    assert both["depth_extra_loss"] > 0 and torch.allclose(both["depth_loss"], plain["depth_loss"])
+    assert torch.allclose(both["loss"], plain["loss"] + 0.5 * both["depth_extra_loss"])
+    with pytest.raises(ValueError, match=r"set model.depth_aux_weight > 0 or data.depth_root=null"):
+        make_depth_frames(data / "negative", load_model_config("nomad_pointgoal", "small"), {"cache_dir": str(tmp_path)})
+
+
+def test_train_with_depth_root_resumes_exactly(data, tmp_path):
+    args = [*TRAIN[:2], "train.max_steps=4", "train.ckpt_every=2", *TRAIN[3:], f"data.root={data / 'depth'}",
+            "model.depth_aux_weight=0.5", f"data.depth_root={data / 'negative'}", "data.depth_batch=3"]
+    full = tmp_path / "full"
+    run("-m", "rvn_il.train.cli", *args, f"out_dir={full}")
+    events = EventAccumulator(str(full / "tb" / "model"))
+    events.Reload()
+    assert [e.step for e in events.Scalars("train/depth_extra_loss")] == [1, 2, 3, 4]
+    assert all(e.value > 0 for e in events.Scalars("train/depth_extra_loss"))
+    part = tmp_path / "part"  # an interrupted run: only the step-2 checkpoint survived
+    (part / "model").mkdir(parents=True)
+    shutil.copy(full / "config.yaml", part / "config.yaml")
+    shutil.copytree(full / "model" / "ckpt_00000002", part / "model" / "ckpt_00000002")
+    (part / "model" / "latest").write_text("ckpt_00000002\n")
+    run("-m", "rvn_il.train.cli", *args, f"out_dir={part}")
+    a, b = latest_checkpoint(full / "model"), latest_checkpoint(part / "model")
+    assert a.name == b.name == "ckpt_00000004"
+    wa, wb = load_file(str(a / "weights.safetensors")), load_file(str(b / "weights.safetensors"))
+    for k in wa:  # the resumed run drew the same depth frames at steps 3 and 4
+        torch.testing.assert_close(wa[k], wb[k], rtol=0, atol=0, msg=k)
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["model.depth_aux_weight=0"], "which model.depth_aux_weight=0 turns off; set model.depth_aux_weight > 0"),
+    (["model.depth_aux_weight=0.5", "data.depth_root={plain}"], "data.depth_root={plain} has no depth.npy sidecars"),
+    (["model.depth_aux_weight=0.5", "data.depth_batch=0"], "data.depth_batch=0 must be a positive integer"),
+])
+def test_depth_root_bad_input_one_line(data, tmp_path, extra, message):
+    out = tmp_path / "bad"
+    extra = [e.format(plain=data / "plain") for e in extra]
+    root = [f"data.depth_root={data / 'negative'}"] if not any("depth_root" in e for e in extra) else []
+    proc = run("-m", "rvn_il.train.cli", *TRAIN, f"data.root={data / 'depth'}", f"out_dir={out}", *root, *extra,
+               check=False)
+    lines = proc.stderr.strip().splitlines()
+    assert proc.returncode == 2 and len(lines) == 1 and "Traceback" not in proc.stderr, proc.stderr[-2000:]
+    assert message.format(plain=data / "plain") in lines[0]
+    assert not out.exists()
 
 
 def test_cache_with_depth_needs_every_sidecar(data, tmp_path):

@@ -8,6 +8,7 @@ from typing import Mapping
 from .cache import PackedCache, cache_path, ensure_cache
 from .dataset import BatchView, EpochSampler, GNMDataset, check_waypoint_frames
 from .depth import depth_setting
+from .depth_frames import DepthFrames, depth_seed
 from rvn_data.dataset.reader import GNMSource, load_gnm
 from .images import crop_setting, preprocess_image
 
@@ -36,5 +37,23 @@ def make_dataset(root: str | Path, model_cfg: Mapping, data_cfg: Mapping | None 
                       bool(d.get("pad_context", False)))
 
 
-__all__ = ["make_dataset", "check_waypoint_frames", "BatchView", "load_gnm", "ensure_cache", "PackedCache", "GNMDataset",
+def make_depth_frames(root: str | Path, model_cfg: Mapping, data_cfg: Mapping | None = None,
+                      build: bool = True) -> DepthFrames:
+    """``data.depth_root`` (a GNM folder with depth sidecars) → its (cached) frames for the depth loss
+    alone (:mod:`.depth_frames`): every trajectory folder under it, cropped and sized as the model's frames."""
+    d = dict(data_cfg or {})
+    crop = crop_setting(d, model_cfg)
+    size = depth_setting(model_cfg)
+    if size is None:
+        raise ValueError("data.depth_root trains the depth head: set model.depth_aux_weight > 0 or data.depth_root=null")
+    source = load_gnm(root, "all", None, None, d.get("metric_waypoint_spacing"))
+    if build:
+        path = ensure_cache(source, model_cfg["image_size"], crop, d.get("cache_dir"), int(d.get("cache_threads", 4)),
+                            progress=bool(d.get("progress", True)), depth=size)
+    else:
+        path = cache_path(source, model_cfg["image_size"], crop, d.get("cache_dir"), size)
+    return DepthFrames(PackedCache(path))
+
+
+__all__ = ["make_dataset", "make_depth_frames", "DepthFrames", "depth_seed", "check_waypoint_frames", "BatchView", "load_gnm", "ensure_cache", "PackedCache", "GNMDataset",
            "EpochSampler", "GNMSource", "preprocess_image", "crop_setting", "depth_setting"]

@@ -12,8 +12,9 @@ whose models see RGB only): a head ``depth_head`` (D → D → S·S, ReLU betwee
 frame's observation token predicts log depth on an S×S grid; its loss, the mean absolute error
 to log(clamp(depth, DEPTH_RANGE)) over the cells where something was hit, is added to ``loss``
 with that weight and reported as ``depth_loss`` when the batch has ``depth``. It only shapes
-the image encoder during training: policies never call the head, and without the weight the
-model has no head, so its checkpoints are those of before.
+the image encoder during training (policies call the head only for ``policy.depth_veto``), and without the weight the
+model has no head, so its checkpoints are those of before. With ``data.depth_root`` the batch
+also carries single frames that train the head alone (:mod:`rvn_il.data.depth_frames`).
 """
 from __future__ import annotations
 
@@ -81,15 +82,28 @@ class PointGoalModel(nn.Module):
     def with_depth_loss(self, tokens: torch.Tensor, batch: Mapping[str, torch.Tensor],
                         losses: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
         """``losses`` plus ``depth_loss`` (added to ``loss`` times ``depth_aux_weight``) when the
-        model has the depth head and the batch a ``depth`` [B,S,S]; ``tokens`` [B,C+1,D]."""
-        if self.depth_head is None or "depth" not in batch:
+        model has the depth head and the batch a ``depth`` [B,S,S]; ``tokens`` [B,C+1,D]. A batch
+        with ``depth_image`` [F,3,H,W] and ``depth_target`` [F,S,S] (``data.depth_root``,
+        :mod:`rvn_il.data.depth_frames`) adds their loss too, with the same weight, as ``depth_extra_loss``."""
+        if self.depth_head is None:
             return losses
-        depth = batch["depth"].float()
-        pred = self.depth_head(tokens[:, -1]).float().view(depth.shape)
+        out = dict(losses)
+        if "depth" in batch:
+            out["depth_loss"] = self.depth_error(tokens[:, -1], batch["depth"])
+            out["loss"] = out["loss"] + self.depth_aux_weight * out["depth_loss"]
+        if "depth_image" in batch:
+            out["depth_extra_loss"] = self.depth_error(self.encode_frames(batch["depth_image"]), batch["depth_target"])
+            out["loss"] = out["loss"] + self.depth_aux_weight * out["depth_extra_loss"]
+        return out
+
+    def depth_error(self, token: torch.Tensor, depth: torch.Tensor) -> torch.Tensor:
+        """Mean absolute log-depth error of the head on tokens [B,D] against depth [B,S,S] (metres),
+        over the cells where something was hit."""
+        depth = depth.float()
+        pred = self.depth_head(token).float().view(depth.shape)
         hit = (depth > 0).float()
         error = (pred - depth.clamp(*DEPTH_RANGE).log()).abs()
-        depth_loss = (error * hit).sum() / hit.sum().clamp(min=1.0)
-        return {**losses, "loss": losses["loss"] + self.depth_aux_weight * depth_loss, "depth_loss": depth_loss}
+        return (error * hit).sum() / hit.sum().clamp(min=1.0)
 
 
 def masked_mean(loss: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:

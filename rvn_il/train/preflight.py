@@ -3,7 +3,7 @@ minutes of training (or, for nomad_neg, after its first member is trained).
 
 `preflight` checks the device, the model size, the out_dir (writable, not another model's
 checkpoints), the datasets of every member (``data.root``; ``data.negative_root`` for
-nomad_neg) with the setting that names them, ``train.expert_from``, ``data.val_root`` and the
+nomad_neg) with the setting that names them, ``data.depth_root``, ``train.expert_from``, ``data.val_root`` and the
 loop settings, and raises `rvn_data.cli.common.ConfigError` (exit status 2) with one line
 naming the setting. Nothing is written.
 """
@@ -106,6 +106,28 @@ def check_datasets(cfg: Mapping) -> None:
             raise ConfigError(f"{key}={root}: {err}") from None
         if depth and not has_depth(path, names):
             raise ConfigError(f"{key}={root} has no depth.npy sidecars; {REGENERATE}")
+    check_depth_root(data, depth)
 
 
-__all__ = ["PRECISIONS", "check_datasets", "check_out_dir", "check_settings", "data_roots", "preflight", "root_key"]
+def check_depth_root(data: Mapping, depth: bool) -> None:
+    """``data.depth_root`` (frames for the depth head alone): needs the depth loss, an existing GNM
+    folder with depth sidecars and a positive ``data.depth_batch``."""
+    root = data["depth_root"]
+    if not root:
+        return
+    if not depth:
+        raise ConfigError(f"data.depth_root={root} trains the depth head, which model.depth_aux_weight=0 turns off; "
+                          "set model.depth_aux_weight > 0 or data.depth_root=null")
+    if not int(data["depth_batch"]) > 0:
+        raise ConfigError(f"data.depth_batch={data['depth_batch']} must be a positive integer")
+    path = Path(str(root)).expanduser()
+    try:
+        _, names = list_trajectories(path, "all")
+    except ValueError as err:
+        raise ConfigError(f"data.depth_root={root}: {err}") from None
+    if not has_depth(path, names):
+        raise ConfigError(f"data.depth_root={root} has no depth.npy sidecars; regenerate it with rvn-gen "
+                          "dataset.save_depth=true (e.g. dataset=negative on the train scenes) or set data.depth_root=null")
+
+
+__all__ = ["PRECISIONS", "check_datasets", "check_depth_root", "check_out_dir", "check_settings", "data_roots", "preflight", "root_key"]

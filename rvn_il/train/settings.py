@@ -37,6 +37,11 @@ class DataConfig:
     # true: also train the first context_size decisions of each trajectory, their context padded with frame 0 as the
     # policy's after reset() (GNM starts at t=context_size; a departure, see rvn_il/data/dataset.py)
     pad_context: bool = False
+    # GNM dataset with depth sidecars whose frames (all of them, single frames) only train the depth head, e.g. rvn-gen
+    # dataset=negative dataset.save_depth=true on the train scenes: views close to obstacles the expert never has (needs
+    # model.depth_aux_weight > 0; a departure, see rvn_il/data/depth_frames.py); null: off
+    depth_root: str | None = None
+    depth_batch: int = 32  # frames of depth_root per training step
     cache_dir: str | None = None  # packed HDF5 frames; null: <cache root>/packed (top-level cache_dir)
     cache_threads: int = 4  # JPEG decoding threads when building the cache
     num_workers: int = 2  # DataLoader workers

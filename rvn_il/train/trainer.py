@@ -21,7 +21,7 @@ from torch.utils.data import BatchSampler, DataLoader
 from safetensors.torch import load_file
 from tqdm import tqdm
 
-from ..data import BatchView, EpochSampler, crop_setting, make_dataset
+from ..data import BatchView, EpochSampler, crop_setting, depth_seed, make_dataset, make_depth_frames
 from rvn_data.cache_root import cache_root
 from ..models import build_model, resolve_size
 from ..models.checkpoint import latest_checkpoint, load_state_dict_checked, read_weights, save_checkpoint, write_config
@@ -102,6 +102,14 @@ def train_member(cfg: Mapping, member: str, index: int, root: str, out_dir: Path
         dist.barrier()
     if rank != 0:
         dataset = make_dataset(root, model_cfg, data_cfg, seed, build=False)
+    depth_frames = None
+    if data_cfg["depth_root"]:  # frames for the depth head alone (rvn_il/data/depth_frames.py)
+        if rank == 0:
+            depth_frames = make_depth_frames(data_cfg["depth_root"], model_cfg, data_cfg)
+        if world > 1:
+            dist.barrier()
+        if rank != 0:
+            depth_frames = make_depth_frames(data_cfg["depth_root"], model_cfg, data_cfg, build=False)
     torch.manual_seed(derive_seed(seed, index))
     model = build_model(model_cfg).to(device).use_channels_last()
     if model_cfg.get("action_stats") == "auto":  # NoMaD: delta range of this member's data
@@ -133,6 +141,9 @@ def train_member(cfg: Mapping, member: str, index: int, root: str, out_dir: Path
     if rank == 0:
         log.info("%s/%s: %d samples from %s, batch %d x %d, steps %d/%d, device %s", model_cfg["name"], member,
                  len(dataset), root, bs, world, step, max_steps, device)
+        if depth_frames is not None:
+            log.info("depth head also on %d frames of %s, %d per step", len(depth_frames), data_cfg["depth_root"],
+                     int(data_cfg["depth_batch"]))
     if step >= max_steps:
         return
     net = model
@@ -143,6 +154,12 @@ def train_member(cfg: Mapping, member: str, index: int, root: str, out_dir: Path
     loader = DataLoader(BatchView(dataset), batch_size=None, sampler=sampler, num_workers=workers,
                         pin_memory=device.type == "cuda", persistent_workers=workers > 0,
                         prefetch_factor=4 if workers > 0 else None)
+    depth_batches = None
+    if depth_frames is not None:
+        fb = int(data_cfg["depth_batch"])
+        depth_batches = iter(DataLoader(depth_frames, batch_size=None, pin_memory=device.type == "cuda",
+                                        sampler=BatchSampler(EpochSampler(len(depth_frames), depth_seed(seed), rank, world,
+                                                                          step * fb), fb, drop_last=True)))
     writer = None
     if rank == 0:
         from torch.utils.tensorboard import SummaryWriter
@@ -166,6 +183,8 @@ def train_member(cfg: Mapping, member: str, index: int, root: str, out_dir: Path
                mininterval=float(tcfg["tqdm_interval"]))
     try:
         for batch in loader:
+            if depth_batches is not None:
+                batch.update(next(depth_batches))
             batch = {k: v.to(device, non_blocking=True) for k, v in batch.items()}
             gen.manual_seed(derive_seed(seed, index, rank, step))
             torch.manual_seed(derive_seed(seed, index, rank, step, 1))
