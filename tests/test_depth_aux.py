@@ -18,6 +18,7 @@ from rvn_il.data import make_dataset, make_depth_frames
 from rvn_il.models import build_model, load_model_config
 from rvn_il.models.checkpoint import latest_checkpoint
 from rvn_il.policies import load_policy
+from rvn_il.policies.depth_veto import check_depth_veto as depth_veto_rule
 
 pytestmark = pytest.mark.slow  # end-to-end runs of the CLIs; the fast tier is -m "not slow"
 
@@ -158,6 +159,35 @@ def check_depth_veto(out, frame):
         assert (b, vetoes) == ((a, 0) if a != 1 else (b, 1)) and b != 1
     with pytest.raises(ValueError, match=r"policy.depth_veto=-1: give the clearance in metres"):
         load_policy(out, depth_veto=-1)
+    # the swept rule, with the camera hfov rvn-train recorded from rvn-gen's data (the default camera's 90 degrees)
+    assert json.loads((latest_checkpoint(out / "model") / "stats.json").read_text())["hfov_deg"] == 90.0
+    swept = load_policy(out, depth_veto=0.5, depth_veto_rule="swept", **steer)
+    assert swept.depth_veto.hfov_deg == 90.0 and swept.depth_veto.rule == "swept"
+    assert first_actions(swept, depth_m=0.1) == blocked
+    with pytest.raises(ValueError, match=r"policy.depth_veto_rule='wide'; choose band .* or swept"):
+        load_policy(out, depth_veto=0.5, depth_veto_rule="wide")
+    with pytest.raises(ValueError, match=r"policy.depth_veto_hfov=180: give the camera's horizontal field of view"):
+        load_policy(out, depth_veto=0.5, depth_veto_rule="swept", depth_veto_hfov=180)
+
+
+def test_depth_veto_rules_on_depth_grids():
+    """band: the nearest depth in the central half of the columns; swept: any cell inside the rectangle the
+    step sweeps (|x| <= r_robot + max(0, z - d_step - r_robot), depth < z), x from the column's angle."""
+    band, swept = depth_veto_rule(0.5, True), depth_veto_rule(0.5, True, "swept", 90.0, r_robot=0.18, d_step=0.25)
+    side = np.full((16, 16), 5.0)
+    side[8, 2] = 0.3  # column 2 of 16 at 90 deg: x = 0.3 * 0.6875 = 0.21 m, inside +-0.25 m, outside the band
+    far_side = np.full((16, 16), 5.0)
+    far_side[8, 0] = 0.3  # column 0: x = 0.28 m, beside the robot's path
+    centre = np.full((16, 16), 5.0)
+    centre[8, 8] = 0.45
+    assert not band.blocked(side) and swept.blocked(side)
+    assert not band.blocked(far_side) and not swept.blocked(far_side)
+    assert band.blocked(centre) and swept.blocked(centre) and not swept.blocked(np.full((16, 16), 0.6))
+    narrow = depth_veto_rule(0.5, True, "swept", 60.0)  # tan 30 deg: column 0 is at x = 0.3 * 0.56 = 0.17 m
+    assert narrow.blocked(far_side)
+    with pytest.raises(ValueError, match=r"needs the camera's hfov: this checkpoint does not record it .* "
+                                         r"give policy.depth_veto_hfov=<degrees>"):
+        depth_veto_rule(0.5, True, "swept", None)
 
 
 def test_train_with_depth_loss_needs_depth(data, tmp_path):

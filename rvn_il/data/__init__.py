@@ -9,7 +9,7 @@ from .cache import PackedCache, cache_path, ensure_cache
 from .dataset import BatchView, EpochSampler, GNMDataset, check_waypoint_frames
 from .depth import depth_setting
 from .depth_frames import DepthFrames, depth_seed
-from rvn_data.dataset.reader import GNMSource, load_gnm
+from rvn_data.dataset.reader import GNMSource, load_gnm, read_meta
 from .images import crop_setting, preprocess_image
 
 
@@ -37,6 +37,15 @@ def make_dataset(root: str | Path, model_cfg: Mapping, data_cfg: Mapping | None 
                       bool(d.get("pad_context", False)))
 
 
+def recorded_hfov(root: str | Path, trajectory: str) -> float | None:
+    """The camera hfov (degrees) rvn-gen recorded in ``<root>/<trajectory>/rvn_meta.json``; None for
+    datasets not written by rvn-gen (the policy's swept depth veto then needs policy.depth_veto_hfov)."""
+    try:
+        return float(read_meta(Path(root).expanduser() / trajectory)["settings"]["camera"]["hfov_deg"])
+    except (ValueError, KeyError, TypeError):
+        return None
+
+
 def make_depth_frames(root: str | Path, model_cfg: Mapping, data_cfg: Mapping | None = None,
                       build: bool = True) -> DepthFrames:
     """``data.depth_root`` (a GNM folder with depth sidecars) → its (cached) frames for the depth loss
@@ -55,5 +64,5 @@ def make_depth_frames(root: str | Path, model_cfg: Mapping, data_cfg: Mapping | 
     return DepthFrames(PackedCache(path))
 
 
-__all__ = ["make_dataset", "make_depth_frames", "DepthFrames", "depth_seed", "check_waypoint_frames", "BatchView", "load_gnm", "ensure_cache", "PackedCache", "GNMDataset",
+__all__ = ["make_dataset", "make_depth_frames", "recorded_hfov", "DepthFrames", "depth_seed", "check_waypoint_frames", "BatchView", "load_gnm", "ensure_cache", "PackedCache", "GNMDataset",
            "EpochSampler", "GNMSource", "preprocess_image", "crop_setting", "depth_setting"]

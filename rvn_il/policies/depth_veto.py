@@ -3,38 +3,82 @@
 A checkpoint trained with the auxiliary depth loss (``model.depth_aux_weight`` > 0,
 :mod:`rvn_il.models.base`) has a head that predicts the current frame's depth on an S×S grid
 from the same RGB token the policy encodes anyway. With ``depth_veto = z`` (metres), when the
-policy's action is MOVE_FORWARD but the predicted clearance ahead (the nearest predicted depth
-in the central half of the grid's columns) is below ``z``, the policy turns instead: to the side
-more of its samples turn to, else to the side its depth grid sees more open. Nothing outside the
-RGB frame is used: the depth is predicted, as in the paper's "DD-PPO + predicted depth" row.
+policy's action is MOVE_FORWARD but the predicted depth shows an obstacle nearer than ``z`` where the
+step goes, the policy turns instead: to the side more of its samples turn to, else to the side its
+depth grid sees more open. Nothing outside the RGB frame is used: the depth is predicted, as in the
+paper's "DD-PPO + predicted depth" row.
 
-The default camera (90° hfov) sees ±z/2 across the central half of its columns at depth z: at
-z = 0.45 m, ±0.23 m, the robot's half-width (r_robot 0.18 m) with a margin. A MOVE_FORWARD of
-d_step 0.25 m hits what lies within d_step + r_robot = 0.43 m ahead in that band; the expert
-keeps more clearance (``docs/results/2026-11-25_small_experiment_7`` measures it and the head).
+Where the step goes (``policy.depth_veto_rule``):
+- ``band`` (default): the central half of the grid's columns. The default camera (90° hfov) sees ±z/2
+  across them at depth z: at z = 0.45 m, ±0.23 m, the robot's half-width (r_robot 0.18 m) with a margin.
+- ``swept``: the rectangle the step sweeps, |x| ≤ r_robot + m and depth < z, with the margin
+  m = max(0, z − d_step − r_robot), each column's lateral offset x = depth · tan of its angle. It needs
+  the camera's hfov (``policy.depth_veto_hfov``, else what the checkpoint recorded from its training data).
+A MOVE_FORWARD of d_step 0.25 m hits what lies within d_step + r_robot = 0.43 m ahead; the expert keeps
+more clearance (``docs/results/2026-11-25_small_experiment_7`` and ``_8`` measure both rules and the head).
 """
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 import torch
 
 from rvn_data.conventions import Action
 
-BAND = 0.5  # central share of the depth grid's columns that a forward step sweeps
+BAND = 0.5  # central share of the depth grid's columns that the band rule checks
+RULES = ("band", "swept")
 
 
-def check_depth_veto(value: object, has_depth_head: bool) -> float | None:
-    """``policy.depth_veto`` as metres > 0, or None (off); a ValueError naming it otherwise."""
+@dataclass(frozen=True)
+class DepthVeto:
+    """When a forward step counts as blocked: ``rule`` band or swept (module docstring), ``clearance``
+    metres; the swept rule also uses the camera's ``hfov_deg`` and the robot's ``r_robot``, ``d_step``."""
+
+    clearance: float
+    rule: str = "band"
+    hfov_deg: float | None = None
+    r_robot: float = 0.18
+    d_step: float = 0.25
+
+    def blocked(self, depth: np.ndarray) -> bool:
+        """True when the predicted ``depth`` [S,S] (metres) blocks a forward step."""
+        if self.rule == "band":
+            return clearance(depth) < self.clearance
+        tan = (np.arange(depth.shape[1]) + 0.5) / depth.shape[1] * 2 - 1
+        tan = tan * math.tan(math.radians(self.hfov_deg) / 2)
+        half_width = self.r_robot + max(0.0, self.clearance - self.d_step - self.r_robot)
+        return bool(((np.abs(depth * tan[None]) <= half_width) & (depth < self.clearance)).any())
+
+
+def check_depth_veto(value: object, has_depth_head: bool, rule: object = "band", hfov_deg: object = None,
+                     r_robot: float = 0.18, d_step: float = 0.25) -> DepthVeto | None:
+    """``policy.depth_veto`` (metres > 0, or None: off) with its rule as a :class:`DepthVeto`; a
+    ValueError naming the setting otherwise (``hfov_deg`` is needed by the swept rule only)."""
     if value is None:
         return None
+    if isinstance(value, DepthVeto):
+        value, rule, hfov_deg, r_robot, d_step = (value.clearance, value.rule, value.hfov_deg, value.r_robot,
+                                                  value.d_step)
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
         raise ValueError(f"policy.depth_veto={value!r}: give the clearance in metres (> 0, e.g. 0.5) or null (off)")
     if not has_depth_head:
         raise ValueError(f"policy.depth_veto={value}: this checkpoint has no depth head; it needs a model trained with "
                          "model.depth_aux_weight > 0 (rvn-gen dataset.save_depth=true data)")
-    return float(value)
+    if rule not in RULES:
+        raise ValueError(f"policy.depth_veto_rule={rule!r}; choose band (the central half of the columns) or swept "
+                         "(the rectangle the forward step sweeps)")
+    if rule == "swept":
+        if hfov_deg is None:
+            raise ValueError("policy.depth_veto_rule=swept needs the camera's hfov: this checkpoint does not record it "
+                             "(trained before rvn-train recorded it, or on data not written by rvn-gen); give "
+                             "policy.depth_veto_hfov=<degrees>")
+        if isinstance(hfov_deg, bool) or not isinstance(hfov_deg, (int, float)) or not 0 < hfov_deg < 180:
+            raise ValueError(f"policy.depth_veto_hfov={hfov_deg!r}: give the camera's horizontal field of view in "
+                             "degrees (0 < hfov < 180)")
+        hfov_deg = float(hfov_deg)
+    return DepthVeto(float(value), str(rule), hfov_deg, float(r_robot), float(d_step))
 
 
 @torch.no_grad()

@@ -3,7 +3,7 @@
 Hydra: ``{_target_: rvn_il.policies.load_policy, checkpoint_path: <out_dir>, device: cpu,
 selection: argmin}`` — every keyword besides ``checkpoint_path``/``device``/``model`` overrides
 a ``model.policy`` setting (lookahead_min_dist, waypoint_index, num_samples, aggregate, stop_radius,
-selection, cor_alpha, ensemble, sampler, depth_veto), the seed, ``threads`` (torch intra-op threads of a decision
+selection, cor_alpha, ensemble, sampler, depth_veto, depth_veto_rule, depth_veto_hfov), the seed, ``threads`` (torch intra-op threads of a decision
 on CPU, default 1, null: torch's setting; see :mod:`.policy`) or an agent setting (r_robot, d_step, theta_step_deg).
 
 ``ensemble``: more rvn-train out_dirs of the same model (ViNT- or NoMaD-PointGoal) whose samples join
@@ -15,6 +15,8 @@ network of the policy (:mod:`rvn_il.models.nomad`); ViNT has none, so anything b
 
 ``depth_veto``: metres (null: off); a MOVE_FORWARD whose clearance ahead, predicted by the
 checkpoint's auxiliary depth head, is below it becomes a turn (:mod:`.depth_veto`; a departure).
+``depth_veto_rule``: band (the central half of the columns) or swept (the rectangle the step sweeps,
+with the camera's hfov: ``depth_veto_hfov`` degrees, null: the ``hfov_deg`` the checkpoint recorded).
 """
 from __future__ import annotations
 
@@ -32,10 +34,11 @@ from ..models.checkpoint import (latest_checkpoint, load_state_dict_checked, mem
                                  read_weights)
 from ..models.nomad import check_sampler
 from .control import ControlConfig
+from .depth_veto import check_depth_veto
 from .policy import Member, NoMaDNegPolicy, PointGoalPolicy
 
 POLICY_KEYS = {"lookahead_min_dist", "waypoint_index", "num_samples", "aggregate", "stop_radius", "selection", "cor_alpha",
-               "seed", "threads", "ensemble", "sampler", "depth_veto"}
+               "seed", "threads", "ensemble", "sampler", "depth_veto", "depth_veto_rule", "depth_veto_hfov"}
 AGENT_KEYS = {f.name for f in dataclasses.fields(AgentConfig)}
 
 
@@ -71,7 +74,7 @@ def load_member(out_dir: Path, member: str, model_cfg: dict, device: torch.devic
     model = model.eval().to(device)
     if device.type == "cuda":  # cuDNN runs NHWC convolutions faster; on a CPU one frame is faster in NCHW
         model.use_channels_last()
-    return Member(model, float(stats["metric_waypoint_spacing"]), crop)
+    return Member(model, float(stats["metric_waypoint_spacing"]), crop, stats.get("hfov_deg"))
 
 
 def recorded_loader(out_dir: Path) -> str | None:
@@ -110,8 +113,11 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
     control = ControlConfig.from_agent(agent, pol.get("stop_radius"), pol.get("lookahead_min_dist"), pol.get("waypoint_index"))
     dev = resolve_device(device, "policy.device")
     members = [load_member(out_dir, m, model_cfg, dev) for m in members_of(name)]
+    hfov = pol.get("depth_veto_hfov")
+    veto = check_depth_veto(pol.get("depth_veto"), members[0].model.depth_head is not None, pol.get("depth_veto_rule", "band"),
+                            members[0].hfov_deg if hfov is None else hfov, agent.r_robot, agent.d_step)
     common = dict(num_samples=int(pol.get("num_samples", 8)), seed=int(pol["seed"]), device=dev,
-                  threads=pol.get("threads", 1), depth_veto=pol.get("depth_veto"))
+                  threads=pol.get("threads", 1), depth_veto=veto)
     extra = ensemble_dirs(pol.get("ensemble"))
     if name == "nomad_neg":
         if extra:

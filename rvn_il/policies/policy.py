@@ -30,7 +30,7 @@ from ..data.images import check_crop, preprocess_image
 from ..models import PointGoalModel
 from .control import ControlConfig, waypoints_to_action
 from .cor import SELECTIONS, select_expert
-from .depth_veto import check_depth_veto, clearance, predicted_depth, turn_instead
+from .depth_veto import DepthVeto, check_depth_veto, predicted_depth, turn_instead
 
 
 @contextmanager
@@ -54,6 +54,7 @@ class Member:
     model: PointGoalModel
     spacing: float  # metric_waypoint_spacing of its training data, metres
     crop: str = "aspect"  # data.crop of its training data: aspect | official | none (True/False: aspect/none)
+    hfov_deg: float | None = None  # camera hfov of its training data, degrees (None: not recorded)
 
     def __post_init__(self):
         self.crop = check_crop(self.crop, "policy member crop")
@@ -66,14 +67,14 @@ class PointGoalPolicy:
     sampling noise of an under-trained diffusion head while keeping a multi-modal choice (left or
     right around an obstacle) whole, where the mean trajectory would run between the two.
     With several members (``policy.ensemble``), ``vote`` pools every member's samples, member 0's first.
-    ``depth_veto`` (metres, None: off): turn instead of a MOVE_FORWARD that member 0's depth head
-    sees blocked (:mod:`.depth_veto`); ``vetoes`` counts them since ``reset()``."""
+    ``depth_veto`` (metres with the band rule, a :class:`DepthVeto`, or None: off): turn instead of a
+    MOVE_FORWARD that member 0's depth head sees blocked (:mod:`.depth_veto`); ``vetoes`` counts them since ``reset()``."""
 
     AGGREGATES = ("first", "vote")
 
     def __init__(self, members: list[Member], control: ControlConfig, num_samples: int = 8, seed: int = 0,
                  device: str | torch.device = "cpu", aggregate: str = "first", threads: int | None = 1,
-                 depth_veto: float | None = None):
+                 depth_veto: float | DepthVeto | None = None):
         if aggregate not in self.AGGREGATES:
             raise ValueError(f"policy aggregate={aggregate!r}; choose one of {self.AGGREGATES}")
         if threads is not None and not (isinstance(threads, int) and threads >= 1):
@@ -146,7 +147,7 @@ class PointGoalPolicy:
             action = int(waypoints_to_action(self.last_waypoints, pointgoal, self.control))
             if action == Action.MOVE_FORWARD and self.depth_veto is not None:
                 depth = predicted_depth(self.members[0].model.depth_head, tokens[0][0, -1])
-                if clearance(depth) < self.depth_veto:
+                if self.depth_veto.blocked(depth):
                     self.vetoes += 1
                     actions = [int(waypoints_to_action(wp, pointgoal, self.control)) for wp in samples[0]]
                     action = turn_instead(actions, depth)
@@ -159,7 +160,7 @@ class NoMaDNegPolicy(PointGoalPolicy):
 
     def __init__(self, members: list[Member], control: ControlConfig, num_samples: int = 8, seed: int = 0,
                  device: str | torch.device = "cpu", selection: str = "argmax", cor_alpha: float = 1.0,
-                 threads: int | None = 1, depth_veto: float | None = None):
+                 threads: int | None = 1, depth_veto: float | DepthVeto | None = None):
         if len(members) != 2:
             raise ValueError("NoMaD-Neg needs two members: expert and negative")
         if selection not in SELECTIONS:

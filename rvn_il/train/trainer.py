@@ -21,7 +21,7 @@ from torch.utils.data import BatchSampler, DataLoader
 from safetensors.torch import load_file
 from tqdm import tqdm
 
-from ..data import BatchView, EpochSampler, crop_setting, depth_seed, make_dataset, make_depth_frames
+from ..data import BatchView, EpochSampler, crop_setting, depth_seed, make_dataset, make_depth_frames, recorded_hfov
 from rvn_data.cache_root import cache_root
 from ..models import build_model, resolve_size
 from ..models.checkpoint import latest_checkpoint, load_state_dict_checked, read_weights, save_checkpoint, write_config
@@ -169,7 +169,8 @@ def train_member(cfg: Mapping, member: str, index: int, root: str, out_dir: Path
              if hasattr(model, "action_min") else None, "image_size": list(model_cfg["image_size"]),
              "crop": crop_setting(data_cfg, model_cfg), "context_size": model_cfg["context_size"],
              "len_traj_pred": model_cfg["len_traj_pred"], "imagenet_mean": IMAGENET_MEAN, "imagenet_std": IMAGENET_STD,
-             "dataset": str(Path(root).expanduser().resolve()), "num_samples": len(dataset)}
+             "dataset": str(Path(root).expanduser().resolve()), "num_samples": len(dataset),
+             "hfov_deg": recorded_hfov(root, dataset.cache.names[0])}  # for policy.depth_veto_rule=swept
     validator = None
     if rank == 0 and data_cfg["val_root"] and member != "negative":  # NoMaD_n imitates collisions: no agreement
         validator = Validator(data_cfg["val_root"], model_cfg, data_cfg, tcfg, cfg["agent"], seed, bs,
