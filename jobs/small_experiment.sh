@@ -22,9 +22,10 @@ OUT=${1:-${OUT:-runs/small_experiment_${SCALE}}}
 case "$SCALE" in
   small)  # sized for < 2 h on a quiet 2-core machine (jobs/paper_scale.md, "Time budget"). The measured recipe
           # (docs/results/2026-11-25_small_experiment_5/ to _7/): twice the scenes for 2 epochs instead of 3 (10-11k
-          # steps), the auxiliary depth loss, the first decisions trained (PAD_CONTEXT)
+          # steps), the auxiliary depth loss, the first decisions trained (PAD_CONTEXT), the depth head also trained on
+          # negatives (DEPTH_NEG_PER_SCENE; docs/results/2026-11-25_small_experiment_8/)
     : "${TRAIN_SCENES:=128}" "${TRAJ_PER_SCENE:=32}" "${IMAGE:=64}" "${VINT_EPOCHS:=1}" "${NOMAD_EPOCHS:=2}" "${MAX_STEPS:=}"
-    : "${DEPTH_AUX:=0.5}"
+    : "${DEPTH_AUX:=0.5}" "${DEPTH_NEG_PER_SCENE:=32}"
     : "${VINT_MAX_STEPS:=900}"  # ViNT: 900 of its 2,200 steps per epoch (~15 min); NoMaD gets the time budget
     : "${EVAL_SCENES:=50}" "${EVAL_EPISODES:=4}" "${N_GOALS:=32}" "${T_MAX:=500}" "${LR:=1e-3}"  # 200 val episodes a row
     : "${VAL_SCENES:=10}" "${VAL_TRAJ:=4}" ;;
@@ -51,6 +52,9 @@ esac
                               # weight (model.depth_aux_weight; off by default, a departure from the paper's RGB-only models)
 : "${PAD_CONTEXT:=true}"      # true: also train each trajectory's first context_size decisions, their context padded with
                               # frame 0 as the policy's after reset() (data.pad_context; GNM's sampling: false)
+: "${DEPTH_NEG_PER_SCENE:=0}"  # > 0, with DEPTH_AUX > 0: rvn-gen this many negatives per train scene with depth
+                              # (data/depth_negative) and NoMaD-PointGoal's depth head also learns from their frames,
+                              # which run into obstacles (data.depth_root; off by default, a departure)
 : "${DEPTH_VETO:=}"           # metres, with DEPTH_AUX > 0: one more row, NoMaD-PointGoal-vote with policy.depth_veto (its
                               # depth head turns it away from a blocked forward step; rvn_il/policies/depth_veto.py)
 : "${SEED:=0}"
@@ -60,6 +64,10 @@ PY=${PYTHON:-python}
 [[ "$PAD_CONTEXT" =~ ^(true|false)$ ]] || { echo "small_experiment.sh: error: PAD_CONTEXT=$PAD_CONTEXT; choose true or false" >&2; exit 2; }
 if [[ -n "$DEPTH_VETO" && "$DEPTH_AUX" == 0 ]]; then
   echo "small_experiment.sh: error: DEPTH_VETO=$DEPTH_VETO needs the depth head: set DEPTH_AUX > 0 (e.g. 0.5)" >&2; exit 2
+fi
+[[ "$DEPTH_NEG_PER_SCENE" =~ ^[0-9]+$ ]] || { echo "small_experiment.sh: error: DEPTH_NEG_PER_SCENE=$DEPTH_NEG_PER_SCENE; give a whole number (0: off)" >&2; exit 2; }
+if [[ "$DEPTH_NEG_PER_SCENE" != 0 && "$DEPTH_AUX" == 0 ]]; then
+  echo "small_experiment.sh: error: DEPTH_NEG_PER_SCENE=$DEPTH_NEG_PER_SCENE trains the depth head: set DEPTH_AUX > 0 (e.g. 0.5) or DEPTH_NEG_PER_SCENE=0" >&2; exit 2
 fi
 
 # negatives per scene: round(TRAJ_PER_SCENE * NEG_FRACTION), at least 1
@@ -102,6 +110,11 @@ GEN=("split=train" "scenes.num_scenes=$TRAIN_SCENES" "dataset.train_fraction=1.0
      "renderer=$RENDERER" "${CAMERA[@]}")
 step gen_expert rvn-gen dataset=expert out_dir="$DATA/rvn_expert" trajectories_per_scene="$TRAJ_PER_SCENE" "${GEN[@]}" "${DEPTH_GEN[@]}"
 step gen_negative rvn-gen dataset=negative out_dir="$DATA/rvn_negative" trajectories_per_scene="$NEG_PER_SCENE" "${GEN[@]}" "${DEPTH_GEN[@]}"
+NOMAD_DEPTH=()
+if [[ "$DEPTH_NEG_PER_SCENE" != 0 ]]; then
+  step gen_depth_negative rvn-gen dataset=negative out_dir="$DATA/depth_negative" trajectories_per_scene="$DEPTH_NEG_PER_SCENE" "${GEN[@]}" "${DEPTH_GEN[@]}"
+  NOMAD_DEPTH=("data.depth_root=$DATA/depth_negative")
+fi
 # held-out expert trajectories on val scenes: rvn-train logs its val loss and open-loop agreement on them
 VAL_GEN=("split=val" "scenes.num_scenes=$VAL_SCENES" "dataset.train_fraction=1.0" "workers=$WORKERS" "progress=false" "seed=$SEED"
          "renderer=$RENDERER" "${CAMERA[@]}")
@@ -109,7 +122,7 @@ step gen_val rvn-gen dataset=expert out_dir="$DATA/val_expert" trajectories_per_
 neg_splits
 
 step train_nomad rvn-train model=nomad_pointgoal model.prediction_type="$PREDICTION" data.root="$DATA/rvn_expert" \
-  out_dir="$OUT/train/nomad_pointgoal" train.epochs="$NOMAD_EPOCHS" "${TRAIN_SIZE[@]}"
+  out_dir="$OUT/train/nomad_pointgoal" train.epochs="$NOMAD_EPOCHS" "${TRAIN_SIZE[@]}" "${NOMAD_DEPTH[@]}"
 VINT_TRAIN=()
 if [[ -n "${VINT_MAX_STEPS:-}" && -z "$MAX_STEPS" ]]; then VINT_TRAIN=("train.max_steps=$VINT_MAX_STEPS"); fi
 step train_vint rvn-train model=vint_pointgoal data.root="$DATA/rvn_expert" out_dir="$OUT/train/vint_pointgoal" \

@@ -74,6 +74,11 @@ def test_bad_scale_is_refused(tmp_path):
     assert proc.returncode == 2 and "PAD_CONTEXT=yes; choose true or false" in proc.stderr and not (tmp_path / "x").exists()
     proc = small_experiment(tmp_path / "x", SCALE="tiny", DEPTH_VETO="0.5")
     assert proc.returncode == 2 and "DEPTH_VETO=0.5 needs the depth head" in proc.stderr and not (tmp_path / "x").exists()
+    proc = small_experiment(tmp_path / "x", SCALE="tiny", DEPTH_NEG_PER_SCENE="4")
+    assert proc.returncode == 2 and "DEPTH_NEG_PER_SCENE=4 trains the depth head: set DEPTH_AUX > 0" in proc.stderr
+    assert not (tmp_path / "x").exists()
+    proc = small_experiment(tmp_path / "x", SCALE="tiny", DEPTH_AUX="0.5", DEPTH_NEG_PER_SCENE="many")
+    assert proc.returncode == 2 and "DEPTH_NEG_PER_SCENE=many; give a whole number" in proc.stderr
 
 
 def _compose_check(cmd: list[str]) -> None:
