@@ -57,6 +57,8 @@ esac
                               # which run into obstacles (data.depth_root; off by default, a departure)
 : "${DEPTH_VETO:=}"           # metres, with DEPTH_AUX > 0: one more row, NoMaD-PointGoal-vote with policy.depth_veto (its
                               # depth head turns it away from a blocked forward step; rvn_il/policies/depth_veto.py)
+: "${DEPTH_VETO_RULE:=swept}"  # where DEPTH_VETO looks: swept (the rectangle the step sweeps; measured best,
+                              # docs/results/2026-11-25_small_experiment_8/) | band (the central half of the columns)
 : "${SEED:=0}"
 : "${DEVICE:=cpu}"            # rvn-train device (cpu | cuda | auto); rvn-eval's policies stay on the CPU
 : "${RENDERER:=auto}"         # rvn-gen / rvn-eval renderer: auto | gl | raycast
@@ -65,6 +67,7 @@ PY=${PYTHON:-python}
 if [[ -n "$DEPTH_VETO" && "$DEPTH_AUX" == 0 ]]; then
   echo "small_experiment.sh: error: DEPTH_VETO=$DEPTH_VETO needs the depth head: set DEPTH_AUX > 0 (e.g. 0.5)" >&2; exit 2
 fi
+[[ "$DEPTH_VETO_RULE" =~ ^(band|swept)$ ]] || { echo "small_experiment.sh: error: DEPTH_VETO_RULE=$DEPTH_VETO_RULE; choose swept or band" >&2; exit 2; }
 [[ "$DEPTH_NEG_PER_SCENE" =~ ^[0-9]+$ ]] || { echo "small_experiment.sh: error: DEPTH_NEG_PER_SCENE=$DEPTH_NEG_PER_SCENE; give a whole number (0: off)" >&2; exit 2; }
 if [[ "$DEPTH_NEG_PER_SCENE" != 0 && "$DEPTH_AUX" == 0 ]]; then
   echo "small_experiment.sh: error: DEPTH_NEG_PER_SCENE=$DEPTH_NEG_PER_SCENE trains the depth head: set DEPTH_AUX > 0 (e.g. 0.5) or DEPTH_NEG_PER_SCENE=0" >&2; exit 2
@@ -154,7 +157,7 @@ step eval_nomad_vote rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/tra
 VETO_RUN=()
 if [[ -n "$DEPTH_VETO" ]]; then
   step eval_nomad_vote_veto rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_pointgoal" \
-    method=NoMaD-PointGoal-vote-veto +policy.aggregate=vote +policy.depth_veto="$DEPTH_VETO" out_dir="$OUT/eval/nomad_pointgoal_vote_veto" "${EVAL[@]}"
+    method=NoMaD-PointGoal-vote-veto +policy.aggregate=vote +policy.depth_veto="$DEPTH_VETO" +policy.depth_veto_rule="$DEPTH_VETO_RULE" out_dir="$OUT/eval/nomad_pointgoal_vote_veto" "${EVAL[@]}"
   VETO_RUN=("$OUT/eval/nomad_pointgoal_vote_veto")
 fi
 step eval_nomad_neg rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_neg" method=NoMaD-Neg +policy.waypoint_index="$LOOKAHEAD" \

@@ -79,6 +79,8 @@ def test_bad_scale_is_refused(tmp_path):
     assert not (tmp_path / "x").exists()
     proc = small_experiment(tmp_path / "x", SCALE="tiny", DEPTH_AUX="0.5", DEPTH_NEG_PER_SCENE="many")
     assert proc.returncode == 2 and "DEPTH_NEG_PER_SCENE=many; give a whole number" in proc.stderr
+    proc = small_experiment(tmp_path / "x", SCALE="tiny", DEPTH_VETO_RULE="wide")
+    assert proc.returncode == 2 and "DEPTH_VETO_RULE=wide; choose swept or band" in proc.stderr
 
 
 def _compose_check(cmd: list[str]) -> None:
