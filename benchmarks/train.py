@@ -2,7 +2,7 @@
 training samples/s on CPU per model (full size, batch 8; small size, batch 32; rvn-train's NHWC
 encoder against NCHW), and
 per-decision latency on CPU of the ViNT, NoMaD (8 samples x 10 steps) and NoMaD-Neg (2 x 8)
-policies, NoMaD's beside the reference sampling path (``predict(fast=False)``: module forward
+policies (and what ``policy.depth_veto`` adds to a forward decision), NoMaD's beside the reference sampling path (``predict(fast=False)``: module forward
 and diffusers' ``DDPMScheduler.step``, the implementation before issue 15) as a ratio. Goals:
 loader >= 2,000 samples/s; a NoMaD decision <= 100 ms; a NoMaD-Neg decision <= 200 ms.
 
@@ -31,6 +31,7 @@ from rvn_il.data import BatchView, EpochSampler, make_dataset
 from rvn_il.data.synthetic import render_frame, write_synthetic_gnm
 from rvn_il.models import build_model, load_model_config
 from rvn_il.policies import ControlConfig, Member, NoMaDNegPolicy, PointGoalPolicy
+from rvn_il.policies.depth_veto import DepthVeto, predicted_depth
 
 
 def loader_rate(root: Path, cfg: dict, workers: int, batch: int, batches: int) -> float:
@@ -100,6 +101,21 @@ def decision_ms(name: str, size: str, decisions: int, threads: int | None = 1,
     return ms[0], ms[1] if len(ms) > 1 else None
 
 
+def veto_check_ms(size: str, veto: DepthVeto, reps: int = 200) -> float:
+    """Median ms that ``policy.depth_veto`` adds to a MOVE_FORWARD decision of NoMaD-PointGoal: the depth
+    head on the current frame's token (already encoded by the policy) and the rule on its grid."""
+    torch.manual_seed(0)
+    model = build_model(load_model_config("nomad_pointgoal", size, depth_aux_weight=0.5)).eval()
+    token = torch.randn(model.encoding_size)
+    times = []
+    with torch.inference_mode():
+        for _ in range(reps):
+            t = time.perf_counter()
+            veto.blocked(predicted_depth(model.depth_head, token))
+            times.append(time.perf_counter() - t)
+    return 1e3 * statistics.median(times)
+
+
 def data_figures(workers: int, reps: int) -> None:
     """Loader and training rates on a synthetic GNM dataset in a temporary folder."""
     with tempfile.TemporaryDirectory() as tmp:
@@ -147,6 +163,9 @@ def main() -> None:
             ms, ref = decision_ms(name, size, reps * 2, policy_threads, args.sampler)
             old = f"; reference path {ref:7.1f} ms, x{ref / ms:.2f}" if ref is not None else ""
             print(f"  {name:16s} {size:5s} {what:26s}: {ms:7.1f} ms{goals.get((name, size), '')}{old}")
+    for size in ("full", "small"):  # what policy.depth_veto adds to a forward decision (rule swept; band is cheaper)
+        print(f"  {'nomad_pointgoal':16s} {size:5s} {'+ depth veto check (swept)':26s}: "
+              f"{veto_check_ms(size, DepthVeto(0.5, 'swept', 90.0)):7.3f} ms per MOVE_FORWARD")
 
 
 if __name__ == "__main__":
