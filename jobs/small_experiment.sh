@@ -3,7 +3,7 @@
 #   rvn-gen expert + negative on procedural train scenes
 #   -> rvn-train ViNT-PointGoal, NoMaD-PointGoal, NoMaD-Neg (model.size=small)
 #   -> rvn-eval on procedural val scenes (the three, NoMaD-PointGoal voting over its samples, NoMaD-Neg with
-#      argmin CoR; oracle, trajectory oracle,
+#      argmin CoR when NEG_ARGMIN=1; oracle, trajectory oracle,
 #      blind goal follower, random)
 #   -> python -m rvn_data.benchmark.report -> OUT/report.md (+ plots, per-episode logs in OUT/eval/*/)
 #
@@ -57,6 +57,8 @@ esac
                               # which run into obstacles (data.depth_root; off by default, a departure)
 : "${DEPTH_VETO:=}"           # metres, with DEPTH_AUX > 0: one more row, NoMaD-PointGoal-vote with policy.depth_veto (its
                               # depth head turns it away from a blocked forward step; rvn_il/policies/depth_veto.py)
+: "${NEG_ARGMIN:=0}"          # 1: one more row, NoMaD-Neg with argmin CoR (the paper's wording; its equation means
+                              # argmax, the default; measured in docs/results/2026-11-23_small_experiment_2/ and _3/; ~12 min)
 : "${DEPTH_VETO_RULE:=swept}"  # where DEPTH_VETO looks: swept (the rectangle the step sweeps; measured best,
                               # docs/results/2026-11-25_small_experiment_8/) | band (the central half of the columns)
 : "${SEED:=0}"
@@ -67,6 +69,7 @@ PY=${PYTHON:-python}
 if [[ -n "$DEPTH_VETO" && "$DEPTH_AUX" == 0 ]]; then
   echo "small_experiment.sh: error: DEPTH_VETO=$DEPTH_VETO needs the depth head: set DEPTH_AUX > 0 (e.g. 0.5)" >&2; exit 2
 fi
+[[ "$NEG_ARGMIN" =~ ^(0|1)$ ]] || { echo "small_experiment.sh: error: NEG_ARGMIN=$NEG_ARGMIN; choose 0 or 1" >&2; exit 2; }
 [[ "$DEPTH_VETO_RULE" =~ ^(band|swept)$ ]] || { echo "small_experiment.sh: error: DEPTH_VETO_RULE=$DEPTH_VETO_RULE; choose swept or band" >&2; exit 2; }
 [[ "$DEPTH_NEG_PER_SCENE" =~ ^[0-9]+$ ]] || { echo "small_experiment.sh: error: DEPTH_NEG_PER_SCENE=$DEPTH_NEG_PER_SCENE; give a whole number (0: off)" >&2; exit 2; }
 if [[ "$DEPTH_NEG_PER_SCENE" != 0 && "$DEPTH_AUX" == 0 ]]; then
@@ -163,17 +166,21 @@ fi
 step eval_nomad_neg rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_neg" method=NoMaD-Neg +policy.waypoint_index="$LOOKAHEAD" \
   out_dir="$OUT/eval/nomad_neg" "${EVAL[@]}"
 # the paper writes argmin CoR; by its equation argmax keeps away from the negatives
-step eval_nomad_neg_argmin rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_neg" \
-  method=NoMaD-Neg-argmin +policy.waypoint_index="$LOOKAHEAD" +policy.selection=argmin out_dir="$OUT/eval/nomad_neg_argmin" "${EVAL[@]}"
+ARGMIN_RUN=()
+if [[ "$NEG_ARGMIN" == 1 ]]; then
+  step eval_nomad_neg_argmin rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_neg" \
+    method=NoMaD-Neg-argmin +policy.waypoint_index="$LOOKAHEAD" +policy.selection=argmin out_dir="$OUT/eval/nomad_neg_argmin" "${EVAL[@]}"
+  ARGMIN_RUN=("$OUT/eval/nomad_neg_argmin")
+fi
 
 RUNS=("$OUT/eval/random" "$OUT/eval/oracle" "$OUT/eval/goal_follower" "$OUT/eval/trajectory_oracle" "$OUT/eval/vint_pointgoal" "$OUT/eval/nomad_pointgoal"
-      "$OUT/eval/nomad_pointgoal_vote" "${VETO_RUN[@]}" "$OUT/eval/nomad_neg"
-      "$OUT/eval/nomad_neg_argmin")
+      "$OUT/eval/nomad_pointgoal_vote" "${VETO_RUN[@]}" "$OUT/eval/nomad_neg" "${ARGMIN_RUN[@]}")
 # significance (Fisher's exact test on SR_1, two Poisson rates on CPK) of the comparisons the experiment is about
 COMPARE=("NoMaD-PointGoal=Goal follower" "NoMaD-PointGoal=Random" "NoMaD-PointGoal=Trajectory oracle"
-         "NoMaD-PointGoal-vote=NoMaD-PointGoal" "NoMaD-Neg=NoMaD-PointGoal" "NoMaD-Neg-argmin=NoMaD-Neg"
+         "NoMaD-PointGoal-vote=NoMaD-PointGoal" "NoMaD-Neg=NoMaD-PointGoal"
          "ViNT-PointGoal=Goal follower" "Goal follower=Random")
 [[ -n "$DEPTH_VETO" ]] && COMPARE+=("NoMaD-PointGoal-vote-veto=NoMaD-PointGoal-vote")
+[[ "$NEG_ARGMIN" == 1 ]] && COMPARE+=("NoMaD-Neg-argmin=NoMaD-Neg")
 $PY -m rvn_data.benchmark.report "${RUNS[@]}" -o "$OUT/report.md" "${COMPARE[@]/#/--compare=}" \
   --title "RVN small-scale experiment (SCALE=$SCALE: $TRAIN_SCENES train scenes x $TRAJ_PER_SCENE trajectories, val $EVAL_SCENES x $EVAL_EPISODES)"
 echo "small_experiment: this run took $SECONDS s ($STEPS_SECONDS s in steps run now); report: $OUT/report.md"

@@ -28,7 +28,7 @@ def small_experiment(out: Path, **env) -> subprocess.CompletedProcess:
 @pytest.mark.slow
 def test_tiny_experiment_end_to_end_and_rerun(tmp_path):
     out = tmp_path / "exp"
-    proc = small_experiment(out)
+    proc = small_experiment(out, NEG_ARGMIN="1")  # every row, the opt-in argmin one too
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     report = (out / "report.md").read_text()
     for method in METHODS:
@@ -61,7 +61,7 @@ def test_tiny_experiment_end_to_end_and_rerun(tmp_path):
     assert "prediction_type: sample" in config and "pad_context: true" in config  # the small recipe's first decisions
     assert "| NoMaD-Neg | NoMaD-PointGoal |" in report and "| NoMaD-PointGoal | Goal follower |" in report
     # a rerun skips every step and rewrites the same report
-    again = small_experiment(out)
+    again = small_experiment(out, NEG_ARGMIN="1")
     assert again.returncode == 0, again.stderr[-3000:]
     assert again.stdout.count("done before, skipped") == 15
     assert (out / "report.md").read_text() == report
@@ -79,6 +79,8 @@ def test_bad_scale_is_refused(tmp_path):
     assert not (tmp_path / "x").exists()
     proc = small_experiment(tmp_path / "x", SCALE="tiny", DEPTH_AUX="0.5", DEPTH_NEG_PER_SCENE="many")
     assert proc.returncode == 2 and "DEPTH_NEG_PER_SCENE=many; give a whole number" in proc.stderr
+    proc = small_experiment(tmp_path / "x", SCALE="tiny", NEG_ARGMIN="yes")
+    assert proc.returncode == 2 and "NEG_ARGMIN=yes; choose 0 or 1" in proc.stderr
     proc = small_experiment(tmp_path / "x", SCALE="tiny", DEPTH_VETO_RULE="wide")
     assert proc.returncode == 2 and "DEPTH_VETO_RULE=wide; choose swept or band" in proc.stderr
 
