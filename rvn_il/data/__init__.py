@@ -13,6 +13,18 @@ from rvn_data.dataset.reader import GNMSource, load_gnm, read_meta
 from .images import crop_setting, preprocess_image
 
 
+def packed_cache(source: GNMSource, model_cfg: Mapping, d: Mapping, crop: str, depth: int | None,
+                 build: bool) -> PackedCache:
+    """The packed cache of ``source`` at the model's image size (``data_cfg`` ``d``: cache_dir, cache_threads,
+    progress), built when missing or stale; ``build=False`` only opens it (DDP non-zero ranks)."""
+    if build:
+        path = ensure_cache(source, model_cfg["image_size"], crop, d.get("cache_dir"), int(d.get("cache_threads", 4)),
+                            progress=bool(d.get("progress", True)), depth=depth)
+    else:
+        path = cache_path(source, model_cfg["image_size"], crop, d.get("cache_dir"), depth)
+    return PackedCache(path)
+
+
 def make_dataset(root: str | Path, model_cfg: Mapping, data_cfg: Mapping | None = None, seed: int = 0,
                  build: bool = True, depth: bool = True) -> GNMDataset:
     """GNM folder → (cached) GNMDataset for a size-resolved model config. ``data_cfg`` keys:
@@ -26,12 +38,7 @@ def make_dataset(root: str | Path, model_cfg: Mapping, data_cfg: Mapping | None 
     waypoint_frames = check_waypoint_frames(d.get("waypoint_frames", "all"))
     size = depth_setting(model_cfg) if depth else None
     source = load_gnm(root, d.get("split", "train"), d.get("splits_dir"), d.get("name"), d.get("metric_waypoint_spacing"))
-    if build:
-        path = ensure_cache(source, model_cfg["image_size"], crop, d.get("cache_dir"), int(d.get("cache_threads", 4)),
-                            progress=bool(d.get("progress", True)), depth=size)
-    else:
-        path = cache_path(source, model_cfg["image_size"], crop, d.get("cache_dir"), size)
-    return GNMDataset(PackedCache(path), model_cfg["context_size"], model_cfg["len_traj_pred"],
+    return GNMDataset(packed_cache(source, model_cfg, d, crop, size, build), model_cfg["context_size"], model_cfg["len_traj_pred"],
                       d.get("goal_offset", (1, 20)), float(model_cfg.get("goal_mask_prob", 0.0)),
                       int(d.get("end_slack", 0)), seed, bool(d.get("skip_short", False)), waypoint_frames,
                       bool(d.get("pad_context", False)))
@@ -56,12 +63,7 @@ def make_depth_frames(root: str | Path, model_cfg: Mapping, data_cfg: Mapping | 
     if size is None:
         raise ValueError("data.depth_root trains the depth head: set model.depth_aux_weight > 0 or data.depth_root=null")
     source = load_gnm(root, "all", None, None, d.get("metric_waypoint_spacing"))
-    if build:
-        path = ensure_cache(source, model_cfg["image_size"], crop, d.get("cache_dir"), int(d.get("cache_threads", 4)),
-                            progress=bool(d.get("progress", True)), depth=size)
-    else:
-        path = cache_path(source, model_cfg["image_size"], crop, d.get("cache_dir"), size)
-    return DepthFrames(PackedCache(path))
+    return DepthFrames(packed_cache(source, model_cfg, d, crop, size, build))
 
 
 __all__ = ["make_dataset", "make_depth_frames", "recorded_hfov", "DepthFrames", "depth_seed", "check_waypoint_frames", "BatchView", "load_gnm", "ensure_cache", "PackedCache", "GNMDataset",

@@ -42,6 +42,26 @@ class DepthVeto:
     r_robot: float = 0.18
     d_step: float = 0.25
 
+    def __post_init__(self):
+        """A ValueError naming the setting (policy.depth_veto / _rule / _hfov) for a bad value."""
+        value, hfov_deg = self.clearance, self.hfov_deg
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+            raise ValueError(f"policy.depth_veto={value!r}: give the clearance in metres (> 0, e.g. 0.5) or null (off)")
+        if self.rule not in RULES:
+            raise ValueError(f"policy.depth_veto_rule={self.rule!r}; choose band (the central half of the columns) or swept "
+                             "(the rectangle the forward step sweeps)")
+        if self.rule == "swept":
+            if hfov_deg is None:
+                raise ValueError("policy.depth_veto_rule=swept needs the camera's hfov: this checkpoint does not record "
+                                 "it (trained before rvn-train recorded it, or on data not written by rvn-gen); give "
+                                 "policy.depth_veto_hfov=<degrees>")
+            if isinstance(hfov_deg, bool) or not isinstance(hfov_deg, (int, float)) or not 0 < hfov_deg < 180:
+                raise ValueError(f"policy.depth_veto_hfov={hfov_deg!r}: give the camera's horizontal field of view in "
+                                 "degrees (0 < hfov < 180)")
+            object.__setattr__(self, "hfov_deg", float(hfov_deg))
+        for name in ("clearance", "r_robot", "d_step"):
+            object.__setattr__(self, name, float(getattr(self, name)))
+
     def blocked(self, depth: np.ndarray) -> bool:
         """True when the predicted ``depth`` [S,S] (metres) blocks a forward step."""
         if self.rule == "band":
@@ -54,31 +74,17 @@ class DepthVeto:
 
 def check_depth_veto(value: object, has_depth_head: bool, rule: object = "band", hfov_deg: object = None,
                      r_robot: float = 0.18, d_step: float = 0.25) -> DepthVeto | None:
-    """``policy.depth_veto`` (metres > 0, or None: off) with its rule as a :class:`DepthVeto`; a
-    ValueError naming the setting otherwise (``hfov_deg`` is needed by the swept rule only)."""
+    """``policy.depth_veto`` (metres > 0, a :class:`DepthVeto`, or None: off) as a checked :class:`DepthVeto`
+    (its other settings from the arguments when ``value`` is metres); a ValueError naming the setting
+    otherwise (``hfov_deg`` is needed by the swept rule only)."""
     if value is None:
         return None
-    if isinstance(value, DepthVeto):
-        value, rule, hfov_deg, r_robot, d_step = (value.clearance, value.rule, value.hfov_deg, value.r_robot,
-                                                  value.d_step)
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
-        raise ValueError(f"policy.depth_veto={value!r}: give the clearance in metres (> 0, e.g. 0.5) or null (off)")
+    veto = value if isinstance(value, DepthVeto) else DepthVeto(value, rule, hfov_deg, r_robot, d_step)
     if not has_depth_head:
-        raise ValueError(f"policy.depth_veto={value}: this checkpoint has no depth head; it needs a model trained with "
-                         "model.depth_aux_weight > 0 (rvn-gen dataset.save_depth=true data)")
-    if rule not in RULES:
-        raise ValueError(f"policy.depth_veto_rule={rule!r}; choose band (the central half of the columns) or swept "
-                         "(the rectangle the forward step sweeps)")
-    if rule == "swept":
-        if hfov_deg is None:
-            raise ValueError("policy.depth_veto_rule=swept needs the camera's hfov: this checkpoint does not record it "
-                             "(trained before rvn-train recorded it, or on data not written by rvn-gen); give "
-                             "policy.depth_veto_hfov=<degrees>")
-        if isinstance(hfov_deg, bool) or not isinstance(hfov_deg, (int, float)) or not 0 < hfov_deg < 180:
-            raise ValueError(f"policy.depth_veto_hfov={hfov_deg!r}: give the camera's horizontal field of view in "
-                             "degrees (0 < hfov < 180)")
-        hfov_deg = float(hfov_deg)
-    return DepthVeto(float(value), str(rule), hfov_deg, float(r_robot), float(d_step))
+        shown = veto.clearance if isinstance(value, DepthVeto) else value
+        raise ValueError(f"policy.depth_veto={shown}: this checkpoint has no depth head; it needs a model "
+                         "trained with model.depth_aux_weight > 0 (rvn-gen dataset.save_depth=true data)")
+    return veto
 
 
 @torch.no_grad()

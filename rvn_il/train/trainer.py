@@ -57,6 +57,15 @@ def _dist_info() -> tuple[int, int, int]:
     return rank, world, int(os.environ.get("LOCAL_RANK", 0))
 
 
+def built_by_rank_0(make: Callable[[bool], Any], rank: int, world: int) -> Any:
+    """``make(build=True)`` on rank 0 (writes the packed cache), then, after a barrier, ``make(build=False)``
+    on the other ranks (only open it)."""
+    out = make(True) if rank == 0 else None
+    if world > 1:
+        dist.barrier()
+    return out if rank == 0 else make(False)
+
+
 def run_training(cfg: Mapping[str, Any], on_checked: Callable[[dict], None] | None = None) -> Path:
     """Train every member of ``cfg['model']`` into ``cfg['out_dir']``; returns the out_dir.
     ``cfg`` is rvn-train's config (`rvn_il.train.settings.TrainConfig`); what it leaves out
@@ -96,20 +105,11 @@ def train_member(cfg: Mapping, member: str, index: int, root: str, out_dir: Path
         return
     data_cfg["progress"] = rank == 0
     data_cfg["cache_dir"] = str(data_cfg["cache_dir"] or cache_root(cfg["cache_dir"], out_dir) / "packed")
-    if rank == 0:
-        dataset = make_dataset(root, model_cfg, data_cfg, seed)
-    if world > 1:
-        dist.barrier()
-    if rank != 0:
-        dataset = make_dataset(root, model_cfg, data_cfg, seed, build=False)
+    dataset = built_by_rank_0(lambda build: make_dataset(root, model_cfg, data_cfg, seed, build=build), rank, world)
     depth_frames = None
     if data_cfg["depth_root"]:  # frames for the depth head alone (rvn_il/data/depth_frames.py)
-        if rank == 0:
-            depth_frames = make_depth_frames(data_cfg["depth_root"], model_cfg, data_cfg)
-        if world > 1:
-            dist.barrier()
-        if rank != 0:
-            depth_frames = make_depth_frames(data_cfg["depth_root"], model_cfg, data_cfg, build=False)
+        depth_frames = built_by_rank_0(lambda build: make_depth_frames(data_cfg["depth_root"], model_cfg, data_cfg, build),
+                                       rank, world)
     torch.manual_seed(derive_seed(seed, index))
     model = build_model(model_cfg).to(device).use_channels_last()
     if model_cfg.get("action_stats") == "auto":  # NoMaD: delta range of this member's data
