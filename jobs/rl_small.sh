@@ -1,10 +1,13 @@
 #!/usr/bin/env bash
-# Small-scale RL baselines on a CPU machine (issue 16): rvn-rl PPO, PPO-Lagrangian and (ALGOS=...) DD-PPO at
-# reduced size (ResNet-18 at base width 16, 64x64 RGB, 50 train scenes), rvn-eval on 200 val episodes (50 val
+# Small-scale RL baselines on a CPU machine (issue 16): rvn-rl PPO, PPO-Lagrangian and (ALGOS=...) DD-PPO and
+# DD-PPO + depth at reduced size (ResNet-18 at base width 16, 64x64 RGB, 50 train scenes), rvn-eval on 200 val episodes (50 val
 # scenes x 4) for each, the blind goal follower as the reference row, then the report with significance tests.
 #
 #   bash jobs/rl_small.sh [OUT]                  # SCALE=small: PPO and PPO-Lagrangian, < 2 h on 2 CPU cores
 #   ALGOS=ddppo bash jobs/rl_small.sh [OUT]      # DD-PPO: torchrun, RANKS ranks x NUM_ENVS/RANKS envs
+#   ALGOS=ddppo_depth bash jobs/rl_small.sh      # depth network trained on rendered pairs (val AbsRel, delta1 in
+#                                                # OUT/depth_model/metrics.json), frozen; DD-PPO on RGB + its depth
+#   ALGOS=ddppo_depth DEPTH_SOURCE=true ...      # the ablation: DD-PPO on RGB + the rendered depth
 #   SCALE=tiny bash jobs/rl_small.sh /tmp/x      # smoke test: a few hundred steps, 1 episode
 #   IL_RUNS="runs/small_experiment_small/eval/nomad_pointgoal ..." bash jobs/rl_small.sh   # other rows beside
 #
@@ -17,10 +20,12 @@ OUT=${1:-${OUT:-runs/rl_small_${SCALE}}}
 case "$SCALE" in
   small)  # two trainings side by side, ~95-105 min at 65-75 env steps/s each (collection + learning); evaluations ~2.5 min each
     : "${TOTAL_STEPS:=400000}" "${IMAGE:=64}" "${NUM_ENVS:=8}" "${TRAIN_SCENES:=50}" "${ROLLOUT:=64}" "${MINI_BATCHES:=4}"
-    : "${EVAL_SCENES:=50}" "${EVAL_EPISODES:=4}" "${N_GOALS:=32}" "${T_MAX:=500}" ;;
+    : "${EVAL_SCENES:=50}" "${EVAL_EPISODES:=4}" "${N_GOALS:=32}" "${T_MAX:=500}"
+    : "${DEPTH_PAIRS:=40}" "${DEPTH_VAL_SCENES:=10}" "${DEPTH_STEPS:=2000}" ;;
   tiny)   # smoke test of the whole chain
     : "${TOTAL_STEPS:=64}" "${IMAGE:=32}" "${NUM_ENVS:=4}" "${TRAIN_SCENES:=2}" "${ROLLOUT:=16}" "${MINI_BATCHES:=2}"
-    : "${EVAL_SCENES:=1}" "${EVAL_EPISODES:=1}" "${N_GOALS:=2}" "${T_MAX:=50}" ;;
+    : "${EVAL_SCENES:=1}" "${EVAL_EPISODES:=1}" "${N_GOALS:=2}" "${T_MAX:=50}"
+    : "${DEPTH_PAIRS:=4}" "${DEPTH_VAL_SCENES:=1}" "${DEPTH_STEPS:=10}" ;;
   *) echo "rl_small.sh: error: SCALE=$SCALE; choose small or tiny" >&2; exit 2 ;;
 esac
 : "${BACKBONE:=resnet18}"     # resnet18 | resnet50 (the paper's, half width)
@@ -32,10 +37,16 @@ esac
                               # ~0.035 per update and the policy learns to turn in place; 1.0 weighs cost like reward
 : "${WORKERS:=2}"             # rvn-eval worker processes
 : "${ENV_WORKERS:=0}"         # rvn-rl env worker processes (0: in the learner's process)
-: "${ALGOS:=ppo ppo_lag}"     # any of ppo ppo_lag ddppo; ppo and ppo_lag train side by side (PARALLEL), ddppo after
+: "${ALGOS:=ppo ppo_lag}"     # any of ppo ppo_lag ddppo ddppo_depth; ppo and ppo_lag train side by side (PARALLEL),
+                              # ddppo and ddppo_depth after, in that order
 : "${RANKS:=2}"               # DD-PPO ranks (torchrun, gloo on CPU, 1 torch thread each); NUM_ENVS is split over them
 : "${PARALLEL:=1}"            # 1: train PPO and PPO-Lagrangian at the same time (one process per core)
 : "${THREADS:=$([[ $PARALLEL == 1 ]] && echo 1 || echo 2)}"   # torch threads per training
+: "${DEPTH_SOURCE:=model}"    # ddppo_depth's 4th channel: model (the depth network trained here from DEPTH_PAIRS
+                              # rendered pairs per train scene, DEPTH_STEPS steps; val on DEPTH_VAL_SCENES val scenes)
+                              # or true (the rendered depth: the ablation row)
+: "${DEPTH_MODEL:=}"          # a trained depth model's out_dir (python -m rvn_rl.depth.cli) to use instead
+: "${DEPTH_THREADS:=2}"       # torch threads of the depth network's training (it runs alone)
 : "${SEED:=0}"
 : "${DEVICE:=cpu}"
 : "${RENDERER:=auto}"
@@ -44,9 +55,16 @@ esac
                               # a PPO row among IL_RUNS)
 has() { [[ " $ALGOS " == *" $1 "* ]]; }
 for algo in $ALGOS; do
-  case "$algo" in ppo|ppo_lag|ddppo) ;; *) echo "rl_small.sh: error: ALGOS contains '$algo'; choose among ppo ppo_lag ddppo" >&2; exit 2 ;; esac
+  case "$algo" in ppo|ppo_lag|ddppo|ddppo_depth) ;; *) echo "rl_small.sh: error: ALGOS contains '$algo'; choose among ppo ppo_lag ddppo ddppo_depth" >&2; exit 2 ;; esac
 done
-if has ddppo && (( RANKS < 1 || NUM_ENVS % RANKS || NUM_ENVS / RANKS < MINI_BATCHES )); then
+if has ddppo_depth; then
+  case "$DEPTH_SOURCE" in model|true) ;; *) echo "rl_small.sh: error: DEPTH_SOURCE=$DEPTH_SOURCE; choose model or true" >&2; exit 2 ;; esac
+  if [[ -n "$DEPTH_MODEL" && ! -f "$DEPTH_MODEL/model.json" ]]; then
+    echo "rl_small.sh: error: DEPTH_MODEL=$DEPTH_MODEL holds no model.json; give the out_dir of python -m rvn_rl.depth.cli" >&2
+    exit 2
+  fi
+fi
+if { has ddppo || has ddppo_depth; } && (( RANKS < 1 || NUM_ENVS % RANKS || NUM_ENVS / RANKS < MINI_BATCHES )); then
   echo "rl_small.sh: error: NUM_ENVS=$NUM_ENVS must split over RANKS=$RANKS DD-PPO ranks into at least" \
        "MINI_BATCHES=$MINI_BATCHES envs each" >&2; exit 2
 fi
@@ -84,12 +102,30 @@ if has ddppo; then  # decentralised PPO: the same env steps in all, over RANKS p
     --nproc_per_node="$RANKS" -m rvn_rl.cli algo=ddppo out_dir="$OUT/train/ddppo" \
     "env.num_envs=$((NUM_ENVS / RANKS))" "train.threads=1" "${RL[@]}"
 fi
+if has ddppo_depth; then  # the same DD-PPO with depth as a 4th channel
+  DEPTH_ARGS=("depth.source=$DEPTH_SOURCE")
+  if [[ "$DEPTH_SOURCE" == model ]]; then
+    if [[ -z "$DEPTH_MODEL" ]]; then  # train the frozen depth network on rendered (RGB, depth) pairs of the train scenes
+      DEPTH_MODEL="$OUT/depth_model"
+      step train_depth_model $PY -m rvn_rl.depth.cli out_dir="$DEPTH_MODEL" image_size="$IMAGE" \
+        pairs.train_scenes="$TRAIN_SCENES" pairs.val_scenes="$DEPTH_VAL_SCENES" pairs.per_scene="$DEPTH_PAIRS" \
+        train.steps="$DEPTH_STEPS" threads="$DEPTH_THREADS" seed="$SEED" renderer="$RENDERER" progress=false
+    fi
+    DEPTH_ARGS+=("depth.model_path=$DEPTH_MODEL")
+  fi
+  step train_ddppo_depth env OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $PY -m torch.distributed.run --standalone \
+    --nproc_per_node="$RANKS" -m rvn_rl.cli algo=ddppo_depth out_dir="$OUT/train/ddppo_depth" "${DEPTH_ARGS[@]}" \
+    "env.num_envs=$((NUM_ENVS / RANKS))" "train.threads=1" "${RL[@]}"
+fi
 step eval_goal_follower rvn-eval policy=goal_follower "method=Goal follower" out_dir="$OUT/eval/goal_follower" "${EVAL[@]}"
 RUNS=("$OUT/eval/goal_follower")
-declare -A METHOD=([ppo]=PPO [ppo_lag]=PPO-Lagrangian [ddppo]=DD-PPO)
+DEPTH_NAME=$([[ "$DEPTH_SOURCE" == true ]] && echo rendered || echo predicted)
+declare -A METHOD=([ppo]=PPO [ppo_lag]=PPO-Lagrangian [ddppo]=DD-PPO [ddppo_depth]="DD-PPO + $DEPTH_NAME depth")
 for algo in $ALGOS; do
+  EXTRA_EVAL=()
+  if [[ $algo == ddppo_depth && "$DEPTH_SOURCE" == true ]]; then EXTRA_EVAL=("env.depth=true"); fi
   step "eval_$algo" rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/$algo" "method=${METHOD[$algo]}" \
-    out_dir="$OUT/eval/$algo" "${EVAL[@]}"
+    out_dir="$OUT/eval/$algo" "${EVAL[@]}" "${EXTRA_EVAL[@]}"
   RUNS+=("$OUT/eval/$algo")
 done
 for run in $IL_RUNS; do RUNS+=("$run"); done
@@ -99,6 +135,7 @@ pair() { if [[ -n "$1" && -z "${SEEN[$1]:-}" ]]; then SEEN[$1]=1; PAIRS+=("$1");
 for algo in $ALGOS; do pair "${METHOD[$algo]}=Goal follower"; done
 if has ppo && has ppo_lag; then pair "PPO-Lagrangian=PPO"; fi
 if has ppo && has ddppo; then pair "DD-PPO=PPO"; fi
+if has ddppo && has ddppo_depth; then pair "${METHOD[ddppo_depth]}=DD-PPO"; fi
 IFS=';' read -ra EXTRA <<<"$COMPARE"
 for p in "${EXTRA[@]}"; do pair "$p"; done
 $PY -m rvn_data.benchmark.report "${RUNS[@]}" -o "$OUT/report.md" "${PAIRS[@]/#/--compare=}" \

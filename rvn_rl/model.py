@@ -10,6 +10,7 @@ import torch.distributed as dist
 import torch.nn.functional as F
 from torch import nn
 
+from .recurrent import run_lstm
 from .resnet import make_backbone
 
 NUM_ACTIONS = 4
@@ -125,25 +126,19 @@ class PointNavResNetPolicy(nn.Module):
         """Recurrent state [2 * rnn_layers, n, hidden] (LSTM h then c)."""
         return torch.zeros(2 * self.rnn_layers, n, self.hidden_size, device=device)
 
-    def forward(self, obs: dict, state: torch.Tensor, prev_actions: torch.Tensor, masks: torch.Tensor):
+    def forward(self, obs: dict, state: torch.Tensor, prev_actions: torch.Tensor, masks: torch.Tensor,
+                need_state: bool = True):
         """obs tensors [T*N, ...], state [2L, N, H], prev_actions/masks [T*N] (T steps of N envs,
-        time-major). Returns (features [T*N, H], new state)."""
+        time-major). Returns (features [T*N, H], new state); the new state is None with
+        ``need_state=False`` when some env starts an episode after step 0 (`recurrent.run_lstm`)."""
         n = state.size(1)
         visual = self.visual_fc(self.visual_encoder(visual_input(obs, self.use_depth)))
         prev = self.prev_action_embedding(((prev_actions.long() + 1) * masks.long()))
         x = torch.cat([visual, prev, self.goal_embedding(goal_input(obs["pointgoal"].float()))], dim=-1)
         x = x.view(-1, n, x.size(-1))
-        m = masks.float().view(-1, n)
         L = self.rnn_layers
-        h, c = state[:L], state[L:]
-        # run the LSTM over the segments between steps where some env starts an episode
-        starts = [0] + [t for t in range(1, m.size(0)) if bool((m[t] == 0).any())] + [m.size(0)]
-        outs = []
-        for a, b in zip(starts[:-1], starts[1:]):
-            keep = m[a].view(1, -1, 1)
-            out, (h, c) = self.rnn(x[a:b], (h * keep, c * keep))
-            outs.append(out)
-        return torch.cat(outs, 0).reshape(-1, self.hidden_size), torch.cat([h, c], 0)
+        out, h, c = run_lstm(self.rnn, x, masks.float().view(-1, n), state[:L], state[L:], need_state)
+        return out.reshape(-1, self.hidden_size), None if h is None else torch.cat([h, c], 0)
 
     def act(self, obs, state, prev_actions, masks, deterministic: bool = False, generator=None):
         feats, state = self(obs, state, prev_actions, masks)
@@ -161,7 +156,7 @@ class PointNavResNetPolicy(nn.Module):
         return v if self.cost_critic is None else torch.cat([v, self.cost_critic(feats)], -1)
 
     def evaluate(self, obs, state, prev_actions, masks, actions):
-        feats, _ = self(obs, state, prev_actions, masks)
+        feats, _ = self(obs, state, prev_actions, masks, need_state=False)
         logp_all = F.log_softmax(self.actor(feats), -1)
         logp = logp_all.gather(-1, actions.long()[:, None]).squeeze(-1)
         entropy = -(logp_all.exp() * logp_all).sum(-1)

@@ -9,6 +9,7 @@ import subprocess
 import sys
 
 import pytest
+import yaml
 
 
 def free_port() -> int:
@@ -58,25 +59,33 @@ def test_straggler_preemption_rule():
 
 @pytest.mark.slow
 def test_rl_small_recipe_smoke(tmp_path):
-    """jobs/rl_small.sh end to end at SCALE=tiny: PPO, PPO-Lagrangian and DD-PPO (2 ranks under torchrun),
-    four evaluations, the report with its tests; a bad ALGOS or env split stops before any work."""
+    """jobs/rl_small.sh end to end at SCALE=tiny: PPO, PPO-Lagrangian, DD-PPO (2 ranks under torchrun) and
+    DD-PPO + predicted depth (the depth network trained first, then frozen), five evaluations, the report with
+    its tests; a bad ALGOS, env split, DEPTH_SOURCE or DEPTH_MODEL stops before any work."""
     from pathlib import Path
 
     script = Path(__file__).resolve().parents[1] / "jobs" / "rl_small.sh"
     out = tmp_path / "rl"
     env = {**os.environ, "SCALE": "tiny", "THREADS": "1", "WORKERS": "1", "RENDERER": "raycast"}
-    for bad, said in (({"ALGOS": "ppo dqn"}, "ALGOS contains 'dqn'"), ({"ALGOS": "ddppo", "NUM_ENVS": "2"}, "RANKS=2")):
+    for bad, said in (({"ALGOS": "ppo dqn"}, "ALGOS contains 'dqn'"), ({"ALGOS": "ddppo", "NUM_ENVS": "2"}, "RANKS=2"),
+                      ({"ALGOS": "ddppo_depth", "DEPTH_SOURCE": "sensor"}, "DEPTH_SOURCE=sensor"),
+                      ({"ALGOS": "ddppo_depth", "DEPTH_MODEL": str(tmp_path)}, "holds no model.json")):
         proc = subprocess.run(["bash", str(script), str(tmp_path / "bad")], capture_output=True, text=True,
                               timeout=60, cwd=script.parents[1], env={**env, **bad})
         assert proc.returncode == 2 and said in proc.stderr, proc.stderr
         assert not (tmp_path / "bad").exists()
     proc = subprocess.run(["bash", str(script), str(out)], capture_output=True, text=True, timeout=900,
-                          cwd=script.parents[1], env={**env, "ALGOS": "ppo ppo_lag ddppo",
+                          cwd=script.parents[1], env={**env, "ALGOS": "ppo ppo_lag ddppo ddppo_depth",
                                                       "COMPARE": "DD-PPO=PPO;DD-PPO=PPO-Lagrangian"})
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-3000:]
     report = (out / "report.md").read_text()
     assert "PPO-Lagrangian" in report and "Goal follower" in report
     assert report.count("| DD-PPO | PPO |") == 1 and "| DD-PPO | PPO-Lagrangian |" in report
-    for algo in ("ppo", "ppo_lag", "ddppo"):
+    assert "| DD-PPO + predicted depth | DD-PPO |" in report
+    depth = json.loads((out / "depth_model" / "metrics.json").read_text())
+    assert 0 < depth["val"]["absrel"] < 10 and 0 <= depth["val"]["delta1"] <= 1
+    assert yaml.safe_load((out / "train" / "ddppo_depth" / "config.yaml").read_text())["depth"]["model_path"] == \
+        str(out / "depth_model")
+    for algo in ("ppo", "ppo_lag", "ddppo", "ddppo_depth"):
         assert (out / "train" / algo / "learning_curve.png").is_file()
         assert json.loads((out / "eval" / algo / "metrics.json").read_text())["episodes"] == 1

@@ -56,7 +56,8 @@ def validating() -> Iterator[None]:
 def check_writable_dir(path: str | Path, key: str = "out_dir=") -> Path:
     """The absolute ``path``; `ConfigError` naming the setting ``key`` (``out_dir=``, ``-o ``)
     unless it is (or can be made) a folder this process can write to. Folders made to find out
-    are removed again. Under torchrun only rank 0 looks (the ranks' probe folders would race)."""
+    are removed again; one that another process makes at the same time is left to it (two runs
+    into one new parent folder). Under torchrun only rank 0 looks (the ranks' probe folders would race)."""
     path = Path(path).expanduser().absolute()
     if os.environ.get("RANK", "0") != "0":
         return path
@@ -69,8 +70,14 @@ def check_writable_dir(path: str | Path, key: str = "out_dir=") -> Path:
     made: list[Path] = []
     try:
         for d in reversed(missing):
-            d.mkdir()
-            made.append(d)
+            try:
+                d.mkdir()
+                made.append(d)
+            except FileExistsError:  # another process (a parallel run into the same parent) made it: not ours
+                if not d.is_dir():
+                    raise
+            except FileNotFoundError:  # its parent, another process's probe folder, was just removed
+                d.mkdir(parents=True, exist_ok=True)
         probe = path / f".rvn_write_probe_{os.getpid()}"
         probe.write_bytes(b"")
         probe.unlink()
