@@ -97,11 +97,14 @@ else
   if has ppo; then train_ppo; fi
   if has ppo_lag; then train_ppo_lag; fi
 fi
-if has ddppo; then  # decentralised PPO: the same env steps in all, over RANKS processes of 1 thread
-  step train_ddppo env OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $PY -m torch.distributed.run --standalone \
-    --nproc_per_node="$RANKS" -m rvn_rl.cli algo=ddppo out_dir="$OUT/train/ddppo" \
+# decentralised PPO: the same env steps in all, over RANKS processes of 1 thread; train_ddppo ALGO [OVERRIDES...]
+train_ddppo() {
+  local algo=$1; shift
+  step "train_$algo" env OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $PY -m torch.distributed.run --standalone \
+    --nproc_per_node="$RANKS" -m rvn_rl.cli algo="$algo" out_dir="$OUT/train/$algo" "$@" \
     "env.num_envs=$((NUM_ENVS / RANKS))" "train.threads=1" "${RL[@]}"
-fi
+}
+if has ddppo; then train_ddppo ddppo; fi
 if has ddppo_depth; then  # the same DD-PPO with depth as a 4th channel
   DEPTH_ARGS=("depth.source=$DEPTH_SOURCE")
   if [[ "$DEPTH_SOURCE" == model ]]; then
@@ -113,9 +116,7 @@ if has ddppo_depth; then  # the same DD-PPO with depth as a 4th channel
     fi
     DEPTH_ARGS+=("depth.model_path=$DEPTH_MODEL")
   fi
-  step train_ddppo_depth env OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $PY -m torch.distributed.run --standalone \
-    --nproc_per_node="$RANKS" -m rvn_rl.cli algo=ddppo_depth out_dir="$OUT/train/ddppo_depth" "${DEPTH_ARGS[@]}" \
-    "env.num_envs=$((NUM_ENVS / RANKS))" "train.threads=1" "${RL[@]}"
+  train_ddppo ddppo_depth "${DEPTH_ARGS[@]}"
 fi
 step eval_goal_follower rvn-eval policy=goal_follower "method=Goal follower" out_dir="$OUT/eval/goal_follower" "${EVAL[@]}"
 RUNS=("$OUT/eval/goal_follower")
