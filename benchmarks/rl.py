@@ -4,9 +4,13 @@ at 128x128 RGB with the ResNet-18 policy (goals on a 2-core CPU: >= 800 and >= 2
 1. env: the batched envs stepped with random actions (no network), with the goal pool and
    with fresh goals per draw (``env.goal_pool=0``, the ratio against it printed);
 2. collection: envs + the policy's act() (what a rollout costs);
-3. collection + learning: rvn-rl's own loop (``train()``) for a few PPO updates, its fps.
+3. collection + learning: rvn-rl's own loop (``train()``) for a few PPO updates, its fps;
+4. the compute ceiling of 2 and 3: the policy's forward FLOPs per frame (torch's FlopCounterMode)
+   against this CPU's float32 matmul rate at ``--threads`` (a bound convolutions do not reach):
+   collection costs one forward per env step, PPO one more forward + backward (~3 forwards) per
+   epoch.
 Train-mode envs on ``--scenes`` procedural train scenes, their loading excluded (warm-up).
-Run: python benchmarks/rl.py [--envs 8] [--workers 0] [--steps 400] [--updates 3]
+Run: python benchmarks/rl.py [--envs 8] [--workers 0] [--steps 400] [--updates 3] [--ppo-epoch 2 --mini-batches 2]
 """
 from __future__ import annotations
 
@@ -25,7 +29,7 @@ def overrides(args, out_dir: str) -> list[str]:
             f"model.ngroups={min(16, args.base_planes // 2)}", f"ppo.num_steps={args.num_steps}",
             f"train.threads={args.threads}", "progress=false", f"renderer={args.renderer}", f"out_dir={out_dir}",
             f"train.total_steps={args.updates * args.num_steps * args.envs}", "train.checkpoint_every=1000",
-            f"env.goal_pool={args.goal_pool}"]
+            f"env.goal_pool={args.goal_pool}", f"ppo.ppo_epoch={args.ppo_epoch}", f"ppo.num_mini_batch={args.mini_batches}"]
 
 
 def collection(cfg: dict, steps: int, with_policy: bool) -> float:
@@ -63,6 +67,38 @@ def collection(cfg: dict, steps: int, with_policy: bool) -> float:
         envs.close()
 
 
+def forward_gflop(cfg: dict, n: int = 8) -> float:
+    """GFLOP of one batched ``act()`` of the policy, per frame."""
+    from torch.utils.flop_counter import FlopCounterMode
+
+    from rvn_rl.config import model_kwargs
+    from rvn_rl.model import PointNavResNetPolicy
+
+    net = PointNavResNetPolicy(**model_kwargs(cfg)).eval()
+    size = int(cfg["env"]["size"])
+    obs = {"rgb": torch.zeros(n, size, size, 3, dtype=torch.uint8), "pointgoal": torch.ones(n, 2)}
+    if getattr(net, "use_depth", False):
+        obs["depth"] = torch.ones(n, size, size)
+    counter = FlopCounterMode(display=False)
+    with counter, torch.no_grad():
+        net.act(obs, net.initial_state(n), torch.zeros(n, dtype=torch.long), torch.zeros(n))
+    return counter.get_total_flops() / n / 1e9
+
+
+def matmul_gflops(size: int = 1024, reps: int = 30) -> float:
+    """float32 matmul GFLOP/s at torch's current thread count (the best of 3 timings)."""
+    a, b = torch.randn(size, size), torch.randn(size, size)
+    for _ in range(3):
+        a @ b
+    best = float("inf")
+    for _ in range(3):
+        t = time.perf_counter()
+        for _ in range(reps):
+            a @ b
+        best = min(best, time.perf_counter() - t)
+    return reps * 2 * size**3 / best / 1e9
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--size", type=int, default=128)
@@ -72,6 +108,8 @@ def main() -> None:
     p.add_argument("--steps", type=int, default=100, help="batched steps per collection measurement")
     p.add_argument("--updates", type=int, default=3)
     p.add_argument("--num-steps", type=int, default=32, help="rollout length of the learning measurement")
+    p.add_argument("--ppo-epoch", type=int, default=2, help="PPO epochs per rollout (2: the paper's; scale=small uses 4)")
+    p.add_argument("--mini-batches", type=int, default=2, help="mini-batches per epoch (2: the paper's; scale=small 4)")
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--base-planes", type=int, default=32, help="ResNet base width (32: DD-PPO's half width)")
     p.add_argument("--renderer", default="auto")
@@ -88,6 +126,8 @@ def main() -> None:
         col_sps = collection(cfg, args.steps, with_policy=True)
         train(cfg)
         rows = [json.loads(line) for line in open(f"{tmp}/run/metrics.jsonl")]
+        gflop, peak = forward_gflop(cfg), matmul_gflops()
+        epochs, mini_batches = int(cfg["ppo"]["ppo_epoch"]), int(cfg["ppo"]["num_mini_batch"])
     learn = rows[1:] or rows  # the first update includes scene loading
     fps = sum(r["fps"] for r in learn) / len(learn)
     print(f"rvn-rl at {args.size}x{args.size} RGB, resnet18 (base planes {args.base_planes}), {args.envs} envs, workers={args.workers}, "
@@ -96,7 +136,10 @@ def main() -> None:
           f"{fresh_sps:.0f} with fresh goals, x{env_sps / fresh_sps:.2f})")
     print(f"  env steps/s, collection (envs + policy) : {col_sps:8.0f}   (goal >= 800)")
     print(f"  env steps/s, collection + learning      : {fps:8.0f}   (goal >= 200; PPO {learn[0]['rollout_steps']:.0f}-step "
-          f"rollouts, 2 epochs x 2 mini-batches)")
+          f"rollouts, {epochs} epochs x {mini_batches} mini-batches)")
+    print(f"  compute ceiling: the policy's forward is {gflop:.3f} GFLOP per frame; float32 matmul runs at {peak:.0f} GFLOP/s "
+          f"here, so at most {peak / gflop:.0f} env steps/s of collection and {peak / (gflop * (1 + 3 * epochs)):.0f} of "
+          f"collection + learning with the envs free")
 
 
 if __name__ == "__main__":

@@ -30,7 +30,10 @@ def validate(cfg: dict, world_size: int = 1) -> None:
     if env["num_envs"] < ppo["num_mini_batch"]:
         raise ValueError(f"env.num_envs={env['num_envs']} is below ppo.num_mini_batch={ppo['num_mini_batch']}: "
                          "each mini-batch holds whole rollouts of some envs; raise env.num_envs or lower num_mini_batch")
-    _positive_int(int(cfg["train"]["total_steps"]), "train.total_steps")
+    total = cfg["train"]["total_steps"]
+    if isinstance(total, float) and total.is_integer():  # 4e5 on the command line
+        total = cfg["train"]["total_steps"] = int(total)
+    _positive_int(total, "train.total_steps")
     _positive_int(cfg["train"]["checkpoint_every"], "train.checkpoint_every")
     if cfg["model"]["backbone"] not in ("resnet18", "resnet50"):
         raise ValueError(f"model.backbone={cfg['model']['backbone']!r}: choose resnet50 or resnet18")

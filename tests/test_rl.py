@@ -120,6 +120,11 @@ def test_bad_input_one_line(tmp_path, args, words):
     assert len(err) == 1 and err[0].startswith("rvn-rl: error:") and words in err[0], proc.stderr
 
 
+def test_total_steps_must_be_a_whole_number(tmp_path):
+    proc = rvn_rl(f"out_dir={tmp_path / 'x'}", "train.total_steps=abc", *TINY, check=False)
+    assert proc.returncode == 2 and "train.total_steps='abc' must be a positive integer" in proc.stderr
+
+
 def test_checkpoint_of_another_kind_is_refused(tmp_path):
     from rvn_rl.policy import load_rl_policy
 
@@ -135,6 +140,15 @@ def test_checkpoint_of_another_kind_is_refused(tmp_path):
     (other / "config.yaml").write_text(yaml.safe_dump({"kind": "rl", "algo": {"name": "sac"}, "policy": {}}))
     with pytest.raises(ValueError, match="unknown RL algo 'sac'"):
         load_rl_policy(other)
+    # a depth network's out_dir (python -m rvn_rl.depth.cli) given to rvn-eval's checkpoint loader: it says what it holds
+    from rvn_il.policies import load_policy
+
+    depth = tmp_path / "depth"
+    depth.mkdir()
+    (depth / "config.yaml").write_text(yaml.safe_dump({"out_dir": str(depth), "image_size": 32}))
+    (depth / "model.json").write_text(json.dumps({"kind": "rvn_rl.depth"}))
+    with pytest.raises(ValueError, match=r"not an rvn-train or rvn-rl checkpoint directory.*its kind: 'rvn_rl.depth'"):
+        load_policy(depth)
 
 
 @pytest.mark.parametrize("source", ["true", "model"])

@@ -41,10 +41,25 @@ def read_config(out_dir: str | Path) -> dict:
         raise ValueError(f"{out_dir} is not an rvn-train checkpoint directory (no config.yaml); pass the out_dir of rvn-train")
     try:
         cfg = yaml.safe_load(path.read_text())
-        cfg["model"]["name"]
-    except (yaml.YAMLError, TypeError, KeyError) as e:
+    except yaml.YAMLError as e:
         raise ValueError(f"corrupt checkpoint config {path} ({type(e).__name__}: {e})") from None
+    model = cfg.get("model") if isinstance(cfg, dict) else None
+    if not isinstance(model, dict) or "name" not in model:
+        raise ValueError(f"{out_dir} is not an rvn-train or rvn-rl checkpoint directory: {path} names no model "
+                         f"(model.name){_kind_hint(Path(out_dir), cfg)}; pass the out_dir of rvn-train or rvn-rl")
     return cfg
+
+
+def _kind_hint(out_dir: Path, cfg) -> str:
+    """What the folder holds instead, when it says: a ``kind`` in its config.yaml or model.json."""
+    kind = cfg.get("kind") if isinstance(cfg, dict) else None
+    if kind is None and (out_dir / "model.json").is_file():
+        try:
+            meta = json.loads((out_dir / "model.json").read_text())
+            kind = meta.get("kind") if isinstance(meta, dict) else None
+        except (OSError, ValueError):
+            kind = None
+    return f" (its kind: {kind!r})" if kind else ""
 
 
 def save_checkpoint(member_dir: Path, step: int, weights: Mapping[str, torch.Tensor], stats: Mapping[str, Any],
