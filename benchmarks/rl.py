@@ -76,9 +76,7 @@ def forward_gflop(cfg: dict, n: int = 8) -> float:
 
     net = PointNavResNetPolicy(**model_kwargs(cfg)).eval()
     size = int(cfg["env"]["size"])
-    obs = {"rgb": torch.zeros(n, size, size, 3, dtype=torch.uint8), "pointgoal": torch.ones(n, 2)}
-    if getattr(net, "use_depth", False):
-        obs["depth"] = torch.ones(n, size, size)
+    obs = {"rgb": torch.zeros(n, size, size, 3, dtype=torch.uint8), "pointgoal": torch.ones(n, 2)}  # algo=ppo: RGB only
     counter = FlopCounterMode(display=False)
     with counter, torch.no_grad():
         net.act(obs, net.initial_state(n), torch.zeros(n, dtype=torch.long), torch.zeros(n))

@@ -112,17 +112,13 @@ def test_ppo_lag_logs_lambda_and_episode_cost(tmp_path):
     (["model.backbone=vgg"], "model.backbone='vgg'"),
     (["algo=ddppo_depth"], "depth.model_path"),
     (["env.num_envs=1"], "ppo.num_mini_batch"),
+    (["train.total_steps=abc"], "train.total_steps='abc' must be a positive integer"),  # the last override wins
 ])
 def test_bad_input_one_line(tmp_path, args, words):
     proc = rvn_rl(f"out_dir={tmp_path / 'x'}", "train.total_steps=8", *TINY, *args, check=False)
     assert proc.returncode == 2 and not (tmp_path / "x").exists()  # bad input: nothing written
     err = [line for line in proc.stderr.splitlines() if line.strip() and "INFO" not in line]
     assert len(err) == 1 and err[0].startswith("rvn-rl: error:") and words in err[0], proc.stderr
-
-
-def test_total_steps_must_be_a_whole_number(tmp_path):
-    proc = rvn_rl(f"out_dir={tmp_path / 'x'}", "train.total_steps=abc", *TINY, check=False)
-    assert proc.returncode == 2 and "train.total_steps='abc' must be a positive integer" in proc.stderr
 
 
 def test_checkpoint_of_another_kind_is_refused(tmp_path):
