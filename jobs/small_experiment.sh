@@ -2,12 +2,14 @@
 # Small-scale RVN experiment on a CPU machine, end to end:
 #   rvn-gen expert + negative on procedural train scenes
 #   -> rvn-train ViNT-PointGoal, NoMaD-PointGoal, NoMaD-Neg (model.size=small)
-#   -> rvn-eval on procedural val scenes (the three, NoMaD-PointGoal voting over its samples, NoMaD-Neg with
-#      argmin CoR when NEG_ARGMIN=1; oracle, trajectory oracle,
-#      blind goal follower, random)
+#   -> rvn-eval on procedural val scenes (the three, NoMaD-PointGoal voting over its samples, NoMaD-PointGoal-vote
+#      and NoMaD-Neg with the depth veto when DEPTH_VETO is set, NoMaD-Neg with argmin CoR when NEG_ARGMIN=1;
+#      oracle, trajectory oracle, blind goal follower, random)
+#   SEEDS="0 1": NoMaD-PointGoal and NoMaD-Neg (and their eval rows) once per training seed; data, episodes,
+#   ViNT and the reference rows once (seed SEED). Rows of another seed than SEED are labelled "<method> seed<s>".
 #   -> python -m rvn_data.benchmark.report -> OUT/report.md (+ plots, per-episode logs in OUT/eval/*/)
 #
-#   bash jobs/small_experiment.sh [OUT]              # SCALE=small: < 2 h on 2 CPU cores
+#   bash jobs/small_experiment.sh [OUT]              # SCALE=small on 2 CPU cores: wall time per step in OUT/timings.tsv
 #   SCALE=tiny bash jobs/small_experiment.sh /tmp/x  # smoke test: 1 scene, 2 steps, 1 episode
 #
 # OUT defaults to runs/small_experiment_$SCALE. Every knob below can be set in the
@@ -20,12 +22,12 @@ set -euo pipefail
 SCALE=${SCALE:-small}
 OUT=${1:-${OUT:-runs/small_experiment_${SCALE}}}
 case "$SCALE" in
-  small)  # sized for < 2 h on a quiet 2-core machine (jobs/paper_scale.md, "Time budget"). The measured recipe
+  small)  # sized for a 2-core machine (jobs/paper_scale.md, "Time budget"; per step: docs/results/*_main/timings.tsv). The measured recipe
           # (docs/results/2026-11-25_small_experiment_5/ to _7/): twice the scenes for 2 epochs instead of 3 (10-11k
           # steps), the auxiliary depth loss, the first decisions trained (PAD_CONTEXT), the depth head also trained on
           # negatives (DEPTH_NEG_PER_SCENE; docs/results/2026-11-25_small_experiment_8/)
     : "${TRAIN_SCENES:=128}" "${TRAJ_PER_SCENE:=32}" "${IMAGE:=64}" "${VINT_EPOCHS:=1}" "${NOMAD_EPOCHS:=2}" "${MAX_STEPS:=}"
-    : "${DEPTH_AUX:=0.5}" "${DEPTH_NEG_PER_SCENE:=32}"
+    : "${DEPTH_AUX:=0.5}" "${DEPTH_NEG_PER_SCENE:=32}" "${DEPTH_VETO:=0.5}"  # veto at 0.5 m: run 7's threshold
     : "${VINT_MAX_STEPS:=900}"  # ViNT: 900 of its 2,200 steps per epoch (~15 min); NoMaD gets the time budget
     : "${EVAL_SCENES:=50}" "${EVAL_EPISODES:=4}" "${N_GOALS:=32}" "${T_MAX:=500}" "${LR:=1e-3}"  # 200 val episodes a row
     : "${VAL_SCENES:=10}" "${VAL_TRAJ:=4}" ;;
@@ -61,7 +63,8 @@ esac
                               # argmax, the default; measured in docs/results/2026-11-23_small_experiment_2/ and _3/; ~12 min)
 : "${DEPTH_VETO_RULE:=swept}"  # where DEPTH_VETO looks: swept (the rectangle the step sweeps; measured best,
                               # docs/results/2026-11-25_small_experiment_8/) | band (the central half of the columns)
-: "${SEED:=0}"
+: "${SEED:=0}"                # data, episodes, ViNT and the reference rows
+: "${SEEDS:=$SEED}"           # training seeds of NoMaD-PointGoal and NoMaD-Neg (space-separated, e.g. "0 1")
 : "${DEVICE:=cpu}"            # rvn-train device (cpu | cuda | auto); rvn-eval's policies stay on the CPU
 : "${RENDERER:=auto}"         # rvn-gen / rvn-eval renderer: auto | gl | raycast
 PY=${PYTHON:-python}
@@ -71,6 +74,7 @@ if [[ -n "$DEPTH_VETO" && "$DEPTH_AUX" == 0 ]]; then
 fi
 [[ "$NEG_ARGMIN" =~ ^(0|1)$ ]] || { echo "small_experiment.sh: error: NEG_ARGMIN=$NEG_ARGMIN; choose 0 or 1" >&2; exit 2; }
 [[ "$DEPTH_VETO_RULE" =~ ^(band|swept)$ ]] || { echo "small_experiment.sh: error: DEPTH_VETO_RULE=$DEPTH_VETO_RULE; choose swept or band" >&2; exit 2; }
+[[ "$SEEDS" =~ ^[0-9]+( [0-9]+)*$ ]] || { echo "small_experiment.sh: error: SEEDS=$SEEDS; give whole numbers separated by spaces, e.g. SEEDS=\"0 1\"" >&2; exit 2; }
 [[ "$DEPTH_NEG_PER_SCENE" =~ ^[0-9]+$ ]] || { echo "small_experiment.sh: error: DEPTH_NEG_PER_SCENE=$DEPTH_NEG_PER_SCENE; give a whole number (0: off)" >&2; exit 2; }
 if [[ "$DEPTH_NEG_PER_SCENE" != 0 && "$DEPTH_AUX" == 0 ]]; then
   echo "small_experiment.sh: error: DEPTH_NEG_PER_SCENE=$DEPTH_NEG_PER_SCENE trains the depth head: set DEPTH_AUX > 0 (e.g. 0.5) or DEPTH_NEG_PER_SCENE=0" >&2; exit 2
@@ -84,7 +88,7 @@ OUT=$(cd "$OUT" && pwd)
 DATA=$OUT/data
 CAMERA=("camera.width=$IMAGE" "camera.height=$IMAGE")
 TRAIN_SIZE=("model.size=small" "train.batch_size=$BATCH" "data.num_workers=0" "data.goal_offset=[1,$GOAL_OFFSET_MAX]"
-            "train.tqdm_interval=30" "seed=$SEED" "device=$DEVICE" "data.val_root=$DATA/val_expert")
+            "train.tqdm_interval=30" "device=$DEVICE" "data.val_root=$DATA/val_expert")
 [[ -n "$MAX_STEPS" ]] && TRAIN_SIZE+=("train.max_steps=$MAX_STEPS")
 DEPTH_GEN=()
 if [[ "$DEPTH_AUX" != 0 ]]; then TRAIN_SIZE+=("model.depth_aux_weight=$DEPTH_AUX"); DEPTH_GEN=("dataset.save_depth=true"); fi
@@ -127,20 +131,10 @@ VAL_GEN=("split=val" "scenes.num_scenes=$VAL_SCENES" "dataset.train_fraction=1.0
 step gen_val rvn-gen dataset=expert out_dir="$DATA/val_expert" trajectories_per_scene="$VAL_TRAJ" "${VAL_GEN[@]}"
 neg_splits
 
-step train_nomad rvn-train model=nomad_pointgoal model.prediction_type="$PREDICTION" data.root="$DATA/rvn_expert" \
-  out_dir="$OUT/train/nomad_pointgoal" train.epochs="$NOMAD_EPOCHS" "${TRAIN_SIZE[@]}" "${NOMAD_DEPTH[@]}"
 VINT_TRAIN=()
 if [[ -n "${VINT_MAX_STEPS:-}" && -z "$MAX_STEPS" ]]; then VINT_TRAIN=("train.max_steps=$VINT_MAX_STEPS"); fi
 step train_vint rvn-train model=vint_pointgoal data.root="$DATA/rvn_expert" out_dir="$OUT/train/vint_pointgoal" \
-  train.epochs="$VINT_EPOCHS" "${TRAIN_SIZE[@]}" "${VINT_TRAIN[@]}"
-# NEG_EXPERT=reuse: NoMaD_e is the NoMaD-PointGoal run (train.expert_from; rvn_il/train/adopt.py), so
-# NoMaD-Neg and NoMaD-PointGoal differ only by CoR and the second expert training is saved
-NEG_TRAIN=()
-if [[ "$NEG_EXPERT" == reuse ]]; then NEG_TRAIN=("train.expert_from=$OUT/train/nomad_pointgoal"); fi
-step train_nomad_neg rvn-train model=nomad_neg model.prediction_type="$PREDICTION" data.root="$DATA/rvn_expert" data.negative_root="$DATA/rvn_negative" \
-  data.splits_dir="$OUT/splits_neg" data.skip_short=true out_dir="$OUT/train/nomad_neg" \
-  train.epochs="$NOMAD_EPOCHS" "${TRAIN_SIZE[@]}" "${NEG_TRAIN[@]}"
-
+  train.epochs="$VINT_EPOCHS" "${TRAIN_SIZE[@]}" "${VINT_TRAIN[@]}" seed="$SEED"
 # eval workers: one torch thread each
 export OMP_NUM_THREADS=1 MKL_NUM_THREADS=1
 step eval_random rvn-eval policy=random method=Random out_dir="$OUT/eval/random" "${EVAL[@]}"
@@ -152,35 +146,52 @@ step eval_trajectory_oracle rvn-eval policy=trajectory_oracle "method=Trajectory
   out_dir="$OUT/eval/trajectory_oracle" "${EVAL[@]}"
 step eval_vint rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/vint_pointgoal" method=ViNT-PointGoal +policy.waypoint_index="$LOOKAHEAD" \
   out_dir="$OUT/eval/vint_pointgoal" "${EVAL[@]}"
-step eval_nomad rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_pointgoal" method=NoMaD-PointGoal +policy.waypoint_index="$LOOKAHEAD" \
-  +policy.num_samples="$NOMAD_SAMPLES" out_dir="$OUT/eval/nomad_pointgoal" "${EVAL[@]}"
-# NoMaD-PointGoal with policy.aggregate=vote: the action most of its 8 samples lead to (rvn_il/policies/policy.py)
-step eval_nomad_vote rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_pointgoal" method=NoMaD-PointGoal-vote \
-  +policy.aggregate=vote out_dir="$OUT/eval/nomad_pointgoal_vote" "${EVAL[@]}"
-VETO_RUN=()
-if [[ -n "$DEPTH_VETO" ]]; then
-  step eval_nomad_vote_veto rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_pointgoal" \
-    method=NoMaD-PointGoal-vote-veto +policy.aggregate=vote +policy.depth_veto="$DEPTH_VETO" +policy.depth_veto_rule="$DEPTH_VETO_RULE" out_dir="$OUT/eval/nomad_pointgoal_vote_veto" "${EVAL[@]}"
-  VETO_RUN=("$OUT/eval/nomad_pointgoal_vote_veto")
-fi
-step eval_nomad_neg rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_neg" method=NoMaD-Neg +policy.waypoint_index="$LOOKAHEAD" \
-  out_dir="$OUT/eval/nomad_neg" "${EVAL[@]}"
-# the paper writes argmin CoR; by its equation argmax keeps away from the negatives
-ARGMIN_RUN=()
-if [[ "$NEG_ARGMIN" == 1 ]]; then
-  step eval_nomad_neg_argmin rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_neg" \
-    method=NoMaD-Neg-argmin +policy.waypoint_index="$LOOKAHEAD" +policy.selection=argmin out_dir="$OUT/eval/nomad_neg_argmin" "${EVAL[@]}"
-  ARGMIN_RUN=("$OUT/eval/nomad_neg_argmin")
-fi
-
-RUNS=("$OUT/eval/random" "$OUT/eval/oracle" "$OUT/eval/goal_follower" "$OUT/eval/trajectory_oracle" "$OUT/eval/vint_pointgoal" "$OUT/eval/nomad_pointgoal"
-      "$OUT/eval/nomad_pointgoal_vote" "${VETO_RUN[@]}" "$OUT/eval/nomad_neg" "${ARGMIN_RUN[@]}")
+RUNS=("$OUT/eval/random" "$OUT/eval/oracle" "$OUT/eval/goal_follower" "$OUT/eval/trajectory_oracle" "$OUT/eval/vint_pointgoal")
 # significance (Fisher's exact test on SR_1, two Poisson rates on CPK) of the comparisons the experiment is about
-COMPARE=("NoMaD-PointGoal=Goal follower" "NoMaD-PointGoal=Random" "NoMaD-PointGoal=Trajectory oracle"
-         "NoMaD-PointGoal-vote=NoMaD-PointGoal" "NoMaD-Neg=NoMaD-PointGoal"
-         "ViNT-PointGoal=Goal follower" "Goal follower=Random")
-[[ -n "$DEPTH_VETO" ]] && COMPARE+=("NoMaD-PointGoal-vote-veto=NoMaD-PointGoal-vote")
-[[ "$NEG_ARGMIN" == 1 ]] && COMPARE+=("NoMaD-Neg-argmin=NoMaD-Neg")
+COMPARE=("ViNT-PointGoal=Goal follower" "Goal follower=Random")
+VETO=(+policy.depth_veto="$DEPTH_VETO" +policy.depth_veto_rule="$DEPTH_VETO_RULE")
+# per training seed (SEEDS), one after the other so that each seed's rows are complete before the next trains:
+# NoMaD-PointGoal, then NoMaD-Neg (NEG_EXPERT=reuse: NoMaD_e is that seed's NoMaD-PointGoal run, train.expert_from,
+# rvn_il/train/adopt.py, so NoMaD-Neg and NoMaD-PointGoal differ only by CoR), then their eval rows
+for S in $SEEDS; do
+  SFX=""; LBL=""; [[ "$S" != "$SEED" ]] && { SFX="_seed$S"; LBL=" seed$S"; }
+  export OMP_NUM_THREADS=$THREADS MKL_NUM_THREADS=$THREADS
+  step "train_nomad$SFX" rvn-train model=nomad_pointgoal model.prediction_type="$PREDICTION" data.root="$DATA/rvn_expert" \
+    out_dir="$OUT/train/nomad_pointgoal$SFX" train.epochs="$NOMAD_EPOCHS" "${TRAIN_SIZE[@]}" "${NOMAD_DEPTH[@]}" seed="$S"
+  NEG_TRAIN=()
+  if [[ "$NEG_EXPERT" == reuse ]]; then NEG_TRAIN=("train.expert_from=$OUT/train/nomad_pointgoal$SFX"); fi
+  step "train_nomad_neg$SFX" rvn-train model=nomad_neg model.prediction_type="$PREDICTION" data.root="$DATA/rvn_expert" \
+    data.negative_root="$DATA/rvn_negative" data.splits_dir="$OUT/splits_neg" data.skip_short=true \
+    out_dir="$OUT/train/nomad_neg$SFX" train.epochs="$NOMAD_EPOCHS" "${TRAIN_SIZE[@]}" "${NEG_TRAIN[@]}" seed="$S"
+  export OMP_NUM_THREADS=1 MKL_NUM_THREADS=1
+  NOMAD=(policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_pointgoal$SFX")
+  NEG=(policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_neg$SFX")
+  step "eval_nomad$SFX" rvn-eval "${NOMAD[@]}" "method=NoMaD-PointGoal$LBL" +policy.waypoint_index="$LOOKAHEAD" \
+    +policy.num_samples="$NOMAD_SAMPLES" out_dir="$OUT/eval/nomad_pointgoal$SFX" "${EVAL[@]}"
+  # NoMaD-PointGoal with policy.aggregate=vote: the action most of its 8 samples lead to (rvn_il/policies/policy.py)
+  step "eval_nomad_vote$SFX" rvn-eval "${NOMAD[@]}" "method=NoMaD-PointGoal-vote$LBL" +policy.aggregate=vote \
+    out_dir="$OUT/eval/nomad_pointgoal_vote$SFX" "${EVAL[@]}"
+  step "eval_nomad_neg$SFX" rvn-eval "${NEG[@]}" "method=NoMaD-Neg$LBL" +policy.waypoint_index="$LOOKAHEAD" \
+    out_dir="$OUT/eval/nomad_neg$SFX" "${EVAL[@]}"
+  RUNS+=("$OUT/eval/nomad_pointgoal$SFX" "$OUT/eval/nomad_pointgoal_vote$SFX" "$OUT/eval/nomad_neg$SFX")
+  COMPARE+=("NoMaD-PointGoal$LBL=Goal follower" "NoMaD-PointGoal$LBL=Trajectory oracle"
+            "NoMaD-PointGoal-vote$LBL=NoMaD-PointGoal$LBL" "NoMaD-Neg$LBL=NoMaD-PointGoal$LBL")
+  if [[ -n "$DEPTH_VETO" ]]; then  # the depth head of NoMaD-PointGoal (NoMaD-Neg's NoMaD_e) vetoes blocked forward steps
+    step "eval_nomad_vote_veto$SFX" rvn-eval "${NOMAD[@]}" "method=NoMaD-PointGoal-vote-veto$LBL" +policy.aggregate=vote \
+      "${VETO[@]}" out_dir="$OUT/eval/nomad_pointgoal_vote_veto$SFX" "${EVAL[@]}"
+    step "eval_nomad_neg_veto$SFX" rvn-eval "${NEG[@]}" "method=NoMaD-Neg-veto$LBL" +policy.waypoint_index="$LOOKAHEAD" \
+      "${VETO[@]}" out_dir="$OUT/eval/nomad_neg_veto$SFX" "${EVAL[@]}"
+    RUNS+=("$OUT/eval/nomad_pointgoal_vote_veto$SFX" "$OUT/eval/nomad_neg_veto$SFX")
+    COMPARE+=("NoMaD-PointGoal-vote-veto$LBL=NoMaD-PointGoal-vote$LBL" "NoMaD-Neg-veto$LBL=NoMaD-Neg$LBL")
+  fi
+  # the paper writes argmin CoR; by its equation argmax keeps away from the negatives
+  if [[ "$NEG_ARGMIN" == 1 ]]; then
+    step "eval_nomad_neg_argmin$SFX" rvn-eval "${NEG[@]}" "method=NoMaD-Neg-argmin$LBL" +policy.waypoint_index="$LOOKAHEAD" \
+      +policy.selection=argmin out_dir="$OUT/eval/nomad_neg_argmin$SFX" "${EVAL[@]}"
+    RUNS+=("$OUT/eval/nomad_neg_argmin$SFX")
+    COMPARE+=("NoMaD-Neg-argmin$LBL=NoMaD-Neg$LBL")
+  fi
+done
 $PY -m rvn_data.benchmark.report "${RUNS[@]}" -o "$OUT/report.md" "${COMPARE[@]/#/--compare=}" \
   --title "RVN small-scale experiment (SCALE=$SCALE: $TRAIN_SCENES train scenes x $TRAJ_PER_SCENE trajectories, val $EVAL_SCENES x $EVAL_EPISODES)"
 echo "small_experiment: this run took $SECONDS s ($STEPS_SECONDS s in steps run now); report: $OUT/report.md"

@@ -82,7 +82,7 @@ class EvalConfig:
     policy: Any = field(default_factory=dict)  # any object with reset() and act(obs), built from its _target_
     split: str = "val"
     seed: int = 0
-    method: str | None = None  # row label in the table; null = the policy config's name
+    method: str | None = None  # row label in the table; null = the checkpoint folder's name, else the policy config's
     # runs/eval/<split>/<method, else the checkpoint folder's name, else the policy's> (config.eval_run_name)
     out_dir: str = ("runs/eval/${split}/${rvn_eval_name:${method},${hydra:runtime.choices.policy},"
                     "${oc.select:policy.checkpoint_path,null}}")

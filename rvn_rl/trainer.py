@@ -11,10 +11,12 @@ from pathlib import Path
 
 import numpy as np
 import torch
+import yaml
 from torch import nn
 
 from rvn_data.cli.common import check_writable_dir, validating
 from rvn_data.numba_note import note_first_compile
+from rvn_data.provenance import provenance_record
 
 from . import checkpoint as ck
 from .config import env_kwargs, load_depth_fn, model_kwargs, validate
@@ -115,7 +117,9 @@ def _train(cfg: dict, d: Dist, on_checked=None) -> dict:
             lagrange.load_state_dict(state["lagrange"])
     if d.rank == 0:
         out_dir.mkdir(parents=True, exist_ok=True)
-        ck.write_config(out_dir, {**cfg, "policy": model_kwargs(cfg)})
+        earlier = yaml.safe_load((out_dir / "config.yaml").read_text()) if (out_dir / "config.yaml").is_file() else None
+        ck.write_config(out_dir, {**cfg, "policy": model_kwargs(cfg),
+                                  **provenance_record(earlier if isinstance(earlier, dict) else None, resume_from is not None)})
     learner = _Evaluate(policy)
     if d.enabled:
         from torch.nn.parallel import DistributedDataParallel as DDP

@@ -129,7 +129,7 @@ def test_bad_checkpoint_is_one_line_error(runs, tmp_path):
     ckpt.mkdir()
     proc = rvn_eval(runs, "policy=checkpoint", f"policy.checkpoint_path={ckpt}", f"out_dir={tmp_path / 'y'}")
     assert proc.returncode == 2 and not (tmp_path / "y").exists()
-    assert "policy 'checkpoint'" in proc.stderr and str(ckpt) in proc.stderr and "rvn-train" in proc.stderr
+    assert "policy 'not_a_checkpoint'" in proc.stderr and str(ckpt) in proc.stderr and "rvn-train" in proc.stderr
     assert "Traceback" not in proc.stderr and "Error executing job" not in proc.stderr
 
 

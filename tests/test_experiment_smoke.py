@@ -16,7 +16,7 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 METHODS = ("Random", "Oracle", "Goal follower", "Trajectory oracle", "ViNT-PointGoal", "NoMaD-PointGoal", "NoMaD-PointGoal-vote", "NoMaD-Neg",
-           "NoMaD-Neg-argmin")
+           "NoMaD-Neg-argmin", "NoMaD-PointGoal seed1", "NoMaD-PointGoal-vote seed1", "NoMaD-Neg seed1", "NoMaD-Neg-argmin seed1")
 
 
 def small_experiment(out: Path, **env) -> subprocess.CompletedProcess:
@@ -28,7 +28,7 @@ def small_experiment(out: Path, **env) -> subprocess.CompletedProcess:
 @pytest.mark.slow
 def test_tiny_experiment_end_to_end_and_rerun(tmp_path):
     out = tmp_path / "exp"
-    proc = small_experiment(out, NEG_ARGMIN="1")  # every row, the opt-in argmin one too
+    proc = small_experiment(out, NEG_ARGMIN="1", SEEDS="0 1")  # every row, the opt-in argmin one too, two training seeds
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     report = (out / "report.md").read_text()
     for method in METHODS:
@@ -52,8 +52,23 @@ def test_tiny_experiment_end_to_end_and_rerun(tmp_path):
     adopted, source = latest(out / "train" / "nomad_neg" / "expert"), latest(out / "train" / "nomad_pointgoal" / "model")
     assert adopted.keys() == source.keys() and all(bool((adopted[k] == source[k]).all()) for k in source)
     steps = [ln.split("\t")[0] for ln in (out / "timings.tsv").read_text().splitlines()]
-    assert steps[:6] == ["gen_expert", "gen_negative", "gen_val", "train_nomad", "train_vint", "train_nomad_neg"]
-    assert len(steps) == 15
+    assert steps[:4] == ["gen_expert", "gen_negative", "gen_val", "train_vint"]
+    # each seed's trainings, then its rows: seed 0's are complete before seed 1 trains
+    assert steps[9:11] == ["train_nomad", "train_nomad_neg"] and steps[15:17] == ["train_nomad_seed1", "train_nomad_neg_seed1"]
+    assert len(steps) == 21
+    seed1 = (out / "train" / "nomad_pointgoal_seed1" / "config.yaml").read_text()
+    assert "seed: 1" in seed1 and "expert_from: " + str(out / "train" / "nomad_pointgoal_seed1") in \
+        (out / "train" / "nomad_neg_seed1" / "config.yaml").read_text()
+    # provenance: the code that made each row, in the training config, run.json, metrics.json and the report
+    from rvn_data.provenance import provenance, short
+
+    here = provenance()
+    assert f"code_commit: {here['code_commit']}" in seed1 if here["code_commit"] else "provenance:" in seed1
+    for name in ("run.json", "metrics.json"):
+        assert json.loads((out / "eval" / "nomad_neg" / name).read_text())["provenance"] == here
+    assert f"| {short(here)} |" in report and "Warning" not in report  # one commit, one episode set
+    # how goals ended, CPK outside timed-out stretches, NoMaD-Neg's CoR counts per episode
+    assert "## How goals ended" in report and "cor_other_action" in report and (out / "report_ends.png").is_file()
     # training validated on the held-out val-scene expert data; the report tests the compared rows
     history = json.loads((out / "train" / "nomad_pointgoal" / "model" / "val.json").read_text())
     assert list(history) == ["2"] and 0.0 <= history["2"]["agreement"] <= 1.0
@@ -61,9 +76,9 @@ def test_tiny_experiment_end_to_end_and_rerun(tmp_path):
     assert "prediction_type: sample" in config and "pad_context: true" in config  # the small recipe's first decisions
     assert "| NoMaD-Neg | NoMaD-PointGoal |" in report and "| NoMaD-PointGoal | Goal follower |" in report
     # a rerun skips every step and rewrites the same report
-    again = small_experiment(out, NEG_ARGMIN="1")
+    again = small_experiment(out, NEG_ARGMIN="1", SEEDS="0 1")
     assert again.returncode == 0, again.stderr[-3000:]
-    assert again.stdout.count("done before, skipped") == 15
+    assert again.stdout.count("done before, skipped") == 21
     assert (out / "report.md").read_text() == report
 
 
@@ -83,6 +98,9 @@ def test_bad_scale_is_refused(tmp_path):
     assert proc.returncode == 2 and "NEG_ARGMIN=yes; choose 0 or 1" in proc.stderr
     proc = small_experiment(tmp_path / "x", SCALE="tiny", DEPTH_VETO_RULE="wide")
     assert proc.returncode == 2 and "DEPTH_VETO_RULE=wide; choose swept or band" in proc.stderr
+    proc = small_experiment(tmp_path / "x", SCALE="tiny", SEEDS="0,1")
+    assert proc.returncode == 2 and "SEEDS=0,1; give whole numbers separated by spaces" in proc.stderr
+    assert not (tmp_path / "x").exists()
 
 
 def _compose_check(cmd: list[str]) -> None:

@@ -116,3 +116,48 @@ def test_eval_run_written_before_the_benchmark_package_resumes(tmp_path):
     other = {"policy": {"_target_": "rvn_data.benchmark.policies.OraclePolicy"}, "split": "val"}
     with pytest.raises(ValueError, match="policy._target_"):
         RunDir(tmp_path, other).open()
+
+
+def test_goal_ends_and_cpk_outside_timed_out_stretches():
+    """How goals ended and CPK without the kilometres driven towards a goal that timed out (issue 31)."""
+    m = compute_metrics(RECORDS)
+    # goals reached: 2 + 1; the last goal of each failed episode ends with its termination
+    assert m["goal_ends"] == {"success": 3, "collision": 2, "timeout": 2, "stop_far": 0}
+    # 20.5 m in all; the timed-out stretches are episode 1's last goal (2 m) and episode 3's (0 m)
+    assert m["CPK"] == pytest.approx(2 / 0.0205) and m["CPK_excl_timeout"] == pytest.approx(2 / 0.0185)
+    assert "policy_stats" not in m
+    with_stats = [{**r, "policy_stats": {"vetoes": i, "decisions": 10}} for i, r in enumerate(RECORDS)]
+    assert compute_metrics(with_stats)["policy_stats"] == {"vetoes": 6, "decisions": 40}
+    only_timeout = compute_metrics([RECORDS[3]])  # nothing driven outside a timed-out stretch, no collision
+    assert only_timeout["CPK_excl_timeout"] == 0.0
+
+
+def test_run_records_the_code_and_who_resumed_it(tmp_path, monkeypatch):
+    """run.json and metrics.json carry the provenance of the code that started the run; a resume by other
+    code (another commit) is recorded beside it, and the report shows both commits for that row."""
+    from rvn_data.benchmark import results
+    from rvn_data.benchmark.runs import load_run
+
+    ident = {"policy": {"_target_": "rvn_data.benchmark.policies.RandomPolicy"}, "split": "val"}
+    first = {"commit": "a" * 40, "code_commit": "a" * 40, "dirty": False, "version": "0.1.0", "generator_version": 2}
+    later = {**first, "commit": "b" * 40, "code_commit": "b" * 40}
+    monkeypatch.setattr(results, "provenance", lambda: first)
+    run = results.RunDir(tmp_path, ident)
+    run.open()
+    run.append(RECORDS[0])
+    assert json.loads((tmp_path / "run.json").read_text())["provenance"] == first
+    monkeypatch.setattr(results, "provenance", lambda: later)
+    run = results.RunDir(tmp_path, ident)
+    assert list(run.open()) == [(0, 0)]
+    stored = json.loads((tmp_path / "run.json").read_text())
+    assert stored["provenance"] == first and stored["resumed_by"] == [later]
+    run.append(RECORDS[1])
+    recs = [RECORDS[0], RECORDS[1]]
+    run.finish(recs, {**compute_metrics(recs), "split": "val"}, "table\n")
+    metrics = json.loads((tmp_path / "metrics.json").read_text())
+    assert metrics["provenance"] == first and metrics["resumed_by"] == [later] and len(metrics["episode_set"]) == 12
+    assert load_run(tmp_path).commits == ["aaaaaaa", "bbbbbbb"]
+    # a fresh start (nothing to resume) is this code's alone
+    run = results.RunDir(tmp_path, ident)
+    run.open(resume=False)
+    assert "resumed_by" not in json.loads((tmp_path / "run.json").read_text())

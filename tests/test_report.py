@@ -169,3 +169,39 @@ def test_bar_plot_legend_key_beside_its_text(tmp_path, monkeypatch):
     key = legend.legend_handles[0].get_window_extent(canvas.get_renderer())
     text = legend.get_texts()[0].get_window_extent(canvas.get_renderer())
     assert np.isfinite([key.x0, key.x1]).all() and 0 < key.width and key.x1 <= text.x0
+
+
+def test_runs_of_different_identity_are_different_rows(runs, tmp_path):
+    """Issue 35: a method label shared by two different evaluations (here the random policy with two seeds,
+    both called NoMaD-PointGoal) gives two rows, told apart by folder; shards of one identity whose
+    shared episodes disagree are refused in one line; the report flags rows on different episode sets."""
+    other = tmp_path / "random_seed1"
+    rvn_eval(tmp_path, "policy=random", "method=NoMaD-PointGoal", "seed=1", f"out_dir={other}")
+    rows = merge_shards(find_runs([runs / "eval" / "random", other]))
+    assert [r.method for r in rows] == ["NoMaD-PointGoal [random]", "NoMaD-PointGoal [random_seed1]"]
+    out = tmp_path / "r.md"
+    assert report_main([str(runs / "eval" / "random"), str(other), "-o", str(out)]) == 0
+    text = out.read_text()
+    assert "| RVN (ours) | NoMaD-PointGoal [random] |" in text and "| RVN (ours) | NoMaD-PointGoal [random_seed1] |" in text
+    # seed 1 drew other episodes: flagged above the table
+    assert "val rows on different episode sets" in text.split("| Category |")[0]
+    # a copy of a shard with one episode's result changed: same identity, disagreeing records
+    forged = tmp_path / "forged"
+    shutil.copytree(runs / "eval" / "oracle", forged)
+    recs = read_records(forged / "episodes.jsonl")
+    recs[0]["collisions"] += 1
+    (forged / "episodes.jsonl").write_text("".join(json.dumps(r) + "\n" for r in recs))
+    proc = report(str(runs / "eval" / "oracle"), str(forged), "-o", str(tmp_path / "f.md"))
+    assert proc.returncode == 2 and "are not shards of one evaluation" in proc.stderr and len(proc.stderr.splitlines()) == 1
+    assert not (tmp_path / "f.md").exists()
+
+
+def test_checkpoint_runs_are_labelled_by_their_folder(tmp_path):
+    """Issue 35: rvn-eval policy=checkpoint without method= records the checkpoint folder's name as the
+    method (never 'checkpoint' for every model)."""
+    from rvn_data.benchmark.cli import _plain_config
+    from rvn_data.config import load_config
+
+    cfg = load_config("eval", ["policy=checkpoint", f"policy.checkpoint_path={tmp_path / 'nomad_seed1'}", "out_dir=x"])
+    assert _plain_config(cfg)["method"] == "nomad_seed1"
+    assert _plain_config(load_config("eval", ["policy=random", "out_dir=x"]))["method"] == "policy"

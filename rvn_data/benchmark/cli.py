@@ -78,7 +78,9 @@ def _plain_config(cfg: DictConfig) -> dict:
         choice = HydraConfig.get().runtime.choices.get("policy") or "policy"
     out = OmegaConf.to_container(cfg, resolve=True, throw_on_missing=True)
     out["policy_name"] = choice
-    out["method"] = out.get("method") or choice
+    ckpt = (out.get("policy") or {}).get("checkpoint_path") if isinstance(out.get("policy"), dict) else None
+    # the row label: method=, else the checkpoint folder's name (two models never share the label "checkpoint")
+    out["method"] = out.get("method") or (Path(str(ckpt)).expanduser().resolve().name if ckpt else None) or choice
     return out
 
 

@@ -20,6 +20,13 @@ Metrics:
 - ``SPL_1``: Habitat SPL of the first goal: success · d0 / max(d0, L), L = path length
   until the first goal was reached (or the episode ended), averaged over episodes.
 - ``path_length``: mean path length per episode (m).
+- ``goal_ends``: how the attempted goals ended, counts of ``success`` (reached), ``collision``,
+  ``timeout`` and ``stop_far`` (the episode's last goal ends with its termination).
+- ``CPK_excl_timeout``: CPK over the kilometres outside timed-out stretches (the last goal of an
+  episode that timed out): a policy that stalls or circles until ``T_max`` drives collision-free
+  kilometres that the paper's CPK counts; this one does not (``None`` as CPK when nothing is left).
+- ``policy_stats``: sums over episodes of what the policy counted (``policy_stats`` of the records,
+  e.g. ``vetoes``, ``decisions``); absent when no record has any.
 """
 from __future__ import annotations
 
@@ -76,14 +83,23 @@ def compute_metrics(records: Sequence[dict]) -> dict:
         raise ValueError("no episode records to compute metrics from")
     collisions = sum(int(r["collisions"]) for r in records)
     km = sum(float(r["path_length"]) for r in records) / 1000.0
-    if km > 0:
-        cpk: float | None = collisions / km
-    else:
-        cpk = 0.0 if collisions == 0 else None
-    return {
+    km_timeout = sum(float(r["goals"][-1]["path_length"]) for r in records
+                     if r["termination"] == "timeout" and r["goals"]) / 1000.0
+    ends = {t: 0 for t in TERMINATIONS}
+    ends["success"] = sum(int(r["goals_reached"]) for r in records)
+    for r in records:
+        if r["termination"] != "success":
+            ends[r["termination"]] += 1
+    stats: dict[str, int] = {}
+    for r in records:
+        for key, v in (r.get("policy_stats") or {}).items():
+            stats[key] = stats.get(key, 0) + int(v)
+    out = {
         "SR_1": sum(bool(r["first_goal_success"]) for r in records) / n,
         "E_G": sum(int(r["goals_reached"]) for r in records) / n,
-        "CPK": cpk,
+        "CPK": _rate(collisions, km),
+        "CPK_excl_timeout": _rate(collisions, km - km_timeout),
+        "goal_ends": ends,
         "SPL_1": sum(first_goal_spl(r) for r in records) / n,
         "path_length": km * 1000.0 / n,
         "episodes": n,
@@ -92,6 +108,16 @@ def compute_metrics(records: Sequence[dict]) -> dict:
         "steps": sum(int(r["steps"]) for r in records),
         "success_all_goals": sum(r["termination"] == "success" for r in records) / n,
     }
+    if stats:
+        out["policy_stats"] = stats
+    return out
+
+
+def _rate(collisions: int, km: float) -> float | None:
+    """Collisions per km; 0 collisions over 0 m gives 0.0, > 0 collisions over 0 m None."""
+    if km > 1e-12:
+        return collisions / km
+    return 0.0 if collisions == 0 else None
 
 
 class EpisodeTracker:

@@ -65,3 +65,28 @@ def goals_plot(runs: list, path: Path) -> None:
         ax.axis("off")
     fig.suptitle("Goals reached per episode")
     _save(fig, path)
+
+
+def ends_plot(runs: list, path: Path) -> None:
+    """How each run's goals ended (share of goals attempted: success, collision, timeout), one stacked
+    bar per run, with CPK over all km and outside timed-out stretches written above it; saved to ``path``."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(max(5.0, 1.3 * len(runs) + 2), 4.2), layout="constrained")
+    ax = fig.add_subplot()
+    x = np.arange(len(runs))
+    bottom = np.zeros(len(runs))
+    for kind, color in (("success", "tab:green"), ("collision", "tab:red"), ("timeout", "tab:orange"), ("stop_far", "tab:gray")):
+        share = np.array([r.metrics["goal_ends"][kind] / max(1, sum(r.metrics["goal_ends"].values())) for r in runs])
+        if kind == "stop_far" and not share.any():
+            continue
+        ax.bar(x, share, bottom=bottom, color=color, label=kind)
+        bottom += share
+    for i, r in enumerate(runs):
+        ax.annotate(f"CPK {format_metric(r.metrics['CPK'], 0)}\nexcl. t/o {format_metric(r.metrics['CPK_excl_timeout'], 0)}",
+                    (i, 1.0), ha="center", va="bottom", fontsize=7)
+    ax.set_ylim(0, 1.25)
+    ax.set_xticks(x, [r.label for r in runs], rotation=20, ha="right", fontsize=8)
+    ax.set(title="How goals ended (share of goals attempted)", ylabel="share of goals")
+    ax.legend(fontsize=8, loc="upper right", ncols=4)
+    _save(fig, path)

@@ -2,13 +2,15 @@
 
     python -m rvn_data.benchmark.report RUN_DIR [RUN_DIR ...] -o report.md [--title TEXT]
 
-Each RUN_DIR is an rvn-eval ``out_dir`` (``metrics.json`` + ``episodes.jsonl``; one per
-policy × split) or a folder searched for them. Runs with the same method and split are
-shards of one evaluation (e.g. over ``episodes.first_scene``): they are merged and their
-metrics recomputed from all records. The report holds the results table in the paper's
+Each RUN_DIR is an rvn-eval ``out_dir`` (``metrics.json`` + ``episodes.jsonl`` + ``run.json``; one
+per policy × split) or a folder searched for them. A row is one run identity (`rvn_data.benchmark.runs`:
+recorded settings, checkpoint digest, commit), never a method label alone; shards of one evaluation
+(e.g. over ``episodes.first_scene``) are merged, their metrics recomputed from all records. A line
+above the table flags rows from different commits or episode sets. The report holds the results table in the paper's
 layout (`rvn_data.benchmark.table`, paper rows included), our numbers beside the paper's per
 method and split, run details with links to the per-episode logs, plots written next to
-the report (``<stem>_sr1.png``, ``<stem>_cpk.png``, ``<stem>_goals.png``) and every
+the report (``<stem>_sr1.png``, ``<stem>_cpk.png``, ``<stem>_goals.png``, ``<stem>_ends.png``: how
+goals ended), how goals ended with CPK over all kilometres and outside timed-out stretches, and every
 episode's record. Runs appear in the order given.
 """
 from __future__ import annotations
@@ -18,110 +20,13 @@ import json
 import os
 import sys
 from collections import Counter
-from dataclasses import dataclass
 from pathlib import Path
 
-from rvn_data.benchmark.metrics import TERMINATIONS, format_metric, read_records, write_text_atomic
-from rvn_data.benchmark.plots import bar_plot, goals_plot
+from rvn_data.benchmark.metrics import TERMINATIONS, format_metric, write_text_atomic
+from rvn_data.benchmark.plots import bar_plot, ends_plot, goals_plot
+from rvn_data.benchmark.runs import Run, find_runs, load_run, merge_shards, provenance_note  # noqa: F401 (API)
 from rvn_data.benchmark.significance import Row, significance_table
-from rvn_data.benchmark.table import PAPER_RESULTS, SPLIT_TITLES, render_table
-
-PAPER_BY_METHOD = {method: by_split for (_, method), by_split in PAPER_RESULTS.items()}
-
-
-@dataclass
-class Run:
-    """One rvn-eval output directory: its metrics and per-episode records."""
-
-    dir: Path
-    metrics: dict
-    records: list[dict]
-    shards: list[Path] | None = None  # the out_dirs merged into this run (`merge_shards`)
-
-    @property
-    def method(self) -> str:
-        return str(self.metrics.get("method") or self.metrics.get("policy") or self.dir.name)
-
-    @property
-    def split(self) -> str:
-        return str(self.metrics.get("split", "?"))
-
-    @property
-    def label(self) -> str:
-        return f"{self.method} ({self.split})"
-
-    def paper(self) -> tuple | None:
-        """The paper's (SR_1, E(G), CPK) for this method and split, if the paper has them."""
-        return PAPER_BY_METHOD.get(self.method, {}).get(self.split)
-
-
-def load_run(path: str | Path) -> Run:
-    """Read ``metrics.json`` and ``episodes.jsonl`` of one rvn-eval out_dir."""
-    d = Path(path)
-    mpath, epath = d / "metrics.json", d / "episodes.jsonl"
-    if not mpath.is_file():
-        hint = ("the run is unfinished: rerun the same rvn-eval command to complete it" if epath.is_file()
-                else "is it an rvn-eval out_dir?")
-        raise ValueError(f"{d} has no metrics.json ({hint})")
-    try:
-        metrics = json.loads(mpath.read_text())
-    except json.JSONDecodeError as err:
-        raise ValueError(f"{mpath} is not JSON ({err.msg}); rerun rvn-eval into {d}") from None
-    missing = [k for k in ("SR_1", "E_G", "CPK", "episodes", "split") if k not in metrics]
-    if missing:
-        raise ValueError(f"{mpath} lacks {missing}; is it an rvn-eval metrics.json?")
-    if not epath.is_file():
-        raise ValueError(f"{d} has metrics.json but no episodes.jsonl; rerun rvn-eval into {d}")
-    records = read_records(epath)
-    if len(records) != metrics.get("episodes"):
-        raise ValueError(f"{epath} holds {len(records)} episodes but {mpath} counts {metrics.get('episodes')}; "
-                         f"rerun rvn-eval into {d} to rewrite both")
-    return Run(d, metrics, records)
-
-
-def find_runs(paths: list[str | Path]) -> list[Run]:
-    """Runs for each path: the path itself when it is an out_dir, else every out_dir below it."""
-    runs = []
-    for p in paths:
-        p = Path(p)
-        if not p.is_dir():
-            raise ValueError(f"{p} is not a directory (give rvn-eval out_dirs)")
-        if (p / "metrics.json").is_file() or (p / "episodes.jsonl").is_file():
-            runs.append(load_run(p))
-            continue
-        found = sorted(m.parent for m in p.rglob("metrics.json"))
-        if not found:
-            raise ValueError(f"{p} holds no rvn-eval output (no metrics.json in it or below it)")
-        runs += [load_run(f) for f in found]
-    return runs
-
-
-def merge_shards(runs: list[Run]) -> list[Run]:
-    """Combine runs of the same method and split (shards of one evaluation, e.g. over
-    ``episodes.first_scene``) into one: their records, metrics recomputed over all of them.
-    Order: first appearance. Shards must agree on N_goal and episodes per scene."""
-    from rvn_data.benchmark.metrics import compute_metrics
-
-    groups: dict[tuple[str, str], list[Run]] = {}
-    for r in runs:
-        groups.setdefault((r.method, r.split), []).append(r)
-    out = []
-    for (method, split), group in groups.items():
-        if len(group) == 1:
-            out.append(group[0])
-            continue
-        for key in ("n_goals", "per_scene", "policy"):
-            values = {json.dumps(g.metrics.get(key)) for g in group}
-            if len(values) > 1:
-                raise ValueError(f"runs of {method} ({split}) differ in {key} ({', '.join(sorted(values))}): "
-                                 f"{', '.join(str(g.dir) for g in group)}; give them distinct method= names")
-        records = {(e["scene_id"], e["episode_index"]): e for g in group for e in g.records}
-        merged = sorted(records.values(), key=lambda e: (e["scene_index"], e["scene_id"], e["episode_index"]))
-        metrics = {**group[0].metrics, **compute_metrics(merged),
-                   "scenes": len({e["scene_id"] for e in merged}), "shards": [str(g.dir) for g in group]}
-        out.append(Run(group[0].dir, metrics, merged, [g.dir for g in group]))
-    return out
-
+from rvn_data.benchmark.table import SPLIT_TITLES, render_table
 
 def _rel(path: Path, base: Path) -> str:
     return Path(os.path.relpath(Path(path).resolve(), Path(base).resolve())).as_posix()
@@ -143,8 +48,8 @@ def beside_paper(runs: list[Run]) -> str:
 def run_details(runs: list[Run], base: Path) -> str:
     """Markdown table of each run's set-up, secondary metrics, terminations and log path."""
     lines = ["| Method | Policy | Split | Scenes × episodes | N_goal | Episodes | SPL_1 | Path/episode (m) | "
-             "Collisions | Steps | " + " / ".join(TERMINATIONS) + " | Per-episode log |",
-             "|---|---|---|---|---:|---:|---:|---:|---:|---:|---|---|"]
+             "Collisions | Steps | " + " / ".join(TERMINATIONS) + " | Commit | Generator | Episode set | Per-episode log |",
+             "|---|---|---|---|---:|---:|---:|---:|---:|---:|---|---|---|---|---|"]
     for r in runs:
         m = r.metrics
         ends = Counter(rec["termination"] for rec in r.records)
@@ -152,7 +57,26 @@ def run_details(runs: list[Run], base: Path) -> str:
         lines.append(f"| {r.method} | {m.get('policy', '')} | {r.split} | {m.get('scenes', '?')} × {m.get('per_scene', '?')} "
                      f"| {m.get('n_goals', '?')} | {m['episodes']} | {format_metric(m.get('SPL_1'), 3)} "
                      f"| {format_metric(m.get('path_length'), 2)} | {m.get('collisions', '')} | {m.get('steps', '')} "
-                     f"| {' / '.join(str(ends.get(t, 0)) for t in TERMINATIONS)} | {logs} |")
+                     f"| {' / '.join(str(ends.get(t, 0)) for t in TERMINATIONS)} | {', '.join(r.commits)} "
+                     f"| {(r.provenance or {}).get('generator_version', '?')} | {r.episode_set} | {logs} |")
+    return "\n".join(lines) + "\n"
+
+
+def goal_endings(runs: list[Run]) -> str:
+    """Markdown table: how each row's goals ended, CPK over all km (the paper's) and outside timed-out
+    stretches, and what the policy counted (e.g. depth vetoes) per episode."""
+    lines = ["| Method | Split | Goals attempted | Success | Collision | Timeout | Episodes timed out | "
+             "km (in timed-out stretches) | CPK | CPK excl. timeouts | Policy counts per episode |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+    for r in runs:
+        m, ends = r.metrics, r.metrics["goal_ends"]
+        total = sum(ends.values()) or 1
+        km_out = sum(float(e["goals"][-1]["path_length"]) for e in r.records if e["termination"] == "timeout" and e["goals"]) / 1e3
+        share = [f"{ends[t] / total:.1%} ({ends[t]})" for t in ("success", "collision", "timeout")]
+        counts = ", ".join(f"{k} {v / m['episodes']:.1f}" for k, v in sorted((m.get("policy_stats") or {}).items()))
+        lines.append(f"| {r.method} | {r.split} | {sum(ends.values())} | {' | '.join(share)} | {ends['timeout']} "
+                     f"| {m['distance_km']:.2f} ({km_out:.2f}) | {format_metric(m['CPK'], 1)} "
+                     f"| {format_metric(m['CPK_excl_timeout'], 1)} | {counts} |")
     return "\n".join(lines) + "\n"
 
 
@@ -200,17 +124,24 @@ def write_report(runs: list[Run], output: str | Path, title: str = "RVN benchmar
     out = Path(output)
     out.parent.mkdir(parents=True, exist_ok=True)
     base, stem = out.parent, out.stem
-    plots = {"sr1": base / f"{stem}_sr1.png", "cpk": base / f"{stem}_cpk.png", "goals": base / f"{stem}_goals.png"}
+    plots = {"sr1": base / f"{stem}_sr1.png", "cpk": base / f"{stem}_cpk.png", "goals": base / f"{stem}_goals.png",
+             "ends": base / f"{stem}_ends.png"}
     bar_plot(runs, "SR_1", 0, "SR_1: success rate on the first goal", "SR_1", 3, plots["sr1"], top=1.25)
     bar_plot(runs, "CPK", 2, "CPK: collisions per km (lower is better)", "collisions / km", 1, plots["cpk"], symlog=True)
     goals_plot(runs, plots["goals"])
+    ends_plot(runs, plots["ends"])
     text = [f"# {title}\n"]
     if command:
         text.append(f"Generated by `{command}` from {len(runs)} rvn-eval run(s).\n")
-    text += ["## Results (paper layout)\n", render_table([r.metrics for r in runs]),
+    text += ["## Results (paper layout)\n", provenance_note(runs), render_table([{**r.metrics, "method": r.method} for r in runs]),
              "\nRows *RVN (ours)* are the runs below; *(paper)* rows are the paper's table (HM3D scenes, "
              "full-scale training), for reference.\n",
              "## Ours beside the paper\n", beside_paper(runs),
+             "\n## How goals ended\n",
+             "A goal ends in success (reached), or with the episode: a collision or a timeout (T_max steps without "
+             "reaching it). CPK counts every kilometre (the paper's); *CPK excl. timeouts* leaves out the stretches "
+             "driven towards a goal that then timed out, where a policy that stalls or circles drives collision-free.\n",
+             goal_endings(runs),
              "\n## Significance\n",
              "Two-sided p-values: Fisher's exact test on first-goal successes (SR_1); the exact conditional test of "
              "two Poisson rates on collisions per km driven (CPK). Rows of the same split; a p below 0.05 marks a "
@@ -218,6 +149,7 @@ def write_report(runs: list[Run], output: str | Path, title: str = "RVN benchmar
              "\n## Runs\n", run_details(runs, base),
              "\n## Plots\n",
              f"![SR_1]({plots['sr1'].name})\n", f"![CPK]({plots['cpk'].name})\n", f"![Goals reached]({plots['goals'].name})\n",
+             f"![How goals ended]({plots['ends'].name})\n",
              "\n## Episodes\n", episode_tables(runs)]
     write_text_atomic(out, "\n".join(text))
     return out

@@ -1,14 +1,17 @@
 """An rvn-eval output directory: run identity, resumable per-episode records, final files.
 
 ``run.json`` holds what defines the run (policy, split, episode set, agent, camera, env
-settings); resuming into a directory made by another run is an error naming the
-setting. Records are appended to ``episodes.jsonl`` one line per ``write`` with fsync
+settings, and for a checkpoint policy a digest of its files); resuming into a directory made
+by another run is an error naming the setting. Beside it, ``provenance`` records the code that
+started the run (`rvn_data.provenance`: commit, dirty tree, versions) and ``resumed_by`` any other
+code that later added episodes to it; ``metrics.json`` carries both. Records are appended to ``episodes.jsonl`` one line per ``write`` with fsync
 as episodes finish; a torn last line from an interrupted run is dropped on resume. At
 the end the file is rewritten in episode order, so it does not depend on the number
 of workers.
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 from pathlib import Path
@@ -16,6 +19,7 @@ from pathlib import Path
 from rvn_data.benchmark.episodes_store import check_settings
 from rvn_data.navmesh.settings import recorded
 from rvn_data.benchmark.metrics import dumps_record, read_records, write_records, write_text_atomic
+from rvn_data.provenance import provenance, short
 
 IDENTITY_KEYS = ("policy", "method", "split", "seed", "scenes", "episodes", "agent", "navmesh", "camera", "env")
 
@@ -27,7 +31,50 @@ def run_identity(cfg: dict) -> dict:
     ident["scenes"] = {k: v for k, v in dict(cfg.get("scenes") or {}).items() if k != "root"}
     if ident["navmesh"] is not None:  # navmesh.source/file only when not the defaults
         ident["navmesh"] = recorded(dict(ident["navmesh"]))
+    files = policy_files_digest(cfg.get("policy") or {})
+    if files:
+        ident["policy_files"] = files
     return json.loads(json.dumps(ident, sort_keys=True))
+
+
+WEIGHT_FILES = (".safetensors", ".pt", ".pth", ".yaml", ".json")
+SKIP_FILES = ("state.pt",)  # optimizer state: not what the policy runs
+
+
+def policy_files_digest(policy: dict) -> dict[str, str]:
+    """``{setting: sha1}`` of the checkpoint folders a policy config names (``checkpoint_path``,
+    ``ensemble``): every weight and config file below each, by relative path and content, so an
+    evaluation of retrained weights in the same folder is another run. Logs are left out."""
+    paths: dict[str, str] = {}
+    for key, value in policy.items():
+        if key.endswith("checkpoint_path") and isinstance(value, str):
+            paths[key] = value
+        elif key == "ensemble" and value:
+            for i, v in enumerate([value] if isinstance(value, str) else list(value)):
+                paths[f"ensemble.{i}"] = str(v)
+    out = {}
+    for key, value in paths.items():
+        root = Path(value).expanduser()
+        if not root.is_dir():
+            continue  # the policy's own check names the missing folder
+        h = hashlib.sha1()
+        for f in sorted(p for p in root.rglob("*") if p.is_file()):
+            rel = f.relative_to(root)
+            if (f.suffix in WEIGHT_FILES or f.name == "latest") and f.name not in SKIP_FILES \
+                    and not any(part.startswith((".", "tb")) for part in rel.parts):
+                h.update(rel.as_posix().encode() + b"\0")
+                with open(f, "rb") as fh:
+                    for chunk in iter(lambda: fh.read(1 << 20), b""):
+                        h.update(chunk)
+        out[key] = h.hexdigest()[:16]
+    return out
+
+
+def episode_set_digest(records: list[dict]) -> str:
+    """Digest of the episodes a run drove (scene, episode index, first-goal distance): runs with the
+    same digest drove the same start poses and first goals."""
+    keys = sorted((str(r["scene_id"]), int(r["episode_index"]), round(float(r["d0"] or 0.0), 4)) for r in records)
+    return hashlib.sha1(json.dumps(keys).encode()).hexdigest()[:12]
 
 
 MOVED = {"rvn_data.policies.": "rvn_data.benchmark.policies."}  # reference policies' old module
@@ -57,18 +104,32 @@ class RunDir:
         self.records_path = self.dir / "episodes.jsonl"
         self.metrics_path = self.dir / "metrics.json"
         self.table_path = self.dir / "table.md"
+        self.provenance = provenance()
+        self.resumed_by: list[dict] = []
 
     def open(self, resume: bool = True) -> dict[tuple[int, int], dict]:
         """Prepare the directory; returns the records already done (when resuming)."""
         self.dir.mkdir(parents=True, exist_ok=True)
         done: dict[tuple[int, int], dict] = {}
+        started_by = self.provenance
         if resume and self.run_path.exists():
-            check_settings(self.run_path, moved_targets(json.loads(self.run_path.read_text())), self.identity, what="rvn-eval run",
+            stored = moved_targets(json.loads(self.run_path.read_text()))
+            earlier, resumed_by = stored.pop("provenance", None), stored.pop("resumed_by", [])
+            if "policy_files" in self.identity and "policy_files" not in stored:
+                stored["policy_files"] = self.identity["policy_files"]  # a run.json from before the digest
+            check_settings(self.run_path, stored, self.identity, what="rvn-eval run",
                            hint="use another out_dir, or resume=false to start it over")
             if self.records_path.exists():
                 for rec in read_records(self.records_path, drop_partial_tail=True):
                     done[record_key(rec)] = rec
-        write_text_atomic(self.run_path, json.dumps(self.identity, sort_keys=True, indent=1) + "\n")
+            if done:  # episodes of the earlier code stay: record both
+                started_by = earlier or {"commit": None, "dirty": None, "version": "unknown", "generator_version": None}
+                self.resumed_by = list(resumed_by)
+                if short(self.provenance) not in {short(p) for p in [started_by, *self.resumed_by]}:
+                    self.resumed_by.append(self.provenance)  # other code added episodes
+        self.provenance = started_by
+        record = {**self.identity, "provenance": started_by, **({"resumed_by": self.resumed_by} if self.resumed_by else {})}
+        write_text_atomic(self.run_path, json.dumps(record, sort_keys=True, indent=1) + "\n")
         write_records(self.records_path, done.values())  # clean file: no torn tail to append after
         for stale in (self.metrics_path, self.table_path):
             if stale.exists() and not done:
@@ -88,5 +149,8 @@ class RunDir:
     def finish(self, records: list[dict], metrics: dict, table: str) -> None:
         """Write episodes.jsonl (episode order), metrics.json and table.md atomically."""
         write_records(self.records_path, records)
+        metrics = {**metrics, "provenance": self.provenance, "episode_set": episode_set_digest(records)}
+        if self.resumed_by:
+            metrics["resumed_by"] = self.resumed_by
         write_text_atomic(self.metrics_path, json.dumps(metrics, sort_keys=True, indent=1, allow_nan=False) + "\n")
         write_text_atomic(self.table_path, table)

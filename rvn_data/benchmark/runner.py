@@ -86,7 +86,9 @@ def seed_frameworks(key: Iterable[int]) -> None:
 
 
 def run_episode(env, policy, k: int, name: str, seed: int = 0) -> dict:
-    """Run episode ``k`` of the env's eval schedule to its end; returns its record."""
+    """Run episode ``k`` of the env's eval schedule to its end; returns its record. A policy with
+    ``episode_stats() -> dict`` (counts since its ``reset()``, e.g. depth vetoes) has them recorded
+    under ``policy_stats``."""
     obs, _ = env.reset(options={"episode": int(k)})
     seed_frameworks([seed, *env.unwrapped.episode_key])
     policy.reset()
@@ -94,7 +96,11 @@ def run_episode(env, policy, k: int, name: str, seed: int = 0) -> dict:
         action = check_action(policy.act(obs), name)
         obs, _, terminated, truncated, info = env.step(action)
         if terminated or truncated:
-            return info["episode"]
+            rec = info["episode"]
+            stats = getattr(policy, "episode_stats", None)
+            if callable(stats):
+                rec["policy_stats"] = {str(key): int(v) for key, v in dict(stats()).items()}
+            return rec
 
 
 _WORKER: dict = {}

@@ -68,7 +68,9 @@ class PointGoalPolicy:
     right around an obstacle) whole, where the mean trajectory would run between the two.
     With several members (``policy.ensemble``), ``vote`` pools every member's samples, member 0's first.
     ``depth_veto`` (metres with the band rule, a :class:`DepthVeto`, or None: off): turn instead of a
-    MOVE_FORWARD that member 0's depth head sees blocked (:mod:`.depth_veto`); ``vetoes`` counts them since ``reset()``."""
+    MOVE_FORWARD that member 0's depth head sees blocked (:mod:`.depth_veto`); ``vetoes`` counts them since ``reset()``.
+    ``episode_stats()`` (recorded by rvn-eval in each episode's ``policy_stats``): ``decisions`` (model
+    calls since ``reset()``), ``vetoes``, and what a subclass adds."""
 
     AGGREGATES = ("first", "vote")
 
@@ -90,6 +92,10 @@ class PointGoalPolicy:
         self.queues = [deque(maxlen=m.model.context_size + 1) for m in self.members]
         self.generator = torch.Generator(device=self.device).manual_seed(self.seed)
         self.vetoes = 0
+        self.decisions = 0
+
+    def episode_stats(self) -> dict[str, int]:
+        return {"decisions": self.decisions, "vetoes": self.vetoes}
 
     def _push(self, rgb: np.ndarray) -> list[torch.Tensor]:
         """Encode the frame for every member; return each member's context tokens [1,C+1,D].
@@ -143,6 +149,7 @@ class PointGoalPolicy:
             if np.linalg.norm(pointgoal) < self.control.stop_radius:
                 return int(Action.STOP)
             samples = self.sample(tokens, pointgoal)
+            self.decisions += 1
             self.last_waypoints = self.choose(samples, pointgoal)
             action = int(waypoints_to_action(self.last_waypoints, pointgoal, self.control))
             if action == Action.MOVE_FORWARD and self.depth_veto is not None:
@@ -168,6 +175,20 @@ class NoMaDNegPolicy(PointGoalPolicy):
         self.selection, self.cor_alpha = selection, float(cor_alpha)
         super().__init__(members, control, num_samples, seed, device, threads=threads, depth_veto=depth_veto)
 
+    def reset(self) -> None:
+        super().reset()
+        self.cor_other_sample = self.cor_other_action = 0
+
+    def episode_stats(self) -> dict[str, int]:
+        """Also how often CoR picked another expert sample than sample 0 (``cor_other_sample``) and
+        how often that changed the action (``cor_other_action``): what CoR does beyond NoMaD-PointGoal."""
+        return {**super().episode_stats(), "cor_other_sample": self.cor_other_sample, "cor_other_action": self.cor_other_action}
+
     def choose(self, samples: list[np.ndarray], pointgoal: np.ndarray) -> np.ndarray:
         expert, negative = samples
-        return expert[select_expert(expert, negative, self.cor_alpha, self.selection)]
+        k = int(select_expert(expert, negative, self.cor_alpha, self.selection))
+        if k != 0:
+            self.cor_other_sample += 1
+            if waypoints_to_action(expert[k], pointgoal, self.control) != waypoints_to_action(expert[0], pointgoal, self.control):
+                self.cor_other_action += 1
+        return expert[k]

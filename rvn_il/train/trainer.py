@@ -23,8 +23,10 @@ from tqdm import tqdm
 
 from ..data import BatchView, EpochSampler, crop_setting, depth_seed, make_dataset, make_depth_frames, recorded_hfov
 from rvn_data.cache_root import cache_root
+from rvn_data.provenance import provenance_record
 from ..models import build_model, resolve_size
-from ..models.checkpoint import latest_checkpoint, load_state_dict_checked, read_weights, save_checkpoint, write_config
+from ..models.checkpoint import (latest_checkpoint, load_state_dict_checked, read_config, read_weights, save_checkpoint,
+                                 write_config)
 from ..models.encoders import IMAGENET_MEAN, IMAGENET_STD
 from .adopt import adopt_expert
 from .ema import EMA
@@ -82,7 +84,9 @@ def run_training(cfg: Mapping[str, Any], on_checked: Callable[[dict], None] | No
     if on_checked is not None:
         on_checked(cfg)
     if rank == 0:
-        write_config(out_dir, cfg)
+        resuming = any((out_dir / m / "latest").is_file() for m in ("model", "expert", "negative"))
+        earlier = read_config(out_dir) if resuming and (out_dir / "config.yaml").is_file() else None
+        write_config(out_dir, {**cfg, **provenance_record(earlier, resuming)})
     for index, (member, root) in enumerate(roots.items()):
         train_member(cfg, member, index, root, out_dir, device, rank, world)
     if world > 1:
