@@ -44,3 +44,13 @@ def check_identity(path: str | Path, stored: Mapping[str, Any], wanted: Mapping[
     extra = f" (also {', '.join(f'{name(k2)}: {a2!r} -> {b2!r}' for k2, a2, b2 in more)})" if more else ""
     raise ValueError(f"{what} {path} was made with {name(k)}={a!r} but this run uses {name(k)}={b!r}{extra}; "
                      + hint.format(dir=Path(path).parent))
+
+
+def other_dir(path: str | Path, stored: Mapping[str, Any], wanted: Mapping[str, Any]) -> Path:
+    """A folder beside ``path`` named after (up to two of) the settings this run changes, e.g.
+    ``runs/eval/val/nomad`` -> ``runs/eval/val/nomad_aggregatevote``: what a refused run can use instead."""
+    import re
+
+    path = Path(path)
+    tags = [re.sub(r"[^A-Za-z0-9._-]+", "", f"{k.split('.')[-1]}{b}")[:40] for k, _, b in differences(stored, wanted)[:2]]
+    return path.parent / "_".join([path.name, *[t for t in tags if t]])

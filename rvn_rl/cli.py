@@ -92,7 +92,7 @@ def main() -> None:
     check_choices(sys.argv[1:])
     _register_task_schemas()
     register_groups()
-    run_hydra(_main)
+    run_hydra(_main, "rvn-rl", "rl", CONF_DIR)
 
 
 if __name__ == "__main__":

@@ -29,11 +29,12 @@ def plain(cfg) -> dict:
 
 @pytest.mark.slow
 @pytest.mark.parametrize("module, typo, wrong_type, messages", [
-    ("rvn_data.gen.cli", "camera.widht=3", "camera.width=abc", ("Key 'widht' not in 'CameraConfig'", "camera.width")),
-    ("rvn_il.train.cli", "train.bach_size=4", "train.max_steps=many", ("Key 'bach_size' not in 'TrainLoopConfig'",
-                                                                        "train.max_steps")),
-    ("rvn_data.benchmark.cli", "episodes.per_scne=3", "env.t_max=long", ("Key 'per_scne' not in 'EvalEpisodesConfig'",
-                                                                         "env.t_max")),
+    ("rvn_data.gen.cli", "camera.widht=3", "camera.width=abc", ("camera.widht is not a setting of rvn-gen; nearest: "
+                                                                "camera.width", "camera.width")),
+    ("rvn_il.train.cli", "train.bach_size=4", "train.max_steps=many", ("train.bach_size is not a setting of rvn-train; "
+                                                                        "nearest: train.batch_size", "train.max_steps")),
+    ("rvn_data.benchmark.cli", "episodes.per_scne=3", "env.t_max=long", ("episodes.per_scne is not a setting of rvn-eval; "
+                                                                         "nearest: episodes.per_scene", "env.t_max")),
 ])
 def test_cli_rejects_typo_and_wrong_type_at_start_up(tmp_path, module, typo, wrong_type, messages):
     for arg, message in ((typo, messages[0]), (wrong_type, "could not be converted to Integer")):

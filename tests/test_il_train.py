@@ -105,7 +105,7 @@ def test_cli_trains_and_writes_a_self_contained_checkpoint(runs, name):
 def test_checkpoint_of_another_model_is_named(runs, data):
     with pytest.raises(ValueError, match="holds a 'vint_pointgoal' model, not 'nomad_pointgoal'"):
         load_policy(runs["vint_pointgoal"], model="nomad_pointgoal")
-    with pytest.raises(ValueError, match="unknown policy setting"):
+    with pytest.raises(ValueError, match="policy.lookahead is not a policy setting; nearest: lookahead_min_dist"):
         load_policy(runs["vint_pointgoal"], lookahead=3)
     with pytest.raises(ValueError, match="not an rvn-train checkpoint directory"):
         load_policy(data)

@@ -205,3 +205,23 @@ def test_checkpoint_runs_are_labelled_by_their_folder(tmp_path):
     cfg = load_config("eval", ["policy=checkpoint", f"policy.checkpoint_path={tmp_path / 'nomad_seed1'}", "out_dir=x"])
     assert _plain_config(cfg)["method"] == "nomad_seed1"
     assert _plain_config(load_config("eval", ["policy=random", "out_dir=x"]))["method"] == "policy"
+
+
+def test_paired_tests_on_the_same_episodes():
+    """McNemar on the discordant episodes and the paired CPK tests, on counts where the answer is known."""
+    from rvn_data.benchmark.significance import Row, paired
+
+    def row(label, per):
+        succ = sum(s for s, _, _ in per.values())
+        return Row(label, succ, len(per), sum(c for _, c, _ in per.values()), sum(k for _, _, k in per.values()), per)
+
+    n = 200
+    a = row("a", {f"e{i}": (i < 120, int(i % 10 == 0), 0.05) for i in range(n)})   # 20 collisions over 10 km
+    b = row("b", {f"e{i}": (i < 100, int(i % 5 == 0), 0.05) for i in range(n)})    # 40 collisions over 10 km
+    res = paired(a, b)
+    assert (res["won"], res["lost"]) == (20, 0) and res["mcnemar_p"] == pytest.approx(2 * 0.5 ** 20)
+    assert res["cpk_ratio"] == pytest.approx(0.5) and res["cpk_ratio_ci"][0] < 0.5 < res["cpk_ratio_ci"][1] < 1.0
+    assert res["cpk_paired_p"] < 0.01 and paired(a, b) == res  # seeded: the same records, the same p
+    same = paired(a, row("a2", dict(a.per_episode)))
+    assert same["cpk_ratio"] == pytest.approx(1.0) and same["cpk_paired_p"] == 1.0 and same["mcnemar_p"] == 1.0
+    assert paired(a, row("c", {f"x{i}": (True, 0, 0.05) for i in range(n)})) is None  # other episodes: not paired

@@ -104,7 +104,7 @@ def _main(cfg: DictConfig) -> None:
 
 
 def main() -> None:
-    run_hydra(_main)
+    run_hydra(_main, "rvn-eval", "eval")
 
 
 if __name__ == "__main__":

@@ -85,7 +85,9 @@ def tests(runs: list[Run], compare: list[tuple[str, str]] | None = None) -> str:
     out = []
     for split in dict.fromkeys(r.split for r in runs):
         rows = [Row(r.method, sum(bool(e["first_goal_success"]) for e in r.records), len(r.records),
-                    int(r.metrics.get("collisions", 0)), float(r.metrics.get("distance_km", 0.0)))
+                    int(r.metrics.get("collisions", 0)), float(r.metrics.get("distance_km", 0.0)),
+                    {e["episode_id"]: (bool(e["first_goal_success"]), int(e["collisions"]), float(e["path_length"]) / 1e3)
+                     for e in r.records})
                 for r in runs if r.split == split]
         wanted = None if compare is None else [(a, b) for a, b in compare if {a, b} <= {row.label for row in rows}]
         if compare is not None and not wanted:
@@ -144,8 +146,10 @@ def write_report(runs: list[Run], output: str | Path, title: str = "RVN benchmar
              goal_endings(runs),
              "\n## Significance\n",
              "Two-sided p-values: Fisher's exact test on first-goal successes (SR_1); the exact conditional test of "
-             "two Poisson rates on collisions per km driven (CPK). Rows of the same split; a p below 0.05 marks a "
-             "difference unlikely under equal rates.\n", significance,
+             "two Poisson rates on collisions per km driven (CPK). Rows on the same episodes are also compared pair by "
+             "pair: McNemar's exact test on the episodes only one row succeeds on (won–lost), and the CPK ratio with a "
+             "95 % bootstrap interval and a paired randomisation test (labels swapped per episode). Rows of the same "
+             "split; a p below 0.05 marks a difference unlikely under equal rates.\n", significance,
              "\n## Runs\n", run_details(runs, base),
              "\n## Plots\n",
              f"![SR_1]({plots['sr1'].name})\n", f"![CPK]({plots['cpk'].name})\n", f"![Goals reached]({plots['goals'].name})\n",

@@ -17,6 +17,7 @@ import os
 from pathlib import Path
 
 from rvn_data.benchmark.episodes_store import check_settings
+from rvn_data.identity import other_dir
 from rvn_data.navmesh.settings import recorded
 from rvn_data.benchmark.metrics import dumps_record, read_records, write_records, write_text_atomic
 from rvn_data.provenance import provenance, short
@@ -118,7 +119,8 @@ class RunDir:
             if "policy_files" in self.identity and "policy_files" not in stored:
                 stored["policy_files"] = self.identity["policy_files"]  # a run.json from before the digest
             check_settings(self.run_path, stored, self.identity, what="rvn-eval run",
-                           hint="use another out_dir, or resume=false to start it over")
+                           hint=f"use another out_dir (e.g. out_dir={other_dir(self.dir, stored, self.identity)}), "
+                           "or resume=false to start it over")
             if self.records_path.exists():
                 for rec in read_records(self.records_path, drop_partial_tail=True):
                     done[record_key(rec)] = rec

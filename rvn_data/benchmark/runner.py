@@ -55,7 +55,7 @@ def make_policy(policy_cfg: dict, env, name: str):
         policy = instantiate(dict(policy_cfg), _convert_="all")
     except InstantiationException as err:  # unwrap Hydra's wrapper: the cause names the problem
         cause = err.__cause__ or err
-        raise ValueError(f"policy {name!r}: {cause}") from cause
+        raise ValueError(f"policy {name!r}: {cause}{_valid_settings(policy_cfg, cause)}") from cause
     for method in ("reset", "act"):
         if not callable(getattr(policy, method, None)):
             raise TypeError(f"policy {name!r} ({type(policy).__name__}) has no {method}() method; "
@@ -63,6 +63,25 @@ def make_policy(policy_cfg: dict, env, name: str):
     if env is not None and callable(getattr(policy, "bind", None)):
         policy.bind(env)
     return policy
+
+
+def _valid_settings(policy_cfg: dict, cause: BaseException) -> str:
+    """``; policy settings: a, b (nearest: a)`` for an unexpected keyword, from the class's signature."""
+    import difflib
+    import inspect
+    import re
+
+    m = re.search(r"unexpected keyword argument '(\w+)'", str(cause))
+    if m is None:
+        return ""
+    try:
+        from hydra.utils import get_object
+
+        params = [p for p in inspect.signature(get_object(str(policy_cfg["_target_"]))).parameters if p not in ("self", "env")]
+    except (ImportError, ValueError, TypeError, KeyError, AttributeError):
+        return ""
+    close = difflib.get_close_matches(m.group(1), params, n=2, cutoff=0.6)
+    return f"; policy.* settings: {', '.join(params) or 'none'}" + (f" (nearest: {', '.join(close)})" if close else "")
 
 
 def check_action(action, name: str) -> int:

@@ -7,16 +7,29 @@
   c_a + c_b, c_a is binomial with p = km_a / (km_a + km_b) when the rates are equal (the exact
   conditional test of two Poisson rates), two-sided.
 
+Rows run on the same episodes (the same episode ids, as every row of one experiment) are also
+compared pair by pair, which is the more sensitive test there:
+
+- SR_1: McNemar's exact test on the episodes only one of the two rows succeeds on (won–lost;
+  binomial with p = 1/2 on the discordant pairs), two-sided.
+- CPK: the ratio CPK(A) / CPK(B) with a 95 % bootstrap interval over episodes, and a paired
+  randomisation test: under equal rates the two rows' (collisions, km) of an episode are
+  exchangeable, so the labels are swapped per episode at random (`PERMUTATIONS` draws, a fixed seed:
+  the same records give the same p) and the observed |log ratio| is ranked among the draws'.
+
 A row counts as a claim with 200 or more episodes; with fewer, differences of a few episodes are
 noise, which the p-values say.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from itertools import combinations
 from typing import Iterable, Sequence
 
+import numpy as np
 from scipy.stats import binomtest, fisher_exact
+
+PERMUTATIONS = 10_000
 
 
 @dataclass(frozen=True)
@@ -28,6 +41,8 @@ class Row:
     episodes: int
     collisions: int
     km: float  # distance travelled, kilometres
+    # per episode id: (first goal reached, collisions, km); empty when the row's records are not at hand
+    per_episode: dict = field(default_factory=dict, compare=False)
 
     @property
     def sr1(self) -> float:
@@ -52,6 +67,32 @@ def cpk_p(a: Row, b: Row) -> float:
     return float(binomtest(a.collisions, total, a.km / (a.km + b.km), alternative="two-sided").pvalue)
 
 
+def paired(a: Row, b: Row, seed: int = 0) -> dict | None:
+    """McNemar and the paired CPK tests of two rows on the same episodes; None when their episodes differ."""
+    if not a.per_episode or set(a.per_episode) != set(b.per_episode):
+        return None
+    keys = sorted(a.per_episode)
+    ea, eb = np.array([a.per_episode[k] for k in keys], float), np.array([b.per_episode[k] for k in keys], float)
+    won, lost = int(((ea[:, 0] > 0) & (eb[:, 0] == 0)).sum()), int(((ea[:, 0] == 0) & (eb[:, 0] > 0)).sum())
+    mcnemar = float(binomtest(won, won + lost).pvalue) if won + lost else 1.0
+    rng = np.random.default_rng(seed)
+
+    def log_ratio(ca, ka, cb, kb):  # +0.5: defined with no collisions on one side
+        return np.log((ca + 0.5) / np.maximum(ka, 1e-9)) - np.log((cb + 0.5) / np.maximum(kb, 1e-9))
+
+    observed = log_ratio(ea[:, 1].sum(), ea[:, 2].sum(), eb[:, 1].sum(), eb[:, 2].sum())
+    swap = rng.random((PERMUTATIONS, len(keys))) < 0.5
+    sums = [np.where(swap, y, x).sum(1) for x, y in ((ea[:, 1], eb[:, 1]), (ea[:, 2], eb[:, 2]),
+                                                    (eb[:, 1], ea[:, 1]), (eb[:, 2], ea[:, 2]))]
+    drawn = log_ratio(*sums)
+    p_cpk = float((1 + np.sum(np.abs(drawn) >= abs(observed) - 1e-12)) / (1 + PERMUTATIONS))
+    idx = rng.integers(0, len(keys), (PERMUTATIONS, len(keys)))
+    ratios = np.exp(log_ratio(ea[idx, 1].sum(1), ea[idx, 2].sum(1), eb[idx, 1].sum(1), eb[idx, 2].sum(1)))
+    lo, hi = np.percentile(ratios, [2.5, 97.5])
+    return {"won": won, "lost": lost, "mcnemar_p": mcnemar, "cpk_ratio": a.cpk / b.cpk if b.cpk else float("nan"),
+            "cpk_ratio_ci": (float(lo), float(hi)), "cpk_paired_p": p_cpk}
+
+
 def format_p(p: float) -> str:
     return f"{p:.2g}" if p >= 1e-4 else "<1e-4"
 
@@ -72,10 +113,18 @@ def pairs(rows: Sequence[Row], compare: Iterable[tuple[str, str]] | None = None)
 
 def significance_table(rows: Sequence[Row], compare: Iterable[tuple[str, str]] | None = None) -> str:
     """Markdown table of both tests for each pair."""
-    lines = ["| A | B | SR_1 A | SR_1 B | Fisher p (SR_1) | CPK A | CPK B | p (CPK, Poisson rates) |",
-             "|---|---|---:|---:|---:|---:|---:|---:|"]
+    lines = ["| A | B | SR_1 A | SR_1 B | Fisher p (SR_1) | CPK A | CPK B | p (CPK, Poisson rates) | "
+             "same episodes: won–lost, McNemar p | CPK A / B [95 % CI], paired p |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for a, b in pairs(rows, compare):
+        pair = paired(a, b)
+        if pair is None:
+            extra = "– | –"
+        else:
+            lo, hi = pair["cpk_ratio_ci"]
+            extra = (f"{pair['won']}–{pair['lost']}, {format_p(pair['mcnemar_p'])} | "
+                     f"{pair['cpk_ratio']:.2f} [{lo:.2f}, {hi:.2f}], {format_p(pair['cpk_paired_p'])}")
         lines.append(f"| {a.label} | {b.label} | {a.sr1:.3f} ({a.successes}/{a.episodes}) | "
                      f"{b.sr1:.3f} ({b.successes}/{b.episodes}) | {format_p(sr1_p(a, b))} | {a.cpk:.0f} | {b.cpk:.0f} | "
-                     f"{format_p(cpk_p(a, b))} |")
+                     f"{format_p(cpk_p(a, b))} | {extra} |")
     return "\n".join(lines) + "\n"

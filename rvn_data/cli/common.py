@@ -130,10 +130,21 @@ def fail(prog: str, err: BaseException, code: int | None = None) -> NoReturn:
     sys.exit(code if code is not None else BAD_INPUT if isinstance(err, ConfigError) else RUN_FAILED)
 
 
-def run_hydra(hydra_main: Callable[[], None]) -> None:
-    """Call a ``@hydra.main`` function. Hydra reports its own config errors (an unknown key, a
-    value of the wrong type, an unknown group option) with status 1 before the command is
-    called; they are bad input, so they exit with `BAD_INPUT` like the command's own."""
+def run_hydra(hydra_main: Callable[[], None], prog: str | None = None, config_name: str | None = None,
+              config_dir: str | None = None) -> None:
+    """Call a ``@hydra.main`` function. With ``prog`` and ``config_name``, the command line's overrides
+    are first composed as the command will (`rvn_data.cli.overrides.check`): a typo'd key (with or
+    without ``+``), a value of the wrong type or an unknown group option ends in one line naming the
+    setting and `BAD_INPUT`, before Hydra starts. Whatever Hydra itself still reports with status 1
+    before the command is called is bad input too, so it exits with `BAD_INPUT` like the command's own."""
+    if prog is not None and config_name is not None:
+        from rvn_data.cli.overrides import check
+        from rvn_data.config import CONF_DIR
+
+        try:
+            check(prog, config_name, config_dir or CONF_DIR, sys.argv[1:])
+        except ConfigError as err:
+            fail(prog, err)
     try:
         hydra_main()
     except SystemExit as exc:

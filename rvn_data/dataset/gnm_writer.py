@@ -55,14 +55,21 @@ class GNMWriter:
     def _check_identity(self) -> None:
         path = self.out_dir / ".rvn" / "settings.json"
         mine = self.settings.identity()
-        if path.is_file():
+        if path.is_file() and self._holds_work():
             stored, wanted = json.loads(path.read_text()), json.loads(writer.dumps_json(mine))
             check_identity(path, stored, wanted, f"out_dir={self.out_dir} holds a dataset:",
                            f"use another out_dir (e.g. out_dir={self._other_dir(stored, wanted)}), "
                            "or the same settings to resume or extend it",
                            name=lambda k: k if k.split(".")[0] in SETTING_GROUPS else f"dataset.{k}")
             return
-        writer.write_text_atomic(path, writer.dumps_json(mine))
+        writer.write_text_atomic(path, writer.dumps_json(mine))  # new, or nothing made yet: this run's settings
+
+    def _holds_work(self) -> bool:
+        """Whether an earlier run left anything made with its settings: a finished scene or a trajectory
+        folder. A run that failed on every scene leaves neither, so the corrected command starts afresh."""
+        if any((self.out_dir / ".rvn" / "scenes").glob("*.json")):
+            return True
+        return any(is_complete(p) for p in self.out_dir.iterdir() if p.is_dir() and not p.name.startswith("."))
 
     def _other_dir(self, stored: dict, wanted: dict) -> Path:
         """A folder beside out_dir named after the settings that differ (rvn_expert_perturb_prob0.1),

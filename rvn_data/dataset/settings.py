@@ -13,6 +13,7 @@ from typing import Any, Mapping
 
 from rvn_data.conventions import AgentConfig
 from rvn_data.navmesh.settings import NavMeshSettings, recorded
+from rvn_data.render.camera import CameraConfig
 
 KINDS = ("expert", "negative")
 
@@ -179,5 +180,11 @@ class GenSettings:
         ds = {k: (float(v) if k in floats and isinstance(v, int) and not isinstance(v, bool) else v) for k, v in ds.items()}
         navmesh = dict(cfg.get("navmesh", {}))
         NavMeshSettings.from_config(navmesh)  # checked here, before any scene: a bad value is one error, not one per scene
+        CameraConfig.from_dict(cfg.get("camera", {}))  # likewise
+        from rvn_data.render import BACKENDS
+
+        if str(renderer).lower() not in BACKENDS or isinstance(device, bool) or device < 0:
+            raise ValueError(f"renderer.backend={renderer!r}, renderer.device={device!r}: choose a backend of "
+                             f"{', '.join(BACKENDS)} and a device index >= 0")
         return cls(seed=cfg.get("seed", 0), renderer=str(renderer), render_device=device, agent=agent,
                    navmesh=navmesh, camera=dict(cfg.get("camera", {})), **ds)

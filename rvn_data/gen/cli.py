@@ -35,7 +35,7 @@ def _main(cfg: DictConfig) -> None:
 
 
 def main() -> None:
-    run_hydra(_main)
+    run_hydra(_main, "rvn-gen", "gen")
 
 
 if __name__ == "__main__":

@@ -85,6 +85,11 @@ def generate(cfg: Any) -> GenReport:
         if int(cfg.get("workers", 1)) < 1:
             raise ValueError(f"workers={cfg.get('workers')} must be >= 1")
         specs = list_scenes(cfg)
+        if not specs:
+            sc = cfg["scenes"]
+            raise ValueError(f"no scenes to generate: scenes.first_scene={sc.get('first_scene') or 0} and scenes.num_scenes="
+                             f"{sc.get('num_scenes')} select none of split {sc['split']!r}'s scenes; lower first_scene or "
+                             "raise num_scenes (null: every scene)")
         gnm = GNMWriter.open(out_dir, settings)
     if cfg.get("mode", "generate") == "merge":
         return GenReport(merge(gnm, specs, bool(cfg.get("allow_partial", False))))

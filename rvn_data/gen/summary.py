@@ -54,8 +54,8 @@ def summary(s: GenSettings, out_dir: Path, results: list[SceneResult], specs: li
         lines.append(f"  splits/manifest: waiting for {len(missing)} scenes of other shards "
                      "(the last shard writes them, or run rvn-gen mode=merge)")
     else:
-        lines.append(f"  wrote data_splits/{s.name}/{{train,test}}/traj_names.txt, data_config.yaml, "
-                     f"manifest.json, maps/*.png")
+        maps = ", maps/*.png" if any((Path(out_dir) / "maps").glob("*.png")) else ""
+        lines.append(f"  wrote data_splits/{s.name}/{{train,test}}/traj_names.txt, data_config.yaml, manifest.json{maps}")
     failures = [r for r in results if r.error]
     if failures:
         lines.append(f"  FAILED scenes ({len(failures)}):")

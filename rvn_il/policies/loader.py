@@ -106,7 +106,12 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
     name = model_cfg["name"]
     unknown = set(overrides) - POLICY_KEYS - AGENT_KEYS
     if unknown:
-        raise ValueError(f"unknown policy setting(s) {sorted(unknown)}; valid: {sorted(POLICY_KEYS | AGENT_KEYS)}")
+        import difflib
+
+        key = sorted(unknown)[0]
+        close = difflib.get_close_matches(key, sorted(POLICY_KEYS | AGENT_KEYS), n=2, cutoff=0.6)
+        raise ValueError(f"policy.{key} is not a policy setting" + (f"; nearest: {', '.join(close)}" if close else "")
+                         + f" (valid: {', '.join(sorted(POLICY_KEYS | AGENT_KEYS))})")
     pol = {**(model_cfg.get("policy") or {}), "seed": cfg.get("seed", 0)}
     pol.update({k: v for k, v in overrides.items() if k in POLICY_KEYS})
     agent = AgentConfig(**{**(cfg.get("agent") or {}), **{k: v for k, v in overrides.items() if k in AGENT_KEYS}})

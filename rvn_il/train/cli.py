@@ -55,7 +55,7 @@ def _hydra_main(cfg: DictConfig) -> None:
 
 
 def main() -> None:
-    run_hydra(_hydra_main)
+    run_hydra(_hydra_main, "rvn-train", "train")
 
 
 if __name__ == "__main__":

@@ -138,6 +138,11 @@ def main(argv: list[str] | None = None) -> int:
     from hydra.errors import HydraException
 
     try:
+        from rvn_data.cli import overrides
+        from rvn_data.config import CONF_DIR, register_configs
+
+        register_configs()
+        overrides.check(PROG, "rl_depth", CONF_DIR, argv)  # a typo'd key, with or without +, in one line
         cfg = compose(argv)
     except (ValueError, TypeError, KeyError, OmegaConfBaseException, HydraException) as err:
         print(f"{PROG}: error: {one_line(err)}", file=sys.stderr)
