@@ -109,6 +109,10 @@ def test_train_refuses_a_damaged_dataset_naming_the_repair(made, tmp_path, how):
         assert dataset_bytes(d) == dataset_bytes(made)
 
 
+def splits(d: Path) -> list[str]:
+    return "".join((d / "data_splits" / "rvn_expert" / s / "traj_names.txt").read_text() for s in ("train", "test")).split()
+
+
 def test_merge_writes_splits_of_what_is_on_disk(made, tmp_path):
     """mode=merge redoes nothing: a folder a record lists but the disk lacks is left out of the
     splits, named in the manifest and in a note with the command that redoes it."""
@@ -117,9 +121,25 @@ def test_merge_writes_splits_of_what_is_on_disk(made, tmp_path):
     proc = run("rvn_data.gen.cli", f"out_dir={d}", *TINY, "mode=merge")
     assert proc.returncode == 0, proc.stdout + proc.stderr
     command = shlex.join(["rvn-gen", f"out_dir={d.resolve()}", *TINY])
-    assert (f"  note: 1 trajectory listed by the scene records is missing or incomplete on disk (e.g. {name}) and left "
+    assert (f"  note: 1 trajectory listed by the scene records is missing or damaged ({name}: folder missing) and left "
             f"out of the splits; rerun the rvn-gen command that made {d.resolve()} (same out_dir) to redo it: {command}"
             ) in proc.stdout.splitlines()
-    listed = "".join((d / "data_splits" / "rvn_expert" / s / "traj_names.txt").read_text() for s in ("train", "test"))
-    assert name not in listed.split() and len(listed.split()) == 3
-    assert json.loads((d / "manifest.json").read_text())["left_out_missing"] == [name]
+    assert name not in splits(d) and len(splits(d)) == 3
+    assert json.loads((d / "manifest.json").read_text())["left_out_of_splits"] == {name: "folder missing"}
+
+
+def test_damage_outside_the_scene_list_is_left_out_of_the_splits(made, tmp_path):
+    """A rerun with fewer scenes checks the folders it keeps from earlier runs in full: a damaged
+    one leaves the splits, with a note; a run with its scene in the list redoes it."""
+    d = damaged_copy(made, tmp_path / "d", "image truncated", "depth truncated")  # scene 0 and scene 1
+    fewer = ["scenes.first_scene=1", "scenes.num_scenes=1", *TINY[1:]]  # procedural:train/1 only
+    proc = run("rvn_data.gen.cli", f"out_dir={d}", *fewer)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    name = DAMAGE["image truncated"][0]
+    assert (f"  note: 1 trajectory listed by the scene records is missing or damaged ({name}: 7.jpg truncated) and left "
+            f"out of the splits; rerun rvn-gen into {d.resolve()} with proc_train_0000's scene in its scene list to "
+            "redo it") in proc.stdout.splitlines()
+    assert " damaged (proc_train_0001_expert_0001: depth.npy truncated), redone" in proc.stdout
+    assert name not in splits(d) and len(splits(d)) == 3
+    assert run("rvn_data.gen.cli", f"out_dir={d}", *TINY).returncode == 0
+    assert dataset_bytes(d) == dataset_bytes(made)

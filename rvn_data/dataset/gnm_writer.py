@@ -82,17 +82,10 @@ class GNMWriter:
         path = writer.record_path(self.out_dir, slug)
         return json.loads(path.read_text()) if path.is_file() else None
 
-    def expect(self) -> Expect:
-        """What a whole folder of this dataset holds: frames of the camera's size, rvn_meta.json,
-        and depth.npy with dataset.save_depth."""
-        cam = self.settings.camera
-        return Expect((int(cam.get("width", 256)), int(cam.get("height", 256))),
-                      self.settings.depth_size if self.settings.save_depth else None, meta=True)
-
     def check(self, name: str, frames: int | None = None) -> tuple[str | None, dict | None]:
         """(None, sidecar) of a whole trajectory folder; (None, None) when it is absent and no
         record names it (``frames`` None: not written yet); (what is wrong, None) otherwise."""
-        problem, meta = check_trajectory(self.out_dir / name, self.expect(), frames)
+        problem, meta = check_trajectory(self.out_dir / name, Expect.of_settings(self.settings), frames)
         return (None, None) if problem == MISSING and frames is None else (problem, meta)
 
     def done_trajectory(self, name: str) -> dict | None:

@@ -47,6 +47,14 @@ class Expect:
             return cls()
         return cls(size, int(s.get("depth_size", 16)) if depth and s.get("save_depth") else None)
 
+    @classmethod
+    def of_settings(cls, settings) -> "Expect":
+        """What a whole folder of an rvn-gen dataset with these `GenSettings` holds: frames of the
+        camera's size, rvn_meta.json, and depth.npy with dataset.save_depth."""
+        cam = settings.camera
+        return cls((int(cam.get("width", 256)), int(cam.get("height", 256))),
+                   settings.depth_size if settings.save_depth else None, meta=True)
+
 
 def jpeg_size(f) -> tuple[int, int] | None:
     """(width, height) from the header of the JPEG file object ``f`` (at its start), or None
@@ -163,6 +171,24 @@ def damaged(root: str | Path, names: list[str], expect: Expect = Expect(), threa
         return {n: p for n, p in zip(names, problems) if p}
 
 
+def not_whole(root: str | Path, names: list[str], full: set[str], expect: Expect) -> dict[str, str]:
+    """name → what is wrong, for the folders of ``names`` that are not whole: the names in ``full``
+    are checked in full, the others (checked in full by their scene's job) only for being there
+    with their pose file and sidecar."""
+    root, out = Path(root), {}
+    for name in names:
+        if name in full:
+            problem = check_trajectory(root / name, expect)[0]
+        elif not (root / name).is_dir():
+            problem = MISSING
+        else:
+            absent = [f for f in (TRAJ_DATA, META_NAME) if not (root / name / f).is_file()]
+            problem = f"{absent[0]} missing" if absent else None
+        if problem:
+            out[name] = problem
+    return out
+
+
 def summarise(problems: dict[str, str], shown: int = 3) -> str:
     """``name: problem; name: problem; ... (and N more)`` for a report line."""
     items = [f"{n}: {p}" for n, p in list(problems.items())[:shown]]
@@ -170,4 +196,5 @@ def summarise(problems: dict[str, str], shown: int = 3) -> str:
     return "; ".join(items) + (f"; and {more} more" if more > 0 else "")
 
 
-__all__ = ["Expect", "MISSING", "check_trajectory", "damaged", "depth_problem", "image_problem", "jpeg_size", "summarise"]
+__all__ = ["Expect", "MISSING", "check_trajectory", "damaged", "depth_problem", "image_problem", "jpeg_size", "not_whole",
+           "summarise"]

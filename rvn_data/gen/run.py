@@ -110,7 +110,7 @@ def generate(cfg: Any, overrides: list[str] | None = None) -> GenReport:
     done = gnm.finalise_dataset(specs)
     seconds = time.perf_counter() - t_start
     print(summary(settings, out_dir, results, specs, done.missing, shard_index, num_shards, seconds))
-    _report_finalised(done, settings.name, out_dir)
+    _report_finalised(done, specs, out_dir)
     return GenReport(1 if any(r.error for r in results) else 0, results, seconds)
 
 
@@ -130,22 +130,25 @@ def merge(gnm: GNMWriter, specs: list[str], allow_partial: bool) -> int:
     done = gnm.finalise_dataset(specs, allow_missing=True)
     print(f"rvn-gen merge: {gnm.out_dir}: wrote data_splits/{gnm.settings.name}/, data_config.yaml, manifest.json "
           f"({len(specs) - len(missing)} of {len(specs)} scenes)")
-    _report_finalised(done, gnm.settings.name, gnm.out_dir)
+    _report_finalised(done, specs, gnm.out_dir)
     return 0
 
 
-def _report_finalised(done: Finalised, name: str, out_dir: Path) -> None:
+def _report_finalised(done: Finalised, specs: list[str], out_dir: Path) -> None:
     """Say what the splits kept from earlier runs and which stale caches were removed."""
     if done.extra:
         what = (f"of {len(done.earlier)} scenes that are not in this run's scene list (e.g. {done.earlier[0]})"
                 if done.earlier else f"beyond trajectories_per_scene (e.g. {done.extra[0]})")
         print(f"  note: the splits and manifest.json keep {len(done.extra)} trajectories earlier runs wrote here {what}; "
               "manifest.json lists them under kept_from_earlier_runs; for a dataset without them use a new out_dir")
-    if done.absent:
-        n = len(done.absent)
+    if done.left_out:
+        n, (first, problem) = len(done.left_out), next(iter(done.left_out.items()))
+        them, slug = "it" if n == 1 else "them", first.rsplit("_", 2)[0]  # <slug>_<kind>_<index>
+        hint = remake_hint(out_dir, them) if slug in {naming.scene_slug(spec) for spec in specs} else \
+            f"rerun rvn-gen into {out_dir} with {slug}'s scene in its scene list to redo {them}"
         print(f"  note: {n} {'trajectory' if n == 1 else 'trajectories'} listed by the scene records "
-              f"{'is' if n == 1 else 'are'} missing or incomplete on disk (e.g. {done.absent[0]}) and left out of the "
-              f"splits; {remake_hint(out_dir, 'it' if n == 1 else 'them')}")
+              f"{'is' if n == 1 else 'are'} missing or damaged ({first}: {problem}{', ...' if n > 1 else ''}) and left "
+              f"out of the splits; {hint}")
     if done.removed:
         print(f"  removed {len(done.removed)} stale visualnav-transformer cache(s) of the old split lists "
               f"(rebuilt on its next training): {', '.join(done.removed)}")
