@@ -14,7 +14,10 @@ surface sits up to 0.2 m above the floor), median and 95th percentile of its mag
 reachable in one and not the other; the share of 5 cm grid points over the scene's x/z bounds
 where one says navigable and the other not (a point counts as navigable when it is on any floor
 of that mesh, each mesh queried at its own floor heights). Goals for the habitat profile: area
-ratio 0.98–1.02, geodesic median ≤ 1 %, p95 ≤ 3 %, no reachability mismatch on any scene.
+ratio 0.98–1.02, geodesic median ≤ 1 %, p95 ≤ 3 %, no reachability mismatch on any scene; each
+goal prints PASS or FAIL, and a FAIL makes the exit status 1. The rvn profile has no goals against
+Recast: it erodes by the exact agent radius where Recast rounds the radius up to whole cells, so
+its larger islands are by design; its summary line is information.
 """
 from __future__ import annotations
 
@@ -35,6 +38,8 @@ FIXTURES = ROOT / "benchmarks" / "data" / "recast"
 BAKE_SCRIPT = ROOT / "benchmarks" / "recast_bake.mjs"
 DEFAULT_SCENES = ["dream_apartment"] + [f"procedural:val/{i}" for i in range(5)]
 GOALS = {"area ratio": (0.98, 1.02), "geodesic median": 1.0, "geodesic p95": 3.0, "mismatch": 0.0}
+JUDGED = {"habitat": GOALS}  # profile -> its goals against Recast; the others are shown as information
+NO_GOALS = {"rvn": "no goals against Recast: exact-radius erosion, larger than Recast's whole cells by design"}
 
 
 def fixture_name(spec: str) -> str:
@@ -122,10 +127,21 @@ def compare(nm, ref, scene, rng: np.random.Generator, n_pairs: int = 300, per_so
             "pairs": pairs, "mismatch": mismatch / max(pairs, 1), "grid_disagree": float(grid.mean())}
 
 
-def passes(f: dict) -> dict:
-    lo, hi = GOALS["area ratio"]
-    return {"area ratio": lo <= f["area_ratio"] <= hi, "geodesic median": f["geo_median_pct"] <= GOALS["geodesic median"],
-            "geodesic p95": f["geo_p95_pct"] <= GOALS["geodesic p95"], "mismatch": f["mismatch"] <= GOALS["mismatch"]}
+def passes(f: dict, goals: dict = GOALS) -> dict:
+    lo, hi = goals["area ratio"]
+    return {"area ratio": lo <= f["area_ratio"] <= hi, "geodesic median": f["geo_median_pct"] <= goals["geodesic median"],
+            "geodesic p95": f["geo_p95_pct"] <= goals["geodesic p95"], "mismatch": f["mismatch"] <= goals["mismatch"]}
+
+
+def verdict(profile: str, rows: list[dict]) -> tuple[str, bool]:
+    """The line judging ``profile``'s rows against its own goals, and whether all passed; a
+    profile without goals gets an information line (and passes)."""
+    goals = JUDGED.get(profile)
+    if goals is None:
+        return f"         information only ({NO_GOALS.get(profile, 'no goals for this profile')})", True
+    ok = {goal: all(passes(r, goals)[goal] for r in rows) for goal in goals}
+    return (f"         goals of the {profile} profile: " + ", ".join(f"{g} {'PASS' if v else 'FAIL'}" for g, v in ok.items()),
+            all(ok.values()))
 
 
 def main(argv=None) -> int:
@@ -168,24 +184,26 @@ def main(argv=None) -> int:
                   f"{f['geo_median_pct']:9.2f} {f['geo_p95_pct']:9.2f} {f['pairs']:5d} {100 * f['mismatch']:9.1f} "
                   f"{100 * f['grid_disagree']:7.2f}", flush=True)
     print()
+    failed = False
     for prof in profiles:
         mine = [r for r in rows if r["profile"] == prof]
         if not mine:
             continue
-        ok = {goal: all(passes(r)[goal] for r in mine) for goal in GOALS}
         ratios = [r["area_ratio"] for r in mine]
         print(f"{prof:<8} area ratio {min(ratios):.3f}–{max(ratios):.3f}, geodesic median ≤ "
               f"{max(r['geo_median_pct'] for r in mine):.2f} %, p95 ≤ {max(r['geo_p95_pct'] for r in mine):.2f} %, "
               f"unreachable in one only ≤ {100 * max(r['mismatch'] for r in mine):.1f} %, "
               f"grid disagreement {100 * min(r['grid_disagree'] for r in mine):.1f}–"
               f"{100 * max(r['grid_disagree'] for r in mine):.1f} %")
-        print("         goals (set for the habitat profile): " + ", ".join(f"{g} {'PASS' if v else 'FAIL'}" for g, v in ok.items()))
+        line, ok = verdict(prof, mine)
+        print(line)
+        failed |= not ok
     print(f"wall time {time.perf_counter() - t0:.1f} s")
     if args.json:
         tmp = args.json.with_suffix(args.json.suffix + ".tmp")
         tmp.write_text(json.dumps(rows, indent=1) + "\n")
         os.replace(tmp, args.json)
-    return 0
+    return 1 if failed else 0
 
 
 if __name__ == "__main__":

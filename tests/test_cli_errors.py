@@ -97,6 +97,17 @@ def test_eval_checks_paths_before_any_episode(tmp_path):
     assert not list(tmp_path.glob("*.log"))
 
 
+def test_eval_first_scene_past_the_split_is_one_readable_line(tmp_path):
+    """Issue 35: episodes.first_scene=60 on the 50 val scenes printed a raw settings dict; now one
+    line names the setting, the split's size and the range to choose from."""
+    out, episodes = tmp_path / "e", tmp_path / "episodes"
+    line = one_line_bad_input(cli("rvn-eval", "policy=random", "episodes.first_scene=60", f"out_dir={out}",
+                                  f"episodes.dir={episodes}", "progress=false", cwd=tmp_path))
+    assert line == ("rvn-eval: error: episodes.first_scene=60 is past the last scene: the val split has 50 scenes "
+                    "(indices 0 to 49); choose episodes.first_scene from 0 to 49")
+    assert not out.exists() and not episodes.exists()
+
+
 def test_train_checks_every_path_before_training(gnm, tmp_path):
     """nomad_neg: a missing data.negative_root is named before NoMaD_e is trained; a missing
     data.root, train.expert_from, an unwritable out_dir and a typo'd key: one line, status 2,

@@ -13,7 +13,8 @@ from rvn_data.dataset.writer import encode_jpeg
 
 
 def _settings(seed=0):
-    return GenSettings.from_config({"dataset": {"train_fraction": 0.5}, "agent": {}, "seed": seed})
+    return GenSettings.from_config({"dataset": {"train_fraction": 0.5}, "agent": {}, "seed": seed,
+                                    "camera": {"width": 8, "height": 8}})
 
 
 def test_writer_lifecycle_then_reader(tmp_path):
@@ -26,8 +27,8 @@ def test_writer_lifecycle_then_reader(tmp_path):
         slug = scene_slug(spec)
         name = traj_name(slug, s.kind, 0)
         pos, yaw = np.array([[0.0, 0.0], [d, 0.0], [2 * d, 0.0]]), np.zeros(3)
-        gnm.write_trajectory(name, [jpeg] * 3, pos, yaw, {"name": name}, depth=np.ones((3, 4, 4), np.float32))
-        assert gnm.done_trajectory(name) == {"name": name}
+        gnm.write_trajectory(name, [jpeg] * 3, pos, yaw, {"name": name, "frames": 3}, depth=np.ones((3, 4, 4), np.float32))
+        assert gnm.done_trajectory(name) == {"name": name, "frames": 3}
         assert gnm.missing_scenes(specs) != []
         gnm.close_scene(slug, {"scene": slug, "spec": spec, "trajectories": [
             {"name": name, "frames": 3, "t_c": 0, "path_length": 2 * d}], "failed": [], "rejected": {},
@@ -43,7 +44,7 @@ def test_writer_lifecycle_then_reader(tmp_path):
     src = load_gnm(tmp_path, "train" if train else "test")
     assert src.spacing == pytest.approx(d) and list(src.lengths) == [3]
     assert read_rgb(src.frame_path(0, 2)).shape == (8, 8, 3)
-    assert read_meta(tmp_path / src.names[0]) == {"name": src.names[0]}
+    assert read_meta(tmp_path / src.names[0]) == {"name": src.names[0], "frames": 3}
     assert (tmp_path / src.names[0] / "depth.npy").is_file()
     # resume with the same settings works; other settings are refused, naming the setting
     GNMWriter.open(tmp_path, _settings())

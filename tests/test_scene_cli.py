@@ -74,3 +74,28 @@ def test_views_subcommand(room_glb, tmp_path):
     assert main(["views", str(room_glb), "-o", str(out), "--n", "2", "--backend", "raycast"]) == 0
     names = sorted(p.name for p in out.iterdir())
     assert names == ["view_00_depth.png", "view_00_rgb.png", "view_01_depth.png", "view_01_rgb.png", "views.json"]
+
+
+@pytest.mark.slow
+def test_navmesh_tells_the_written_area_from_the_built_one(tmp_path):
+    """Issue 35: writing procedural:val/0's navmesh said 'main island 43.94 m²', reading the file back
+    42.88. The file's polygons are whole navigable cells, the built navmesh's boundary lies inside its
+    cells: both figures are printed, each the one the matching `info` gives."""
+    def rvn_scene(*args: str) -> str:
+        proc = subprocess.run([sys.executable, "-m", "rvn_data.cli.scene", *args], capture_output=True, text=True,
+                              timeout=300)
+        assert proc.returncode == 0, proc.stderr
+        return proc.stdout
+
+    out = tmp_path / "val0.navmesh"
+    wrote = rvn_scene("navmesh", "procedural:val/0", "-o", str(out)).splitlines()
+    read = json.loads(rvn_scene("info", "procedural:val/0", "--navmesh", str(out), "--json"))["navigable_area_m2"]
+    built = json.loads(rvn_scene("info", "procedural:val/0", "--json"))["navigable_area_m2"]
+    assert wrote == [f"wrote {out} ({out.stat().st_size:,} bytes)",
+                     f"  main island {read:.2f} m² in the file: its polygons are the navigable cells, whole "
+                     "(what rvn-scene info --navmesh reads back)",
+                     f"  main island {built:.2f} m² as built: the boundary placed inside the cells "
+                     "(what rvn-scene info builds)"]
+    assert f"{read:.2f}" != f"{built:.2f}" and abs(read - built) < 0.05 * built  # an honest difference, small
+    text = rvn_scene("info", "procedural:val/0", "--navmesh", str(out))
+    assert f"navigable  {read:.2f} m² on the main island (the area of the file's polygons)" in text.splitlines()

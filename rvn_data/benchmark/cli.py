@@ -40,7 +40,7 @@ def evaluate(cfg: dict, on_checked=None) -> dict:
 
     with validating():
         env_cfg = EnvConfig.from_kwargs(**env_kwargs(cfg))
-        slots = env_cfg.scene_slots()
+        slots = env_cfg.scene_slots("episodes.first_scene")
         keys = [(slots[pos][1], e) for pos, e in eval_schedule(slots, env_cfg.per_scene)]
         make_policy(cfg["policy"], None, policy_name(cfg))  # a checkpoint that does not load fails here, not after the episodes
         check_writable_dir(cfg["out_dir"])

@@ -111,8 +111,9 @@ class EnvConfig:
     def split_code(self) -> int:
         return split_code(self.split)
 
-    def scene_slots(self) -> list[tuple[str, int]]:
-        """(spec, scene index within the split) of every scene this env uses."""
+    def scene_slots(self, setting: str = "scenes.first_scene") -> list[tuple[str, int]]:
+        """(spec, scene index within the split) of every scene this env uses; ``setting``: the
+        command's name for ``scenes.first_scene`` (rvn-eval: episodes.first_scene), for its errors."""
         first = int(self.scenes.get("first_scene") or 0)
         if self.scene_specs is not None:
             specs = [str(s) for s in self.scene_specs]
@@ -120,9 +121,11 @@ class EnvConfig:
             from rvn_data.scenes.sets import scene_specs
             s = self.scenes
             specs = list(scene_specs(s["source"], self.split, root=s.get("root"),
-                                     num_scenes=s.get("num_scenes"), first_scene=first))
+                                     num_scenes=s.get("num_scenes"), first_scene=first, setting=setting))
         if not specs:
-            raise ValueError(f"no scenes for split {self.split!r} (scenes={self.scenes})")
+            group = setting.rsplit(".", 1)[0]
+            raise ValueError(f"no scenes for split {self.split!r} ({group}.num_scenes={self.scenes.get('num_scenes')}, "
+                             f"{setting}={first}); ask for at least one scene")
         return [(spec, first + i) for i, spec in enumerate(specs)]
 
     def store(self) -> EpisodeStore:

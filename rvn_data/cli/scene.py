@@ -109,7 +109,9 @@ def cmd_info(args) -> None:
           f"{settings.agent_radius} m, height {settings.agent_height} m)")
     for i, a in enumerate(nm.island_areas):
         print(f"  island {i}: {a:8.2f} m²" + ("  (main)" if i == 0 else ""))
-    print(f"navigable  {nm.navigable_area:.2f} m² on the main island")
+    what = ("the area of the file's polygons" if nm.source_file is not None else
+            "its boundary placed inside the cells; a .navmesh written from it holds whole cells")
+    print(f"navigable  {nm.navigable_area:.2f} m² on the main island ({what})")
     built = f"built from the scene (profile {settings.profile})"
     print(f"navmesh    {built if nm.source_file is None else 'read from ' + nm.source_file}")
 
@@ -135,12 +137,23 @@ def cmd_views(args) -> None:
 
 
 def cmd_navmesh(args) -> None:
+    """Write the file, read it back, and give both main-island areas: the written polygons are the
+    navigable cells, whole (a cell is in when its centre has the agent's clearance), while the
+    navmesh built from the scene places the eroded boundary inside its cells, so the two differ
+    by up to half a cell along the boundary."""
     from rvn_data.navmesh.detour_write import write_navmesh_file
+    from rvn_data.navmesh.source import load_navmesh_file
 
     scene, settings, open_navmesh = _load(args)
     nm = open_navmesh(scene, settings)
     path = write_navmesh_file(nm, args.output, tile_cells=args.tile_cells)
-    print(f"wrote {args.output} ({path.stat().st_size:,} bytes; main island {nm.navigable_area:.2f} m²)")
+    back = load_navmesh_file(path, settings, scene)
+    print(f"wrote {args.output} ({path.stat().st_size:,} bytes)")
+    print(f"  main island {back.navigable_area:.2f} m² in the file: its polygons are the navigable cells, whole "
+          "(what rvn-scene info --navmesh reads back)")
+    if nm.source_file is None:
+        print(f"  main island {nm.navigable_area:.2f} m² as built: the boundary placed inside the cells "
+              "(what rvn-scene info builds)")
 
 
 def main(argv: list[str] | None = None) -> int:

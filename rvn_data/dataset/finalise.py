@@ -15,7 +15,11 @@ The splits never shrink silently: they hold the union of every complete trajecto
 this dataset on disk, i.e. the scenes of the run's list plus the scenes done (or begun) by
 earlier runs into the same out_dir with other lists, and folders beyond a scene's record (an
 earlier run with more ``trajectories_per_scene``); the manifest names what came from earlier
-runs (``kept_from_earlier_runs``) and rvn-gen's summary says so. When a ``traj_names.txt``
+runs (``kept_from_earlier_runs``) and rvn-gen's summary says so. They hold only whole folders: the
+scene jobs check their scenes' folders in full and redo what is damaged; here the folders of
+earlier runs are checked in full and those of the run's scene list for being there (another
+shard's, or with ``mode=merge``); a trajectory that fails is left out, named in the manifest
+(``left_out_of_splits``: name → what is wrong) and by rvn-gen's summary. When a ``traj_names.txt``
 changes, the caches visualnav-transformer keeps beside it (``dataset_<name>.lmdb``,
 ``dataset_dist_*.pkl``; built once, never checked again) are removed.
 
@@ -37,6 +41,7 @@ import numpy as np
 from rvn_data.dataset import naming, writer
 from rvn_data.dataset.reader import is_complete, read_meta
 from rvn_data.dataset.settings import GenSettings
+from rvn_data.dataset.verify import Expect, not_whole
 
 
 def split_scenes(slugs: list[str], seed: int, train_fraction: float) -> tuple[list[str], list[str]]:
@@ -85,7 +90,8 @@ def _stats(values: list[float]) -> dict:
 class Finalised:
     """What `finalise_dataset` did: ``missing`` specs (nothing written unless allowed),
     ``earlier`` slugs of scenes not in the run's list kept from earlier runs, ``extra``
-    trajectory folders kept beyond their scene's record, ``removed`` stale caches of the
+    trajectory folders kept beyond their scene's record, ``left_out`` trajectories records list
+    whose folder is gone or damaged (name → what is wrong), ``removed`` stale caches of the
     official GNM tooling (paths relative to out_dir)."""
 
     missing: list[str]
@@ -93,6 +99,7 @@ class Finalised:
     earlier: list[str] = field(default_factory=list)
     extra: list[str] = field(default_factory=list)
     removed: list[str] = field(default_factory=list)
+    left_out: dict[str, str] = field(default_factory=dict)
 
 
 def finalise(out_dir: Path, settings: GenSettings, specs: list[str], allow_missing: bool = False) -> list[str]:
@@ -131,6 +138,11 @@ def finalise_dataset(out_dir: Path, settings: GenSettings, specs: list[str], all
         else:
             continue
         kept += [m["name"] for m in metas]
+    left_out = not_whole(out_dir, sorted(t["name"] for r in records.values() for t in r["trajectories"]), set(kept),
+                         Expect.of_settings(settings))
+    for slug, r in records.items():
+        if any(t["name"] in left_out for t in r["trajectories"]):
+            records[slug] = {**r, "trajectories": [t for t in r["trajectories"] if t["name"] not in left_out]}
     train, test = split_scenes(sorted(set(listed) | set(records)), settings.seed, settings.train_fraction)
     base = out_dir / "data_splits" / settings.name
     removed = []
@@ -139,8 +151,8 @@ def finalise_dataset(out_dir: Path, settings: GenSettings, specs: list[str], all
         removed += _write_split(out_dir, base / part, "".join(f"{n}\n" for n in names))
     writer.write_text_atomic(out_dir / "data_config.yaml", data_config_text(settings))
     writer.write_text_atomic(out_dir / "manifest.json", writer.dumps_json(
-        _manifest(settings, specs, records, train, test, missing, failed, sorted(earlier), sorted(kept))))
-    return Finalised(missing, True, sorted(earlier), sorted(kept), removed)
+        _manifest(settings, specs, records, train, test, missing, failed, sorted(earlier), sorted(kept), left_out)))
+    return Finalised(missing, True, sorted(earlier), sorted(kept), removed, left_out)
 
 
 # visualnav-transformer's ViNT_Dataset builds these beside traj_names.txt once and never checks them again
@@ -234,7 +246,7 @@ def _unfinished_record(metas: list[dict]) -> dict:
             "renderers": sorted({m["renderer"] for m in metas if m.get("renderer")})}
 
 
-def _manifest(s: GenSettings, specs, records, train, test, missing, failed, earlier=(), kept=()) -> dict:
+def _manifest(s: GenSettings, specs, records, train, test, missing, failed, earlier=(), kept=(), left_out=None) -> dict:
     trajs = [t for r in records.values() for t in r["trajectories"]]
     rejected = Counter()
     for r in records.values():
@@ -264,6 +276,8 @@ def _manifest(s: GenSettings, specs, records, train, test, missing, failed, earl
             out["per_scene"][slug]["unfinished"] = True
     if earlier or kept:  # on disk from earlier runs, not in this run's scene list or trajectories_per_scene
         out["kept_from_earlier_runs"] = {"scenes": list(earlier), "trajectories": list(kept)}
+    if left_out:  # listed by a record, gone or damaged on disk: not in the splits
+        out["left_out_of_splits"] = dict(left_out)
     if s.kind == "negative":
         out["t_c"] = _stats([t["t_c"] for t in trajs])
     return out

@@ -6,7 +6,9 @@
     w.finalise(specs)                         # data_splits/, data_config.yaml, manifest.json
 
 Scene jobs in worker processes write through ``GNMWriter(out_dir, settings)`` (opened once by
-the parent). On resume, folders already complete are read back with `rvn_data.dataset.reader`.
+the parent). On resume, a folder is trusted only when `check` finds it whole
+(`rvn_data.dataset.verify`: its pose file, sidecar, every frame and depth map); a damaged one
+is `discard`-ed and written again.
 Layout and atomicity of one folder: `rvn_data.dataset.writer`.
 """
 from __future__ import annotations
@@ -14,14 +16,15 @@ from __future__ import annotations
 import json
 import os
 import re
+import shutil
 from pathlib import Path
 
 import numpy as np
 
 from rvn_data.dataset import finalise as _finalise
 from rvn_data.dataset import writer
-from rvn_data.dataset.reader import is_complete, read_meta
 from rvn_data.dataset.settings import DatasetConfig, GenSettings
+from rvn_data.dataset.verify import MISSING, Expect, check_trajectory
 from rvn_data.identity import check_identity, differences
 
 SETTING_GROUPS = ("agent", "navmesh", "camera", "seed", "renderer")  # other identity keys are dataset.*
@@ -86,9 +89,27 @@ class GNMWriter:
         path = writer.record_path(self.out_dir, slug)
         return json.loads(path.read_text()) if path.is_file() else None
 
+    def check(self, name: str, frames: int | None = None) -> tuple[str | None, dict | None]:
+        """(None, sidecar) of a whole trajectory folder; (None, None) when it is absent and no
+        record names it (``frames`` None: not written yet); (what is wrong, None) otherwise."""
+        problem, meta = check_trajectory(self.out_dir / name, Expect.of_settings(self.settings), frames)
+        return (None, None) if problem == MISSING and frames is None else (problem, meta)
+
     def done_trajectory(self, name: str) -> dict | None:
-        """The sidecar of a trajectory already on disk (folders only appear complete), or None."""
-        return read_meta(self.out_dir / name) if is_complete(self.out_dir / name) else None
+        """The sidecar of a whole trajectory folder already on disk, or None."""
+        return self.check(name)[1]
+
+    def discard(self, name: str) -> None:
+        """Remove a damaged trajectory folder (moved out of sight first, then deleted)."""
+        aside = self.out_dir / ".rvn" / "tmp" / f"{name}.damaged"
+        for path in (aside, self.out_dir / name):
+            if path.is_dir() and not path.is_symlink():
+                aside.parent.mkdir(parents=True, exist_ok=True)
+                if path != aside:
+                    os.replace(path, aside)
+                shutil.rmtree(aside)
+            elif path.exists() or path.is_symlink():
+                path.unlink()
 
     def write_trajectory(self, name: str, jpegs: list[bytes], position: np.ndarray, yaw: np.ndarray,
                          meta: dict, depth: np.ndarray | None = None) -> None:

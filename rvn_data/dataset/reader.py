@@ -79,22 +79,28 @@ def _splits_name(splits_dir: Path, name: str | None, root: Path) -> str:
     return root.name
 
 
+def split_file(root: Path, split: str, splits_dir: Path | None = None, name: str | None = None) -> Path:
+    """``<splits_dir>/<name>/<split>/traj_names.txt`` of a dataset (it may not exist)."""
+    splits_dir = Path(splits_dir) if splits_dir else Path(root) / "data_splits"
+    return splits_dir / _splits_name(splits_dir, name, Path(root)) / split / "traj_names.txt"
+
+
 def list_trajectories(root: Path, split: str, splits_dir: Path | None = None,
-                      name: str | None = None) -> tuple[str, list[str]]:
-    """(dataset name, trajectory folder names) of a split; see the module docstring."""
+                      name: str | None = None, folders: bool = True) -> tuple[str, list[str]]:
+    """(dataset name, trajectory folder names) of a split; see the module docstring. ``folders``:
+    a name in the split file without its folder is an error (else the caller checks them)."""
     root = Path(root)
     if not root.is_dir():
         raise ValueError(f"GNM dataset folder {root} does not exist; generate it with rvn-gen or set data.root=")
-    splits_dir = Path(splits_dir) if splits_dir else root / "data_splits"
-    name = _splits_name(splits_dir, name, root)
-    split_file = splits_dir / name / split / "traj_names.txt"
-    if split_file.is_file():
-        names = [ln.strip() for ln in split_file.read_text().splitlines() if ln.strip()]
+    listing = split_file(root, split, splits_dir, name)
+    name = listing.parent.parent.name
+    if listing.is_file():
+        names = [ln.strip() for ln in listing.read_text().splitlines() if ln.strip()]
         if not names:
-            raise ValueError(f"split file {split_file} lists no trajectories")
-        missing = [n for n in names if not (root / n).is_dir()]
+            raise ValueError(f"split file {listing} lists no trajectories")
+        missing = [n for n in names if folders and not (root / n).is_dir()]
         if missing:
-            raise ValueError(f"split file {split_file} names {len(missing)} missing trajectory folder(s) under {root}, e.g. {missing[0]!r}")
+            raise ValueError(f"split file {listing} names {len(missing)} missing trajectory folder(s) under {root}, e.g. {missing[0]!r}")
         return name, names
     names = sorted(e.name for e in os.scandir(root)
                    if e.is_dir() and not e.name.startswith(".") and (Path(e.path) / "traj_data.pkl").is_file())

@@ -1,8 +1,9 @@
 """Generate the trajectories of one scene: resume, plan, render, encode, write, map, record.
 
 Trajectory i of a scene is the first kept attempt a = 0 … max_attempts−1, each drawn
-from `attempt_rng(seed, kind, slug, i, a)`; folders already on disk are skipped, so a
-rerun only does what is missing. When trajectory i fails every attempt and no earlier
+from `attempt_rng(seed, kind, slug, i, a)`; folders already on disk are skipped when whole
+(`GNMWriter.check`: a scene with a record is done only when every trajectory it lists still is),
+so a rerun only does what is missing, and redoes, with the same bytes, what was damaged. When trajectory i fails every attempt and no earlier
 index was kept, the scene is hopeless for these settings: `SceneError` with the reason.
 The scene's record (`.rvn/scenes/<slug>.json`, deterministic, no timings) is written last.
 """
@@ -39,6 +40,7 @@ class SceneResult:
     written: int = 0  # trajectories written by this run
     frames: int = 0  # frames written by this run
     skipped: int = 0  # trajectories found complete on disk
+    redone: dict = field(default_factory=dict)  # name -> what was wrong with it on disk (removed, written again)
 
 
 def _diagnose(s: GenSettings, scene_id: str, reasons: Counter, max_geodesic: float) -> str:
@@ -117,8 +119,11 @@ def run_scene(spec: str, settings: GenSettings, out_dir: Path, trajectories_per_
     slug = naming.scene_slug(spec)
     res = SceneResult(slug=slug, spec=spec)
     rec = gnm.scene_record(slug)
-    if rec is not None:
-        if rec.get("trajectories_per_scene") == trajectories_per_scene:
+    recorded = {t["name"]: t["frames"] for t in rec["trajectories"]} if rec is not None else {}
+    checked = {}  # name -> (what is wrong or None, sidecar) of the folders checked
+    if rec is not None and rec.get("trajectories_per_scene") == trajectories_per_scene:
+        checked = {name: gnm.check(name, frames) for name, frames in recorded.items()}
+        if not any(problem for problem, _ in checked.values()):  # done, and every folder still whole
             res.record, res.skipped = rec, len(rec["trajectories"])
             if on_trajectory:
                 on_trajectory(trajectories_per_scene)
@@ -129,7 +134,7 @@ def run_scene(spec: str, settings: GenSettings, out_dir: Path, trajectories_per_
     try:
         for index in range(trajectories_per_scene):
             name = naming.traj_name(slug, s.kind, index)
-            meta = gnm.done_trajectory(name)
+            problem, meta = checked[name] if name in checked else gnm.check(name, recorded.get(name))
             if meta is not None:
                 kept.append(meta)
                 reasons.update(meta["rejected"])
@@ -137,6 +142,9 @@ def run_scene(spec: str, settings: GenSettings, out_dir: Path, trajectories_per_
                 if on_trajectory:
                     on_trajectory(1)
                 continue
+            if problem is not None:
+                gnm.discard(name)
+                res.redone[name] = problem
             if scene is None:
                 scene = _Scene(spec, s, scene_cfg, res.timing)
             rejected = Counter()

@@ -19,6 +19,7 @@ register_configs()
 
 @hydra.main(config_path=CONF_DIR, config_name="gen", version_base="1.3")
 def _main(cfg: DictConfig) -> None:
+    from hydra.core.hydra_config import HydraConfig
     from hydra.utils import to_absolute_path
 
     from rvn_data.gen.run import generate
@@ -27,7 +28,7 @@ def _main(cfg: DictConfig) -> None:
     container = OmegaConf.to_container(cfg, resolve=True)
     container["out_dir"] = to_absolute_path(container["out_dir"])
     try:
-        status = generate(container).status
+        status = generate(container, list(HydraConfig.get().overrides.task)).status
     except (ValueError, OSError) as e:  # ConfigError (a ValueError): status 2; a run that failed: 1
         fail("rvn-gen", e)
     if status:

@@ -1,7 +1,8 @@
 """Run `rvn-gen` for a composed config: shard the scene list, generate, finalise, summarise.
 
 Scenes of this shard run one after another (or on `workers` processes, one scene each at a
-time). A scene that fails is noted in ``.rvn/failed/<slug>.txt`` and the others go on;
+time); a scene done before is checked (every trajectory it recorded still whole) and what is
+missing or damaged is redone, with one line saying so. A scene that fails is noted in ``.rvn/failed/<slug>.txt`` and the others go on;
 the exit status is non-zero when any scene failed. See `rvn_data.dataset.finalise` for
 how shards meet.
 """
@@ -18,8 +19,10 @@ from rvn_data.cli.common import ConfigError, validating
 from rvn_data.dataset import naming
 from rvn_data.dataset.finalise import Finalised
 from rvn_data.dataset.gnm_writer import GNMWriter
+from rvn_data.dataset.remake import record_command, remake_hint
 from rvn_data.dataset.scene_job import TIMERS, SceneResult, run_scene
 from rvn_data.dataset.settings import GenSettings
+from rvn_data.dataset.verify import summarise
 from rvn_data.gen.summary import summary
 from rvn_data.numba_note import note_first_compile
 
@@ -68,8 +71,9 @@ class GenReport:
         return sum(r.frames for r in self.results)
 
 
-def generate(cfg: Any) -> GenReport:
-    """Generate this shard's scenes and finalise when every shard is done."""
+def generate(cfg: Any, overrides: list[str] | None = None) -> GenReport:
+    """Generate this shard's scenes and finalise when every shard is done; ``overrides`` (the
+    command line's) are recorded in the out_dir for messages that ask to rerun it."""
     t_start = time.perf_counter()
     with validating():  # bad input: ConfigError (exit status 2), before anything is written
         settings = GenSettings.from_config(cfg)
@@ -97,6 +101,8 @@ def generate(cfg: Any) -> GenReport:
         print(f"warning: expert dataset.margin={settings.margin} m is not larger than r_robot={settings.agent.r_robot} m")
     if settings.kind == "negative" and settings.margin >= settings.agent.r_robot:
         print(f"warning: negative dataset.margin={settings.margin} m is not smaller than r_robot={settings.agent.r_robot} m")
+    if overrides is not None:
+        record_command(out_dir, overrides)
     mine = specs[shard_index::num_shards]
     scene_cfg = {k: v for k, v in dict(cfg["scenes"]).items()}
     jobs = [(spec, settings, str(out_dir), n, scene_cfg) for spec in mine]
@@ -104,11 +110,20 @@ def generate(cfg: Any) -> GenReport:
     results = _run(jobs, int(cfg.get("workers", 1)), n, bool(cfg.get("progress", True)))
     for r in results:
         gnm.note_failure(r.slug, r.error)
+        if r.redone:
+            print(redone_line(r))
     done = gnm.finalise_dataset(specs)
     seconds = time.perf_counter() - t_start
     print(summary(settings, out_dir, results, specs, done.missing, shard_index, num_shards, seconds))
-    _report_finalised(done, settings.name)
+    _report_finalised(done, specs, out_dir)
     return GenReport(1 if any(r.error for r in results) else 0, results, seconds)
+
+
+def redone_line(r: SceneResult) -> str:
+    """``rvn-gen: <slug>: 1 trajectory damaged (<name>: 7.jpg truncated), redone``."""
+    n = len(r.redone)
+    outcome = "redone" if r.error is None else f"not redone: {r.error}"
+    return f"rvn-gen: {r.slug}: {n} {'trajectory' if n == 1 else 'trajectories'} damaged ({summarise(r.redone)}), {outcome}"
 
 
 def merge(gnm: GNMWriter, specs: list[str], allow_partial: bool) -> int:
@@ -120,17 +135,25 @@ def merge(gnm: GNMWriter, specs: list[str], allow_partial: bool) -> int:
     done = gnm.finalise_dataset(specs, allow_missing=True)
     print(f"rvn-gen merge: {gnm.out_dir}: wrote data_splits/{gnm.settings.name}/, data_config.yaml, manifest.json "
           f"({len(specs) - len(missing)} of {len(specs)} scenes)")
-    _report_finalised(done, gnm.settings.name)
+    _report_finalised(done, specs, gnm.out_dir)
     return 0
 
 
-def _report_finalised(done: Finalised, name: str) -> None:
+def _report_finalised(done: Finalised, specs: list[str], out_dir: Path) -> None:
     """Say what the splits kept from earlier runs and which stale caches were removed."""
     if done.extra:
         what = (f"of {len(done.earlier)} scenes that are not in this run's scene list (e.g. {done.earlier[0]})"
                 if done.earlier else f"beyond trajectories_per_scene (e.g. {done.extra[0]})")
         print(f"  note: the splits and manifest.json keep {len(done.extra)} trajectories earlier runs wrote here {what}; "
               "manifest.json lists them under kept_from_earlier_runs; for a dataset without them use a new out_dir")
+    if done.left_out:
+        n, (first, problem) = len(done.left_out), next(iter(done.left_out.items()))
+        them, slug = "it" if n == 1 else "them", first.rsplit("_", 2)[0]  # <slug>_<kind>_<index>
+        hint = remake_hint(out_dir, them) if slug in {naming.scene_slug(spec) for spec in specs} else \
+            f"rerun rvn-gen into {out_dir} with {slug}'s scene in its scene list to redo {them}"
+        print(f"  note: {n} {'trajectory' if n == 1 else 'trajectories'} listed by the scene records "
+              f"{'is' if n == 1 else 'are'} missing or damaged ({first}: {problem}{', ...' if n > 1 else ''}) and left "
+              f"out of the splits; {hint}")
     if done.removed:
         print(f"  removed {len(done.removed)} stale visualnav-transformer cache(s) of the old split lists "
               f"(rebuilt on its next training): {', '.join(done.removed)}")
@@ -163,4 +186,4 @@ def _run(jobs: list[tuple], workers: int, n: int, progress: bool) -> list[SceneR
     return sorted(out, key=lambda r: r.slug)
 
 
-__all__ = ["GenReport", "generate", "merge", "TIMERS"]
+__all__ = ["GenReport", "generate", "merge", "redone_line", "TIMERS"]

@@ -35,7 +35,7 @@ def summary(s: GenSettings, out_dir: Path, results: list[SceneResult], specs: li
                                                      attempts + rec["attempts"], frames + f_, new_frames + r.frames)
         rejected.update(rec["rejected"])
         renderers.update(rec["renderers"])
-        status = "ok" if r.skipped == 0 else ("resumed" if r.written else "done before")
+        status = "repaired" if r.redone else "ok" if r.skipped == 0 else ("resumed" if r.written else "done before")
         if shown < 12:
             ratio = f"{k_}/{rec['trajectories_per_scene']}"
             lines.append(f"  {r.slug:<28}{ratio:>9}{rec['attempts']:>10}"

@@ -70,9 +70,10 @@ def _mesh_dir(root: Path, split: str) -> list[str]:
 
 
 def scene_specs(source: str, split: str, root: str | Path | None = None,
-                num_scenes: int | None = None, first_scene: int = 0) -> list[str]:
+                num_scenes: int | None = None, first_scene: int = 0, setting: str = "scenes.first_scene") -> list[str]:
     """Specs (`procedural:<split>/<i>` or mesh paths) of a split, `first_scene` onward, at most
-    `num_scenes` of them (None: all)."""
+    `num_scenes` of them (None: all). A `first_scene` past the split's last scene is a ValueError
+    naming `setting` (the command's name for it) and the split's size."""
     if source not in SOURCES:
         raise ValueError(f"scene source {source!r} unknown; use one of {list(SOURCES)}")
     if first_scene < 0 or (num_scenes is not None and num_scenes < 0):
@@ -93,5 +94,8 @@ def scene_specs(source: str, split: str, root: str | Path | None = None,
             specs = _list_file(root)
         else:
             specs = _mesh_dir(root, split)
+    if first_scene > 0 and first_scene >= len(specs):
+        raise ValueError(f"{setting}={first_scene} is past the last scene: the {split} split has {len(specs)} scenes "
+                         f"(indices 0 to {len(specs) - 1}); choose {setting} from 0 to {len(specs) - 1}")
     specs = specs[first_scene:]
     return specs if num_scenes is None else specs[:num_scenes]

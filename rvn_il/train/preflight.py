@@ -5,7 +5,9 @@ minutes of training (or, for nomad_neg, after its first member is trained).
 checkpoints), the datasets of every member (``data.root``; ``data.negative_root`` for
 nomad_neg) with the setting that names them, ``data.depth_root``, ``train.expert_from``, ``data.val_root`` and the
 loop settings, and raises `rvn_data.cli.common.ConfigError` (exit status 2) with one line
-naming the setting. Nothing is written.
+naming the setting. Every trajectory a dataset's split lists must be whole (`rvn_data.dataset.verify`:
+folder, pose file, every frame's header and end, depth maps when the model uses them); the
+line names the first that is not and the rvn-gen command that redoes it. Nothing is written.
 """
 from __future__ import annotations
 
@@ -14,7 +16,9 @@ from typing import Mapping
 
 import torch
 
-from rvn_data.dataset.reader import list_trajectories
+from rvn_data.dataset.reader import list_trajectories, split_file
+from rvn_data.dataset.remake import remake_hint
+from rvn_data.dataset.verify import MISSING, Expect, damaged
 from rvn_data.cli.common import ConfigError, check_writable_dir, validating
 
 from ..data import check_waypoint_frames, depth_setting
@@ -99,14 +103,32 @@ def check_datasets(cfg: Mapping) -> None:
         key, path = root_key(member), Path(str(root)).expanduser()
         if not path.is_dir():
             raise ConfigError(f"{key}={root} does not exist; {GENERATE[key]} or set {key}= to a GNM dataset folder")
-        try:
-            _, names = list_trajectories(path, data["split"], Path(data["splits_dir"]) if data["splits_dir"] else None,
-                                         data["name"])
-        except ValueError as err:
-            raise ConfigError(f"{key}={root}: {err}") from None
+        names = whole_split(key, root, data["split"], data["splits_dir"], data["name"], depth)
         if depth and not has_depth(path, names):
             raise ConfigError(f"{key}={root} has no depth.npy sidecars; {REGENERATE}")
+    if data["val_root"]:
+        whole_split("data.val_root", data["val_root"], data["val_split"] or "all", None, None, False)
     check_depth_root(data, depth)
+
+
+def whole_split(key: str, root: str, split: str, splits_dir: str | None, name: str | None, depth: bool) -> list[str]:
+    """The trajectories of a dataset's split, each folder checked whole; `ConfigError` naming the
+    setting, the first trajectory that is not (and how many more) and the command that redoes it."""
+    path = Path(str(root)).expanduser()
+    splits = Path(splits_dir) if splits_dir else None
+    try:
+        _, names = list_trajectories(path, split, splits, name, folders=False)
+    except ValueError as err:
+        raise ConfigError(f"{key}={root}: {err}") from None
+    bad = damaged(path, names, Expect.of_dataset(path, depth))
+    if bad:
+        first, problem = next(iter(bad.items()))
+        if problem == MISSING:
+            listing = split_file(path, split, splits, name)
+            problem += f" (listed in {listing.relative_to(path) if listing.is_relative_to(path) else listing})"
+        more = f", and {len(bad) - 1} more {'trajectory' if len(bad) == 2 else 'trajectories'} damaged" if len(bad) > 1 else ""
+        raise ConfigError(f"{key}={root}: trajectory {first}: {problem}{more}; {remake_hint(path)}")
+    return names
 
 
 def check_depth_root(data: Mapping, depth: bool) -> None:
@@ -121,13 +143,11 @@ def check_depth_root(data: Mapping, depth: bool) -> None:
     if not int(data["depth_batch"]) > 0:
         raise ConfigError(f"data.depth_batch={data['depth_batch']} must be a positive integer")
     path = Path(str(root)).expanduser()
-    try:
-        _, names = list_trajectories(path, "all")
-    except ValueError as err:
-        raise ConfigError(f"data.depth_root={root}: {err}") from None
+    names = whole_split("data.depth_root", root, "all", None, None, True)
     if not has_depth(path, names):
         raise ConfigError(f"data.depth_root={root} has no depth.npy sidecars; regenerate it with rvn-gen "
                           "dataset.save_depth=true (e.g. dataset=negative on the train scenes) or set data.depth_root=null")
 
 
-__all__ = ["PRECISIONS", "check_datasets", "check_depth_root", "check_out_dir", "check_settings", "data_roots", "preflight", "root_key"]
+__all__ = ["PRECISIONS", "check_datasets", "check_depth_root", "check_out_dir", "check_settings", "data_roots", "preflight",
+           "root_key", "whole_split"]
