@@ -57,7 +57,8 @@ def test_gen_checks_settings_before_its_first_scene_and_a_failed_run_does_not_bl
     tiny = ["scenes.num_scenes=1", "trajectories_per_scene=1", "progress=false", f"out_dir={out}"]
     for bad, words in (("camera.width=-5", "camera setting width=-5 must be a positive integer"),
                        ("renderer.backend=foo", "renderer.backend='foo'"),
-                       ("scenes.first_scene=900", "no scenes to generate: scenes.first_scene=900")):
+                       ("scenes.first_scene=900", "scenes.first_scene=900 is past the last scene"),
+                       ("scenes.num_scenes=0", "no scenes to generate: scenes.first_scene=0 and scenes.num_scenes=0")):
         proc = run("rvn-gen", *tiny, bad, cwd=tmp_path)
         assert proc.returncode == 2 and words in proc.stderr and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
         assert not out.exists()

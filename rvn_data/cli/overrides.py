@@ -154,6 +154,8 @@ def _check_types(cfg, parsed: list, config_dir: str, config_name: str, composed:
     for key, ov in given.items():
         default = OmegaConf.select(defaults, key, default=None, throw_on_missing=False)
         value = OmegaConf.select(cfg, key, default=None, throw_on_missing=False)
+        if value is None:  # null: the setting's "none" (num_scenes=null: every scene)
+            continue
         if isinstance(default, bool):
             ok = isinstance(value, bool)
         elif isinstance(default, (int, float)):

@@ -92,7 +92,7 @@ def generate(cfg: Any, overrides: list[str] | None = None) -> GenReport:
         if not specs:
             sc = cfg["scenes"]
             raise ValueError(f"no scenes to generate: scenes.first_scene={sc.get('first_scene') or 0} and scenes.num_scenes="
-                             f"{sc.get('num_scenes')} select none of split {sc['split']!r}'s scenes; lower first_scene or "
+                             f"{sc.get('num_scenes')} select none of the {sc['split']} split's scenes; lower first_scene or "
                              "raise num_scenes (null: every scene)")
         gnm = GNMWriter.open(out_dir, settings)
     if cfg.get("mode", "generate") == "merge":
