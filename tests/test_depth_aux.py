@@ -168,6 +168,64 @@ def check_depth_veto(out, frame):
         load_policy(out, depth_veto=0.5, depth_veto_rule="wide")
     with pytest.raises(ValueError, match=r"policy.depth_veto_hfov=180: give the camera's horizontal field of view"):
         load_policy(out, depth_veto=0.5, depth_veto_rule="swept", depth_veto_hfov=180)
+    check_escape(out, frame, first_actions)
+
+
+def check_escape(out, frame, first_actions):
+    """policy.escape_after through load_policy: a goal straight behind makes the policy turn; after 3 turns in
+    place it drives escape_steps forward steps along the freest heading seen (the depth head forced to 5 m:
+    every heading free, so the one nearest the goal), then hands back to the model; counted per episode."""
+    steer = {"aggregate": "vote", "lookahead_min_dist": 50.0}
+    policy = load_policy(out, escape_after=3, escape_steps=2, depth_veto=0.5, **steer)
+    first_actions(policy, depth_m=5.0)  # sets the head's output
+    policy.reset()
+    behind = {"rgb": frame, "pointgoal": np.array([-3.0, 0.1], np.float32)}  # 178 deg to the left
+    actions = [policy.act(behind) for _ in range(6)]
+    # the goal does not turn with the robot here (a fixed observation): 3 turns seen, the nearest to the goal
+    # (the last, 60 deg on) is where it stands, so it drives at once, two steps, then the model turns again
+    assert actions == [2, 2, 2, 1, 1, 2] and policy.episode_stats()["escapes"] == 1
+    policy.reset()
+    assert policy.episode_stats() == {"decisions": 0, "vetoes": 0, "escapes": 0}
+    plain = load_policy(out, **steer)
+    plain.reset()
+    assert [plain.act(behind) for _ in range(6)] == [2] * 6 and "escapes" not in plain.episode_stats()
+    with pytest.raises(ValueError, match=r"policy.escape_after=0: give a whole number >= 1"):
+        load_policy(out, escape_after=0)
+
+
+def test_escape_state_machine():
+    """rvn_il.policies.escape.Escape on scripted model actions: after N turns in place it turns to the heading
+    nearest the goal among those with enough clearance (else the freest; without depth, the goal's bearing),
+    drives its steps unless the veto blocks one, and resets when the model drives by itself."""
+    import math
+
+    from rvn_il.policies.escape import Escape
+
+    L, R, F = 2, 3, 1
+    theta = math.radians(30)
+    esc = Escape(after=4, theta_step=theta, steps=2, clearance=1.0)
+    free = {0: 0.4, 1: 2.0, 2: 0.3, 3: 3.0}  # headings 0, 30, 60, 90 degrees (the model turns left)
+    out = [esc.act(L, goal_bearing=-i * theta, free=free[i], blocked=False) for i in range(4)]  # the goal stays put
+    # seen: 0 (0.4 m), 30 (2.0), 60 (0.3), 90 (3.0); goal at heading 0: nearest free one is 30 degrees
+    assert out == [L, L, L, R] and esc.escapes == 1
+    assert [esc.act(L, 0.0, 1.0, False) for _ in range(2)] == [R, F]  # one more right turn, then the drive
+    assert esc.act(L, 0.0, 1.0, False) == F and esc.left == 0  # second step, back to the model
+    assert esc.act(L, 0.0, 1.0, False) == L and len(esc.seen) == 1
+    # no heading free enough: the freest; the veto blocks the drive: back to the model
+    esc.reset()
+    out = [esc.act(R, 0.0, f, False) for f in (0.5, 0.2, 0.9)]  # headings 0, -30, -60
+    assert esc.escapes == 0 and out == [R, R, R]
+    esc2 = Escape(after=3, theta_step=theta, steps=3, clearance=1.0)
+    out = [esc2.act(R, 0.0, f, False) for f in (0.5, 0.2, 0.9)]
+    assert out == [R, R, F]  # -60 (0.9 m) is the freest and where it stands
+    assert esc2.act(R, 0.0, 0.9, blocked=True) == R and esc2.left == 0 and esc2.seen == []
+    # without a depth head: the goal's bearing (90 degrees left of where the turning began)
+    blind = Escape(after=2, theta_step=theta, steps=1)
+    assert [blind.act(R, math.radians(90) + i * theta, None, False) for i in range(2)] == [R, L]
+    assert [blind.act(R, 0.0, None, False) for _ in range(4)] == [L, L, L, F]
+    # the model driving by itself resets the count
+    esc.reset()
+    assert [esc.act(a, 0.0, 1.0, False) for a in (L, F, L, L, L)] == [L, F, L, L, L] and esc.escapes == 0
 
 
 def test_depth_veto_rules_on_depth_grids():

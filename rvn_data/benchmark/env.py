@@ -217,7 +217,7 @@ class RVNEnv(gym.Env):
         displacement, reward = 0.0, -cfg.slack_penalty
         if a == Action.STOP:
             self._goal_steps += 1
-            self._tracker.step(0.0, False)
+            self._tracker.step(0.0, False, int(a))
             if self.success_distance_now() <= self.success_distance:
                 reward = cfg.reward_goal
                 self._goals_reached += 1
@@ -234,7 +234,7 @@ class RVNEnv(gym.Env):
             self._pos, self._yaw = np.asarray(res.position, dtype=np.float64), float(res.yaw)
             collided, displacement = bool(res.collided), float(res.displacement)
             self._goal_steps += 1
-            self._tracker.step(displacement, collided)
+            self._tracker.step(displacement, collided, int(a))
             if collided:
                 reward, terminated, self._ended = cfg.reward_collision, True, "collision"
             else:

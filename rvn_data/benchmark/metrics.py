@@ -9,7 +9,9 @@ Record keys: ``scene_id``, ``scene_index``, ``episode_index``, ``episode_id``,
 actual displacements), ``collisions`` (int), ``steps`` (int), ``d0`` (geodesic distance
 start → first goal, m), ``termination`` (``success|collision|timeout|stop_far``) and
 ``goals``: a list with one dict per attempted goal: ``d0`` (geodesic distance from the
-pose where the goal was given), ``reached``, ``steps``, ``path_length``, ``collisions``.
+pose where the goal was given), ``reached``, ``steps``, ``path_length``, ``collisions`` and
+``actions`` (how many of each action, in `Action` order: STOP, MOVE_FORWARD, TURN_LEFT,
+TURN_RIGHT; records written before it lack it).
 
 Metrics:
 - ``SR_1``: fraction of episodes whose first goal was reached.
@@ -136,14 +138,16 @@ class EpisodeTracker:
         if not self.record["goals"]:
             self.record["d0"] = float(d0)
         self.record["goals"].append({"d0": float(d0), "reached": False, "steps": 0,
-                                     "path_length": 0.0, "collisions": 0})
+                                     "path_length": 0.0, "collisions": 0, "actions": [0, 0, 0, 0]})
 
-    def step(self, displacement: float, collided: bool) -> None:
+    def step(self, displacement: float, collided: bool, action: int | None = None) -> None:
         goal = self.record["goals"][-1]
         for r in (self.record, goal):
             r["steps"] += 1
             r["path_length"] += float(displacement)
             r["collisions"] += int(bool(collided))
+        if action is not None:
+            goal["actions"][int(action)] += 1
 
     def goal_reached(self) -> None:
         self.record["goals"][-1]["reached"] = True

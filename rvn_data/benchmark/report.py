@@ -64,18 +64,22 @@ def run_details(runs: list[Run], base: Path) -> str:
 
 def goal_endings(runs: list[Run]) -> str:
     """Markdown table: how each row's goals ended, CPK over all km (the paper's) and outside timed-out
-    stretches, and what the policy counted (e.g. depth vetoes) per episode."""
+    stretches, the share of turns in place among the actions of the timed-out stretches (a policy that
+    spins rather than drives), and what the policy counted (e.g. depth vetoes) per episode."""
     lines = ["| Method | Split | Goals attempted | Success | Collision | Timeout | Episodes timed out | "
-             "km (in timed-out stretches) | CPK | CPK excl. timeouts | Policy counts per episode |",
-             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+             "km (in timed-out stretches) | Turns in timed-out stretches | CPK | CPK excl. timeouts | Policy counts per episode |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
     for r in runs:
         m, ends = r.metrics, r.metrics["goal_ends"]
         total = sum(ends.values()) or 1
         km_out = sum(float(e["goals"][-1]["path_length"]) for e in r.records if e["termination"] == "timeout" and e["goals"]) / 1e3
         share = [f"{ends[t] / total:.1%} ({ends[t]})" for t in ("success", "collision", "timeout")]
         counts = ", ".join(f"{k} {v / m['episodes']:.1f}" for k, v in sorted((m.get("policy_stats") or {}).items()))
+        acts = [e["goals"][-1].get("actions") for e in r.records if e["termination"] == "timeout" and e["goals"]]
+        acts = [a for a in acts if a]
+        turns = f"{sum(a[2] + a[3] for a in acts) / max(1, sum(map(sum, acts))):.0%}" if acts else "–"
         lines.append(f"| {r.method} | {r.split} | {sum(ends.values())} | {' | '.join(share)} | {ends['timeout']} "
-                     f"| {m['distance_km']:.2f} ({km_out:.2f}) | {format_metric(m['CPK'], 1)} "
+                     f"| {m['distance_km']:.2f} ({km_out:.2f}) | {turns} | {format_metric(m['CPK'], 1)} "
                      f"| {format_metric(m['CPK_excl_timeout'], 1)} | {counts} |")
     return "\n".join(lines) + "\n"
 

@@ -4,11 +4,10 @@ resumes, and rvn-train before it trains (so a damaged dataset is bad input, not 
 A folder is whole when it exists; ``traj_data.pkl`` reads (`reader.load_traj_data`) and gives
 T frames (the T its scene record names, when one does); with ``Expect.meta`` its ``rvn_meta.json``
 reads and names the folder and T; ``0.jpg`` .. ``T-1.jpg`` exist, each starting with a JPEG
-header whose frame size is the camera's (when known) and ending with the end-of-image marker
-FFD9 (a truncated file lacks it); and, with ``Expect.depth_size`` = S, ``depth.npy`` holds
-float16 [T, S, S] and every byte of it. Frames are not decoded: their header segments and last
-bytes tell all this at about 15 µs a frame (40 trajectories, 1788 frames of 256x256: about 30 ms
-on a busy 2-core machine; a full decode costs 25 times as much).
+header whose frame size (read by Pillow) is the camera's (when known) and ending with the
+end-of-image marker FFD9 (a truncated file lacks it); and, with ``Expect.depth_size`` = S, ``depth.npy`` holds
+float16 [T, S, S] and every byte of it. Frames are not decoded: their headers and last bytes
+tell all this (measured below, `benchmarks/verify.py`).
 """
 from __future__ import annotations
 
@@ -23,8 +22,6 @@ import numpy as np
 from rvn_data.dataset.reader import DEPTH_NAME, META_NAME, TRAJ_DATA, load_traj_data, read_meta
 
 SOI, EOI = b"\xff\xd8", b"\xff\xd9"
-_SOF = set(range(0xC0, 0xD0)) - {0xC4, 0xC8, 0xCC}  # start-of-frame markers (C4/C8/CC are tables)
-_STANDALONE = set(range(0xD0, 0xD8)) | {0x01, 0xD8}  # markers without a length field
 MISSING = "folder missing"
 
 
@@ -57,31 +54,15 @@ class Expect:
                    settings.depth_size if settings.save_depth else None, meta=True)
 
 
-def jpeg_size(f) -> tuple[int, int] | None:
-    """(width, height) from the header of the JPEG file object ``f`` (at its start), or None
-    when it is not a JPEG or its header ends before a frame header."""
-    if f.read(2) != SOI:
+def jpeg_size(path: Path) -> tuple[int, int] | None:
+    """(width, height) from a JPEG file's header (Pillow reads the header only), or None when it is not one."""
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with Image.open(path) as im:
+            return im.size if im.format == "JPEG" else None
+    except (UnidentifiedImageError, OSError, SyntaxError):
         return None
-    while True:
-        head = f.read(2)
-        if len(head) < 2 or head[0] != 0xFF:
-            return None
-        marker = head[1]
-        if marker == 0xFF:  # fill byte
-            f.seek(-1, os.SEEK_CUR)
-            continue
-        if marker in _STANDALONE:
-            continue
-        if marker == 0xDA:  # scan data before any frame header
-            return None
-        seg = f.read(2)
-        if len(seg) < 2:
-            return None
-        length = int.from_bytes(seg, "big")
-        if marker in _SOF:
-            body = f.read(5)
-            return (int.from_bytes(body[3:5], "big"), int.from_bytes(body[1:3], "big")) if len(body) == 5 else None
-        f.seek(length - 2, os.SEEK_CUR)
 
 
 def image_problem(path: Path, size: tuple[int, int] | None) -> str | None:
@@ -89,8 +70,6 @@ def image_problem(path: Path, size: tuple[int, int] | None) -> str | None:
     try:
         with open(path, "rb") as f:
             starts = f.read(2) == SOI
-            f.seek(0)
-            found = jpeg_size(f) if starts else None
             n = f.seek(0, os.SEEK_END)
             f.seek(max(n - 16, 0))
             tail = f.read()
@@ -104,6 +83,7 @@ def image_problem(path: Path, size: tuple[int, int] | None) -> str | None:
         return f"{path.name} is not a JPEG"
     if not tail.rstrip(b"\x00").endswith(EOI):  # trailing zeros: padding some writers add
         return f"{path.name} truncated"
+    found = jpeg_size(path)
     if found is None:
         return f"{path.name} has no JPEG frame header"
     if size is not None and tuple(found) != tuple(size):

@@ -3,7 +3,8 @@
 Hydra: ``{_target_: rvn_il.policies.load_policy, checkpoint_path: <out_dir>, device: cpu,
 selection: argmin}`` — every keyword besides ``checkpoint_path``/``device``/``model`` overrides
 a ``model.policy`` setting (lookahead_min_dist, waypoint_index, num_samples, aggregate, stop_radius,
-selection, cor_alpha, ensemble, sampler, depth_veto, depth_veto_rule, depth_veto_hfov), the seed, ``threads`` (torch intra-op threads of a decision
+selection, cor_alpha, ensemble, sampler, depth_veto, depth_veto_rule, depth_veto_hfov, escape_after, escape_steps,
+escape_clearance), the seed, ``threads`` (torch intra-op threads of a decision
 on CPU, default 1, null: torch's setting; see :mod:`.policy`) or an agent setting (r_robot, d_step, theta_step_deg).
 
 ``ensemble``: more rvn-train out_dirs of the same model (ViNT- or NoMaD-PointGoal) whose samples join
@@ -17,6 +18,9 @@ network of the policy (:mod:`rvn_il.models.nomad`); ViNT has none, so anything b
 checkpoint's auxiliary depth head, is below it becomes a turn (:mod:`.depth_veto`; a departure).
 ``depth_veto_rule``: band (the central half of the columns) or swept (the rectangle the step sweeps,
 with the camera's hfov: ``depth_veto_hfov`` degrees, null: the ``hfov_deg`` the checkpoint recorded).
+``escape_after``: turns in place in a row after which the policy turns to the most open heading it saw
+near the goal's bearing and drives ``escape_steps`` (4) steps there, headings with ``escape_clearance``
+(1.0 m) free first (null: off; :mod:`.escape`; a departure).
 """
 from __future__ import annotations
 
@@ -35,10 +39,12 @@ from ..models.checkpoint import (latest_checkpoint, load_state_dict_checked, mem
 from ..models.nomad import check_sampler
 from .control import ControlConfig
 from .depth_veto import check_depth_veto
+from .escape import Escape
 from .policy import Member, NoMaDNegPolicy, PointGoalPolicy
 
 POLICY_KEYS = {"lookahead_min_dist", "waypoint_index", "num_samples", "aggregate", "stop_radius", "selection", "cor_alpha",
-               "seed", "threads", "ensemble", "sampler", "depth_veto", "depth_veto_rule", "depth_veto_hfov"}
+               "seed", "threads", "ensemble", "sampler", "depth_veto", "depth_veto_rule", "depth_veto_hfov",
+               "escape_after", "escape_steps", "escape_clearance"}
 AGENT_KEYS = {f.name for f in dataclasses.fields(AgentConfig)}
 
 
@@ -121,8 +127,11 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
     hfov = pol.get("depth_veto_hfov")
     veto = check_depth_veto(pol.get("depth_veto"), members[0].model.depth_head is not None, pol.get("depth_veto_rule", "band"),
                             members[0].hfov_deg if hfov is None else hfov, agent.r_robot, agent.d_step)
+    escape = None
+    if pol.get("escape_after") is not None:  # rvn_il/policies/escape.py
+        escape = Escape(pol["escape_after"], agent.theta_step, pol.get("escape_steps", 4), pol.get("escape_clearance", 1.0))
     common = dict(num_samples=int(pol.get("num_samples", 8)), seed=int(pol["seed"]), device=dev,
-                  threads=pol.get("threads", 1), depth_veto=veto)
+                  threads=pol.get("threads", 1), depth_veto=veto, escape=escape)
     extra = ensemble_dirs(pol.get("ensemble"))
     if name == "nomad_neg":
         if extra:

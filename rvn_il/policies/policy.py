@@ -17,6 +17,7 @@ decision many times slower.
 """
 from __future__ import annotations
 
+import math
 from collections import deque
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -30,7 +31,8 @@ from ..data.images import check_crop, preprocess_image
 from ..models import PointGoalModel
 from .control import ControlConfig, waypoints_to_action
 from .cor import SELECTIONS, select_expert
-from .depth_veto import DepthVeto, check_depth_veto, predicted_depth, turn_instead
+from .depth_veto import DepthVeto, check_depth_veto, clearance, predicted_depth, turn_instead
+from .escape import Escape
 
 
 @contextmanager
@@ -76,7 +78,7 @@ class PointGoalPolicy:
 
     def __init__(self, members: list[Member], control: ControlConfig, num_samples: int = 8, seed: int = 0,
                  device: str | torch.device = "cpu", aggregate: str = "first", threads: int | None = 1,
-                 depth_veto: float | DepthVeto | None = None):
+                 depth_veto: float | DepthVeto | None = None, escape: Escape | None = None):
         if aggregate not in self.AGGREGATES:
             raise ValueError(f"policy aggregate={aggregate!r}; choose one of {self.AGGREGATES}")
         if threads is not None and not (isinstance(threads, int) and threads >= 1):
@@ -85,6 +87,7 @@ class PointGoalPolicy:
         self.members, self.control = members, control
         self.num_samples, self.seed, self.device = int(num_samples), int(seed), torch.device(device)
         self.depth_veto = check_depth_veto(depth_veto, bool(members) and members[0].model.depth_head is not None)
+        self.escape = escape
         self.last_waypoints: np.ndarray | None = None  # metres, robot frame (for plots/debugging)
         self.reset()
 
@@ -93,9 +96,14 @@ class PointGoalPolicy:
         self.generator = torch.Generator(device=self.device).manual_seed(self.seed)
         self.vetoes = 0
         self.decisions = 0
+        if self.escape is not None:
+            self.escape.reset()
 
     def episode_stats(self) -> dict[str, int]:
-        return {"decisions": self.decisions, "vetoes": self.vetoes}
+        stats = {"decisions": self.decisions, "vetoes": self.vetoes}
+        if self.escape is not None:
+            stats["escapes"] = self.escape.escapes
+        return stats
 
     def _push(self, rgb: np.ndarray) -> list[torch.Tensor]:
         """Encode the frame for every member; return each member's context tokens [1,C+1,D].
@@ -152,12 +160,18 @@ class PointGoalPolicy:
             self.decisions += 1
             self.last_waypoints = self.choose(samples, pointgoal)
             action = int(waypoints_to_action(self.last_waypoints, pointgoal, self.control))
-            if action == Action.MOVE_FORWARD and self.depth_veto is not None:
-                depth = predicted_depth(self.members[0].model.depth_head, tokens[0][0, -1])
-                if self.depth_veto.blocked(depth):
-                    self.vetoes += 1
-                    actions = [int(waypoints_to_action(wp, pointgoal, self.control)) for wp in samples[0]]
-                    action = turn_instead(actions, depth)
+            head = self.members[0].model.depth_head
+            depth = None
+            if head is not None and (self.escape is not None or (action == Action.MOVE_FORWARD and self.depth_veto)):
+                depth = predicted_depth(head, tokens[0][0, -1])
+            blocked = self.depth_veto is not None and depth is not None and self.depth_veto.blocked(depth)
+            if action == Action.MOVE_FORWARD and blocked:
+                self.vetoes += 1
+                actions = [int(waypoints_to_action(wp, pointgoal, self.control)) for wp in samples[0]]
+                action = turn_instead(actions, depth)
+            if self.escape is not None:
+                free = None if depth is None else clearance(depth)
+                action = self.escape.act(action, math.atan2(pointgoal[1], pointgoal[0]), free, blocked)
         return action
 
 
@@ -167,13 +181,13 @@ class NoMaDNegPolicy(PointGoalPolicy):
 
     def __init__(self, members: list[Member], control: ControlConfig, num_samples: int = 8, seed: int = 0,
                  device: str | torch.device = "cpu", selection: str = "argmax", cor_alpha: float = 1.0,
-                 threads: int | None = 1, depth_veto: float | DepthVeto | None = None):
+                 threads: int | None = 1, depth_veto: float | DepthVeto | None = None, escape: Escape | None = None):
         if len(members) != 2:
             raise ValueError("NoMaD-Neg needs two members: expert and negative")
         if selection not in SELECTIONS:
             raise ValueError(f"policy selection={selection!r}; choose argmax or argmin")
         self.selection, self.cor_alpha = selection, float(cor_alpha)
-        super().__init__(members, control, num_samples, seed, device, threads=threads, depth_veto=depth_veto)
+        super().__init__(members, control, num_samples, seed, device, threads=threads, depth_veto=depth_veto, escape=escape)
 
     def reset(self) -> None:
         super().reset()
