@@ -33,6 +33,16 @@ def run(out_dir: Path, overrides: list[str]):
     return report
 
 
+def timing(report) -> dict[str, float]:
+    """Seconds per TIMERS phase, summed over the report's scenes (so over processes)."""
+    return {k: sum(r.timing[k] for r in report.results) for k in TIMERS}
+
+
+def backends(report) -> list[str]:
+    """The renderer back-ends the report's scenes used."""
+    return sorted({b for r in report.results for b in r.record["renderers"]})
+
+
 def main() -> None:
     os.environ.setdefault("LP_NUM_THREADS", "1")
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -48,15 +58,14 @@ def main() -> None:
         for workers in (1, 2):
             rep = run(Path(tmp) / f"w{workers}", [*common, f"workers={workers}"])
             rates[workers] = rep.frames / rep.seconds
-            timing = {k: sum(r.timing[k] for r in rep.results) for k in TIMERS}
-            total = sum(timing.values())
-            shares = ", ".join(f"{k} {100 * v / total:.0f}%" for k, v in timing.items())
-            backends = sorted({b for r in rep.results for b in r.record["renderers"]})
+            phases = timing(rep)
+            total = sum(phases.values())
+            shares = ", ".join(f"{k} {100 * v / total:.0f}%" for k, v in phases.items())
             print(f"{workers} process{'es' if workers > 1 else ''}: {rep.frames} frames "
                   f"({sum(r.written for r in rep.results)} trajectories, {args.scenes} scenes) in {rep.seconds:.1f} s "
-                  f"= {rates[workers]:.0f} frames/s; renderer {', '.join(backends)}")
+                  f"= {rates[workers]:.0f} frames/s; renderer {', '.join(backends(rep))}")
             print(f"  time share (summed over processes): {shares}")
-            print("  per frame: " + ", ".join(f"{k} {1000 * v / rep.frames:.2f} ms" for k, v in timing.items()))
+            print("  per frame: " + ", ".join(f"{k} {1000 * v / rep.frames:.2f} ms" for k, v in phases.items()))
         print(f"speed-up with 2 processes: {rates[2] / rates[1]:.2f}x "
               f"(goals: >= 200 frames/s per process, >= 1.7x with 2)")
 

@@ -70,33 +70,91 @@ def train_rate(root: Path, cfg: dict, batch: int, steps: int, channels_last: boo
     return batch / statistics.median(times[1:])
 
 
+def steady_train_rate(root: Path, cfg: dict, batch: int, seconds: float, device: str = "cpu",
+                      precision: str = "fp32", workers: int = 0, cache_dir: str | None = None) -> tuple[float, int]:
+    """(samples/s, steps timed) of rvn-train's step in steady state: its DataLoader (``workers`` processes,
+    pinned memory on a GPU), channels-last model on ``device``, bf16 autocast with ``precision=bf16``,
+    AdamW and, where the model trains one (NoMaD), the EMA; timed for ``seconds`` after a warm-up
+    (at least 3 steps and a fifth of ``seconds``, until a step takes at most 1.5 x the fastest one
+    so far, or ``seconds`` have passed)."""
+    from rvn_il.train.ema import EMA
+
+    dev = torch.device(device)
+    ds = make_dataset(root, cfg, {"progress": False, "cache_dir": cache_dir})
+    torch.manual_seed(0)
+    model = build_model(cfg).to(dev).use_channels_last().train()
+    opt = torch.optim.AdamW(model.parameters(), lr=1e-4)
+    ema = EMA(model, float(cfg.get("ema_power", 0.75))) if cfg.get("ema", False) else None
+    sampler = BatchSampler(EpochSampler(len(ds)), batch, drop_last=True)
+    loader = DataLoader(BatchView(ds), batch_size=None, sampler=sampler, num_workers=workers,
+                        pin_memory=dev.type == "cuda", persistent_workers=workers > 0,
+                        prefetch_factor=4 if workers else None)
+    gen = torch.Generator(device=dev).manual_seed(0)
+    sync = torch.cuda.synchronize if dev.type == "cuda" else (lambda: None)
+    steps, t_start, t_step, fastest = 0, None, time.perf_counter(), float("inf")
+    warm_until, warm_limit = t_step + seconds / 5, t_step + seconds
+    for b in loader:
+        b = {k: v.to(dev, non_blocking=True) for k, v in b.items()}
+        with torch.autocast(dev.type, dtype=torch.bfloat16, enabled=precision == "bf16"):
+            loss = model(b, gen)["loss"]
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        opt.step()
+        if ema is not None:
+            ema.update(model)
+        steps += 1
+        if t_start is None:  # warm-up: 3 steps, a fifth of ``seconds``, and the last step near the fastest one
+            sync()
+            now = time.perf_counter()
+            last, t_step = now - t_step, now
+            fastest = min(fastest, last)
+            if steps >= 3 and now >= warm_until and (last <= 1.5 * fastest or now >= warm_limit):
+                t_start, steps = now, 0
+        elif time.perf_counter() - t_start >= seconds:
+            sync()
+            break
+    rate = steps * batch / (time.perf_counter() - t_start)
+    del loader
+    return rate, steps
+
+
 def decision_ms(name: str, size: str, decisions: int, threads: int | None = 1,
-                sampler: str = "ddpm") -> tuple[float, float | None]:
-    """Median ms per ``act`` of the policy and, for NoMaD models, of the same policy on the
-    reference sampling path (same weights and frames, the two timed alternately); NoMaD samples
-    with ``sampler`` (policy.sampler)."""
+                sampler: str = "ddpm", device: str = "cpu", reference: bool = True,
+                seconds: float | None = None) -> tuple[float, float | None]:
+    """Median ms per ``act`` of the policy on ``device`` and, for NoMaD models with ``reference``, of
+    the same policy on the reference sampling path (same weights and frames, the two timed
+    alternately); NoMaD samples with ``sampler`` (policy.sampler). After 3 warm-up decisions,
+    ``decisions`` are timed, or with ``seconds`` as many as fit in that time (at least ``decisions``)."""
     cfg = load_model_config("nomad_pointgoal" if name == "nomad_neg" else name, size)
     ctrl = ControlConfig.from_agent(AgentConfig())
-    paths = (True, False) if name != "vint_pointgoal" else (True,)
+    paths = (True, False) if name != "vint_pointgoal" and reference else (True,)
     policies = []
     for fast in paths:
         torch.manual_seed(0)
-        members = [Member(build_model(cfg).eval(), 0.25) for _ in range(2 if name == "nomad_neg" else 1)]
+        members = [Member(build_model(cfg).eval().to(device), 0.25) for _ in range(2 if name == "nomad_neg" else 1)]
         for m in members:
+            if torch.device(device).type == "cuda":  # as rvn_il.policies.loader.load_member
+                m.model.use_channels_last()
             m.model.fast_sampling = fast
             if name != "vint_pointgoal":
                 m.model.sampler = sampler
-        policies.append(NoMaDNegPolicy(members, ctrl, 8, threads=threads) if name == "nomad_neg"
-                        else PointGoalPolicy(members, ctrl, 1 if name == "vint_pointgoal" else 8, threads=threads))
-    frames = [render_frame(np.array([0.25 * t, 0.0]), 0.05 * t, 256) for t in range(decisions + 3)]
+        policies.append(NoMaDNegPolicy(members, ctrl, 8, device=device, threads=threads) if name == "nomad_neg"
+                        else PointGoalPolicy(members, ctrl, 1 if name == "vint_pointgoal" else 8, device=device,
+                                             threads=threads))
+    frames = [render_frame(np.array([0.25 * t, 0.0]), 0.05 * t, 256) for t in range(min(decisions, 40) + 3)]
     times = [[] for _ in policies]
     for policy in policies:
         policy.reset()
-    for f in frames:
+    start, k = None, 0
+    while k < decisions + 3 or (seconds is not None and time.perf_counter() - start < seconds):
+        f = frames[k % len(frames)]
+        if k == 3:
+            start = time.perf_counter()
         for policy, ts in zip(policies, times):
             t = time.perf_counter()
             policy.act({"rgb": f, "pointgoal": np.array([4.0, 1.0], np.float32)})
             ts.append(time.perf_counter() - t)
+        k += 1
     ms = [1e3 * statistics.median(ts[3:]) for ts in times]
     return ms[0], ms[1] if len(ms) > 1 else None
 

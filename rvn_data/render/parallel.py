@@ -38,7 +38,7 @@ class ParallelRenders:
         return self.cpu_seconds / (self.seconds * self.processes) if self.seconds > 0 else 0.0
 
 
-def _worker(rank, scene, camera, backend, device, poses, keep, barrier, results) -> None:
+def _worker(rank, scene, camera, backend, device, poses, keep, barrier, results, seconds=None) -> None:
     try:
         from rvn_data.render import make_renderer
 
@@ -51,25 +51,38 @@ def _worker(rank, scene, camera, backend, device, poses, keep, barrier, results)
                 renderer.render(*poses[0])  # warm-up: numba / GL pipelines
             barrier.wait()
             t0, c0 = time.monotonic(), time.process_time()
-            out = [renderer.render(p, y) for p, y in poses]
+            out, frames = [], 0
+            while poses and (frames < len(poses) if seconds is None else time.monotonic() - t0 < seconds):
+                frame = renderer.render(*poses[frames % len(poses)])
+                frames += 1
+                if keep:
+                    out.append(frame)
             t1, cpu = time.monotonic(), time.process_time() - c0
             picked = renderer.backend
         rgb = np.stack([o[0] for o in out]) if keep and out else None
         depth = np.stack([o[1] for o in out]) if keep and out else None
-        results.put(dict(rank=rank, t0=t0, t1=t1, cpu=cpu, backend=picked, rgb=rgb, depth=depth, error=None))
+        results.put(dict(rank=rank, t0=t0, t1=t1, cpu=cpu, backend=picked, rgb=rgb, depth=depth, frames=frames,
+                         error=None))
     except BaseException as e:  # report to the parent instead of hanging it
         barrier.abort()
         results.put(dict(rank=rank, error=f"{type(e).__name__}: {e}"))
 
 
 def render_parallel(scene, camera: CameraConfig, poses, backend: str = "raycast", processes: int = 2,
-                    device: int = 0, return_images: bool = True, start_method: str = "spawn") -> ParallelRenders:
+                    device: int = 0, return_images: bool = True, start_method: str = "spawn",
+                    seconds: float | None = None) -> ParallelRenders:
     """Render `poses` [(position[3], yaw), ...] split over `processes` workers.
 
-    `scene` is a `Scene` (pickled to the workers) or a scene spec for `load_scene`.
+    `scene` is a `Scene` (pickled to the workers) or a scene spec for `load_scene`. With
+    `seconds`, each worker renders its share over and over for that long instead of once
+    (a throughput figure: images are not kept, `frames` counts what was rendered).
     """
     import multiprocessing as mp
 
+    if seconds is not None:
+        if not seconds > 0:
+            raise ValueError(f"seconds={seconds!r} must be positive")
+        return_images = False
     if processes < 1:
         raise ValueError(f"processes={processes!r} must be >= 1")
     if start_method not in ("spawn", "forkserver"):
@@ -80,7 +93,7 @@ def render_parallel(scene, camera: CameraConfig, poses, backend: str = "raycast"
     shares = np.array_split(np.arange(len(poses)), processes)
     procs = [ctx.Process(target=_worker, daemon=True,
                          args=(r, scene, camera, backend, device, [poses[i] for i in idx], return_images,
-                               barrier, results))
+                               barrier, results, seconds))
              for r, idx in enumerate(shares)]
     for p in procs:
         p.start()
@@ -103,10 +116,11 @@ def render_parallel(scene, camera: CameraConfig, poses, backend: str = "raycast"
     errors = [g["error"] for g in got.values() if g["error"]]
     if errors:
         raise RuntimeError(f"render worker failed: {errors[0]}")
-    seconds = max(g["t1"] for g in got.values()) - min(g["t0"] for g in got.values())
+    wall = max(g["t1"] for g in got.values()) - min(g["t0"] for g in got.values())
     rgb = depth = None
     if return_images and poses:
         rgb = np.concatenate([got[r]["rgb"] for r in range(processes) if got[r]["rgb"] is not None])
         depth = np.concatenate([got[r]["depth"] for r in range(processes) if got[r]["depth"] is not None])
     cpu = sum(g["cpu"] for g in got.values())
-    return ParallelRenders(rgb, depth, len(poses), seconds, cpu, processes, got[0]["backend"])
+    frames = sum(g["frames"] for g in got.values())
+    return ParallelRenders(rgb, depth, frames, wall, cpu, processes, got[0]["backend"])
