@@ -1,0 +1,133 @@
+"""Node benchmark (issue 32, item 1): every figure of issue 32's table, measured on this machine,
+in one table with the device (GPU name or "CPU only"), CPU count, torch version and git commit.
+
+    python benchmarks/node.py [--seconds-per-row 15] [--out DIR] [--rows render gen train decision rl]
+                              [--threads N] [--quick]
+
+Rows (each timed for --seconds-per-row after its warm-up, so figures are steady state):
+ 1. renderer=gl and raycast, 256² RGB + depth, procedural:train/0: frames/s in 1, 2 and cpu_count processes
+    (beside habitat-sim's published 1,042 frames/s in one process and 1,774 with five, Titan Xp);
+ 2. rvn-gen with cpu_count workers, 256², renderer=auto: frames/s written end to end (start-up and scene
+    set-up included), and the share of time in planning / rendering / other;
+ 3. rvn-train's step (its DataLoader with cpu_count workers, forward, backward, AdamW, EMA) of NoMaD-PointGoal
+    and ViNT-PointGoal on synthetic GNM data: full size, batch 256, bf16 on a GPU; model.size=small, a small batch
+    on a CPU: samples/s;
+ 4. one decision (act) of a NoMaD-PointGoal policy, 8 samples x its diffusion steps, on the GPU and on one
+    CPU thread: median ms (the GPU row says "skipped" on a machine without CUDA);
+ 5. rvn-rl PPO collection + learning at 128², ResNet-18, scale=small PPO settings, envs in worker processes:
+    env steps/s.
+With CUDA, each row shows issue 32's goal and measured/goal, and "GPU busy": GPU 0's mean utilization
+while the row ran (torch.cuda.utilization or pynvml; "n/a" without them). On a 16-core GPU node the
+default run takes about 5 minutes. --quick: about a second per figure at tiny sizes (a smoke test;
+its figures mean little). --out DIR: DIR/node.md and DIR/node.json (with the commit), e.g.
+docs/results/<date>_gpu/. Exit status 1 when a row failed (its error is in the table), 2 for bad options.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+import traceback
+from pathlib import Path
+from types import SimpleNamespace
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # the other benchmarks' modules
+
+import node_report  # noqa: E402
+from node_rows import GROUPS, row  # noqa: E402
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # one line, exit status 2
+        self.exit(2, f"benchmarks/node.py: {message} (see --help)\n")
+
+
+def parse(argv: list[str] | None = None) -> argparse.Namespace:
+    ap = _Parser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--seconds-per-row", type=float, default=None,
+                    help="seconds each figure is timed after warm-up (default 15; --quick: 1)")
+    ap.add_argument("--quick", action="store_true", help="about a second per figure at tiny sizes (tests)")
+    ap.add_argument("--out", type=Path, default=None, help="write node.md and node.json to this folder")
+    ap.add_argument("--rows", nargs="+", choices=list(GROUPS), default=list(GROUPS), help="row groups to run")
+    ap.add_argument("--threads", type=int, default=None,
+                    help="torch intra-op threads of the training rows (rvn-train, rvn-rl); default: all cores "
+                         "(rvn-rl on a GPU: 4), --quick: 1 (on a busy machine threads spin-wait on each other)")
+    ap.add_argument("--scene", default="procedural:train/0", help="scene of the renderer rows")
+    args = ap.parse_args(argv)
+    if args.seconds_per_row is None:
+        args.seconds_per_row = 1.0 if args.quick else 15.0
+    if not 0 < args.seconds_per_row <= 120:
+        ap.error(f"--seconds-per-row={args.seconds_per_row:g} must be in (0, 120]")
+    if args.threads is not None and args.threads < 1:
+        ap.error(f"--threads={args.threads} must be >= 1")
+    if args.out is not None:  # checked before minutes of measuring
+        if args.out.exists() and not args.out.is_dir():
+            ap.error(f"--out {args.out} is a file, not a folder")
+        try:
+            args.out.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            ap.error(f"--out {args.out}: {e.strerror or e}")
+        if not os.access(args.out, os.W_OK):
+            ap.error(f"--out {args.out} is not writable")
+    return args
+
+
+def make_plan(args, cuda: bool, cpus: int) -> SimpleNamespace:
+    """Sizes, batches and process counts of every row on this machine (quick: tiny)."""
+    q = args.quick
+    return SimpleNamespace(
+        quick=q, seconds=args.seconds_per_row, cuda=cuda, cpus=cpus, scene=args.scene,
+        size=64 if q else 256,
+        render_processes=sorted({1, 2, cpus}),
+        gen_workers=min(2, cpus) if q else cpus,
+        train_data=(6, 20) if q else (64, 40) if cuda else (16, 30),
+        train_image=64 if q else 128,
+        train_batch=4 if q else 256 if cuda else 16,
+        loader_workers=0 if q else cpus if cuda else 1,
+        train_threads=args.threads or (1 if q else None),
+        cpu_model_size="small",
+        decision_cpu_size="small" if q else "full",
+        rl_size=64 if q else 128,
+        rl_envs=2 if q else 2 * max(1, cpus - 1) if cuda else 8,
+        rl_workers=1 if q else max(1, cpus - 1) if cuda else min(cpus, 8),
+        rl_scenes=1 if q else 4,
+        rl_num_steps=8 if q else 64,
+        rl_threads=args.threads or (1 if q else min(4, cpus) if cuda else cpus),
+    )
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse(argv)
+    info = node_report.machine()
+    plan = make_plan(args, info["cuda"], info["cpu_count"])
+    print(f"[node] {info['device']}, {info['cpu_count']} CPUs, torch {info['torch']}: rows {' '.join(args.rows)}, "
+          f"{plan.seconds:g} s per figure", file=sys.stderr, flush=True)
+    rows = []
+    for group, name in enumerate(GROUPS, 1):
+        if name not in args.rows:
+            continue
+        t = time.perf_counter()
+        try:
+            got = GROUPS[name](plan)
+        except Exception as e:  # the other rows still run; the table says what failed
+            traceback.print_exc()
+            got = [row(group, name, name, "", None)]
+            got[0]["error"] = f"{type(e).__name__}: {str(e).strip().splitlines()[0] if str(e).strip() else ''}"
+        wall = time.perf_counter() - t
+        for r in got:
+            r["group_wall_s"] = round(wall, 1)
+            node_report.compare(r, info["cuda"])
+        rows += got
+        print(f"[node] {name}: {len(got)} row(s) in {wall:.0f} s", file=sys.stderr, flush=True)
+    plan_dict = {k: v for k, v in vars(plan).items()}
+    text = node_report.markdown(info, rows, plan_dict)
+    print(text, end="")
+    if args.out is not None:
+        paths = node_report.write(args.out, info, rows, plan_dict, text)
+        print(f"\nwritten: {', '.join(str(p) for p in paths)}")
+    return 1 if any(r["error"] for r in rows) else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,185 @@
+"""The rows of benchmarks/node.py, one function per row group of issue 32, each built on the other
+benchmarks' functions (render.py, gen.py, train.py, rl.py) and returning row dicts. ``plan`` holds
+the sizes and time budget (node.py's `make_plan`): every figure is timed for ``plan.seconds`` after
+its warm-up."""
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+import tempfile
+from pathlib import Path
+from types import SimpleNamespace
+
+from node_report import HABITAT, GpuBusy
+
+NO_CUDA = "no CUDA on this machine (a GPU row)"
+
+
+def row(group: int, key: str, label: str, unit: str, goal_key: str | None = None, value: float | None = None,
+        settings: str = "", baseline: str = "", gpu_busy: float | None = None, skipped: str | None = None) -> dict:
+    return dict(group=group, key=key, label=label, value=value, unit=unit, goal_key=goal_key, settings=settings,
+                baseline=baseline, gpu_busy=gpu_busy, skipped=skipped, error=None)
+
+
+@contextlib.contextmanager
+def lp_threads(processes: int, cpus: int):
+    """Software GL (llvmpipe) threads shared between ``processes`` (as rvn-eval does), unless set by the user."""
+    old = os.environ.get("LP_NUM_THREADS")
+    if old is None and processes > 1:
+        os.environ["LP_NUM_THREADS"] = str(max(1, cpus // processes))
+    try:
+        yield
+    finally:
+        if old is None:
+            os.environ.pop("LP_NUM_THREADS", None)
+
+
+def render_rows(plan) -> list[dict]:
+    """1. renderer=gl and raycast, RGB + depth: frames/s with 1, 2 and cpu_count processes."""
+    from render import poses_for
+    from rvn_data.render import CameraConfig, make_renderer
+    from rvn_data.render.parallel import render_parallel
+    from rvn_data.scenes.loader import load_scene
+
+    scene = load_scene(plan.scene)
+    camera = CameraConfig(width=plan.size, height=plan.size)
+    poses = poses_for(scene, 200)
+    rows = []
+    for backend in ("gl", "raycast"):
+        goal = "render_gl" if backend == "gl" else None
+        try:
+            with make_renderer(scene, camera, backend) as r:
+                info = r.info
+        except RuntimeError as e:
+            rows.append(row(1, f"render_{backend}", f"renderer={backend}", "frames/s", goal,
+                            skipped=f"unavailable ({e})"))
+            continue
+        for n in plan.render_processes:
+            with lp_threads(n, plan.cpus), GpuBusy() as busy:
+                res = render_parallel(scene, camera, poses, backend, processes=n, return_images=False,
+                                      seconds=plan.seconds)
+            rows.append(row(1, f"render_{backend}_{n}p", f"renderer={backend}, {n} process{'es' if n > 1 else ''}",
+                            "frames/s", goal, res.frames_per_second,
+                            f"{plan.size}² RGB+depth, {plan.scene} ({scene.num_triangles:,} triangles), {info}, "
+                            f"cpu share {res.cpu_share:.2f}", HABITAT[1 if n == 1 else 5], busy.share))
+    return rows
+
+
+def gen_rows(plan) -> list[dict]:
+    """2. rvn-gen with cpu_count workers, default renderer: frames/s written end to end and its time shares."""
+    import gen as gen_bench
+
+    common = [f"camera.width={plan.size}", f"camera.height={plan.size}", "renderer=auto"]
+    with tempfile.TemporaryDirectory() as tmp:
+        warm = gen_bench.run(Path(tmp) / "warmup", ["scenes.num_scenes=1", "trajectories_per_scene=1", *common])
+        t = gen_bench.timing(warm)  # per-frame cost without set-up sizes the run to plan.seconds
+        per_frame = (sum(t.values()) - t["setup"]) / max(1, warm.frames)
+        per_traj = warm.frames / max(1, sum(r.written for r in warm.results))
+        per_scene = max(1, min(1000, math.ceil(plan.seconds / max(per_frame * per_traj, 1e-6))))
+        w = plan.gen_workers
+        with GpuBusy() as busy:
+            rep = gen_bench.run(Path(tmp) / "run", [*common, f"workers={w}", f"scenes.num_scenes={w}",
+                                                    f"trajectories_per_scene={per_scene}"])
+    phases = gen_bench.timing(rep)
+    total = sum(phases.values()) or 1.0
+    other = {k: v for k, v in phases.items() if k not in ("planning", "rendering")}
+    shares = (f"time: planning {100 * phases['planning'] / total:.0f}%, "
+              f"rendering {100 * phases['rendering'] / total:.0f}%, other {100 * sum(other.values()) / total:.0f}% ("
+              + ", ".join(f"{k} {100 * v / total:.0f}%" for k, v in other.items()) + ")")
+    return [row(2, "gen", f"rvn-gen, {w} workers", "frames/s", "gen", rep.frames / rep.seconds,
+                f"{plan.size}² JPEG, renderer {', '.join(gen_bench.backends(rep))}, {rep.frames} frames of {w} scenes "
+                f"in {rep.seconds:.1f} s (start-up and set-up included); {shares}", gpu_busy=busy.share)]
+
+
+def train_rows(plan) -> list[dict]:
+    """3. rvn-train's step (loader + forward + backward + AdamW [+ EMA]) of NoMaD and ViNT: samples/s."""
+    import train as train_bench
+    from rvn_il.data.synthetic import write_synthetic_gnm
+    from rvn_il.models import load_model_config
+    from rvn_il.policies.policy import intra_op_threads
+
+    device, size, precision = ("cuda", "full", "bf16") if plan.cuda else ("cpu", plan.cpu_model_size, "fp32")
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        trajectories, length = plan.train_data
+        root = write_synthetic_gnm(Path(tmp) / "expert", trajectories, length, image_size=plan.train_image)
+        for name in ("nomad_pointgoal", "vint_pointgoal"):
+            cfg = load_model_config(name, size)
+            with intra_op_threads(plan.train_threads), GpuBusy() as busy:
+                rate, steps = train_bench.steady_train_rate(root, cfg, plan.train_batch, plan.seconds, device,
+                                                            precision, plan.loader_workers, str(Path(tmp) / "cache"))
+            w, h = cfg["image_size"]
+            rows.append(row(3, f"train_{name}", f"rvn-train {name} ({device})", "samples/s", f"train_{name}", rate,
+                            f"model.size={size}, {w}x{h}, batch {plan.train_batch}, train.precision={precision}, "
+                            f"{plan.loader_workers} loader workers, {plan.train_threads or 'all'} torch threads, "
+                            f"{steps} steps timed, synthetic GNM data",
+                            gpu_busy=busy.share))
+    return rows
+
+
+def decision_rows(plan) -> list[dict]:
+    """4. one act() of a NoMaD-PointGoal policy (8 samples x its diffusion steps): median ms, GPU and one CPU thread."""
+    import train as train_bench
+    from rvn_il.models import load_model_config
+
+    rows = []
+    for where, size in (("gpu", "full"), ("cpu", plan.decision_cpu_size)):
+        steps = load_model_config("nomad_pointgoal", size)["num_diffusion_iters"]
+        label = "NoMaD decision, GPU" if where == "gpu" else "NoMaD decision, one CPU thread"
+        if where == "gpu" and not plan.cuda:
+            rows.append(row(4, "decision_gpu", label, "ms", "decision_gpu", skipped=NO_CUDA))
+            continue
+        with GpuBusy() as busy:
+            ms, _ = train_bench.decision_ms("nomad_pointgoal", size, 5, threads=1, reference=False,
+                                            seconds=plan.seconds, device="cuda" if where == "gpu" else "cpu")
+        rows.append(row(4, f"decision_{where}", label, "ms", f"decision_{where}", ms,
+                        f"model.size={size}, 8 samples x {steps} steps, 256x256 frame -> action, median after warm-up",
+                        gpu_busy=busy.share if where == "gpu" else None))
+    return rows
+
+
+def rl_rows(plan) -> list[dict]:
+    """5. rvn-rl PPO collection + learning, ResNet-18 (scale=small), envs in worker processes: env steps/s.
+    A first run of two updates (the first one loads scenes: not counted) times an update; when that left
+    part of ``plan.seconds``, the run resumes for as many more updates as fit (the first again not counted)."""
+    import rl as rl_bench
+    from rvn_rl.cli import compose
+    from rvn_rl.trainer import train
+
+    envs, workers = plan.rl_envs, plan.rl_workers
+    args = SimpleNamespace(size=plan.rl_size, envs=envs, workers=workers, scenes=plan.rl_scenes, base_planes=32,
+                           num_steps=plan.rl_num_steps, threads=plan.rl_threads, renderer="auto", updates=2,
+                           goal_pool=64, ppo_epoch=4, mini_batches=min(4, envs))
+    counted = []  # (env steps, seconds) of the updates that count
+    with tempfile.TemporaryDirectory() as tmp, GpuBusy() as busy:
+        out = f"{tmp}/run"
+        train(compose(rl_bench.overrides(args, out)))
+        counted += [_steps_seconds(r, envs) for r in _metrics(out)[1:]]
+        left = plan.seconds - sum(s for _, s in counted)
+        if left > 0 and not plan.quick:
+            args.updates += 1 + math.ceil(left / (counted[-1][1] or 1e-3))
+            seen = len(_metrics(out))
+            train(compose(rl_bench.overrides(args, out)))
+            counted += [_steps_seconds(r, envs) for r in _metrics(out)[seen + 1:]]
+    steps, seconds = sum(n for n, _ in counted), sum(s for _, s in counted)
+    return [row(5, "rl", f"rvn-rl PPO collection + learning ({'cuda' if plan.cuda else 'cpu'})", "env steps/s", "rl",
+                steps / seconds, f"{plan.rl_size}² RGB, resnet18 (base planes 32), scale=small PPO (rollouts of "
+                f"{plan.rl_num_steps} x {envs} envs, 4 epochs x {args.mini_batches} mini-batches), "
+                f"{workers} env worker processes, "
+                f"{len(counted)} updates timed ({seconds:.1f} s)", gpu_busy=busy.share)]
+
+
+def _steps_seconds(update: dict, envs: int) -> tuple[float, float]:
+    """Env steps and seconds of one update of rvn-rl's metrics.jsonl."""
+    steps = update["rollout_steps"] * envs
+    return steps, steps / update["fps"]
+
+
+def _metrics(out: str) -> list[dict]:
+    with open(f"{out}/metrics.jsonl") as f:
+        return [json.loads(line) for line in f]
+
+
+GROUPS = {"render": render_rows, "gen": gen_rows, "train": train_rows, "decision": decision_rows, "rl": rl_rows}

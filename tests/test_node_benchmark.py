@@ -1,0 +1,107 @@
+"""benchmarks/node.py (issue 32): one table of every row on this machine. Its figures are not
+checked (no timed assertions): every row is listed, GPU rows say they were skipped without CUDA,
+measured figures are positive, and the JSON names the commit."""
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import torch
+
+ROOT = Path(__file__).resolve().parents[1]
+NODE = ROOT / "benchmarks" / "node.py"
+GROUPS = {"render": 1, "gen": 2, "train": 3, "decision": 4, "rl": 5}
+
+
+def node(*args, timeout=1500):
+    return subprocess.run([sys.executable, str(NODE), *args], capture_output=True, text=True, timeout=timeout, cwd=ROOT)
+
+
+@pytest.mark.slow
+def test_quick_run_lists_every_row(tmp_path):
+    proc = node("--quick", "--out", str(tmp_path / "out"))
+    assert proc.returncode == 0, proc.stdout + proc.stderr[-3000:]
+    doc = json.loads((tmp_path / "out" / "node.json").read_text())
+    table = (tmp_path / "out" / "node.md").read_text()
+    assert table in proc.stdout
+    rows = {r["key"]: r for r in doc["rows"]}
+    cpus = doc["cpu_count"]
+    expected = {"gen", "train_nomad_pointgoal", "train_vint_pointgoal", "decision_gpu", "decision_cpu", "rl"}
+    expected |= {f"render_{b}_{n}p" for b in ("gl", "raycast") for n in {1, 2, cpus}}
+    assert expected <= set(rows), sorted(expected - set(rows))
+    assert {r["group"] for r in doc["rows"]} == set(GROUPS.values())
+    for r in doc["rows"]:
+        assert f"| {r['group']} | {r['label']} |" in table
+        assert r["error"] is None, r
+        if r["skipped"]:
+            assert f"skipped: {r['skipped']}" in table
+        else:
+            assert r["value"] > 0, r
+    gpu_rows = [r for r in doc["rows"] if r["key"] == "decision_gpu"]
+    if torch.cuda.is_available():
+        assert not gpu_rows[0]["skipped"] and doc["device"] != "CPU only"
+    else:
+        assert "no CUDA" in gpu_rows[0]["skipped"] and doc["device"] == "CPU only"
+        assert "skipped: no CUDA" in proc.stdout
+        assert all(r["ratio"] is None for r in doc["rows"])  # goals are compared on a GPU node only
+    head = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "HEAD"], capture_output=True, text=True)
+    if head.returncode == 0:
+        assert doc["commit"] == head.stdout.strip()
+    assert doc["commit"] and doc["commit"] in json.dumps(doc["provenance"])
+    assert doc["torch"] == torch.__version__ and doc["quick"] is True
+    assert not list((tmp_path / "out").glob(".*tmp"))  # written atomically, no temporary files left
+
+
+@pytest.mark.parametrize("args, says", [(["--seconds-per-row", "0"], "--seconds-per-row"),
+                                        (["--rows", "nope"], "invalid choice"),
+                                        (["--bogus"], "unrecognized arguments")])
+def test_bad_options_one_line_exit_2(args, says):
+    proc = node(*args, timeout=120)
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and says in lines[0], proc.stderr
+
+
+def test_out_must_be_a_folder(tmp_path):
+    (tmp_path / "f").write_text("")
+    proc = node("--out", str(tmp_path / "f"), timeout=120)
+    assert proc.returncode == 2 and "is a file" in proc.stderr and proc.stdout == ""
+
+
+@pytest.mark.slow
+def test_render_parallel_for_a_time_budget():
+    """render_parallel(seconds=...) (node.py's renderer rows): the poses over and over for that long, no images kept."""
+    import numpy as np
+
+    from rvn_data.render import CameraConfig
+    from rvn_data.render.parallel import render_parallel
+
+    poses, cam = [(np.array([0.0, 0.0, 0.0]), y) for y in (0.0, 1.0)], CameraConfig(width=16, height=16)
+    out = render_parallel("procedural:train/0", cam, poses, "raycast", processes=1, seconds=0.3)
+    assert out.rgb is None and out.depth is None and out.frames >= 1 and out.frames_per_second > 0
+    with pytest.raises(ValueError, match="seconds"):
+        render_parallel("procedural:train/0", cam, poses, "raycast", seconds=0)
+
+
+def test_goals_compared_on_a_gpu_node_only():
+    """The table of a (simulated) GPU node: goal, measured/goal and met per row; without CUDA only the goal."""
+    sys.path.append(str(ROOT / "benchmarks"))
+    import node_report
+    from node_rows import row
+
+    info = {"device": "NVIDIA H200", "cuda": True, "gpus": 1, "cuda_version": "13.0", "cpu_count": 16, "torch": "2.11",
+            "date": "2026-11-26", "provenance": {"commit": "0123456789abcdef", "dirty": False}}
+    rows = [row(3, "train_nomad_pointgoal", "rvn-train nomad_pointgoal (cuda)", "samples/s", "train_nomad_pointgoal",
+                5000.0, gpu_busy=0.9),
+            row(4, "decision_gpu", "NoMaD decision, GPU", "ms", "decision_gpu", 12.0, gpu_busy=None),
+            row(1, "render_raycast_1p", "renderer=raycast, 1 process", "frames/s", None, 100.0)]
+    for r in rows:
+        node_report.compare(r, cuda=True)
+    assert (rows[0]["ratio"], rows[0]["met"]) == (1.25, True) and (rows[1]["ratio"], rows[1]["met"]) == (1.2, False)
+    assert rows[2]["goal"] is None and rows[2]["ratio"] is None
+    text = node_report.markdown(info, rows, {"quick": False, "seconds": 15.0})
+    assert "| >= 4,000 samples/s | 1.25 (met) | 90% |" in text and "| <= 12.0 ms" not in text
+    assert "| 12.0 ms | <= 10.0 ms | 1.20 (not met) | n/a |" in text and "commit 0123456789" in text
+    node_report.compare(rows[0], cuda=False)
+    assert rows[0]["ratio"] is None and rows[0]["goal"] == {"op": ">=", "value": 4000.0}
