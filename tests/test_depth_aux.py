@@ -181,9 +181,9 @@ def check_escape(out, frame, first_actions):
     policy.reset()
     behind = {"rgb": frame, "pointgoal": np.array([-3.0, 0.1], np.float32)}  # 178 deg to the left
     actions = [policy.act(behind) for _ in range(6)]
-    # the goal does not turn with the robot here (a fixed observation): 3 turns seen, the nearest to the goal
-    # (the last, 60 deg on) is where it stands, so it drives at once, two steps, then the model turns again
-    assert actions == [2, 2, 2, 1, 1, 2] and policy.episode_stats()["escapes"] == 1
+    # the observation is fixed, so the goal turns with the robot: after 3 turns (headings 0, 30, 60 deg) the goal
+    # was last seen at 60 + 178 = 238 deg, nearest heading 0 (every heading free): two turns right, two steps
+    assert actions == [2, 2, 3, 3, 1, 1] and policy.episode_stats()["escapes"] == 1
     policy.reset()
     assert policy.episode_stats() == {"decisions": 0, "vetoes": 0, "escapes": 0}
     plain = load_policy(out, **steer)

@@ -23,6 +23,7 @@ import numpy as np
 
 from rvn_data.dataset import finalise as _finalise
 from rvn_data.dataset import writer
+from rvn_data.dataset.reader import is_complete
 from rvn_data.dataset.settings import DatasetConfig, GenSettings
 from rvn_data.dataset.verify import MISSING, Expect, check_trajectory
 from rvn_data.identity import check_identity, differences
