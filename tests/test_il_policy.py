@@ -117,6 +117,12 @@ def test_vote_follows_the_action_most_samples_lead_to():
     np.testing.assert_array_equal(pooled, left)
     with pytest.raises(ValueError, match="aggregate"):
         PointGoalPolicy([], CTRL, aggregate="mean")
+    # medoid: the sample nearest the others (CoR's expert term alone); here a slightly bent left one sits
+    # between the straight ones and the left ones, and the lone right one is the farthest
+    bent = (straight + left) / 2
+    medoid = PointGoalPolicy([], CTRL, aggregate="medoid")
+    np.testing.assert_array_equal(medoid.choose([np.stack([right, straight, bent, left, straight])], goal), bent)
+    np.testing.assert_array_equal(medoid.choose([np.stack([left, left, right])], goal), left)
 
 
 def test_trajectory_oracle_predicts_the_expert_planners_path(tmp_path):

@@ -30,7 +30,7 @@ from rvn_data.conventions import Action
 from ..data.images import check_crop, preprocess_image
 from ..models import PointGoalModel
 from .control import ControlConfig, waypoints_to_action
-from .cor import SELECTIONS, select_expert
+from .cor import SELECTIONS, rms_distance, select_expert
 from .depth_veto import DepthVeto, check_depth_veto, clearance, predicted_depth, turn_instead
 from .escape import Escape
 
@@ -67,14 +67,16 @@ class PointGoalPolicy:
     ``first`` follows sample 0 (as NoMaD's deployment code); ``vote`` turns every sample into
     an action and takes the most frequent one (ties: the earliest sample's), which cancels the
     sampling noise of an under-trained diffusion head while keeping a multi-modal choice (left or
-    right around an obstacle) whole, where the mean trajectory would run between the two.
+    right around an obstacle) whole, where the mean trajectory would run between the two; ``medoid``
+    follows the sample nearest the others (RMS distance, :func:`.cor.rms_distance`): NoMaD-Neg's CoR without
+    its negative term, the control that tells what the negatives add to NoMaD-Neg's choice.
     With several members (``policy.ensemble``), ``vote`` pools every member's samples, member 0's first.
     ``depth_veto`` (metres with the band rule, a :class:`DepthVeto`, or None: off): turn instead of a
     MOVE_FORWARD that member 0's depth head sees blocked (:mod:`.depth_veto`); ``vetoes`` counts them since ``reset()``.
     ``episode_stats()`` (recorded by rvn-eval in each episode's ``policy_stats``): ``decisions`` (model
     calls since ``reset()``), ``vetoes``, and what a subclass adds."""
 
-    AGGREGATES = ("first", "vote")
+    AGGREGATES = ("first", "vote", "medoid")
 
     def __init__(self, members: list[Member], control: ControlConfig, num_samples: int = 8, seed: int = 0,
                  device: str | torch.device = "cpu", aggregate: str = "first", threads: int | None = 1,
@@ -135,6 +137,9 @@ class PointGoalPolicy:
         if self.aggregate == "first":
             return samples[0][0]
         pooled = [wp for member in samples for wp in member]
+        if self.aggregate == "medoid":  # CoR's expert term alone: nearest the other samples (rms_distance)
+            stack = torch.as_tensor(np.stack(pooled))
+            return pooled[int(torch.argmin(rms_distance(stack, stack, exclude_self=True)))]
         actions = [int(waypoints_to_action(wp, pointgoal, self.control)) for wp in pooled]
         counts = np.bincount(actions, minlength=len(Action))
         best = max(actions, key=lambda a: (counts[a], -actions.index(a)))
