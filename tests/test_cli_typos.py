@@ -35,9 +35,10 @@ def run(prog: str, *args: str, cwd: Path) -> subprocess.CompletedProcess:
     ("rvn-rl", ["ppo.lr=abc"], "ppo.lr='abc': give a number (default 0.00025)"),
     ("rvn-eval", ["policy=orcle"], "policy=orcle is not an option; choose one of checkpoint, goal_follower, oracle"),
     ("rvn-train", ["x=[1"], "cannot read the override 'x=[1'"),
+    ("rvn-rl", ["out_dir="], "out_dir= is empty: give a folder or file"),  # would write into the current folder
 ])
 def test_typo_is_one_line_and_writes_nothing(tmp_path, prog, args, line):
-    proc = run(prog, *args, f"out_dir={tmp_path / 'out'}", cwd=tmp_path)
+    proc = run(prog, f"out_dir={tmp_path / 'out'}", *args, cwd=tmp_path)
     lines = proc.stderr.strip().splitlines()
     assert proc.returncode == 2 and lines == [f"{prog}: error: {lines[0].split(': error: ', 1)[1]}"], proc.stderr[-3000:]
     assert line in lines[0] and "Traceback" not in proc.stderr

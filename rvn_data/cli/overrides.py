@@ -26,7 +26,8 @@ from rvn_data.cli.common import ConfigError, one_line
 VALUE_FLAGS = {"--cfg", "-c", "--package", "-p", "--config-path", "-cp", "--config-name", "-cn", "--config-dir", "-cd",
                "--experimental-rerun", "--shell-completion", "-sc"}
 STOP_FLAGS = {"-h", "--help", "--hydra-help", "--info", "-i", "--shell-completion", "-sc", "--version"}
-OPEN_GROUPS = {"eval": ("policy",)}  # config name -> groups whose keys the chosen class checks (its kwargs)
+OPEN_GROUPS = {"eval": ("policy",)}
+PATH_KEYS = ("out_dir", "_dir", "root", "_path", "_from")  # settings that name a folder or file: never empty  # config name -> groups whose keys the chosen class checks (its kwargs)
 
 
 def overrides_of(argv: Sequence[str]) -> list[str] | None:
@@ -186,6 +187,10 @@ def check(prog: str, config_name: str, config_dir: str, argv: Sequence[str],
     except Exception as err:  # noqa: BLE001 - Hydra and OmegaConf raise many types; each becomes one line
         raise ConfigError(_explain(err, prog, config_dir, config_name, composed)) from None
     _check_types(cfg, parsed, config_dir, config_name, composed)
+    for ov in parsed:  # out_dir= (empty) would write into the current folder
+        key = ov.get_key_element().lstrip("+~")
+        if key.endswith(PATH_KEYS) and OmegaConf.select(cfg, key, default=None, throw_on_missing=False) == "":
+            raise ConfigError(f"{key}= is empty: give a folder or file, or leave {key} out for its default")
     open_groups = tuple(OPEN_GROUPS.get(config_name, ()) if open_groups is None else open_groups)
     added = [ov for ov in parsed if ov.get_key_element().startswith("+") and not ov.get_key_element().startswith("++")
              and "/" not in ov.get_key_element()]
