@@ -42,7 +42,7 @@ def command(line: str) -> tuple[str, list[str]]:
     """(tool, arguments): console scripts as they are; ``torchrun ... -m <module>`` and ``python -m <module>`` by
     module; ``ENV=... bash jobs/x.sh OUT`` as ``bash``; placeholders (``...``) dropped."""
     words = [w for w in shlex.split(line) if w != "..."]
-    while words and re.fullmatch(r"[A-Z_]+=\S*", words[0]):
+    while words and re.fullmatch(r"[A-Z_]+=.*", words[0]):  # quoted values may hold spaces: SEEDS="0 1"
         words = words[1:]
     if words[0] in ("torchrun", "python") and "-m" in words:
         i = words.index("-m")
