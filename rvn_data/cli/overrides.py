@@ -26,8 +26,8 @@ from rvn_data.cli.common import ConfigError, one_line
 VALUE_FLAGS = {"--cfg", "-c", "--package", "-p", "--config-path", "-cp", "--config-name", "-cn", "--config-dir", "-cd",
                "--experimental-rerun", "--shell-completion", "-sc"}
 STOP_FLAGS = {"-h", "--help", "--hydra-help", "--info", "-i", "--shell-completion", "-sc", "--version"}
-OPEN_GROUPS = {"eval": ("policy",)}
-PATH_KEYS = ("out_dir", "_dir", "root", "_path", "_from")  # settings that name a folder or file: never empty  # config name -> groups whose keys the chosen class checks (its kwargs)
+OPEN_GROUPS = {"eval": ("policy",)}  # config name -> groups whose keys the chosen class checks (its kwargs)
+PATH_KEYS = ("out_dir", "_dir", "root", "_path", "_from")  # settings that name a folder or file: never empty
 
 
 def overrides_of(argv: Sequence[str]) -> list[str] | None:
