@@ -92,5 +92,8 @@ class EvalConfig:
     workers: int = 1  # worker processes, each with its own env and renderer
     resume: bool = True  # skip episodes already in out_dir/episodes.jsonl
     progress: bool = True
+    # a policy trained for another robot or camera (rvn_data/embodiment.py): error (one line, before any episode) |
+    # allow (announced, recorded in run.json and metrics.json as embodiment_mismatch)
+    embodiment_mismatch: str = "error"
     episodes: EvalEpisodesConfig = field(default_factory=EvalEpisodesConfig)
     env: EvalEnvConfig = field(default_factory=EvalEnvConfig)

@@ -22,6 +22,11 @@ def validate(cfg: dict, world_size: int = 1) -> None:
     for key in ("num_envs", "size", "scene_switch_every", "t_max"):
         _positive_int(env[key], f"env.{key}")
     _positive_int(env["scene_cache"] + 1, "env.scene_cache + 1")
+    camera = cfg.get("camera") or {}
+    for key in ("width", "height"):  # conf/rl.yaml sets both to ${env.size}; a value given on its own would disagree
+        if key in camera and camera[key] != env["size"]:
+            raise ValueError(f"camera.{key}={camera[key]} differs from env.size={env['size']}: the observation is "
+                             f"env.size pixels square; set env.size={camera[key]} (camera.width and height follow it)")
     workers = env.get("workers", 0)
     if isinstance(workers, bool) or not isinstance(workers, int) or not 0 <= workers <= env["num_envs"]:
         raise ValueError(f"env.workers={workers!r} must be between 0 (in process) and env.num_envs={env['num_envs']}")

@@ -1,9 +1,8 @@
 """A trained rvn-rl policy behind the benchmark's policy contract (``reset()``, ``act(obs)``):
 ``load_rl_policy(out_dir)`` rebuilds `PointNavResNetPolicy` from ``config.yaml`` and the
 latest checkpoint's weights. The recurrent state, the previous action and the episode-start
-mask reset in ``reset()``. An RGB frame of another size than the training one is resized
-(area interpolation); for exact figures evaluate at the training size (``camera.width`` /
-``camera.height``). Depth: the rendered ``obs["depth"]`` (``depth.source=true``, evaluate
+mask reset in ``reset()``. rvn-eval refuses another camera than the training one (`rvn_data.embodiment`)
+unless ``embodiment_mismatch=allow``; a frame of another size is then resized (area interpolation). Depth: the rendered ``obs["depth"]`` (``depth.source=true``, evaluate
 with ``env.depth=true``) or the frozen depth model the run was trained with."""
 from __future__ import annotations
 
@@ -12,6 +11,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from rvn_data.embodiment import embodiment_of
+
 from . import checkpoint as ck
 from .model import PointNavResNetPolicy
 
@@ -19,6 +20,8 @@ POLICY_KEYS = {"deterministic", "threads", "depth_model_path"}
 
 
 class RLPolicy:
+    embodiment: dict | None = None  # the robot and camera of its training envs (rvn_data.embodiment), checked by rvn-eval
+
     def __init__(self, net: PointNavResNetPolicy, obs_size: int, device: torch.device, deterministic: bool = False,
                  threads: int | None = 1, depth_fn=None, true_depth: bool = False):
         if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
@@ -96,5 +99,8 @@ def load_rl_policy(checkpoint_path: str | Path, device: str | torch.device = "cp
         if not true_depth:
             from .config import load_depth_fn
             depth_fn = load_depth_fn(overrides.get("depth_model_path") or cfg["depth"]["model_path"], dev)
-    return RLPolicy(net, cfg["policy"]["obs_size"], dev, deterministic=bool(overrides.get("deterministic", False)),
-                    threads=overrides.get("threads", 1), depth_fn=depth_fn, true_depth=true_depth)
+    policy = RLPolicy(net, cfg["policy"]["obs_size"], dev, deterministic=bool(overrides.get("deterministic", False)),
+                      threads=overrides.get("threads", 1), depth_fn=depth_fn, true_depth=true_depth)
+    if cfg.get("agent") and cfg.get("camera"):  # the robot and camera it was trained with, checked by rvn-eval
+        policy.embodiment = embodiment_of(cfg["agent"], cfg["camera"])
+    return policy

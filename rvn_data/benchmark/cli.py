@@ -14,6 +14,7 @@ bad input exits with status 2 and one line, writing nothing; a failed run exits 
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 import hydra
@@ -24,6 +25,7 @@ from rvn_data.benchmark.results import RunDir, record_key, run_identity
 from rvn_data.benchmark.runner import env_kwargs, make_policy, policy_name, prepare_episodes, run_episodes
 from rvn_data.benchmark.table import render_table
 from rvn_data.config import CONF_DIR, register_configs
+from rvn_data.embodiment import check_embodiment, describe, embodiment_of
 from rvn_data.cli.common import ConfigError, check_writable_dir, entered_task, fail, record_run, run_hydra, validating
 
 register_configs()
@@ -42,10 +44,15 @@ def evaluate(cfg: dict, on_checked=None) -> dict:
         env_cfg = EnvConfig.from_kwargs(**env_kwargs(cfg))
         slots = env_cfg.scene_slots("episodes.first_scene")
         keys = [(slots[pos][1], e) for pos, e in eval_schedule(slots, env_cfg.per_scene)]
-        make_policy(cfg["policy"], None, policy_name(cfg))  # a checkpoint that does not load fails here, not after the episodes
+        policy = make_policy(cfg["policy"], None, policy_name(cfg))  # a checkpoint that does not load fails here
+        diffs = check_embodiment(getattr(policy, "embodiment", None), embodiment_of(env_cfg.agent, env_cfg.camera),
+                                 _policy_what(cfg), str(cfg.get("embodiment_mismatch", "error")))
         check_writable_dir(cfg["out_dir"])
-        run = RunDir(cfg["out_dir"], run_identity(cfg))
+        run = RunDir(cfg["out_dir"], run_identity(cfg), {"embodiment_mismatch": diffs})
         done = run.open(resume=bool(cfg.get("resume", True)))
+    if diffs:
+        print(f"rvn-eval: note: policy {cfg['method']!r} was trained for another robot or camera: {describe(diffs)} "
+              "(embodiment_mismatch=allow; recorded in run.json and metrics.json)", file=sys.stderr)
     if on_checked is not None:
         on_checked()
     todo = [k for k, key in enumerate(keys) if key not in done]
@@ -66,8 +73,15 @@ def evaluate(cfg: dict, on_checked=None) -> dict:
     metrics = compute_metrics(records)
     metrics.update(split=cfg["split"], policy=cfg["policy_name"], method=cfg["method"],
                    scenes=len(slots), per_scene=env_cfg.per_scene, n_goals=env_cfg.episodes.n_goals)
+    if diffs:
+        metrics["embodiment_mismatch"] = diffs
     run.finish(records, metrics, render_table([metrics]))
     return metrics
+
+
+def _policy_what(cfg: dict) -> str:
+    ckpt = dict(cfg["policy"]).get("checkpoint_path") if isinstance(cfg["policy"], dict) else None
+    return f"policy.checkpoint_path={ckpt}" if ckpt else f"policy {cfg['method']!r}"
 
 
 def _plain_config(cfg: DictConfig) -> dict:

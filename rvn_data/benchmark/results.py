@@ -98,9 +98,12 @@ def record_key(rec: dict) -> tuple[int, int]:
 class RunDir:
     """Files of one rvn-eval run under ``out_dir``."""
 
-    def __init__(self, out_dir: str | Path, identity: dict):
+    NOTES = ("embodiment_mismatch",)  # recorded in run.json beside the identity, not part of it
+
+    def __init__(self, out_dir: str | Path, identity: dict, notes: dict | None = None):
         self.dir = Path(out_dir)
         self.identity = identity
+        self.notes = {k: v for k, v in (notes or {}).items() if k in self.NOTES and v}
         self.run_path = self.dir / "run.json"
         self.records_path = self.dir / "episodes.jsonl"
         self.metrics_path = self.dir / "metrics.json"
@@ -116,6 +119,8 @@ class RunDir:
         if resume and self.run_path.exists():
             stored = moved_targets(json.loads(self.run_path.read_text()))
             earlier, resumed_by = stored.pop("provenance", None), stored.pop("resumed_by", [])
+            for key in self.NOTES:
+                stored.pop(key, None)
             if "policy_files" in self.identity and "policy_files" not in stored:
                 stored["policy_files"] = self.identity["policy_files"]  # a run.json from before the digest
             check_settings(self.run_path, stored, self.identity, what="rvn-eval run",
@@ -130,7 +135,8 @@ class RunDir:
                 if short(self.provenance) not in {short(p) for p in [started_by, *self.resumed_by]}:
                     self.resumed_by.append(self.provenance)  # other code added episodes
         self.provenance = started_by
-        record = {**self.identity, "provenance": started_by, **({"resumed_by": self.resumed_by} if self.resumed_by else {})}
+        record = {**self.identity, **self.notes, "provenance": started_by,
+                  **({"resumed_by": self.resumed_by} if self.resumed_by else {})}
         write_text_atomic(self.run_path, json.dumps(record, sort_keys=True, indent=1) + "\n")
         write_records(self.records_path, done.values())  # clean file: no torn tail to append after
         for stale in (self.metrics_path, self.table_path):

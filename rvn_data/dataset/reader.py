@@ -21,7 +21,9 @@ import cv2
 import numpy as np
 import yaml
 
-DEFAULT_SPACING = 0.25  # m, the default d_step
+from rvn_data.conventions import AgentConfig
+
+DEFAULT_SPACING = AgentConfig.d_step  # m, the default d_step
 TRAJ_DATA = "traj_data.pkl"
 DEPTH_NAME = "depth.npy"  # optional sidecar (dataset.save_depth): float16 [T, S, S] metres
 META_NAME = "rvn_meta.json"  # rvn-gen's sidecar: scene, start, goal, actions, collision

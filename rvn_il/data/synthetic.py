@@ -15,6 +15,8 @@ import cv2
 import numpy as np
 import yaml
 
+from rvn_data.conventions import AgentConfig
+
 LANDMARK = np.array([3.0, 2.0])
 
 
@@ -34,7 +36,7 @@ def render_frame(position: np.ndarray, yaw: float, size: int = 64) -> np.ndarray
     return img
 
 
-def random_walk(rng: np.random.Generator, length: int, d_step: float = 0.25, theta_step_deg: float = 30.0,
+def random_walk(rng: np.random.Generator, length: int, d_step: float = AgentConfig.d_step, theta_step_deg: float = AgentConfig.theta_step_deg,
                 p_forward: float = 0.7) -> tuple[np.ndarray, np.ndarray]:
     """(position float64 [T,2], yaw float64 [T]) of a random discrete-action walk."""
     pos, yaw = [rng.uniform(-2, 2, size=2)], [float(rng.uniform(-math.pi, math.pi))]
@@ -52,7 +54,7 @@ def random_walk(rng: np.random.Generator, length: int, d_step: float = 0.25, the
 
 
 def write_synthetic_gnm(root: str | Path, num_trajectories: int = 4, length: int | tuple[int, int] = 24,
-                        image_size: int = 64, seed: int = 0, spacing: float = 0.25, test_fraction: float = 0.0) -> Path:
+                        image_size: int = 64, seed: int = 0, spacing: float = AgentConfig.d_step, test_fraction: float = 0.0) -> Path:
     """Write ``num_trajectories`` GNM trajectory folders, data_config.yaml and data_splits."""
     root = Path(root)
     rng = np.random.default_rng(seed)

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from rvn_data.conventions import Action
+from rvn_data.conventions import Action, AgentConfig
 
 BAND = 0.5  # central share of the depth grid's columns that the band rule checks
 RULES = ("band", "swept")
@@ -39,8 +39,8 @@ class DepthVeto:
     clearance: float
     rule: str = "band"
     hfov_deg: float | None = None
-    r_robot: float = 0.18
-    d_step: float = 0.25
+    r_robot: float = AgentConfig.r_robot
+    d_step: float = AgentConfig.d_step
 
     def __post_init__(self):
         """A ValueError naming the setting (policy.depth_veto / _rule / _hfov) for a bad value."""
@@ -73,7 +73,7 @@ class DepthVeto:
 
 
 def check_depth_veto(value: object, has_depth_head: bool, rule: object = "band", hfov_deg: object = None,
-                     r_robot: float = 0.18, d_step: float = 0.25) -> DepthVeto | None:
+                     r_robot: float = AgentConfig.r_robot, d_step: float = AgentConfig.d_step) -> DepthVeto | None:
     """``policy.depth_veto`` (metres > 0, a :class:`DepthVeto`, or None: off) as a checked :class:`DepthVeto`
     (its other settings from the arguments when ``value`` is metres); a ValueError naming the setting
     otherwise (``hfov_deg`` is needed by the swept rule only)."""

@@ -140,15 +140,28 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
         if pol.get("aggregate", "first") != "first":
             raise ValueError(f"policy aggregate={pol['aggregate']!r}: NoMaD-Neg chooses its sample by CoR (policy.selection)")
         set_sampler(members, pol.get("sampler"), name)
-        return NoMaDNegPolicy(members, control, selection=pol.get("selection", "argmax"),
-                              cor_alpha=float(pol.get("cor_alpha", 1.0)), **common)
+        policy = NoMaDNegPolicy(members, control, selection=pol.get("selection", "argmax"),
+                                cor_alpha=float(pol.get("cor_alpha", 1.0)), **common)
+        policy.embodiment = trained_embodiment(cfg, members[0])
+        return policy
     aggregate = str(pol.get("aggregate", "first"))
     if extra and aggregate != "vote":
         raise ValueError(f"policy.ensemble needs policy.aggregate=vote (got {aggregate!r}): the members' samples are pooled "
                          "into one vote")
     members += [load_ensemble_member(d, name, dev) for d in extra]
     set_sampler(members, pol.get("sampler"), name)
-    return PointGoalPolicy(members, control, aggregate=aggregate, **common)
+    policy = PointGoalPolicy(members, control, aggregate=aggregate, **common)
+    policy.embodiment = trained_embodiment(cfg, members[0])
+    return policy
+
+
+def trained_embodiment(cfg: dict, member: Member) -> dict | None:
+    """The embodiment record a checkpoint's config.yaml holds (rvn-train writes its data's); for a checkpoint
+    written before it did, the camera hfov its data recorded (None: nothing known)."""
+    record = cfg.get("embodiment")
+    if isinstance(record, dict):
+        return {k: v for k, v in record.items() if k != "overrides"}
+    return {"camera": {"hfov_deg": member.hfov_deg}} if member.hfov_deg is not None else None
 
 
 def checked_model_config(cfg: dict, out_dir: Path, model: str | None, what: str) -> dict:

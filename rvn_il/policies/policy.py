@@ -74,9 +74,11 @@ class PointGoalPolicy:
     ``depth_veto`` (metres with the band rule, a :class:`DepthVeto`, or None: off): turn instead of a
     MOVE_FORWARD that member 0's depth head sees blocked (:mod:`.depth_veto`); ``vetoes`` counts them since ``reset()``.
     ``episode_stats()`` (recorded by rvn-eval in each episode's ``policy_stats``): ``decisions`` (model
-    calls since ``reset()``), ``vetoes``, and what a subclass adds."""
+    calls since ``reset()``), ``vetoes``, and what a subclass adds. ``embodiment``: the robot and camera of
+    its training data (`rvn_data.embodiment`; None: not recorded), which rvn-eval compares with its own."""
 
     AGGREGATES = ("first", "vote", "medoid")
+    embodiment: dict | None = None
 
     def __init__(self, members: list[Member], control: ControlConfig, num_samples: int = 8, seed: int = 0,
                  device: str | torch.device = "cpu", aggregate: str = "first", threads: int | None = 1,

@@ -16,10 +16,11 @@ from typing import Mapping
 
 import torch
 
-from rvn_data.dataset.reader import list_trajectories, split_file
+from rvn_data.dataset.reader import list_trajectories, rvn_trajectories, split_file
 from rvn_data.dataset.remake import remake_hint
 from rvn_data.dataset.verify import MISSING, Expect, damaged
 from rvn_data.cli.common import ConfigError, check_writable_dir, validating
+from rvn_data.embodiment import dataset_embodiment, mismatches, resolve_agent
 
 from ..data import check_waypoint_frames, depth_setting
 from ..data.depth import REGENERATE, has_depth
@@ -49,16 +50,44 @@ def root_key(member: str) -> str:
     return "data.negative_root" if member == "negative" else "data.root"
 
 
-def preflight(cfg: Mapping) -> torch.device:
+def preflight(cfg: Mapping) -> tuple[torch.device, dict | None, dict, list[dict]]:
     """Check a complete rvn-train config (`rvn_il.train.settings.complete_config`); returns the
-    device. `ConfigError` naming the setting on the first problem."""
+    device, the data's embodiment record (None for data not written by rvn-gen), the agent to train
+    for and the ``agent.*`` settings given that differ from the data's. `ConfigError` naming the
+    setting on the first problem."""
     with validating():
         device = resolve_device(cfg["device"])
         name = resolve_size(cfg["model"])["name"]  # validates model.size
         check_settings(cfg)
         check_datasets(cfg)
         check_out_dir(cfg, name)
-    return device
+        record = data_embodiment(cfg)
+        agent, overrides = resolve_agent(cfg["agent"], record)
+    return device, record, agent, overrides
+
+
+def data_embodiment(cfg: Mapping) -> dict | None:
+    """The embodiment rvn-gen recorded in the data every member trains on (`rvn_data.embodiment`;
+    the first trajectory of each split); the members' datasets must agree."""
+    data, found = cfg["data"], {}
+    for member, root in data_roots(cfg).items():
+        path = Path(str(root)).expanduser()
+        if not path.is_dir():  # nomad_neg with train.expert_from: the expert data is not read
+            continue
+        _, names = list_trajectories(path, data["split"], Path(data["splits_dir"]) if data["splits_dir"] else None,
+                                     data["name"], folders=False)
+        found[root_key(member)] = dataset_embodiment(path, names[0]) if names else None
+    if data["depth_root"] and Path(str(data["depth_root"])).expanduser().is_dir():  # frames of the depth head
+        names = rvn_trajectories(data["depth_root"])
+        found["data.depth_root"] = dataset_embodiment(data["depth_root"], names[0]) if names else None
+    (first, record), *others = list(found.items()) or [(None, None)]
+    for key, other in others:
+        diffs = mismatches(record, other or {})
+        if diffs:
+            d = diffs[0]
+            raise ConfigError(f"{key}={data[key.split('.')[1]]} was made with {d['setting']}={d['here']}, "
+                              f"{first}={data[first.split('.')[1]]} with {d['trained']}; generate both with one robot and camera")
+    return record
 
 
 def check_out_dir(cfg: Mapping, name: str) -> None:

@@ -12,7 +12,6 @@ from dataclasses import dataclass, field
 from typing import Any, Mapping
 
 from rvn_data.config import add_registration, register
-from rvn_data.conventions import AgentConfig
 
 
 @dataclass
@@ -79,10 +78,23 @@ class TrainLoopConfig:
 
 
 @dataclass
+class TrainAgentConfig:
+    """``agent``: the robot the model is trained for. Null: the data's (the embodiment rvn-gen recorded,
+    rvn_data/embodiment.py), else `AgentConfig`'s default. A value given here that differs from the data's
+    is announced and recorded in the checkpoint (``embodiment.overrides``)."""
+
+    r_robot: float | None = None
+    h_robot: float | None = None
+    d_step: float | None = None
+    theta_step_deg: float | None = None
+    allow_sliding: bool | None = None
+
+
+@dataclass
 class TrainConfig:
     """rvn-train: model=vint_pointgoal|nomad_pointgoal|nomad_neg data.root=... out_dir=..."""
 
-    agent: AgentConfig = field(default_factory=AgentConfig)
+    agent: TrainAgentConfig = field(default_factory=TrainAgentConfig)
     model: dict[str, Any] = field(default_factory=dict)  # conf/model/<name>.yaml (its own keys)
     seed: int = 0
     device: str = "auto"  # auto (cuda if available) | cpu | cuda | cuda:1

@@ -75,7 +75,12 @@ def run_training(cfg: Mapping[str, Any], on_checked: Callable[[dict], None] | No
     `ConfigError`, nothing written); then ``on_checked(cfg)`` runs, before anything is written."""
     cfg = complete_config(cfg)
     rank, world, local_rank = _dist_info()
-    device = preflight(cfg)
+    device, record, agent, overrides = preflight(cfg)
+    cfg["agent"] = agent
+    if record is not None:
+        cfg["embodiment"] = {**record, "agent": {**record["agent"], **{k: agent[k] for k in record["agent"]}}}
+        if overrides:
+            cfg["embodiment"]["overrides"] = overrides
     if device.type == "cuda" and world > 1:
         device = torch.device("cuda", local_rank)
         torch.cuda.set_device(device)
@@ -83,6 +88,9 @@ def run_training(cfg: Mapping[str, Any], on_checked: Callable[[dict], None] | No
     roots = data_roots(cfg)
     if on_checked is not None:
         on_checked(cfg)
+    for o in overrides if rank == 0 else ():
+        log.warning("%s=%s overrides the data's %s (%s): the checkpoint records both", o["setting"], o["given"], o["data"],
+                    cfg["data"]["root"])
     if rank == 0:
         resuming = any((out_dir / m / "latest").is_file() for m in ("model", "expert", "negative"))
         earlier = read_config(out_dir) if resuming and (out_dir / "config.yaml").is_file() else None

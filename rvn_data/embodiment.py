@@ -1,0 +1,118 @@
+"""The embodiment record: the robot and camera a dataset was made with, carried from rvn-gen through
+rvn-train into the checkpoint and compared by rvn-eval with the environment it runs in.
+
+    {"agent":  {"r_robot": 0.18, "h_robot": 1.0, "d_step": 0.25, "theta_step_deg": 30.0},
+     "camera": {"width": 64, "height": 64, "hfov_deg": 90.0, "h_camera": 0.6, "pitch_deg": 0.0},
+     "expert": {"margin": 0.28, "clearance_pref": 0.5, "clearance_weight": 4.0}}
+
+rvn-gen records its settings in every trajectory's ``rvn_meta.json`` and in ``manifest.json``
+(`dataset_embodiment` reads them back); rvn-train writes the record of its data into the
+checkpoint's ``config.yaml`` (``embodiment``), with the agent it trained for (`resolve_agent`: the
+data's, unless ``agent.*`` is set on the command line, which is announced and recorded under
+``embodiment.overrides``); rvn-eval compares the policy's record with its own agent and camera before
+any episode (`mismatches`): a difference in `COMPARED` is a one-line error naming both values,
+or, with ``embodiment_mismatch=allow``, an announced difference recorded in run.json and metrics.json.
+The ``expert`` part is recorded, not compared (the expert is not the environment).
+Datasets not written by rvn-gen (other GNM data) have no record: nothing is compared for them.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, fields, is_dataclass
+from pathlib import Path
+from typing import Any, Mapping
+
+from rvn_data.conventions import AgentConfig
+
+# what the environment must match: the robot's motion and body, what the camera sees
+COMPARED = {"agent": ("r_robot", "h_robot", "d_step", "theta_step_deg"),
+            "camera": ("width", "height", "hfov_deg", "h_camera", "pitch_deg")}
+EXPERT_KEYS = ("margin", "clearance_pref", "clearance_weight")
+AGENT_KEYS = tuple(f.name for f in fields(AgentConfig))
+MISMATCH_CHOICES = ("error", "allow")
+
+
+def _plain(obj: Any) -> dict:
+    return asdict(obj) if is_dataclass(obj) else dict(obj or {})
+
+
+def embodiment_of(agent: Any, camera: Any, expert: Mapping | None = None) -> dict:
+    """The record of an agent and a camera (dataclasses or mappings), and the expert's settings if given."""
+    a, c = _plain(agent), _plain(camera)
+    out = {"agent": {k: a[k] for k in COMPARED["agent"] if k in a},
+           "camera": {k: c[k] for k in COMPARED["camera"] if k in c}}
+    if expert:
+        out["expert"] = {k: expert[k] for k in EXPERT_KEYS if k in expert}
+    return out
+
+
+def dataset_embodiment(root: str | Path, trajectory: str) -> dict | None:
+    """The record of an rvn-gen dataset, from the settings in ``<root>/<trajectory>/rvn_meta.json``;
+    None for GNM data that rvn-gen did not write (no sidecar, or one without agent and camera)."""
+    from rvn_data.dataset.reader import read_meta
+
+    try:
+        settings = read_meta(Path(root).expanduser() / trajectory)["settings"]
+        return embodiment_of(settings["agent"], settings["camera"], settings)
+    except (ValueError, KeyError, TypeError):
+        return None
+
+
+def _same(a: Any, b: Any) -> bool:
+    if isinstance(a, (int, float)) and isinstance(b, (int, float)) and not isinstance(a, bool):
+        return math.isclose(float(a), float(b), rel_tol=1e-9, abs_tol=1e-9)
+    return a == b
+
+
+def mismatches(trained: Mapping | None, here: Mapping) -> list[dict]:
+    """``[{"setting": "camera.hfov_deg", "trained": 90.0, "here": 120.0}, ...]``: the `COMPARED`
+    settings both records hold and that differ (none when ``trained`` is None)."""
+    out = []
+    for part, keys in COMPARED.items():
+        t, h = dict((trained or {}).get(part) or {}), dict(here.get(part) or {})
+        for k in keys:
+            if k in t and k in h and not _same(t[k], h[k]):
+                out.append({"setting": f"{part}.{k}", "trained": t[k], "here": h[k]})
+    return out
+
+
+def _fmt(value: Any) -> str:
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+def describe(diffs: list[dict]) -> str:
+    return ", ".join(f"{d['setting']}={_fmt(d['here'])} (trained: {_fmt(d['trained'])})" for d in diffs)
+
+
+def check_embodiment(trained: Mapping | None, here: Mapping, what: str, mode: str = "error") -> list[dict]:
+    """Compare a policy's record with the environment's; ValueError (one line) on a difference
+    unless ``mode`` is ``allow``; returns the differences."""
+    if mode not in MISMATCH_CHOICES:
+        raise ValueError(f"embodiment_mismatch={mode!r}; choose one of {', '.join(MISMATCH_CHOICES)}")
+    diffs = mismatches(trained, here)
+    if diffs and mode == "error":
+        fix = " ".join(f"{d['setting']}={_fmt(d['trained'])}" for d in diffs)
+        raise ValueError(f"{what} was trained for another robot or camera: {describe(diffs)}; run with {fix}, "
+                         "or set embodiment_mismatch=allow to evaluate it anyway (recorded in run.json and metrics.json)")
+    return diffs
+
+
+def resolve_agent(given: Mapping, data: Mapping | None) -> tuple[dict, list[dict]]:
+    """rvn-train's agent: ``given`` holds the ``agent.*`` settings of the command line (None: unset);
+    unset ones come from the data's record, else `AgentConfig`'s defaults. Returns the complete agent
+    and the settings given that differ from the data's (``[{"setting", "data", "given"}]``)."""
+    unknown = sorted(set(given) - set(AGENT_KEYS))
+    if unknown:
+        raise ValueError(f"agent.{unknown[0]} is not an agent setting; choose among {', '.join(AGENT_KEYS)}")
+    recorded = dict((data or {}).get("agent") or {})
+    agent = asdict(AgentConfig())
+    agent.update({k: v for k, v in recorded.items() if k in agent})
+    overrides = []
+    for k, v in given.items():
+        if v is None:
+            continue
+        if k in recorded and not _same(recorded[k], v):
+            overrides.append({"setting": f"agent.{k}", "data": recorded[k], "given": v})
+        agent[k] = v
+    AgentConfig(**agent)  # validates the values
+    return agent, overrides

@@ -1,0 +1,115 @@
+"""The embodiment record (rvn_data/embodiment.py) through the CLIs: rvn-gen's data → rvn-train's checkpoint
+(the data's robot and camera; an agent.* given on the command line announced and recorded) → rvn-eval, which
+refuses another camera or d_step with one line before any episode, or runs it with embodiment_mismatch=allow
+and records the difference; rvn-rl refuses a camera size other than env.size."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+import yaml
+
+pytestmark = pytest.mark.slow  # end-to-end runs of the CLIs
+
+ENV = {**os.environ, "OMP_NUM_THREADS": "1"}
+TRAIN = ["model=nomad_pointgoal", "model.size=small", "train.batch_size=4", "train.max_steps=1", "data.num_workers=0",
+         "device=cpu"]
+EVAL = ["split=val", "episodes.num_scenes=1", "episodes.per_scene=1", "episodes.n_goals=1", "env.t_max=20",
+        "progress=false", "camera.width=32", "camera.height=32"]
+
+
+def cli(module: str, *args: str, cwd=None) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", module, *args], capture_output=True, text=True, env=ENV, timeout=600,
+                          cwd=cwd)
+
+
+def ok(proc: subprocess.CompletedProcess) -> subprocess.CompletedProcess:
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-3000:]
+    return proc
+
+
+def one_line_error(proc: subprocess.CompletedProcess) -> str:
+    assert proc.returncode == 2, proc.stderr[-3000:]
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in proc.stderr, proc.stderr
+    return lines[0]
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory):
+    base = tmp_path_factory.mktemp("embodiment")
+    ok(cli("rvn_data.gen.cli", "split=train", "scenes.num_scenes=1", "trajectories_per_scene=2", "camera.width=32",
+           "camera.height=32", "camera.hfov_deg=100", "dataset.train_fraction=1.0", "progress=false",
+           f"out_dir={base / 'data'}"))
+    ok(cli("rvn_il.train.cli", *TRAIN, f"data.root={base / 'data'}", f"out_dir={base / 'ckpt'}"))
+    return base
+
+
+def test_checkpoint_carries_the_datas_robot_and_camera(trained):
+    cfg = yaml.safe_load((trained / "ckpt" / "config.yaml").read_text())
+    assert cfg["embodiment"]["camera"] == {"width": 32, "height": 32, "hfov_deg": 100.0, "h_camera": 0.6, "pitch_deg": 0.0}
+    assert cfg["embodiment"]["agent"] == {"r_robot": 0.18, "h_robot": 1.0, "d_step": 0.25, "theta_step_deg": 30.0}
+    assert cfg["embodiment"]["expert"]["margin"] > 0 and "overrides" not in cfg["embodiment"]
+    assert cfg["agent"]["d_step"] == 0.25  # the policy's control: the data's robot
+
+
+def test_an_agent_setting_given_to_rvn_train_is_announced_and_recorded(trained):
+    proc = ok(cli("rvn_il.train.cli", *TRAIN, f"data.root={trained / 'data'}", f"out_dir={trained / 'ckpt_d30'}",
+                  "agent.d_step=0.3"))
+    assert "agent.d_step=0.3 overrides the data's 0.25" in proc.stdout + proc.stderr
+    cfg = yaml.safe_load((trained / "ckpt_d30" / "config.yaml").read_text())
+    assert cfg["agent"]["d_step"] == 0.3 and cfg["embodiment"]["agent"]["d_step"] == 0.3
+    assert cfg["embodiment"]["overrides"] == [{"setting": "agent.d_step", "data": 0.25, "given": 0.3}]
+
+
+def test_rvn_eval_refuses_another_camera_or_step_before_any_episode(trained, tmp_path):
+    ckpt = trained / "ckpt"
+    for setting, trained_value in (("camera.hfov_deg=90", "100"), ("agent.d_step=0.3", "0.25"),
+                                   ("camera.width=48", "32")):
+        out = tmp_path / setting.replace("=", "_")
+        camera = [] if setting.startswith("camera.hfov_deg") else ["camera.hfov_deg=100"]  # only `setting` differs
+        base = [o for o in EVAL if o.split("=")[0] != setting.split("=")[0]]
+        line = one_line_error(cli("rvn_data.benchmark.cli", *base, "policy=checkpoint", f"policy.checkpoint_path={ckpt}",
+                                  f"episodes.dir={tmp_path / 'episodes'}", f"out_dir={out}", *camera, setting, cwd=tmp_path))
+        key, value = setting.split("=")
+        assert f"{key}={value} (trained: {trained_value})" in line and f"run with {key}={trained_value}" in line, line
+        assert "embodiment_mismatch=allow" in line and str(ckpt) in line
+        assert not out.exists() and not (tmp_path / "episodes").exists()  # nothing written
+
+
+def test_rvn_eval_runs_a_mismatch_it_is_allowed_and_records_it(trained, tmp_path):
+    out = tmp_path / "allowed"
+    proc = ok(cli("rvn_data.benchmark.cli", *EVAL, "policy=checkpoint", f"policy.checkpoint_path={trained / 'ckpt'}",
+                  f"episodes.dir={tmp_path / 'episodes'}", f"out_dir={out}", "embodiment_mismatch=allow", cwd=tmp_path))
+    assert "camera.hfov_deg=90 (trained: 100)" in proc.stderr and "embodiment_mismatch=allow" in proc.stderr
+    diff = [{"setting": "camera.hfov_deg", "trained": 100.0, "here": 90.0}]
+    assert json.loads((out / "metrics.json").read_text())["embodiment_mismatch"] == diff
+    assert json.loads((out / "run.json").read_text())["embodiment_mismatch"] == diff
+    # the matching camera: nothing to note, nothing recorded
+    same = tmp_path / "same"
+    proc = ok(cli("rvn_data.benchmark.cli", *EVAL, "policy=checkpoint", f"policy.checkpoint_path={trained / 'ckpt'}",
+                  f"episodes.dir={tmp_path / 'episodes'}", f"out_dir={same}", "camera.hfov_deg=100", cwd=tmp_path))
+    assert "embodiment" not in proc.stderr and "embodiment_mismatch" not in json.loads((same / "metrics.json").read_text())
+    bad = cli("rvn_data.benchmark.cli", *EVAL, "policy=checkpoint", f"policy.checkpoint_path={trained / 'ckpt'}",
+              f"out_dir={tmp_path / 'bad'}", "embodiment_mismatch=warn", cwd=tmp_path)
+    assert "embodiment_mismatch='warn'; choose one of error, allow" in one_line_error(bad)
+
+
+def test_rvn_rl_refuses_a_camera_size_other_than_env_size(tmp_path):
+    line = one_line_error(cli("rvn_rl.cli", "env.size=32", "camera.width=48", f"out_dir={tmp_path / 'rl'}"))
+    assert "camera.width=48 differs from env.size=32" in line and "set env.size=48" in line
+    assert not (tmp_path / "rl").exists()
+
+
+def test_rvn_train_refuses_negatives_made_with_another_camera(trained):
+    ok(cli("rvn_data.gen.cli", "dataset=negative", "split=train", "scenes.num_scenes=1", "trajectories_per_scene=1",
+           "camera.width=32", "camera.height=32", "dataset.train_fraction=1.0", "progress=false",
+           f"out_dir={trained / 'negative_hfov90'}"))
+    out = trained / "neg"
+    line = one_line_error(cli("rvn_il.train.cli", *[o for o in TRAIN if not o.startswith("model=")], "model=nomad_neg", f"data.root={trained / 'data'}",
+                              f"data.negative_root={trained / 'negative_hfov90'}", f"out_dir={out}"))
+    assert f"data.negative_root={trained / 'negative_hfov90'} was made with camera.hfov_deg=90" in line, line
+    assert f"data.root={trained / 'data'} with 100" in line and not out.exists()
