@@ -109,7 +109,8 @@ def test_rvn_train_refuses_negatives_made_with_another_camera(trained):
            "camera.width=32", "camera.height=32", "dataset.train_fraction=1.0", "progress=false",
            f"out_dir={trained / 'negative_hfov90'}"))
     out = trained / "neg"
-    line = one_line_error(cli("rvn_il.train.cli", *[o for o in TRAIN if not o.startswith("model=")], "model=nomad_neg", f"data.root={trained / 'data'}",
+    train = [o for o in TRAIN if not o.startswith("model=")]
+    line = one_line_error(cli("rvn_il.train.cli", *train, "model=nomad_neg", f"data.root={trained / 'data'}",
                               f"data.negative_root={trained / 'negative_hfov90'}", f"out_dir={out}"))
     assert f"data.negative_root={trained / 'negative_hfov90'} was made with camera.hfov_deg=90" in line, line
     assert f"data.root={trained / 'data'} with 100" in line and not out.exists()
