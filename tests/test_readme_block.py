@@ -20,7 +20,8 @@ REPO = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "OMP_NUM_THREADS": "1"}
 HYDRA = {"rvn-gen": "rvn_data.gen.cli", "rvn-eval": "rvn_data.benchmark.cli", "rvn-train": "rvn_il.train.cli",
          "rvn-rl": "rvn_rl.cli"}
-READS = {"rvn-train": ("data.root", "data.negative_root", "data.val_root", "data.depth_root", "train.expert_from"),
+READS = {"rvn-train": ("data.root", "data.negative_root", "data.val_root", "data.depth_root", "train.expert_from",
+                       "data.datasets"),
          "rvn-eval": ("policy.checkpoint_path", "policy.ensemble"), "rvn-rl": ("depth.model_path",)}
 USER_FILES = ("/data/", "/path/", "scan.glb")
 
@@ -95,6 +96,7 @@ def test_readme_using_it_block_runs_in_order(tmp_path):
             for key in READS.get(tool, ()):
                 value = get(cfg, key)
                 for path in ([] if value is None else value if isinstance(value, list) else [value]):
+                    path = path["root"] if isinstance(path, dict) else path  # data.datasets: its entries' folders
                     assert exists(path), f"{line!r} reads {key}={path}, which no earlier line creates"
             out = norm(cfg["out_dir"])
             assert out not in made, f"{line!r} writes into {out}, as {made[out]!r} does"

@@ -7,6 +7,7 @@ from typing import Mapping
 
 from .cache import PackedCache, cache_path, ensure_cache
 from .dataset import BatchView, EpochSampler, GNMDataset, check_waypoint_frames
+from .mixture import MixtureDataset
 from .depth import depth_setting
 from .depth_frames import DepthFrames, depth_seed
 from rvn_data.dataset.reader import GNMSource, load_gnm, read_meta
@@ -30,7 +31,7 @@ def make_dataset(root: str | Path, model_cfg: Mapping, data_cfg: Mapping | None 
     """GNM folder → (cached) GNMDataset for a size-resolved model config. ``data_cfg`` keys:
     split, splits_dir, name, metric_waypoint_spacing, crop (aspect | official | none; see
     :mod:`.images`), cache_dir, cache_threads, goal_offset, end_slack, skip_short, waypoint_frames (all | moving),
-    pad_context.
+    pad_context, waypoint_spacing (frames between steps, default 1).
     ``build=False`` only opens an existing cache (DDP non-zero ranks). Items carry the depth
     target when ``model.depth_aux_weight`` > 0, unless ``depth=False``."""
     d = dict(data_cfg or {})
@@ -41,7 +42,26 @@ def make_dataset(root: str | Path, model_cfg: Mapping, data_cfg: Mapping | None 
     return GNMDataset(packed_cache(source, model_cfg, d, crop, size, build), model_cfg["context_size"], model_cfg["len_traj_pred"],
                       d.get("goal_offset", (1, 20)), float(model_cfg.get("goal_mask_prob", 0.0)),
                       int(d.get("end_slack", 0)), seed, bool(d.get("skip_short", False)), waypoint_frames,
-                      bool(d.get("pad_context", False)))
+                      bool(d.get("pad_context", False)), int(d.get("waypoint_spacing", 1)))
+
+
+def entry_settings(entry: Mapping, data_cfg: Mapping | None) -> dict:
+    """``data_cfg`` with one resolved dataset entry's settings (`.sources`) in place of the ``data.*`` ones."""
+    d = dict(data_cfg or {})
+    for key in ("split", "splits_dir", "name", "metric_waypoint_spacing", "waypoint_spacing", "goal_offset", "end_slack"):
+        d[key] = entry[key]
+    if entry.get("crop") is not None:
+        d["crop"] = entry["crop"]
+    return d
+
+
+def make_training_data(entries: list[Mapping], model_cfg: Mapping, data_cfg: Mapping | None = None, seed: int = 0,
+                       build: bool = True, depth: bool = True) -> GNMDataset | MixtureDataset:
+    """The resolved datasets of `.sources.dataset_entries` → one GNMDataset, or a MixtureDataset of several."""
+    sets = [make_dataset(e["root"], model_cfg, entry_settings(e, data_cfg), seed, build, depth) for e in entries]
+    if len(sets) == 1:
+        return sets[0]
+    return MixtureDataset(sets, [e["weight"] for e in entries], [e.get("name") or Path(e["root"]).name for e in entries])
 
 
 def recorded_hfov(root: str | Path, trajectory: str) -> float | None:

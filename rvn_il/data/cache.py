@@ -153,6 +153,7 @@ class PackedCache:
                 self.names = [s.decode() if isinstance(s, bytes) else str(s) for s in f["names"][:]]
                 self.image_shape = tuple(f["images"].shape)
                 self.spacing = float(f.attrs["spacing"])
+                self.name = str(f.attrs.get("name", "")) or None  # the dataset's name in data_splits
                 self.image_size = tuple(int(v) for v in f.attrs["image_size"])
                 self.depth_shape = tuple(f["depth"].shape) if "depth" in f else None
         except (OSError, KeyError) as e:

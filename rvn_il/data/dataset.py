@@ -22,6 +22,9 @@ When the cache holds depth maps (``model.depth_aux_weight`` > 0) an item also ha
 float32 [S,S], the current frame's (metres, 0 where nothing was hit).
 Each item's randomness comes from ``default_rng([seed, index])``; indices past ``len(self)``
 (see :class:`EpochSampler`) give fresh draws for later epochs.
+With ``frame_stride`` s > 1 (a dataset's ``waypoint_spacing``, as the official loader's) context frames,
+waypoints and goal steps are s frames apart and the labels are divided by s x metric_waypoint_spacing
+(``self.spacing``): data recorded at a finer spacing than the robot's step keeps the robot's units.
 """
 from __future__ import annotations
 
@@ -62,8 +65,11 @@ class GNMDataset(Dataset):
     def __init__(self, cache: PackedCache, context_size: int, len_traj_pred: int,
                  goal_offset: Sequence[int] = (1, 20), goal_mask_prob: float = 0.0,
                  end_slack: int = 0, seed: int = 0, skip_short: bool = False, waypoint_frames: str = "all",
-                 pad_context: bool = False):
+                 pad_context: bool = False, frame_stride: int = 1):
         self.waypoint_frames = check_waypoint_frames(waypoint_frames)
+        self.stride = int(frame_stride)
+        if self.stride < 1 or (self.stride > 1 and self.waypoint_frames == "moving"):
+            raise ValueError(f"waypoint_spacing={frame_stride}: give a whole number >= 1 (1 with data.waypoint_frames=moving)")
         lo, hi = int(goal_offset[0]), int(goal_offset[1])
         if not 1 <= lo <= hi:
             raise ValueError(f"data.goal_offset={list(goal_offset)} must satisfy 1 <= min <= max")
@@ -71,18 +77,22 @@ class GNMDataset(Dataset):
             raise ValueError(f"goal_mask_prob={goal_mask_prob} must be in [0, 1]")
         self.cache, self.context_size, self.len_traj_pred = cache, int(context_size), int(len_traj_pred)
         self.goal_offset, self.goal_mask_prob, self.seed = (lo, hi), float(goal_mask_prob), int(seed)
-        self.spacing = cache.spacing
+        self.spacing = cache.spacing * self.stride
+        self.skipped: list[str] = []  # trajectories too short for the context and the first goal (skip_short)
         curr, last = [], []
         for j, (start, length) in enumerate(zip(cache.traj_start, cache.traj_len)):
             e = int(length) - 1 - int(end_slack)
-            first, final = (0 if pad_context else self.context_size), e - lo
+            first, final = (0 if pad_context else self.context_size * self.stride), e - lo * self.stride
             if final < first:
                 if skip_short:
+                    self.skipped.append(cache.names[j])
                     continue
                 need = ("" if pad_context else "context_size+") + "1+goal_offset[0]+end_slack"
+                if self.stride > 1:
+                    need = ("" if pad_context else "context_size*s+") + "1+goal_offset[0]*s+end_slack (s: waypoint_spacing)"
                 raise ValueError(
                     f"trajectory {cache.names[j]!r} ({cache.path}) has {length} frames, fewer than {need} = "
-                    f"{first + 1 + lo + end_slack}; remove it or set data.skip_short=true")
+                    f"{first + 1 + lo * self.stride + end_slack}; remove it or set data.skip_short=true")
             ts = np.arange(first, final + 1)
             curr.append(start + ts)
             last.append(np.full(len(ts), start + e))
@@ -108,16 +118,16 @@ class GNMDataset(Dataset):
         g, e = self.curr[n], self.last[n]
         lo, hi = self.goal_offset
         ks, masked = np.empty(len(n), np.int64), np.zeros(len(n), np.float32)
-        for j, (i, top) in enumerate(zip(index.tolist(), np.minimum(hi, e - g).tolist())):
+        for j, (i, top) in enumerate(zip(index.tolist(), np.minimum(hi, (e - g) // self.stride).tolist())):
             rng = np.random.default_rng([self.seed, i])
             ks[j] = rng.integers(lo, top + 1)
             masked[j] = self.goal_mask_prob > 0 and rng.random() < self.goal_mask_prob
-        context = np.maximum(g[:, None] + np.arange(-self.context_size, 1), self.start[n][:, None])  # pad: frame 0
+        context = np.maximum(g[:, None] + np.arange(-self.context_size, 1) * self.stride, self.start[n][:, None])  # pad: frame 0
         frames = self.cache.read_frames(context.ravel())
         obs = torch.from_numpy(np.ascontiguousarray(frames)).view(len(n), self.context_size + 1, *frames.shape[1:])
         actions = self.waypoints(n)
         pos, yaw = self.cache.position, self.cache.yaw[g]
-        goal = to_local(pos[g + ks][:, None], pos[g][:, None], yaw[:, None])[:, 0] / self.spacing
+        goal = to_local(pos[g + ks * self.stride][:, None], pos[g][:, None], yaw[:, None])[:, 0] / self.spacing
         images = torch.empty(obs.shape, dtype=torch.float32)
         if get_worker_info() is not None:  # built in shared memory: the main process maps it, no copy
             images.share_memory_()
@@ -140,7 +150,7 @@ class GNMDataset(Dataset):
             picks = np.searchsorted(self.moved, g, side="right")[:, None] + np.arange(self.len_traj_pred)
             future = self.moved[np.minimum(picks, len(self.moved) - 1)]  # the last entry: past every move
         else:
-            future = g[:, None] + np.arange(1, self.len_traj_pred + 1)
+            future = g[:, None] + np.arange(1, self.len_traj_pred + 1) * self.stride
         future = np.minimum(future, self.end[n][:, None])  # past the trajectory's end: its last pose
         pos = self.cache.position
         return to_local(pos[future], pos[g][:, None], self.cache.yaw[g][:, None]) / self.spacing

@@ -54,27 +54,37 @@ def random_walk(rng: np.random.Generator, length: int, d_step: float = AgentConf
 
 
 def write_synthetic_gnm(root: str | Path, num_trajectories: int = 4, length: int | tuple[int, int] = 24,
-                        image_size: int = 64, seed: int = 0, spacing: float = AgentConfig.d_step, test_fraction: float = 0.0) -> Path:
-    """Write ``num_trajectories`` GNM trajectory folders, data_config.yaml and data_splits."""
+                        image_size: int | tuple[int, int] = 64, seed: int = 0, spacing: float = AgentConfig.d_step,
+                        test_fraction: float = 0.0, pose_noise: float = 0.0, name: str | None = None) -> Path:
+    """Write ``num_trajectories`` GNM trajectory folders, data_config.yaml and data_splits. Foreign data as
+    real datasets come: ``image_size`` (width, height) other than square, ``pose_noise`` (m, Gaussian odometry
+    noise on every position), ``name``: data_config.yaml keyed by that dataset name (visualnav-transformer's
+    layout) instead of the top-level entry."""
     root = Path(root)
     rng = np.random.default_rng(seed)
+    width, height = (image_size, image_size) if isinstance(image_size, int) else (int(image_size[0]), int(image_size[1]))
     names = []
     for i in range(num_trajectories):
         n = int(rng.integers(length[0], length[1] + 1)) if isinstance(length, tuple) else int(length)
         position, yaw = random_walk(rng, n, d_step=spacing)
-        name = f"traj_{seed:03d}_{i:04d}"
-        folder = root / name
+        if pose_noise:
+            position = position + rng.normal(0.0, pose_noise, position.shape)
+        traj = f"traj_{seed:03d}_{i:04d}"
+        folder = root / traj
         folder.mkdir(parents=True, exist_ok=True)
         for t in range(n):
-            rgb = render_frame(position[t], yaw[t], image_size)
+            rgb = render_frame(position[t], yaw[t], width)
+            if height != width:
+                rgb = cv2.resize(rgb, (width, height), interpolation=cv2.INTER_AREA)
             cv2.imwrite(str(folder / f"{t}.jpg"), cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, 90])
         with open(folder / "traj_data.pkl", "wb") as f:
             pickle.dump({"position": position, "yaw": yaw}, f)
-        names.append(name)
-    (root / "data_config.yaml").write_text(yaml.safe_dump({"metric_waypoint_spacing": spacing}))
+        names.append(traj)
+    entry = {"metric_waypoint_spacing": spacing}
+    (root / "data_config.yaml").write_text(yaml.safe_dump({name: entry} if name else entry))
     n_test = int(round(test_fraction * len(names)))
     for split, part in (("train", names[n_test:]), ("test", names[:n_test])):
-        d = root / "data_splits" / root.name / split
+        d = root / "data_splits" / (name or root.name) / split
         d.mkdir(parents=True, exist_ok=True)
         (d / "traj_names.txt").write_text("".join(f"{n}\n" for n in part))
     return root

@@ -23,6 +23,7 @@ from rvn_data.cli.common import ConfigError, check_writable_dir, validating
 from rvn_data.embodiment import dataset_embodiment, mismatches, resolve_agent
 
 from ..data import check_waypoint_frames, depth_setting
+from ..data.sources import dataset_entries, single_entry
 from ..data.depth import REGENERATE, has_depth
 from ..models import resolve_size
 from ..models.checkpoint import members_of, read_config
@@ -31,9 +32,6 @@ from ..policies.loader import resolve_device
 from .adopt import expert_source
 
 PRECISIONS = ("fp32", "bf16")
-GENERATE = {"data.root": "generate it with rvn-gen (out_dir=...)",
-            "data.negative_root": "generate it with rvn-gen dataset=negative (out_dir=...)"}
-
 
 def data_roots(cfg: Mapping) -> dict[str, str]:
     """Member → dataset folder: ``data.root`` (expert) and, for nomad_neg, ``data.negative_root``."""
@@ -67,27 +65,43 @@ def preflight(cfg: Mapping) -> tuple[torch.device, dict | None, dict, list[dict]
 
 
 def data_embodiment(cfg: Mapping) -> dict | None:
-    """The embodiment rvn-gen recorded in the data every member trains on (`rvn_data.embodiment`;
-    the first trajectory of each split); the members' datasets must agree."""
+    """The embodiment rvn-gen recorded in the data the model learns from (`rvn_data.embodiment`; the first
+    trajectory of the first dataset of each member, and of data.depth_root); these must agree. Other
+    datasets of a ``data.datasets`` mixture may come from other robots (real data): not compared."""
     data, found = cfg["data"], {}
-    for member, root in data_roots(cfg).items():
-        path = Path(str(root)).expanduser()
-        if not path.is_dir():  # nomad_neg with train.expert_from: the expert data is not read
-            continue
-        _, names = list_trajectories(path, data["split"], Path(data["splits_dir"]) if data["splits_dir"] else None,
-                                     data["name"], folders=False)
-        found[root_key(member)] = dataset_embodiment(path, names[0]) if names else None
+    for entries in member_entries(cfg, adopted=True).values():
+        e = entries[0]
+        _, names = list_trajectories(Path(e["root"]).expanduser(), e["split"],
+                                     Path(e["splits_dir"]) if e["splits_dir"] else None, e["name"], folders=False)
+        found[(e["key"], e["root"])] = dataset_embodiment(e["root"], names[0]) if names else None
     if data["depth_root"] and Path(str(data["depth_root"])).expanduser().is_dir():  # frames of the depth head
         names = rvn_trajectories(data["depth_root"])
-        found["data.depth_root"] = dataset_embodiment(data["depth_root"], names[0]) if names else None
-    (first, record), *others = list(found.items()) or [(None, None)]
-    for key, other in others:
+        found[("data.depth_root", data["depth_root"])] = dataset_embodiment(data["depth_root"], names[0]) if names else None
+    ((first, first_root), record), *others = list(found.items()) or [((None, None), None)]
+    for (key, root), other in others:
         diffs = mismatches(record, other or {})
         if diffs:
             d = diffs[0]
-            raise ConfigError(f"{key}={data[key.split('.')[1]]} was made with {d['setting']}={d['here']}, "
-                              f"{first}={data[first.split('.')[1]]} with {d['trained']}; generate both with one robot and camera")
+            raise ConfigError(f"{key}={root} was made with {d['setting']}={d['here']}, {first}={first_root} with "
+                              f"{d['trained']}; generate both with one robot and camera")
     return record
+
+
+def member_entries(cfg: Mapping, adopted: bool = False) -> dict[str, list[dict]]:
+    """Member → its resolved datasets (`rvn_il.data.sources`): ``data.datasets`` / ``data.official_config`` /
+    ``data.root`` for the model (NoMaD_e), ``data.negative_root`` for NoMaD_n. NoMaD_e adopted from
+    ``train.expert_from`` reads no data: left out, unless ``adopted`` and its data.root exists."""
+    data, out = cfg["data"], {}
+    for member in data_roots(cfg):
+        if member == "negative":
+            out[member] = [single_entry(data["negative_root"], data, "data.negative_root")]
+        elif member == "expert" and cfg["train"]["expert_from"]:
+            if adopted and not data.get("datasets") and not data.get("official_config") \
+                    and Path(str(data["root"])).expanduser().is_dir():
+                out[member] = [single_entry(data["root"], data, "data.root")]
+        else:
+            out[member] = dataset_entries(data)
+    return out
 
 
 def check_out_dir(cfg: Mapping, name: str) -> None:
@@ -121,20 +135,17 @@ def check_settings(cfg: Mapping) -> None:
 
 
 def check_datasets(cfg: Mapping) -> None:
-    """Every member's dataset exists and lists trajectories (and has depth sidecars when the
+    """Every member's datasets exist and list trajectories (and have depth sidecars when the
     depth loss is on); ``train.expert_from`` for nomad_neg."""
     data, tcfg = cfg["data"], cfg["train"]
     depth = depth_setting(resolve_size(cfg["model"])) is not None  # the depth loss reads rvn-gen's depth.npy
-    for member, root in data_roots(cfg).items():
-        if member == "expert" and tcfg["expert_from"]:
-            expert_source(tcfg["expert_from"], resolve_size(cfg["model"]))
-            continue
-        key, path = root_key(member), Path(str(root)).expanduser()
-        if not path.is_dir():
-            raise ConfigError(f"{key}={root} does not exist; {GENERATE[key]} or set {key}= to a GNM dataset folder")
-        names = whole_split(key, root, data["split"], data["splits_dir"], data["name"], depth)
-        if depth and not has_depth(path, names):
-            raise ConfigError(f"{key}={root} has no depth.npy sidecars; {REGENERATE}")
+    if tcfg["expert_from"] and "expert" in members_of(cfg["model"]["name"]):
+        expert_source(tcfg["expert_from"], resolve_size(cfg["model"]))
+    for member, entries in member_entries(cfg).items():
+        for e in entries:
+            names = whole_split(e["key"], e["root"], e["split"], e["splits_dir"], e["name"], depth)
+            if depth and not has_depth(Path(e["root"]).expanduser(), names):
+                raise ConfigError(f"{e['key']}={e['root']} has no depth.npy sidecars; {REGENERATE}")
     if data["val_root"]:
         whole_split("data.val_root", data["val_root"], data["val_split"] or "all", None, None, False)
     check_depth_root(data, depth)

@@ -15,6 +15,24 @@ from rvn_data.config import add_registration, register
 
 
 @dataclass
+class DatasetEntry:
+    """One GNM dataset of ``data.datasets`` (several datasets at once, as visualnav-transformer's ``datasets:``;
+    rvn_il/data/sources.py, docs/DATASET.md). Null settings take the ``data.*`` one of the same name."""
+
+    root: str = "???"  # the GNM folder (the official config's data_folder)
+    name: str | None = None  # dataset name (data_splits/<name>, data_config.yaml); null: the only one, else the folder's
+    split: str | None = None  # data_splits/<name>/<split>/traj_names.txt; null: data.split
+    splits_dir: str | None = None  # null: <root>/data_splits
+    split_dir: str | None = None  # a folder holding traj_names.txt itself (the official config's train:); overrides split
+    weight: float | None = None  # share of each batch (normalised over the list); null for all: in proportion to samples
+    metric_waypoint_spacing: float | None = None  # m per frame; null: <root>/data_config.yaml, else d_step
+    waypoint_spacing: int = 1  # frames between context frames, waypoints and goal steps (the official waypoint_spacing)
+    goal_offset: list[int] | None = None  # null: data.goal_offset (in steps of waypoint_spacing frames)
+    end_slack: int | None = None  # null: data.end_slack
+    crop: str | None = None  # aspect | official | none; null: data.crop
+
+
+@dataclass
 class DataConfig:
     """``data``: the GNM datasets a model learns from and how samples are drawn from them."""
 
@@ -48,6 +66,13 @@ class DataConfig:
     # agreement every train.val_every steps (rvn_il/train/validate.py); null: off
     val_root: str | None = None
     val_split: str = "all"  # data_splits split of val_root to use, or all
+    # several GNM datasets at once, e.g. RVN's plus real robot logs (DatasetEntry; the first is the deployment robot's:
+    # its spacing and embodiment go into the checkpoint); null: data.root alone. nomad_neg: NoMaD_e's data
+    datasets: list[DatasetEntry] | None = None
+    # visualnav-transformer's own files, read as data.datasets: a training config (its datasets: block; the train:
+    # split folders) and its data_config.yaml (metric_waypoint_spacing per dataset)
+    official_config: str | None = None
+    official_data_config: str | None = None
 
 
 @dataclass

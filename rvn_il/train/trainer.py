@@ -21,7 +21,10 @@ from torch.utils.data import BatchSampler, DataLoader
 from safetensors.torch import load_file
 from tqdm import tqdm
 
-from ..data import BatchView, EpochSampler, crop_setting, depth_seed, make_dataset, make_depth_frames, recorded_hfov
+from ..data import (BatchView, EpochSampler, MixtureDataset, crop_setting, depth_seed, entry_settings, make_depth_frames,
+                    make_training_data, recorded_hfov)
+from ..data.report import dataset_report
+from ..data.sources import ignored_official_keys
 from rvn_data.cache_root import cache_root
 from rvn_data.provenance import provenance_record
 from ..models import build_model, resolve_size
@@ -30,7 +33,7 @@ from ..models.checkpoint import (latest_checkpoint, load_state_dict_checked, rea
 from ..models.encoders import IMAGENET_MEAN, IMAGENET_STD
 from .adopt import adopt_expert
 from .ema import EMA
-from .preflight import data_roots, preflight
+from .preflight import data_roots, member_entries, preflight
 from .settings import complete_config
 from .validate import Validator
 
@@ -88,6 +91,11 @@ def run_training(cfg: Mapping[str, Any], on_checked: Callable[[dict], None] | No
     roots = data_roots(cfg)
     if on_checked is not None:
         on_checked(cfg)
+    if rank == 0 and cfg["data"]["official_config"]:
+        ignored = ignored_official_keys(cfg["data"]["official_config"])
+        if ignored:
+            log.warning("data.official_config: %s read but not applied (goals_per_obs: unused by the official ViNT_Dataset; "
+                        "negative_mining: the image-goal distance head, which PointGoal models lack)", ", ".join(ignored))
     for o in overrides if rank == 0 else ():
         log.warning("%s=%s overrides the data's %s (%s): the checkpoint records both", o["setting"], o["given"], o["data"],
                     cfg["data"]["root"])
@@ -95,15 +103,16 @@ def run_training(cfg: Mapping[str, Any], on_checked: Callable[[dict], None] | No
         resuming = any((out_dir / m / "latest").is_file() for m in ("model", "expert", "negative"))
         earlier = read_config(out_dir) if resuming and (out_dir / "config.yaml").is_file() else None
         write_config(out_dir, {**cfg, **provenance_record(earlier, resuming)})
-    for index, (member, root) in enumerate(roots.items()):
-        train_member(cfg, member, index, root, out_dir, device, rank, world)
+    entries = member_entries(cfg)
+    for index, member in enumerate(roots):
+        train_member(cfg, member, index, entries.get(member, []), out_dir, device, rank, world)
     if world > 1:
         dist.barrier()
         dist.destroy_process_group()
     return out_dir
 
 
-def train_member(cfg: Mapping, member: str, index: int, root: str, out_dir: Path, device: torch.device,
+def train_member(cfg: Mapping, member: str, index: int, entries: list[dict], out_dir: Path, device: torch.device,
                  rank: int, world: int) -> None:
     model_cfg, data_cfg, tcfg, seed = resolve_size(cfg["model"]), dict(cfg["data"]), dict(cfg["train"]), int(cfg["seed"])
     if member == "expert" and tcfg["expert_from"]:  # NoMaD_e = a finished NoMaD-PointGoal run (adopt.py)
@@ -117,7 +126,11 @@ def train_member(cfg: Mapping, member: str, index: int, root: str, out_dir: Path
         return
     data_cfg["progress"] = rank == 0
     data_cfg["cache_dir"] = str(data_cfg["cache_dir"] or cache_root(cfg["cache_dir"], out_dir) / "packed")
-    dataset = built_by_rank_0(lambda build: make_dataset(root, model_cfg, data_cfg, seed, build=build), rank, world)
+    root = entries[0]["root"]  # the first dataset is the deployment robot's (its spacing, hfov, embodiment)
+    dataset = built_by_rank_0(lambda build: make_training_data(entries, model_cfg, data_cfg, seed, build=build), rank, world)
+    if rank == 0:
+        report = dataset_report(dataset, entries)
+        log.info("%s/%s datasets:\n%s", model_cfg["name"], member, report["text"])
     depth_frames = None
     if data_cfg["depth_root"]:  # frames for the depth head alone (rvn_il/data/depth_frames.py)
         depth_frames = built_by_rank_0(lambda build: make_depth_frames(data_cfg["depth_root"], model_cfg, data_cfg, build),
@@ -162,7 +175,9 @@ def train_member(cfg: Mapping, member: str, index: int, root: str, out_dir: Path
     if world > 1:
         net = torch.nn.parallel.DistributedDataParallel(model, device_ids=[device.index] if device.type == "cuda" else None)
     workers = int(data_cfg["num_workers"])
-    sampler = BatchSampler(EpochSampler(len(dataset), seed, rank, world, step * bs), bs, drop_last=True)
+    order = dataset.sampler(seed, rank, world, step * bs) if isinstance(dataset, MixtureDataset) \
+        else EpochSampler(len(dataset), seed, rank, world, step * bs)
+    sampler = BatchSampler(order, bs, drop_last=True)
     loader = DataLoader(BatchView(dataset), batch_size=None, sampler=sampler, num_workers=workers,
                         pin_memory=device.type == "cuda", persistent_workers=workers > 0,
                         prefetch_factor=4 if workers > 0 else None)
@@ -179,10 +194,12 @@ def train_member(cfg: Mapping, member: str, index: int, root: str, out_dir: Path
     stats = {"model": model_cfg["name"], "member": member, "metric_waypoint_spacing": dataset.spacing,
              "action_stats": {"min": model.action_min.tolist(), "max": model.action_max.tolist()}
              if hasattr(model, "action_min") else None, "image_size": list(model_cfg["image_size"]),
-             "crop": crop_setting(data_cfg, model_cfg), "context_size": model_cfg["context_size"],
+             "crop": crop_setting(entry_settings(entries[0], data_cfg), model_cfg), "context_size": model_cfg["context_size"],
              "len_traj_pred": model_cfg["len_traj_pred"], "imagenet_mean": IMAGENET_MEAN, "imagenet_std": IMAGENET_STD,
              "dataset": str(Path(root).expanduser().resolve()), "num_samples": len(dataset),
              "hfov_deg": recorded_hfov(root, dataset.cache.names[0])}  # for policy.depth_veto_rule=swept
+    if isinstance(dataset, MixtureDataset):
+        stats["datasets"] = report["datasets"]
     validator = None
     if rank == 0 and data_cfg["val_root"] and member != "negative":  # NoMaD_n imitates collisions: no agreement
         validator = Validator(data_cfg["val_root"], model_cfg, data_cfg, tcfg, cfg["agent"], seed, bs,
