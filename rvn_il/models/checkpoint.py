@@ -70,7 +70,8 @@ def save_checkpoint(member_dir: Path, step: int, weights: Mapping[str, torch.Ten
     tmp = member_dir / f".{name}.tmp-{os.getpid()}"
     shutil.rmtree(tmp, ignore_errors=True)
     tmp.mkdir()
-    meta = {"model": str(stats["model"]), "step": str(step)}
+    # one metadata key: safetensors writes a header's keys in hash order, so two keys made the same run's bytes differ
+    meta = {"rvn": json.dumps({"model": str(stats["model"]), "step": int(step)}, sort_keys=True)}
     save_file({k: v.detach().cpu().contiguous() for k, v in weights.items()}, str(tmp / "weights.safetensors"), metadata=meta)
     if ema is not None:
         save_file({k: v.detach().cpu().contiguous() for k, v in ema.items()}, str(tmp / "ema.safetensors"), metadata=meta)

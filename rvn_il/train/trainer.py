@@ -12,7 +12,8 @@ import logging
 import math
 import os
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from dataclasses import dataclass
+from typing import Any, Callable, Iterator, Mapping
 
 import numpy as np
 import torch
@@ -112,8 +113,22 @@ def run_training(cfg: Mapping[str, Any], on_checked: Callable[[dict], None] | No
     return out_dir
 
 
+@dataclass
+class Optimisation:
+    """A member's network and its optimiser state (`optimisation`, `resume`)."""
+
+    model: torch.nn.Module
+    opt: torch.optim.Optimizer
+    sched: torch.optim.lr_scheduler.LambdaLR
+    ema: EMA | None
+    batch_size: int
+    max_steps: int
+    step: int = 0
+
+
 def train_member(cfg: Mapping, member: str, index: int, entries: list[dict], out_dir: Path, device: torch.device,
                  rank: int, world: int) -> None:
+    """Train (or, for NoMaD_e with train.expert_from, adopt) one member from its datasets ``entries``."""
     model_cfg, data_cfg, tcfg, seed = resolve_size(cfg["model"]), dict(cfg["data"]), dict(cfg["train"]), int(cfg["seed"])
     if member == "expert" and tcfg["expert_from"]:  # NoMaD_e = a finished NoMaD-PointGoal run (adopt.py)
         if rank == 0:
@@ -128,14 +143,45 @@ def train_member(cfg: Mapping, member: str, index: int, entries: list[dict], out
     data_cfg["cache_dir"] = str(data_cfg["cache_dir"] or cache_root(cfg["cache_dir"], out_dir) / "packed")
     root = entries[0]["root"]  # the first dataset is the deployment robot's (its spacing, hfov, embodiment)
     dataset = built_by_rank_0(lambda build: make_training_data(entries, model_cfg, data_cfg, seed, build=build), rank, world)
-    if rank == 0:
-        report = dataset_report(dataset, entries)
+    report = dataset_report(dataset, entries) if rank == 0 else None
+    if report is not None:
         log.info("%s/%s datasets:\n%s", model_cfg["name"], member, report["text"])
     depth_frames = None
     if data_cfg["depth_root"]:  # frames for the depth head alone (rvn_il/data/depth_frames.py)
         depth_frames = built_by_rank_0(lambda build: make_depth_frames(data_cfg["depth_root"], model_cfg, data_cfg, build),
                                        rank, world)
     torch.manual_seed(derive_seed(seed, index))
+    run = optimisation(model_cfg, tcfg, dataset, world, device)
+    if tcfg["resume"]:
+        resume(run, out_dir / member, model_cfg, device)
+    if rank == 0:
+        log.info("%s/%s: %d samples from %s, batch %d x %d, steps %d/%d, device %s", model_cfg["name"], member,
+                 len(dataset), root, run.batch_size, world, run.step, run.max_steps, device)
+        if depth_frames is not None:
+            log.info("depth head also on %d frames of %s, %d per step", len(depth_frames), data_cfg["depth_root"],
+                     int(data_cfg["depth_batch"]))
+    if run.step >= run.max_steps:
+        return
+    stats = {"model": model_cfg["name"], "member": member, "metric_waypoint_spacing": dataset.spacing,
+             "action_stats": {"min": run.model.action_min.tolist(), "max": run.model.action_max.tolist()}
+             if hasattr(run.model, "action_min") else None, "image_size": list(model_cfg["image_size"]),
+             "crop": crop_setting(entry_settings(entries[0], data_cfg), model_cfg), "context_size": model_cfg["context_size"],
+             "len_traj_pred": model_cfg["len_traj_pred"], "imagenet_mean": IMAGENET_MEAN, "imagenet_std": IMAGENET_STD,
+             "dataset": str(Path(root).expanduser().resolve()), "num_samples": len(dataset),
+             "hfov_deg": recorded_hfov(root, dataset.cache.names[0])}  # for policy.depth_veto_rule=swept
+    if isinstance(dataset, MixtureDataset) and report is not None:
+        stats["datasets"] = report["datasets"]
+    validator = None
+    if rank == 0 and data_cfg["val_root"] and member != "negative":  # NoMaD_n imitates collisions: no agreement
+        validator = Validator(data_cfg["val_root"], model_cfg, data_cfg, tcfg, cfg["agent"], seed, run.batch_size,
+                              dataset.spacing, out_dir / member / "val.json")
+    batches = training_batches(dataset, depth_frames, data_cfg, seed, rank, world, run.step, run.batch_size, device)
+    train_loop(run, batches, stats, validator, tcfg, f"{model_cfg['name']}/{member}", out_dir / member,
+               (seed, index, rank, world), device)
+
+
+def optimisation(model_cfg: Mapping, tcfg: Mapping, dataset, world: int, device: torch.device) -> Optimisation:
+    """The member's network (NoMaD's action_stats from its data), AdamW, the warm-up + cosine schedule, EMA."""
     model = build_model(model_cfg).to(device).use_channels_last()
     if model_cfg.get("action_stats") == "auto":  # NoMaD: delta range of this member's data
         lo, hi = dataset.delta_range()
@@ -153,33 +199,32 @@ def train_member(cfg: Mapping, member: str, index: int, entries: list[dict], out
     opt = torch.optim.AdamW(model.parameters(), lr=lr, weight_decay=float(tcfg["weight_decay"]))
     sched = torch.optim.lr_scheduler.LambdaLR(opt, lr_lambda(max(1, warmup), max_steps))
     ema = EMA(model, float(model_cfg.get("ema_power", 0.75))) if use_ema else None
-    member_dir, step = out_dir / member, 0
-    ckpt = latest_checkpoint(member_dir) if tcfg["resume"] else None
-    if ckpt is not None:
-        load_state_dict_checked(model, read_weights(ckpt, model_cfg["name"], prefer_ema=False), ckpt)
-        state = torch.load(ckpt / "state.pt", map_location=device, weights_only=False)
-        opt.load_state_dict(state["optimizer"])
-        sched.load_state_dict(state["scheduler"])
-        if ema is not None and state.get("ema"):
-            ema.load_state_dict(state["ema"], load_file(str(ckpt / "ema.safetensors"), device=str(device)))
-        step = int(state["step"])
-    if rank == 0:
-        log.info("%s/%s: %d samples from %s, batch %d x %d, steps %d/%d, device %s", model_cfg["name"], member,
-                 len(dataset), root, bs, world, step, max_steps, device)
-        if depth_frames is not None:
-            log.info("depth head also on %d frames of %s, %d per step", len(depth_frames), data_cfg["depth_root"],
-                     int(data_cfg["depth_batch"]))
-    if step >= max_steps:
+    return Optimisation(model, opt, sched, ema, bs, max_steps)
+
+
+def resume(run: Optimisation, member_dir: Path, model_cfg: Mapping, device: torch.device) -> None:
+    """Continue from the member's latest checkpoint, if any: weights, optimiser, schedule, EMA, step."""
+    ckpt = latest_checkpoint(member_dir)
+    if ckpt is None:
         return
-    net = model
-    if world > 1:
-        net = torch.nn.parallel.DistributedDataParallel(model, device_ids=[device.index] if device.type == "cuda" else None)
+    load_state_dict_checked(run.model, read_weights(ckpt, model_cfg["name"], prefer_ema=False), ckpt)
+    state = torch.load(ckpt / "state.pt", map_location=device, weights_only=False)
+    run.opt.load_state_dict(state["optimizer"])
+    run.sched.load_state_dict(state["scheduler"])
+    if run.ema is not None and state.get("ema"):
+        run.ema.load_state_dict(state["ema"], load_file(str(ckpt / "ema.safetensors"), device=str(device)))
+    run.step = int(state["step"])
+
+
+def training_batches(dataset, depth_frames, data_cfg: Mapping, seed: int, rank: int, world: int, step: int, bs: int,
+                     device: torch.device) -> Iterator[dict]:
+    """The batches from ``step`` on (sample order from the seed and the position alone), with the depth head's
+    frames of ``data.depth_root`` added to each."""
     workers = int(data_cfg["num_workers"])
     order = dataset.sampler(seed, rank, world, step * bs) if isinstance(dataset, MixtureDataset) \
         else EpochSampler(len(dataset), seed, rank, world, step * bs)
-    sampler = BatchSampler(order, bs, drop_last=True)
-    loader = DataLoader(BatchView(dataset), batch_size=None, sampler=sampler, num_workers=workers,
-                        pin_memory=device.type == "cuda", persistent_workers=workers > 0,
+    loader = DataLoader(BatchView(dataset), batch_size=None, sampler=BatchSampler(order, bs, drop_last=True),
+                        num_workers=workers, pin_memory=device.type == "cuda", persistent_workers=workers > 0,
                         prefetch_factor=4 if workers > 0 else None)
     depth_batches = None
     if depth_frames is not None:
@@ -187,67 +232,64 @@ def train_member(cfg: Mapping, member: str, index: int, entries: list[dict], out
         depth_batches = iter(DataLoader(depth_frames, batch_size=None, pin_memory=device.type == "cuda",
                                         sampler=BatchSampler(EpochSampler(len(depth_frames), depth_seed(seed), rank, world,
                                                                           step * fb), fb, drop_last=True)))
+    for batch in loader:
+        if depth_batches is not None:
+            batch.update(next(depth_batches))
+        yield batch
+
+
+def train_loop(run: Optimisation, batches: Iterator[dict], stats: dict, validator, tcfg: Mapping, label: str,
+               member_dir: Path, ids: tuple[int, int, int, int], device: torch.device) -> None:
+    """Optimise until ``run.max_steps``: per-step seeds from ``[seed, index, rank, step]``, TensorBoard scalars,
+    validation and atomic checkpoints (rank 0)."""
+    seed, index, rank, world = ids
+    model, step, max_steps = run.model, run.step, run.max_steps
+    net = model
+    if world > 1:
+        net = torch.nn.parallel.DistributedDataParallel(model, device_ids=[device.index] if device.type == "cuda" else None)
     writer = None
     if rank == 0:
         from torch.utils.tensorboard import SummaryWriter
-        writer = SummaryWriter(str(out_dir / "tb" / member), purge_step=step)
-    stats = {"model": model_cfg["name"], "member": member, "metric_waypoint_spacing": dataset.spacing,
-             "action_stats": {"min": model.action_min.tolist(), "max": model.action_max.tolist()}
-             if hasattr(model, "action_min") else None, "image_size": list(model_cfg["image_size"]),
-             "crop": crop_setting(entry_settings(entries[0], data_cfg), model_cfg), "context_size": model_cfg["context_size"],
-             "len_traj_pred": model_cfg["len_traj_pred"], "imagenet_mean": IMAGENET_MEAN, "imagenet_std": IMAGENET_STD,
-             "dataset": str(Path(root).expanduser().resolve()), "num_samples": len(dataset),
-             "hfov_deg": recorded_hfov(root, dataset.cache.names[0])}  # for policy.depth_veto_rule=swept
-    if isinstance(dataset, MixtureDataset):
-        stats["datasets"] = report["datasets"]
-    validator = None
-    if rank == 0 and data_cfg["val_root"] and member != "negative":  # NoMaD_n imitates collisions: no agreement
-        validator = Validator(data_cfg["val_root"], model_cfg, data_cfg, tcfg, cfg["agent"], seed, bs,
-                              dataset.spacing, out_dir / member / "val.json")
-    val_every = int(tcfg["val_every"])
-    bf16 = tcfg["precision"] == "bf16"
+        writer = SummaryWriter(str(member_dir.parent / "tb" / member_dir.name), purge_step=step)
+    val_every, bf16 = int(tcfg["val_every"]), tcfg["precision"] == "bf16"
     gen = torch.Generator(device=device)
     log_every, ckpt_every = int(tcfg["log_every"]), int(tcfg["ckpt_every"])
     net.train()
-    bar = tqdm(total=max_steps, initial=step, desc=f"{model_cfg['name']}/{member}", disable=rank != 0,
-               mininterval=float(tcfg["tqdm_interval"]))
+    bar = tqdm(total=max_steps, initial=step, desc=label, disable=rank != 0, mininterval=float(tcfg["tqdm_interval"]))
     try:
-        for batch in loader:
-            if depth_batches is not None:
-                batch.update(next(depth_batches))
+        for batch in batches:
             batch = {k: v.to(device, non_blocking=True) for k, v in batch.items()}
             gen.manual_seed(derive_seed(seed, index, rank, step))
             torch.manual_seed(derive_seed(seed, index, rank, step, 1))
             with torch.autocast(device.type, dtype=torch.bfloat16, enabled=bf16):
                 losses = net(batch, gen)
             if not torch.isfinite(losses["loss"]):
-                raise ValueError(f"non-finite loss at step {step} of {model_cfg['name']}/{member}; lower train.lr or check the data")
-            opt.zero_grad(set_to_none=True)
+                raise ValueError(f"non-finite loss at step {step} of {label}; lower train.lr or check the data")
+            run.opt.zero_grad(set_to_none=True)
             losses["loss"].backward()
             if tcfg["grad_clip"]:
                 torch.nn.utils.clip_grad_norm_(model.parameters(), float(tcfg["grad_clip"]))
-            opt.step()
-            sched.step()
+            run.opt.step()
+            run.sched.step()
             step += 1
-            if ema is not None:
-                ema.update(model)
+            if run.ema is not None:
+                run.ema.update(model)
             bar.update(1)
             if writer is not None and (step % log_every == 0 or step == max_steps):
                 for k, v in losses.items():
                     writer.add_scalar(f"train/{k}", float(v.detach()), step)
-                writer.add_scalar("train/lr", sched.get_last_lr()[0], step)
+                writer.add_scalar("train/lr", run.sched.get_last_lr()[0], step)
                 bar.set_postfix(loss=f"{float(losses['loss'].detach()):.4f}")
             if validator is not None and (step % val_every == 0 or step >= max_steps):
-                validator(model, ema.shadow if ema is not None else None, step, writer)
+                validator(model, run.ema.shadow if run.ema is not None else None, step, writer)
             if rank == 0 and (step % ckpt_every == 0 or step >= max_steps):
-                state = {"step": step, "optimizer": opt.state_dict(), "scheduler": sched.state_dict(),
-                         "ema": ema.state_dict() if ema is not None else None, "max_steps": max_steps}
-                save_checkpoint(out_dir / member, step, model.state_dict(), {**stats, "step": step}, state,
-                                ema.shadow if ema is not None else None, int(tcfg["keep_checkpoints"]))
+                state = {"step": step, "optimizer": run.opt.state_dict(), "scheduler": run.sched.state_dict(),
+                         "ema": run.ema.state_dict() if run.ema is not None else None, "max_steps": max_steps}
+                save_checkpoint(member_dir, step, model.state_dict(), {**stats, "step": step}, state,
+                                run.ema.shadow if run.ema is not None else None, int(tcfg["keep_checkpoints"]))
             if step >= max_steps:
                 break
     finally:
         bar.close()
         if writer is not None:
             writer.close()
-
