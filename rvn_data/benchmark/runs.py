@@ -167,4 +167,14 @@ def provenance_note(runs: list[Run]) -> str:
         sets = {r.episode_set for r in runs if r.split == split}
         if len(sets) > 1:
             notes.append(f"{split} rows on different episode sets ({len(sets)} sets: compare rows only within one)")
-    return f"**Warning: {'; '.join(notes)}; see the Runs table.**\n" if notes else ""
+    text = f"**Warning: {'; '.join(notes)}; see the Runs table.**\n" if notes else ""
+    return text + embodiment_note(runs)
+
+
+def embodiment_note(runs: list[Run]) -> str:
+    """One line naming the rows evaluated on another robot or camera than their training data
+    (rvn-eval ``embodiment_mismatch=allow``), else ''."""
+    from rvn_data.embodiment import describe
+
+    other = [f"{r.method} ({describe(r.metrics['embodiment_mismatch'])})" for r in runs if r.metrics.get("embodiment_mismatch")]
+    return f"Evaluated on another robot or camera than they were trained for: {'; '.join(other)}.\n" if other else ""
