@@ -27,6 +27,26 @@ def run_python(*args: str, check: bool = True, timeout: float = 600) -> subproce
     return proc
 
 
+def interrupted_copy(full: Path, part: Path, step: int = 2, member: str = "model") -> Path:
+    """``part``: an rvn-train out_dir as a run interrupted after ``step`` would leave it (``full``'s config.yaml
+    and its step checkpoint of ``member``, nothing later), to resume and compare with ``full``."""
+    import shutil
+
+    name = f"ckpt_{step:08d}"
+    (part / member).mkdir(parents=True)
+    shutil.copy(full / "config.yaml", part / "config.yaml")
+    shutil.copytree(full / member / name, part / member / name)
+    (part / member / "latest").write_text(name + "\n")
+    return part
+
+
+def run_recipe(script: str, out: Path, **env: str) -> subprocess.CompletedProcess:
+    """``bash jobs/<script> OUT`` at SCALE=tiny with this interpreter, from OUT's parent folder."""
+    full = {**os.environ, "SCALE": "tiny", "PYTHON": sys.executable, **env}
+    return subprocess.run(["bash", str(Path(__file__).resolve().parents[1] / "jobs" / script), str(out)],
+                          capture_output=True, text=True, timeout=900, env=full, cwd=out.parent)
+
+
 def box_scene(boxes, name: str = "test") -> Scene:
     """A Scene of axis-aligned boxes given as (min xyz, max xyz) pairs, one part."""
     mesh = trimesh.util.concatenate([trimesh.creation.box(bounds=[lo, hi]) for lo, hi in boxes])

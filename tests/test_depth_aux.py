@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import torch
 from safetensors.torch import load_file
-from conftest import run_python as run
+from conftest import interrupted_copy, run_python as run
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
 from rvn_data.dataset.writer import downsample_depth
@@ -291,11 +291,7 @@ def test_train_with_depth_root_resumes_exactly(data, tmp_path):
     events.Reload()
     assert [e.step for e in events.Scalars("train/depth_extra_loss")] == [1, 2, 3, 4]
     assert all(e.value > 0 for e in events.Scalars("train/depth_extra_loss"))
-    part = tmp_path / "part"  # an interrupted run: only the step-2 checkpoint survived
-    (part / "model").mkdir(parents=True)
-    shutil.copy(full / "config.yaml", part / "config.yaml")
-    shutil.copytree(full / "model" / "ckpt_00000002", part / "model" / "ckpt_00000002")
-    (part / "model" / "latest").write_text("ckpt_00000002\n")
+    part = interrupted_copy(full, tmp_path / "part")  # an interrupted run: only the step-2 checkpoint survived
     run("-m", "rvn_il.train.cli", *args, f"out_dir={part}")
     a, b = latest_checkpoint(full / "model"), latest_checkpoint(part / "model")
     assert a.name == b.name == "ckpt_00000004"

@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from conftest import run_recipe
 
 REPO = Path(__file__).resolve().parents[1]
 METHODS = ("Random", "Oracle", "Goal follower", "Trajectory oracle", "ViNT-PointGoal", "NoMaD-PointGoal", "NoMaD-PointGoal-vote", "NoMaD-Neg",
@@ -20,9 +21,7 @@ METHODS = ("Random", "Oracle", "Goal follower", "Trajectory oracle", "ViNT-Point
 
 
 def small_experiment(out: Path, **env) -> subprocess.CompletedProcess:
-    full = {**os.environ, "SCALE": "tiny", "PYTHON": sys.executable, **env}
-    return subprocess.run(["bash", str(REPO / "jobs" / "small_experiment.sh"), str(out)], capture_output=True,
-                          text=True, timeout=900, env=full, cwd=out.parent)
+    return run_recipe("small_experiment.sh", out, **env)
 
 
 @pytest.mark.slow

@@ -5,12 +5,12 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import subprocess
 import sys
 
 import numpy as np
 import pytest
+from conftest import interrupted_copy
 import torch
 import yaml
 from safetensors.torch import load_file
@@ -69,11 +69,7 @@ def test_mixture_trains_through_the_cli_and_reports_each_dataset(data, tmp_path)
 def test_mixture_resumes_exactly(data, tmp_path):
     args = [*SMALL, "train.max_steps=4", "train.ckpt_every=2", mixture(data, weight=0.3)]
     full = train([f"out_dir={tmp_path / 'full'}", *args])
-    part = tmp_path / "part"
-    (part / "model").mkdir(parents=True)
-    shutil.copy(full / "config.yaml", part / "config.yaml")
-    shutil.copytree(full / "model" / "ckpt_00000002", part / "model" / "ckpt_00000002")
-    (part / "model" / "latest").write_text("ckpt_00000002\n")
+    part = interrupted_copy(full, tmp_path / "part")
     train([f"out_dir={part}", *args])
     a, b = latest_checkpoint(full / "model"), latest_checkpoint(part / "model")
     assert a.name == b.name == "ckpt_00000004"

@@ -9,6 +9,7 @@ import sys
 
 import numpy as np
 import pytest
+from conftest import interrupted_copy
 import torch
 import yaml
 from safetensors.torch import load_file
@@ -173,11 +174,7 @@ def test_resume_continues_exactly(data, tmp_path):
             "data.num_workers=0", *SMALL]
     full = train([f"out_dir={tmp_path / 'full'}", *args])
     # an interrupted run: only the step-2 checkpoint survived
-    part = tmp_path / "part"
-    (part / "model").mkdir(parents=True)
-    shutil.copy(full / "config.yaml", part / "config.yaml")
-    shutil.copytree(full / "model" / "ckpt_00000002", part / "model" / "ckpt_00000002")
-    (part / "model" / "latest").write_text("ckpt_00000002\n")
+    part = interrupted_copy(full, tmp_path / "part")
     train([f"out_dir={part}", *args])
     a = latest_checkpoint(full / "model")
     b = latest_checkpoint(part / "model")

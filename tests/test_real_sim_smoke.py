@@ -4,21 +4,16 @@ both robots with the mismatch recorded, the report with its paired comparisons; 
 from __future__ import annotations
 
 import json
-import os
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 import yaml
-
-REPO = Path(__file__).resolve().parents[1]
+from conftest import run_recipe
 
 
 def recipe(out: Path, **env) -> subprocess.CompletedProcess:
-    full = {**os.environ, "SCALE": "tiny", "PYTHON": sys.executable, **env}
-    return subprocess.run(["bash", str(REPO / "jobs" / "real_sim_experiment.sh"), str(out)], capture_output=True,
-                          text=True, timeout=900, env=full, cwd=out.parent)
+    return run_recipe("real_sim_experiment.sh", out, **env)
 
 
 @pytest.mark.slow
