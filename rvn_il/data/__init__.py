@@ -7,7 +7,7 @@ from typing import Mapping
 
 from .cache import PackedCache, cache_path, ensure_cache
 from .dataset import BatchView, EpochSampler, GNMDataset, check_waypoint_frames
-from .mixture import MixtureDataset
+from .mixture import MixtureDataset, dataset_seed
 from .depth import depth_setting
 from .depth_frames import DepthFrames, depth_seed
 from rvn_data.dataset.reader import GNMSource, load_gnm, read_meta
@@ -58,7 +58,8 @@ def entry_settings(entry: Mapping, data_cfg: Mapping | None) -> dict:
 def make_training_data(entries: list[Mapping], model_cfg: Mapping, data_cfg: Mapping | None = None, seed: int = 0,
                        build: bool = True, depth: bool = True) -> GNMDataset | MixtureDataset:
     """The resolved datasets of `.sources.dataset_entries` → one GNMDataset, or a MixtureDataset of several."""
-    sets = [make_dataset(e["root"], model_cfg, entry_settings(e, data_cfg), seed, build, depth) for e in entries]
+    sets = [make_dataset(e["root"], model_cfg, entry_settings(e, data_cfg), dataset_seed(seed, d), build, depth)
+            for d, e in enumerate(entries)]
     if len(sets) == 1:
         return sets[0]
     return MixtureDataset(sets, [e["weight"] for e in entries], [e.get("name") or Path(e["root"]).name for e in entries])

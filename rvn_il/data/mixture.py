@@ -22,6 +22,12 @@ MIX_KEY = 0x6D6978  # "mix"
 BLOCK = 4096
 
 
+def dataset_seed(seed: int, d: int) -> int:
+    """Dataset ``d``'s seed for its sample order and draws: the run's seed for the first (one dataset trains as
+    alone), a derived one for the others (datasets of equal size do not share their orders)."""
+    return int(seed) if d == 0 else int(np.random.SeedSequence([int(seed), MIX_KEY, d]).generate_state(1)[0] >> 1)
+
+
 def mixture_weights(sizes: Sequence[int], weights: Sequence[float | None]) -> np.ndarray:
     """Normalised sampling weights: the given ones, else in proportion to each dataset's samples."""
     w = np.array([float(n) for n in sizes] if all(x is None for x in weights) else [float(x) for x in weights])
@@ -92,7 +98,8 @@ class MixtureSampler(Sampler[int]):
         for b in range(block):
             drawn += np.bincount(self._choices(b), minlength=D)
         drawn += np.bincount(self._choices(block)[:offset], minlength=D)
-        streams = [iter(EpochSampler(n, self.seed, self.rank, self.world, int(k))) for n, k in zip(self.sizes, drawn)]
+        streams = [iter(EpochSampler(n, dataset_seed(self.seed, d), self.rank, self.world, int(k)))
+                   for d, (n, k) in enumerate(zip(self.sizes, drawn))]
         while True:
             for d in self._choices(block)[offset:].tolist():
                 yield next(streams[d]) * D + d
