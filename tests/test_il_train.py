@@ -237,3 +237,16 @@ def test_nomad_neg_adopts_a_nomad_pointgoal_run_as_nomad_e(runs, data, tmp_path)
     r = rvn_train("model=nomad_neg", f"out_dir={tmp_path / 'bad'}", f"train.expert_from={runs['vint_pointgoal']}", *common)
     assert r.returncode != 0 and "train.expert_from" in r.stderr and "'vint_pointgoal' run" in r.stderr
     assert "Traceback" not in r.stderr
+
+
+def test_a_current_packed_cache_spares_the_frame_check(runs, data):
+    """rvn-train's preflight reads every frame of its data (verify.py), unless the packed cache built from exactly
+    these files is current; a file changed since makes it read them all again (benchmarks/verify.py: the cost)."""
+    args = ["model=nomad_pointgoal", f"data.root={data / 'expert'}", f"out_dir={runs['nomad_pointgoal']}",
+            "train.max_steps=3", "data.num_workers=0", *SMALL]
+    r = rvn_train(*args)
+    assert r.returncode == 0 and "3 trajectories unchanged since their packed cache was built" in r.stdout + r.stderr
+    frame = data / "expert" / "traj_000_0000" / "0.jpg"
+    os.utime(frame, ns=(frame.stat().st_atime_ns, frame.stat().st_mtime_ns + 1_000_000))
+    r = rvn_train(*args)
+    assert r.returncode == 0 and "unchanged since their packed cache" not in r.stdout + r.stderr

@@ -128,13 +128,23 @@ def ensure_cache(source: GNMSource, image_size: Sequence[int], crop: str | bool 
     official | none), and [depth, depth] depth maps unless ``depth`` is None, building it if
     missing or stale."""
     crop = check_crop(crop)
-    path = cache_path(source, image_size, crop, cache_dir, depth)
-    extra = (("depth", int(depth)),) if depth else ()  # caches without depth keep their fingerprint
-    fp = fingerprint(source, CACHE_VERSION, tuple(int(s) for s in image_size), _crop_key(crop), source.spacing, *extra)
-    if _stored_fingerprint(path) != fp:
+    path, fp, current = cache_state(source, image_size, crop, cache_dir, depth)
+    if not current:
         log.info("building GNM cache %s from %s (%d trajectories)", path, source.root, len(source.names))
         build_cache(source, path, image_size, crop, fp, num_threads, progress, depth)
     return path
+
+
+def cache_state(source: GNMSource, image_size: Sequence[int], crop: str | bool = "aspect",
+                cache_dir: str | Path | None = None, depth: int | None = None) -> tuple[Path, str, bool]:
+    """(path, fingerprint, whether the cache there is current): current means it was packed from exactly these
+    files (names, sizes, modification times) with these settings, so they were whole when it was built and
+    have not changed since (rvn-train's preflight then need not read every frame again)."""
+    crop = check_crop(crop)
+    path = cache_path(source, image_size, crop, cache_dir, depth)
+    extra = (("depth", int(depth)),) if depth else ()  # caches without depth keep their fingerprint
+    fp = fingerprint(source, CACHE_VERSION, tuple(int(s) for s in image_size), _crop_key(crop), source.spacing, *extra)
+    return path, fp, _stored_fingerprint(path) == fp
 
 
 class PackedCache:

@@ -11,18 +11,21 @@ line names the first that is not and the rvn-gen command that redoes it. Nothing
 """
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 from typing import Mapping
 
 import torch
 
-from rvn_data.dataset.reader import list_trajectories, rvn_trajectories, split_file
+from rvn_data.cache_root import cache_root
+from rvn_data.dataset.reader import list_trajectories, load_gnm, rvn_trajectories, split_file
 from rvn_data.dataset.remake import remake_hint
 from rvn_data.dataset.verify import MISSING, Expect, damaged
 from rvn_data.cli.common import ConfigError, check_writable_dir, validating
 from rvn_data.embodiment import dataset_embodiment, mismatches, resolve_agent
 
-from ..data import check_waypoint_frames, depth_setting
+from ..data import check_waypoint_frames, crop_setting, depth_setting, entry_settings
+from ..data.cache import cache_state
 from ..data.sources import dataset_entries, single_entry
 from ..data.depth import REGENERATE, has_depth
 from ..models import resolve_size
@@ -31,6 +34,7 @@ from ..models.nomad import check_prediction_type
 from ..policies.loader import resolve_device
 from .adopt import expert_source
 
+log = logging.getLogger(__name__)
 PRECISIONS = ("fp32", "bf16")
 
 def data_roots(cfg: Mapping) -> dict[str, str]:
@@ -143,7 +147,8 @@ def check_datasets(cfg: Mapping) -> None:
         expert_source(tcfg["expert_from"], resolve_size(cfg["model"]))
     for member, entries in member_entries(cfg).items():
         for e in entries:
-            names = whole_split(e["key"], e["root"], e["split"], e["splits_dir"], e["name"], depth)
+            names = whole_split(e["key"], e["root"], e["split"], e["splits_dir"], e["name"], depth,
+                                packed=packed_current(cfg, e))
             if depth and not has_depth(Path(e["root"]).expanduser(), names):
                 raise ConfigError(f"{e['key']}={e['root']} has no depth.npy sidecars; {REGENERATE}")
     if data["val_root"]:
@@ -151,15 +156,22 @@ def check_datasets(cfg: Mapping) -> None:
     check_depth_root(data, depth)
 
 
-def whole_split(key: str, root: str, split: str, splits_dir: str | None, name: str | None, depth: bool) -> list[str]:
-    """The trajectories of a dataset's split, each folder checked whole; `ConfigError` naming the
-    setting, the first trajectory that is not (and how many more) and the command that redoes it."""
+def whole_split(key: str, root: str, split: str, splits_dir: str | None, name: str | None, depth: bool,
+                packed: bool = False) -> list[str]:
+    """The trajectories of a dataset's split, each folder checked whole (``packed``: the packed cache of exactly
+    these files is current, so they were whole when it was built and its frames are not read again);
+    `ConfigError` naming the setting, the first trajectory that is not (and how many more) and the command
+    that redoes it."""
     path = Path(str(root)).expanduser()
     splits = Path(splits_dir) if splits_dir else None
     try:
         _, names = list_trajectories(path, split, splits, name, folders=False)
     except ValueError as err:
         raise ConfigError(f"{key}={root}: {err}") from None
+    if packed:
+        log.info("%s=%s: %d trajectories unchanged since their packed cache was built; frames not read again",
+                 key, root, len(names))
+        return names
     bad = damaged(path, names, Expect.of_dataset(path, depth))
     if bad:
         first, problem = next(iter(bad.items()))
@@ -169,6 +181,20 @@ def whole_split(key: str, root: str, split: str, splits_dir: str | None, name: s
         more = f", and {len(bad) - 1} more {'trajectory' if len(bad) == 2 else 'trajectories'} damaged" if len(bad) > 1 else ""
         raise ConfigError(f"{key}={root}: trajectory {first}: {problem}{more}; {remake_hint(path)}")
     return names
+
+
+def packed_current(cfg: Mapping, entry: Mapping) -> bool:
+    """Whether the packed cache rvn-train will read for this dataset is current (`rvn_il.data.cache.cache_state`:
+    built from exactly these files with these settings); False when it is missing, stale or the poses do not load
+    (the full check then names the problem)."""
+    model_cfg, data = resolve_size(cfg["model"]), entry_settings(entry, cfg["data"])
+    try:
+        source = load_gnm(entry["root"], data["split"], data["splits_dir"], data["name"], data["metric_waypoint_spacing"])
+    except (ValueError, OSError):
+        return False
+    cache_dir = cfg["data"]["cache_dir"] or cache_root(cfg["cache_dir"], Path(str(cfg["out_dir"])).expanduser()) / "packed"
+    return cache_state(source, model_cfg["image_size"], crop_setting(data, model_cfg), cache_dir,
+                       depth_setting(model_cfg))[2]
 
 
 def check_depth_root(data: Mapping, depth: bool) -> None:
