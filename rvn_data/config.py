@@ -10,15 +10,15 @@ with Hydra's own message.
 Schemas: groups ``agent`` (`AgentConfig`), ``camera`` (`CameraConfig`), ``navmesh``
 (`NavMeshSettings`), ``dataset`` (`DatasetConfig`), ``renderer`` (`RendererConfig`),
 ``scenes`` (`ScenesConfig`); primary configs ``gen`` (`GenConfig`) and ``eval``
-(`EvalConfig`) here, ``train`` in `rvn_il.train.settings` (registered when rvn_il is
-imported, so the task side never imports the IL side).
+(`EvalConfig`) here, ``train`` in `rvn_il.train.settings` (`register_schema`, which rvn-train calls;
+the task side never imports the IL side).
 
     cfg = load_config("eval", overrides=["policy=random", "episodes.per_scene=2"])
 """
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import Sequence
 
 CONF_DIR = str(Path(__file__).resolve().parents[1] / "conf")
 
@@ -70,8 +70,6 @@ def register_configs() -> None:
                              (None, "base_gen", GenConfig), (None, "base_eval", EvalConfig)):
         register(name, cls, group)
     _register_resolvers()
-    for hook in _hooks:
-        hook()
 
 
 def eval_run_name(method: str | None, policy: str | None, checkpoint_path: str | None = None) -> str:
@@ -89,16 +87,6 @@ def _register_resolvers() -> None:
         OmegaConf.register_new_resolver("rvn_eval_name", eval_run_name)
 
 
-_hooks: list[Callable[[], None]] = []
-
-
-def add_registration(hook: Callable[[], None]) -> None:
-    """Have `register_configs` also run ``hook`` (how rvn_il adds the train schema)."""
-    if hook not in _hooks:
-        _hooks.append(hook)
-        hook()
-
-
 def load_config(name: str, overrides: Sequence[str] = ()):
     """The composed config ``conf/<name>.yaml`` with Hydra-style ``overrides`` (DictConfig,
     interpolations unresolved). Inside a running Hydra app (which already searches CONF_DIR)
@@ -113,5 +101,5 @@ def load_config(name: str, overrides: Sequence[str] = ()):
         return compose(config_name=name, overrides=list(overrides))
 
 
-__all__ = ["CONF_DIR", "add_registration", "eval_run_name", "load_config",
+__all__ = ["CONF_DIR", "eval_run_name", "load_config",
            "register", "register_configs", "schema_node"]

@@ -13,6 +13,7 @@ import hydra
 from hydra.core.config_store import ConfigStore
 from omegaconf import DictConfig, OmegaConf
 from omegaconf.errors import OmegaConfBaseException
+from rvn_data.config import register_configs
 
 from .config import CONF_RL
 
@@ -44,7 +45,7 @@ def compose(overrides: list[str] = ()) -> dict:
     from hydra import compose as hydra_compose, initialize_config_dir
 
     check_choices(list(overrides))
-    _register_task_schemas()
+    register_configs()  # the task side's schemas (base_camera, base_scenes, ...) that conf/rl.yaml names
     register_groups()
     with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
         cfg = hydra_compose(config_name="rl", overrides=list(overrides))
@@ -76,21 +77,11 @@ def _main(cfg: DictConfig) -> None:
         print(f"wrote {Path(plain['out_dir']) / 'config.yaml'}")
 
 
-def _register_task_schemas() -> None:
-    """The task side's structured config schemas (base_camera, base_scenes, ...), when this
-    tree's conf/ uses them."""
-    try:
-        from rvn_data.config import register_configs
-    except ImportError:
-        return
-    register_configs()
-
-
 def main() -> None:
     from rvn_data.cli.common import run_hydra
 
     check_choices(sys.argv[1:])
-    _register_task_schemas()
+    register_configs()  # the task side's schemas (base_camera, base_scenes, ...) that conf/rl.yaml names
     register_groups()
     run_hydra(_main, "rvn-rl", "rl", CONF_DIR)
 

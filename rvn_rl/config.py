@@ -90,8 +90,5 @@ def model_kwargs(cfg: dict) -> dict:
 
 def load_depth_fn(path: str, device="cpu"):
     """The frozen depth network of rvn_rl.depth: ``fn(rgb uint8 [N,H,W,3]) -> depth float32 [N,H,W]``."""
-    try:
-        from .depth import load_depth_model
-    except ImportError:
-        from .depth.model import load_depth_model
+    from .depth import load_depth_model
     return load_depth_model(str(Path(str(path)).expanduser()), device=device)

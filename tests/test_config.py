@@ -18,7 +18,9 @@ from rvn_data.dataset.settings import DatasetConfig, GenSettings
 from rvn_data.navmesh.settings import NavMeshSettings
 from rvn_data.render.camera import CameraConfig
 from rvn_il.models import load_model_config
-from rvn_il.train.settings import DataConfig, TrainLoopConfig, complete_config
+from rvn_il.train.settings import DataConfig, TrainLoopConfig, complete_config, register_schema
+
+register_schema()  # conf/train.yaml's schema, as rvn-train registers it
 
 ENV = {**os.environ, "OMP_NUM_THREADS": "1"}
 

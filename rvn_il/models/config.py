@@ -17,7 +17,7 @@ from typing import Any, Mapping
 from omegaconf import OmegaConf
 from rvn_data.config import load_config
 
-from ..train import settings as _train_settings  # noqa: F401  (registers rvn-train's schema)
+from ..train.settings import register_schema
 
 MODEL_NAMES = ("vint_pointgoal", "nomad_pointgoal", "nomad_neg")
 
@@ -26,6 +26,7 @@ MODEL_NAMES = ("vint_pointgoal", "nomad_pointgoal", "nomad_neg")
 def _composed(name: str) -> dict:
     from hydra.errors import MissingConfigException
 
+    register_schema()
     try:
         cfg = load_config("train", [f"model={name}"])
     except MissingConfigException:

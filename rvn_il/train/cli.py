@@ -17,13 +17,13 @@ from typing import Sequence
 
 import hydra
 from omegaconf import DictConfig, OmegaConf
-from rvn_data.config import CONF_DIR, load_config, register_configs
+from rvn_data.config import CONF_DIR, load_config
 from rvn_data.cli.common import entered_task, fail, record_run, run_hydra
 
-from . import settings  # noqa: F401  (registers conf/train.yaml's schema, base_train)
+from .settings import register_schema
 from .trainer import run_training
 
-register_configs()
+register_schema()
 
 def _run(cfg: DictConfig, record: bool = False) -> Path:
     container = OmegaConf.to_container(cfg, resolve=True)

@@ -1,7 +1,7 @@
 """rvn-train's settings (conf/train.yaml): the typed schema of its config, every default here.
 
 `TrainConfig` is registered in Hydra's ConfigStore as ``base_train`` (conf/train.yaml's first
-default) when this module is imported, so a typo'd ``data.*`` / ``train.*`` key or a value of
+default) by `register_schema`, which rvn-train calls before composing, so a typo'd ``data.*`` / ``train.*`` key or a value of
 the wrong type stops rvn-train at start-up with Hydra's message. The model's settings are the
 model's YAML (conf/model/<name>.yaml; `rvn_il.models.config`). Field order is the order of
 the composed config, and so of the config.yaml rvn-train writes into its out_dir.
@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
-from rvn_data.config import add_registration, register
+from rvn_data.config import register, register_configs
 
 
 @dataclass
@@ -142,8 +142,8 @@ def complete_config(cfg: Mapping[str, Any]) -> dict:
     return OmegaConf.to_container(merged, resolve=True)
 
 
-def _register() -> None:
+def register_schema() -> None:
+    """Store rvn-train's schema (``base_train``, conf/train.yaml's first default) and the task side's in Hydra's
+    ConfigStore; called by rvn-train and by whatever composes the train config (`rvn_il.models.config`)."""
+    register_configs()
     register("base_train", TrainConfig)
-
-
-add_registration(_register)
