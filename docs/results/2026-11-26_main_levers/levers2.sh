@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
-# The second half of levers.sh's queue, reordered once the first rows were in (levers.sh stopped after its
-# 1,024-trajectory row, before 2,048): the seed-1 medoid control, a fourth data-scale size (256 trajectories, 2 per
-# scene: 256 / 512 / 1,024 / 4,096), and NoMaD-Neg-depthneg with the swept depth veto (its NoMaD_n on the 4,096 depth
-# negatives timed out in 23 episodes, against 50 for the recipe's NoMaD-Neg, so the veto's cost in timeouts may
-# leave it within issue 31's goal). Same run folder, episodes and settings as levers.sh:
+# The second half of levers.sh's queue, reordered to fit the session's time (levers.sh stopped after its
+# 1,024-trajectory row, before 2,048, which would have taken ~40 min): the seed-1 medoid control and a fourth
+# data-scale size (256 trajectories, 2 per scene: 256 / 512 / 1,024 / 4,096). Not run (next): NoMaD-Neg-depthneg
+# with the swept depth veto, NoMaD-Neg-depthneg seed 1, the 2,048 size, the escape row's rest.
+# Same run folder, episodes and settings as levers.sh:
 #   bash docs/results/2026-11-26_main_levers/levers2.sh runs/small_main      # rerun to resume
 set -euo pipefail
 OUT=$(cd "${1:-runs/small_main}" && pwd)
@@ -30,7 +30,4 @@ evaluate eval_nomad_n256 rvn-eval policy=checkpoint policy.checkpoint_path="$OUT
   "method=NoMaD-PointGoal n256" +policy.waypoint_index=null +policy.num_samples=8 \
   out_dir="$OUT/eval/nomad_pointgoal_n256" "${EVAL[@]}"
 
-evaluate eval_nomad_neg_depthneg_veto rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_neg_depthneg" \
-  "method=NoMaD-Neg-depthneg-veto" +policy.waypoint_index=null +policy.depth_veto=0.5 +policy.depth_veto_rule=swept \
-  out_dir="$OUT/eval/nomad_neg_depthneg_veto" "${EVAL[@]}"
 echo "levers2: done in $SECONDS s"
