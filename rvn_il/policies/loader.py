@@ -24,13 +24,13 @@ near the goal's bearing and drives ``escape_steps`` (4) steps there, headings wi
 """
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 from typing import Any
 
 import torch
 
 from rvn_data.conventions import AgentConfig
+from rvn_data.embodiment import AGENT_KEYS as EMBODIMENT_AGENT_KEYS
 
 from ..data.images import crop_setting
 from ..models import build_model, resolve_size
@@ -45,7 +45,7 @@ from .policy import Member, NoMaDNegPolicy, PointGoalPolicy
 POLICY_KEYS = {"lookahead_min_dist", "waypoint_index", "num_samples", "aggregate", "stop_radius", "selection", "cor_alpha",
                "seed", "threads", "ensemble", "sampler", "depth_veto", "depth_veto_rule", "depth_veto_hfov",
                "escape_after", "escape_steps", "escape_clearance"}
-AGENT_KEYS = {f.name for f in dataclasses.fields(AgentConfig)}
+AGENT_KEYS = set(EMBODIMENT_AGENT_KEYS)  # policy.* settings that change the robot's control
 
 
 def resolve_device(device: str | torch.device, setting: str = "device") -> torch.device:

@@ -48,10 +48,6 @@ def data_roots(cfg: Mapping) -> dict[str, str]:
     return {"expert": cfg["data"]["root"], "negative": neg}
 
 
-def root_key(member: str) -> str:
-    return "data.negative_root" if member == "negative" else "data.root"
-
-
 def preflight(cfg: Mapping) -> tuple[torch.device, dict | None, dict, list[dict]]:
     """Check a complete rvn-train config (`rvn_il.train.settings.complete_config`); returns the
     device, the data's embodiment record (None for data not written by rvn-gen), the agent to train
@@ -216,4 +212,4 @@ def check_depth_root(data: Mapping, depth: bool) -> None:
 
 
 __all__ = ["PRECISIONS", "check_datasets", "check_depth_root", "check_out_dir", "check_settings", "data_roots", "preflight",
-           "root_key", "whole_split"]
+           "whole_split"]
