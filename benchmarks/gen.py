@@ -27,7 +27,7 @@ from rvn_data.gen.run import generate
 def run(out_dir: Path, overrides: list[str]):
     cfg = load_config("gen", [f"out_dir={out_dir}", "progress=false", *overrides])
     with contextlib.redirect_stdout(io.StringIO()):
-        report = generate(OmegaConf.to_container(cfg, resolve=True))
+        report = generate(cfg)
     if report.status:
         raise SystemExit(f"generation failed: {[r.error for r in report.results if r.error]}")
     return report

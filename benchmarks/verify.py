@@ -42,7 +42,7 @@ def main() -> None:
                                   f"trajectories_per_scene={args.per_scene}", f"camera.width={args.size}",
                                   f"camera.height={args.size}"])
         with contextlib.redirect_stdout(io.StringIO()):
-            generate(OmegaConf.to_container(cfg, resolve=True))
+            generate(cfg)
         names = sorted(p.name for p in out.iterdir() if (p / "traj_data.pkl").is_file())
         frames = sum(len(list((out / n).glob("*.jpg"))) for n in names)
         expect = Expect.of_dataset(out)

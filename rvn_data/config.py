@@ -54,6 +54,24 @@ def register(name: str, cls: type, group: str | None = None) -> None:
         _registered.add(key)
 
 
+def typed(cls: type, cfg):
+    """A command's typed settings tree: an instance of the schema ``cls`` from its composed config
+    (a DictConfig) or from a plain, possibly partial mapping merged over the schema's defaults.
+    OmegaConf checks keys and types (an unknown key or a value of the wrong type is a ValueError
+    naming it); each dataclass's ``__post_init__`` checks its ranges. The one conversion a command makes."""
+    from omegaconf import OmegaConf
+    from omegaconf.errors import OmegaConfBaseException
+
+    if isinstance(cfg, cls):
+        return cfg
+    try:
+        return OmegaConf.to_object(OmegaConf.merge(schema_node(cls), cfg))
+    except OmegaConfBaseException as err:
+        key = f" ({err.full_key})" if getattr(err, "full_key", None) else ""
+        first = (str(err).strip().splitlines() or [type(err).__name__])[0]
+        raise ValueError(f"{first}{key}") from None
+
+
 def register_configs() -> None:
     """Register the task side's schemas (idempotent)."""
     from rvn_data.config_schemas import EvalConfig, GenConfig
@@ -102,4 +120,4 @@ def load_config(name: str, overrides: Sequence[str] = ()):
 
 
 __all__ = ["CONF_DIR", "eval_run_name", "load_config",
-           "register", "register_configs", "schema_node"]
+           "register", "register_configs", "schema_node", "typed"]

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from rvn_data.benchmark.episodes import EpisodeSettings
-from rvn_data.benchmark.episodes_source import EnvConfig
+from rvn_data.benchmark.episodes_source import EpisodeRules
 from rvn_data.render import RendererConfig
 from rvn_data.scenes.sets import ScenesConfig
 from rvn_data.conventions import AgentConfig
@@ -37,37 +37,27 @@ class GenConfig:
     allow_partial: bool = False  # merge: also when some scenes are not done yet
     progress: bool = True  # tqdm bars
 
-
-_E = EpisodeSettings
+    def __post_init__(self) -> None:
+        if not 0 <= self.shard_index < self.num_shards:
+            raise ValueError(f"shard_index={self.shard_index} must be in [0, num_shards={self.num_shards})")
+        if self.trajectories_per_scene < 0:
+            raise ValueError(f"trajectories_per_scene={self.trajectories_per_scene} must be >= 0")
+        if self.mode not in ("generate", "merge"):
+            raise ValueError(f"mode={self.mode!r} must be generate or merge")
+        if self.workers < 1:
+            raise ValueError(f"workers={self.workers} must be >= 1")
 
 
 @dataclass(frozen=True)
-class EvalEpisodesConfig:
-    """rvn-eval's ``episodes``: which episodes are run, and how they are drawn (the fields of
-    `EpisodeSettings`, with its defaults and meaning)."""
+class EvalEpisodesConfig(EpisodeSettings):
+    """rvn-eval's ``episodes``: how episodes are drawn (`EpisodeSettings`, whose fields it inherits) and
+    which of them are run."""
 
     # cache of generated episode sets, one folder per episode settings inside (null: <cache root>/episodes)
     dir: str | None = None
     num_scenes: int | None = None  # null = every scene of the split (paper: 800 train / 50 val / 50 test)
     first_scene: int = 0
     per_scene: int | None = None  # null = paper: 2 per train scene, 20 per val / test scene
-    n_goals: int = _E.n_goals
-    d_min: float = _E.d_min
-    d_max: float = _E.d_max
-    seed: int = _E.seed
-    max_tries: int = _E.max_tries
-    max_restarts: int = _E.max_restarts
-
-
-@dataclass(frozen=True)
-class EvalEnvConfig:
-    """rvn-eval's ``env``: the episode rules (defaults: `EnvConfig`)."""
-
-    t_max: int = EnvConfig.t_max  # steps allowed per goal
-    success_distance: float | None = EnvConfig.success_distance  # m; null = 2 * agent.r_robot (geodesic, as Habitat)
-    success_metric: str = EnvConfig.success_metric  # geodesic | euclidean
-    stop_far_is_failure: bool = EnvConfig.stop_far_is_failure  # STOP far from the goal: a no-op step (false) or a failure
-    depth: bool = EnvConfig.depth  # also render depth into the observations
 
 
 @dataclass
@@ -96,4 +86,4 @@ class EvalConfig:
     # allow (announced, recorded in run.json and metrics.json as embodiment_mismatch)
     embodiment_mismatch: str = "error"
     episodes: EvalEpisodesConfig = field(default_factory=EvalEpisodesConfig)
-    env: EvalEnvConfig = field(default_factory=EvalEnvConfig)
+    env: EpisodeRules = field(default_factory=EpisodeRules)

@@ -16,7 +16,7 @@ from safetensors.torch import load_file, save_file
 from rvn_data.atomic import atomic_path, write_bytes_atomic, write_text_atomic
 
 KIND = "rl"
-POLICY_LOADER = "rvn_rl.policy.load_rl_policy"  # what rvn-eval policy=checkpoint calls for this out_dir
+POLICY_LOADER = "rvn_rl.policy.load_rl_policy"  # recorded for readers; rvn-eval finds it by KIND (entry point rvn.checkpoint_loaders)
 
 
 def read_rl_config(out_dir: str | Path) -> dict:

@@ -10,7 +10,8 @@ from dataclasses import asdict, fields
 import pytest
 from omegaconf import OmegaConf
 
-from rvn_data.config import load_config
+from rvn_data.config import load_config, typed
+from rvn_data.config_schemas import GenConfig
 from rvn_data.render import RendererConfig
 from rvn_data.scenes.sets import ScenesConfig
 from rvn_data.conventions import AgentConfig
@@ -65,11 +66,11 @@ def test_group_yaml_holds_only_what_differs():
 def test_dataset_settings_agree_with_their_config():
     """GenSettings' defaults are DatasetConfig's: the default (expert) dataset plans with the
     same soft clearance whether built from the composed config or from the dataclass."""
-    expert = GenSettings.from_config(plain(load_config("gen")))
+    expert = GenSettings.resolve(typed(GenConfig, load_config("gen")))
     assert (expert.clearance_pref, expert.clearance_weight) == (GenSettings.clearance_pref, GenSettings.clearance_weight)
     assert expert.margin == pytest.approx(AgentConfig().r_robot + DatasetConfig().margin_offset)
     assert expert.stop_radius == pytest.approx(2 * AgentConfig().r_robot)
-    negative = GenSettings.from_config(plain(load_config("gen", ["dataset=negative"])))
+    negative = GenSettings.resolve(typed(GenConfig, load_config("gen", ["dataset=negative"])))
     assert negative.kind == "negative" and negative.name == "rvn_negative"
     assert negative.margin == pytest.approx(AgentConfig().r_robot - 0.1)
     assert "clearance_pref" not in negative.identity()  # plain shortest paths, as before clearance existed

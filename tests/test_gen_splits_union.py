@@ -14,6 +14,8 @@ import pytest
 from rvn_data.dataset.gnm_writer import GNMWriter
 from rvn_data.dataset.naming import scene_slug, traj_name
 from rvn_data.dataset.reader import list_trajectories
+from rvn_data.config import typed
+from rvn_data.config_schemas import GenConfig
 from rvn_data.dataset.settings import GenSettings
 from rvn_data.dataset.topdown import map_legend
 from rvn_data.dataset.writer import encode_jpeg
@@ -130,8 +132,8 @@ def _write(gnm, s, spec, index):
 
 def test_unfinished_scene_of_an_earlier_run_is_kept(tmp_path):
     """A scene begun by an earlier run (folders, no record) and not in this run's list."""
-    s = GenSettings.from_config({"dataset": {"train_fraction": 0.5}, "agent": {}, "seed": 0,
-                                 "camera": {"width": 4, "height": 4}})  # the frames _write makes
+    s = GenSettings.resolve(typed(GenConfig, {"dataset": {"train_fraction": 0.5}, "agent": {}, "seed": 0,
+                                 "camera": {"width": 4, "height": 4}}))  # the frames _write makes
     gnm = GNMWriter.open(tmp_path, s)
     done, begun = "procedural:train/0", "procedural:train/1"
     name0, meta0 = _write(gnm, s, done, 0)

@@ -8,13 +8,15 @@ import pytest
 from rvn_data.dataset.gnm_writer import GNMWriter
 from rvn_data.dataset.naming import scene_slug, traj_name
 from rvn_data.dataset.reader import list_trajectories, load_gnm, read_meta, read_rgb
+from rvn_data.config import typed
+from rvn_data.config_schemas import GenConfig
 from rvn_data.dataset.settings import GenSettings
 from rvn_data.dataset.writer import encode_jpeg
 
 
 def _settings(seed=0):
-    return GenSettings.from_config({"dataset": {"train_fraction": 0.5}, "agent": {}, "seed": seed,
-                                    "camera": {"width": 8, "height": 8}})
+    return GenSettings.resolve(typed(GenConfig, {"dataset": {"train_fraction": 0.5}, "agent": {}, "seed": seed,
+                                    "camera": {"width": 8, "height": 8}}))
 
 
 def test_writer_lifecycle_then_reader(tmp_path):

@@ -171,3 +171,18 @@ def test_trajectory_oracle_predicts_the_expert_planners_path(tmp_path):
     env.close()
     with pytest.raises(ValueError, match="margin_offset"):
         TrajectoryOraclePolicy(margin_offset=-0.5).bind(env)
+
+
+def test_checkpoint_of_another_kind_loads_through_its_entry_point(tmp_path):
+    """rvn-eval's policy=checkpoint finds another trainer's loader by the kind its config.yaml records, through
+    the package entry points (group rvn.checkpoint_loaders): rvn-rl's is registered; an unknown kind is one line."""
+    from importlib.metadata import entry_points
+
+    from rvn_il.policies import load_policy
+    from rvn_rl.policy import load_rl_policy
+
+    loaders = {ep.name: ep.load() for ep in entry_points(group="rvn.checkpoint_loaders")}
+    assert loaders.get("rl") is load_rl_policy
+    (tmp_path / "config.yaml").write_text("kind: nonesuch\n")
+    with pytest.raises(ValueError, match=r"kind 'nonesuch' and no installed package loads that kind .*rl"):
+        load_policy(tmp_path)

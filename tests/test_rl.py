@@ -69,7 +69,7 @@ def test_rl_policy_resets_its_recurrent_state(ppo_run):
     from rvn_il.policies import load_policy
 
     out, _ = ppo_run
-    policy = load_policy(out)  # rvn_il's loader calls the policy_loader config.yaml names
+    policy = load_policy(out)  # rvn_il's loader finds rvn-rl's loader by config.yaml's kind (entry point rvn.checkpoint_loaders)
     obs = {"rgb": np.full((64, 64, 3), 90, np.uint8), "pointgoal": np.array([3.0, 1.0], np.float32)}
     policy.reset()
     assert policy.act(obs) in range(4)

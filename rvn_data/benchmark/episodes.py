@@ -26,7 +26,7 @@ DEFAULT_PER_SCENE = {"train": 2, "val": 20, "test": 20}
 
 @dataclass(frozen=True)
 class EpisodeSettings:
-    """How episodes are drawn (rvn-eval's ``episodes``, schema `rvn_data.config_schemas.EvalEpisodesConfig`).
+    """How episodes are drawn (rvn-eval's ``episodes``, schema `rvn_data.config_schemas.EvalEpisodesConfig`, a subclass).
 
     d_min, d_max: geodesic distance range between consecutive goals (m); n_goals: goals
     per episode (N_goal); seed: the set's seed; max_tries: candidate points drawn per goal

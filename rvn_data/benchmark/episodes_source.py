@@ -24,8 +24,20 @@ def _mapping(obj) -> dict:
 
 
 @dataclass
-class EnvConfig:
-    """`RVNEnv` settings. Nested settings may be given as dataclasses or mappings (the
+class EpisodeRules:
+    """The rules an episode is run by (rvn-eval's ``env`` group; part of `EnvConfig`): steps allowed per
+    goal, when a goal counts as reached, what STOP far from it means, and whether depth is rendered."""
+
+    t_max: int = 500  # steps allowed per goal
+    success_distance: float | None = None  # m; null = 2 * agent.r_robot (geodesic, as Habitat)
+    success_metric: str = "geodesic"  # geodesic | euclidean
+    stop_far_is_failure: bool = False  # STOP far from the goal: a no-op step (false) or a failure
+    depth: bool = False  # also render depth into the observations
+
+
+@dataclass
+class EnvConfig(EpisodeRules):
+    """`RVNEnv` settings: the `EpisodeRules` and where scenes and episodes come from. Nested settings may be given as dataclasses or mappings (the
     Hydra groups ``agent``, ``navmesh``, ``camera``, ``scenes``, ``renderer``, ``episodes``).
 
     scene_specs: explicit scene specs (overrides ``scenes``); per_scene: eval episodes per
@@ -45,11 +57,6 @@ class EnvConfig:
     episodes: EpisodeSettings = field(default_factory=EpisodeSettings)
     episodes_dir: str | None = None
     per_scene: int | None = None
-    t_max: int = 500
-    success_distance: float | None = None
-    success_metric: str = "geodesic"
-    stop_far_is_failure: bool = False
-    depth: bool = False
     scene_switch_every: int = 8
     goal_pool: int = 0
     reward_goal: float = 1.0

@@ -13,14 +13,16 @@ import operator
 import os
 import sys
 from collections.abc import Callable, Iterable, Iterator
+from dataclasses import fields
 
 import numpy as np
 
+from rvn_data.benchmark.episodes_source import EpisodeRules
 from rvn_data.cache_root import cache_root
 from rvn_data.conventions import Action
 from rvn_data.numba_note import note_first_compile
 
-ENV_KEYS = ("t_max", "success_distance", "success_metric", "stop_far_is_failure", "depth")
+ENV_KEYS = tuple(f.name for f in fields(EpisodeRules))  # rvn-eval's ``env`` group
 
 
 class InvalidActionError(ValueError):

@@ -24,6 +24,7 @@ from rvn_data.dataset.settings import GenSettings
 from rvn_data.dataset.topdown import render_map
 from rvn_data.dataset.trajectory import Rollout, SceneContext, attempt
 from rvn_data.scenes.scene import SceneError
+from rvn_data.scenes.sets import ScenesConfig
 
 TIMERS = ("setup", "planning", "rendering", "encoding", "writing")
 
@@ -64,22 +65,19 @@ def _diagnose(s: GenSettings, scene_id: str, reasons: Counter, max_geodesic: flo
 class _Scene:
     """Lazily built scene resources (nothing is loaded when every trajectory exists)."""
 
-    def __init__(self, spec: str, settings: GenSettings, scene_cfg: dict, timing: dict):
-        from rvn_data.navmesh import NavMeshSettings
+    def __init__(self, spec: str, settings: GenSettings, scenes: ScenesConfig, timing: dict):
         from rvn_data.navmesh.source import open_navmesh
-        from rvn_data.render import CameraConfig, make_renderer
+        from rvn_data.render import make_renderer
         from rvn_data.scenes.loader import load_scene
         from rvn_data.sim import Simulator
 
         t0 = time.perf_counter()
-        self.scene = load_scene(spec, up_axis=scene_cfg.get("up_axis", "y"),
-                                unit_scale=float(scene_cfg.get("unit_scale", 1.0)),
-                                level=bool(scene_cfg.get("level", False)))
-        navmesh = open_navmesh(self.scene, NavMeshSettings.from_config(settings.navmesh))
+        self.scene = load_scene(spec, up_axis=scenes.up_axis, unit_scale=scenes.unit_scale, level=scenes.level)
+        navmesh = open_navmesh(self.scene, settings.navmesh)
         self.ctx = SceneContext(navmesh=navmesh, sim=Simulator(navmesh, settings.agent), scene=self.scene,
                                 settings=settings)
         self._renderer = None
-        self._make_renderer = lambda: make_renderer(self.scene, CameraConfig(**settings.camera),
+        self._make_renderer = lambda: make_renderer(self.scene, settings.camera,
                                                     backend=settings.renderer, device=settings.render_device)
         timing["setup"] += time.perf_counter() - t0
 
@@ -112,7 +110,7 @@ def _meta(s: GenSettings, scene_id: str, spec: str, split: str, name: str, index
     }
 
 
-def run_scene(spec: str, settings: GenSettings, out_dir: Path, trajectories_per_scene: int, scene_cfg: dict,
+def run_scene(spec: str, settings: GenSettings, out_dir: Path, trajectories_per_scene: int, scenes: ScenesConfig,
               on_trajectory=None) -> SceneResult:
     """Generate (or resume) one scene's trajectories and its map and record."""
     s, gnm = settings, GNMWriter(out_dir, settings)  # opened (checked) by the parent
@@ -128,7 +126,7 @@ def run_scene(spec: str, settings: GenSettings, out_dir: Path, trajectories_per_
             if on_trajectory:
                 on_trajectory(trajectories_per_scene)
             return res
-    split = str(scene_cfg.get("split", ""))
+    split = scenes.split
     scene = None
     kept, failed, reasons = [], [], Counter()
     try:
@@ -146,7 +144,7 @@ def run_scene(spec: str, settings: GenSettings, out_dir: Path, trajectories_per_
                 gnm.discard(name)
                 res.redone[name] = problem
             if scene is None:
-                scene = _Scene(spec, s, scene_cfg, res.timing)
+                scene = _Scene(spec, s, scenes, res.timing)
             rejected = Counter()
             rollout = None
             t0 = time.perf_counter()
@@ -177,7 +175,7 @@ def run_scene(spec: str, settings: GenSettings, out_dir: Path, trajectories_per_
             if on_trajectory:
                 on_trajectory(1)
         if scene is None:  # everything was on disk but the record was not: load for the map
-            scene = _Scene(spec, s, scene_cfg, res.timing)
+            scene = _Scene(spec, s, scenes, res.timing)
         t0 = time.perf_counter()
         gnm.write_map(slug, _map_png(gnm.out_dir, scene, kept))
         rec = {

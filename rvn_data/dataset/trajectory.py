@@ -81,7 +81,7 @@ class SceneContext:
     def __post_init__(self) -> None:
         s = self.settings
         self.planner = ExpertPlanner(self.scene, s.agent, s.margin, s.resolution,
-                                     float(s.navmesh.get("max_climb", 0.2)), float(s.navmesh.get("max_slope_deg", 45.0)),
+                                     s.navmesh.max_climb, s.navmesh.max_slope_deg,
                                      s.clearance_pref, s.clearance_weight)
 
     def grid_at(self, floor_y: float) -> tuple[OccupancyGrid, np.ndarray]:

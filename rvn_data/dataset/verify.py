@@ -49,8 +49,7 @@ class Expect:
     def of_settings(cls, settings) -> "Expect":
         """What a whole folder of an rvn-gen dataset with these `GenSettings` holds: frames of the
         camera's size, rvn_meta.json, and depth.npy with dataset.save_depth."""
-        cam = settings.camera
-        return cls((int(cam.get("width", 256)), int(cam.get("height", 256))),
+        return cls((settings.camera.width, settings.camera.height),
                    settings.depth_size if settings.save_depth else None, meta=True)
 
 

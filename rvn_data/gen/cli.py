@@ -9,26 +9,30 @@ from __future__ import annotations
 import sys
 
 import hydra
-from omegaconf import DictConfig, OmegaConf
+from omegaconf import DictConfig
 
-from rvn_data.cli.common import entered_task, fail, run_hydra
-from rvn_data.config import CONF_DIR, register_configs
+from rvn_data.cli.common import entered_task, fail, run_hydra, validating
+from rvn_data.config import CONF_DIR, register_configs, typed
+from rvn_data.config_schemas import GenConfig
 
 register_configs()
 
 
 @hydra.main(config_path=CONF_DIR, config_name="gen", version_base="1.3")
 def _main(cfg: DictConfig) -> None:
+    from dataclasses import replace
+
     from hydra.core.hydra_config import HydraConfig
     from hydra.utils import to_absolute_path
 
     from rvn_data.gen.run import generate
 
     entered_task()
-    container = OmegaConf.to_container(cfg, resolve=True)
-    container["out_dir"] = to_absolute_path(container["out_dir"])
     try:
-        status = generate(container, list(HydraConfig.get().overrides.task)).status
+        with validating():
+            config = typed(GenConfig, cfg)  # the one conversion: the typed tree goes down from here
+        config = replace(config, out_dir=to_absolute_path(config.out_dir))
+        status = generate(config, list(HydraConfig.get().overrides.task)).status
     except (ValueError, OSError) as e:  # ConfigError (a ValueError): status 2; a run that failed: 1
         fail("rvn-gen", e)
     if status:

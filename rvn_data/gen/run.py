@@ -13,9 +13,11 @@ import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Mapping
 
 from rvn_data.cli.common import ConfigError, validating
+from rvn_data.config import typed
+from rvn_data.config_schemas import GenConfig
 from rvn_data.dataset import naming
 from rvn_data.dataset.finalise import Finalised
 from rvn_data.dataset.gnm_writer import GNMWriter
@@ -25,14 +27,14 @@ from rvn_data.dataset.settings import GenSettings
 from rvn_data.dataset.verify import summarise
 from rvn_data.gen.summary import summary
 from rvn_data.numba_note import note_first_compile
+from rvn_data.scenes.sets import ScenesConfig
 
 
-def list_scenes(cfg: Any) -> list[str]:
+def list_scenes(scenes: ScenesConfig) -> list[str]:
     from rvn_data.scenes.sets import scene_specs
 
-    sc = cfg["scenes"]
-    specs = scene_specs(sc["source"], sc["split"], root=sc.get("root"), num_scenes=sc.get("num_scenes"),
-                        first_scene=int(sc.get("first_scene") or 0))
+    specs = scene_specs(scenes.source, scenes.split, root=scenes.root, num_scenes=scenes.num_scenes,
+                        first_scene=scenes.first_scene)
     naming.check_unique(list(specs))
     return list(specs)
 
@@ -71,43 +73,35 @@ class GenReport:
         return sum(r.frames for r in self.results)
 
 
-def generate(cfg: Any, overrides: list[str] | None = None) -> GenReport:
-    """Generate this shard's scenes and finalise when every shard is done; ``overrides`` (the
-    command line's) are recorded in the out_dir for messages that ask to rerun it."""
+def generate(cfg: GenConfig | Mapping[str, Any], overrides: list[str] | None = None) -> GenReport:
+    """Generate this shard's scenes and finalise when every shard is done. ``cfg``: rvn-gen's typed
+    config (`GenConfig`), or a mapping of the settings that differ from its defaults; ``overrides``
+    (the command line's) are recorded in the out_dir for messages that ask to rerun it."""
     t_start = time.perf_counter()
     with validating():  # bad input: ConfigError (exit status 2), before anything is written
-        settings = GenSettings.from_config(cfg)
-        out_dir = Path(cfg["out_dir"]).expanduser().resolve()
-        shard_index, num_shards = int(cfg["shard_index"]), int(cfg["num_shards"])
-        if not 0 <= shard_index < num_shards:
-            raise ValueError(f"shard_index={shard_index} must be in [0, num_shards={num_shards})")
-        n = int(cfg["trajectories_per_scene"])
-        if n < 0:
-            raise ValueError(f"trajectories_per_scene={n} must be >= 0")
-        if cfg.get("mode", "generate") not in ("generate", "merge"):
-            raise ValueError(f"mode={cfg.get('mode')!r} must be generate or merge")
-        if int(cfg.get("workers", 1)) < 1:
-            raise ValueError(f"workers={cfg.get('workers')} must be >= 1")
-        specs = list_scenes(cfg)
+        config = typed(GenConfig, cfg)
+        settings = GenSettings.resolve(config)
+        out_dir = Path(config.out_dir).expanduser().resolve()
+        specs = list_scenes(config.scenes)
         if not specs:
-            sc = cfg["scenes"]
-            raise ValueError(f"no scenes to generate: scenes.first_scene={sc.get('first_scene') or 0} and scenes.num_scenes="
-                             f"{sc.get('num_scenes')} select none of the {sc['split']} split's scenes; lower first_scene or "
+            sc = config.scenes
+            raise ValueError(f"no scenes to generate: scenes.first_scene={sc.first_scene} and scenes.num_scenes="
+                             f"{sc.num_scenes} select none of the {sc.split} split's scenes; lower first_scene or "
                              "raise num_scenes (null: every scene)")
         gnm = GNMWriter.open(out_dir, settings)
-    if cfg.get("mode", "generate") == "merge":
-        return GenReport(merge(gnm, specs, bool(cfg.get("allow_partial", False))))
+    if config.mode == "merge":
+        return GenReport(merge(gnm, specs, config.allow_partial))
     if settings.kind == "expert" and settings.margin <= settings.agent.r_robot:
         print(f"warning: expert dataset.margin={settings.margin} m is not larger than r_robot={settings.agent.r_robot} m")
     if settings.kind == "negative" and settings.margin >= settings.agent.r_robot:
         print(f"warning: negative dataset.margin={settings.margin} m is not smaller than r_robot={settings.agent.r_robot} m")
     if overrides is not None:
         record_command(out_dir, overrides)
+    shard_index, num_shards = config.shard_index, config.num_shards
     mine = specs[shard_index::num_shards]
-    scene_cfg = {k: v for k, v in dict(cfg["scenes"]).items()}
-    jobs = [(spec, settings, str(out_dir), n, scene_cfg) for spec in mine]
+    jobs = [(spec, settings, str(out_dir), config.trajectories_per_scene, config.scenes) for spec in mine]
     note_first_compile("rvn-gen")
-    results = _run(jobs, int(cfg.get("workers", 1)), n, bool(cfg.get("progress", True)))
+    results = _run(jobs, config.workers, config.trajectories_per_scene, config.progress)
     for r in results:
         gnm.note_failure(r.slug, r.error)
         if r.redone:

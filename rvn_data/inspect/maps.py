@@ -58,16 +58,21 @@ def scene_map(meta: dict, scale: int = 3, up_axis: str = "y", unit_scale: float 
     """The map of the floor of trajectory ``meta`` (an ``rvn_meta.json`` dict). Mesh scenes
     need the loader options they were generated with (e.g. ``up_axis="z"`` for HM3D) and
     their file at ``meta["spec"]``."""
+    from rvn_data.conventions import AgentConfig
+    from rvn_data.dataset.settings import GenSettings
+    from rvn_data.navmesh.settings import NavMeshSettings
     from rvn_data.planning.occupancy import occupancy_grid
 
+    # the settings rvn-gen recorded; a key a record lacks (made before it existed) takes today's default
     settings = meta.get("settings") or {}
     agent, navmesh = settings.get("agent") or {}, settings.get("navmesh") or {}
-    resolution = float(settings.get("resolution", 0.05))
-    margin = float(settings.get("margin", agent.get("r_robot", 0.18)))
+    resolution = float(settings.get("resolution", GenSettings.resolution))
+    margin = float(settings.get("margin", agent.get("r_robot", AgentConfig.r_robot)))
     scene = _load(str(meta["spec"]), up_axis, float(unit_scale), bool(level))
     floor = round(float(meta["start"][1]) / 0.05) * 0.05  # the generator's 5 cm floor levels
-    grid = occupancy_grid(scene, floor, resolution, float(agent.get("h_robot", 1.0)),
-                          float(navmesh.get("max_climb", 0.2)), float(navmesh.get("max_slope_deg", 45.0)))
+    grid = occupancy_grid(scene, floor, resolution, float(agent.get("h_robot", AgentConfig.h_robot)),
+                          float(navmesh.get("max_climb", NavMeshSettings.max_climb)),
+                          float(navmesh.get("max_slope_deg", NavMeshSettings.max_slope_deg)))
     img = np.empty(grid.shape + (3,), np.uint8)
     img[:] = MARGIN
     img[grid.inflate(margin)] = FREE

@@ -83,16 +83,33 @@ def load_member(out_dir: Path, member: str, model_cfg: dict, device: torch.devic
     return Member(model, float(stats["metric_waypoint_spacing"]), crop, stats.get("hfov_deg"))
 
 
-def recorded_loader(out_dir: Path) -> str | None:
-    """``policy_loader`` recorded in an out_dir's config.yaml: the function that rebuilds a
-    policy of another trainer (rvn-rl writes ``rvn_rl.policy.load_rl_policy``); None for rvn-train's."""
+LOADERS_GROUP = "rvn.checkpoint_loaders"  # package entry points: checkpoint kind -> its policy loader
+
+
+def checkpoint_kind(out_dir: Path) -> str | None:
+    """The ``kind`` another trainer records in its out_dir's config.yaml (rvn-rl: ``rl``); None for
+    rvn-train's checkpoints, which this module loads."""
     import yaml
 
     try:
         cfg = yaml.safe_load((out_dir / "config.yaml").read_text())
     except (OSError, yaml.YAMLError):
         return None
-    return cfg.get("policy_loader") if isinstance(cfg, dict) else None
+    kind = cfg.get("kind") if isinstance(cfg, dict) else None
+    return None if kind is None else str(kind)
+
+
+def kind_loader(kind: str, out_dir: Path):
+    """The policy loader an installed package registers for checkpoints of ``kind`` (entry point group
+    ``rvn.checkpoint_loaders`` in its pyproject.toml; rvn-rl's: ``rl = "rvn_rl.policy:load_rl_policy"``)."""
+    from importlib.metadata import entry_points
+
+    found = {ep.name: ep for ep in entry_points(group=LOADERS_GROUP)}
+    if kind not in found:
+        raise ValueError(f"policy.checkpoint_path={out_dir} holds a checkpoint of kind {kind!r} and no installed package "
+                         f"loads that kind (entry points {LOADERS_GROUP}: {', '.join(sorted(found)) or 'none'}); "
+                         "install the package that trained it, e.g. pip install -e . in RVN's checkout")
+    return found[kind].load()
 
 
 def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu", model: str | None = None,
@@ -103,10 +120,9 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
     if not out_dir.exists():
         raise ValueError(f"policy.checkpoint_path={checkpoint_path} does not exist; pass the out_dir of an "
                          "rvn-train or rvn-rl run")
-    other = recorded_loader(out_dir)
-    if other is not None:  # another trainer's out_dir (rvn-rl): the loader it names
-        from hydra.utils import get_method
-        return get_method(other)(out_dir, device, model, **overrides)
+    kind = checkpoint_kind(out_dir)
+    if kind is not None:  # another trainer's out_dir (rvn-rl): the loader its package registers
+        return kind_loader(kind, out_dir)(out_dir, device, model, **overrides)
     cfg = read_config(out_dir)
     model_cfg = checked_model_config(cfg, out_dir, model, "checkpoint")
     name = model_cfg["name"]
@@ -199,7 +215,8 @@ def load_ensemble_member(out_dir: Path, name: str, device: torch.device) -> Memb
     """The network of another rvn-train out_dir of model ``name``, as one more voting member."""
     if not out_dir.is_dir():
         raise ValueError(f"policy.ensemble: {out_dir} does not exist; pass rvn-train out_dirs of {name!r} runs")
-    if recorded_loader(out_dir) is not None:
-        raise ValueError(f"policy.ensemble: {out_dir} is not an rvn-train run of {name!r} (its config names another loader)")
+    if checkpoint_kind(out_dir) is not None:
+        raise ValueError(f"policy.ensemble: {out_dir} is not an rvn-train run of {name!r} (its config records another "
+                         "trainer's kind)")
     model_cfg = checked_model_config(read_config(out_dir), out_dir, name, "policy.ensemble: checkpoint")
     return load_member(out_dir, members_of(name)[0], model_cfg, device)

@@ -17,18 +17,22 @@ from __future__ import annotations
 import numpy as np
 
 from rvn_data.conventions import Action, AgentConfig, to_local, to_planar
+from rvn_data.dataset.settings import DatasetConfig
 from rvn_data.planning import ExpertPlanner, PathFollower
 from rvn_data.planning.follower import integrate
 
 from .control import ControlConfig, waypoints_to_action
 
+_EXPERT = DatasetConfig  # the expert's planning defaults (rvn-gen's dataset group): the oracle plans as it does
+
 
 class TrajectoryOraclePolicy:
     """Expert's next ``len_traj_pred`` poses → `waypoints_to_action` (see module docstring)."""
 
-    def __init__(self, waypoint_index: int | None = None, len_traj_pred: int = 8, margin_offset: float = 0.1,
-                 resolution: float = 0.05, lookahead_min_dist: float | None = None,
-                 clearance_pref: float | None = None, clearance_weight: float = 0.0):
+    def __init__(self, waypoint_index: int | None = None, len_traj_pred: int = 8,
+                 margin_offset: float = _EXPERT.margin_offset, resolution: float = _EXPERT.resolution,
+                 lookahead_min_dist: float | None = None, clearance_pref: float | None = _EXPERT.clearance_pref,
+                 clearance_weight: float = _EXPERT.clearance_weight):
         self.waypoint_index = None if waypoint_index is None else int(waypoint_index)
         self.len_traj_pred, self.margin_offset = int(len_traj_pred), float(margin_offset)
         self.resolution, self.lookahead_min_dist = float(resolution), lookahead_min_dist
