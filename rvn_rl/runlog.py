@@ -9,6 +9,7 @@ from pathlib import Path
 import torch
 
 from rvn_data.atomic import atomic_path
+from rvn_data.benchmark.measures import episode_success
 
 from .distrib import all_sum
 
@@ -19,7 +20,7 @@ def episode_sums(episodes: list[dict]) -> torch.Tensor:
     """Sums over finished episodes' records, all-reduced over ranks when distributed."""
     s = torch.zeros(len(FIELDS), dtype=torch.float64)
     for ep in episodes:
-        s += torch.tensor([1.0, ep["return"], float(ep["termination"] == "success"), ep["goals_reached"],
+        s += torch.tensor([1.0, ep["return"], float(episode_success(ep)), ep["goals_reached"],
                            ep["collisions"], ep["path_length"] / 1000.0, ep["cost"]], dtype=torch.float64)
     return all_sum(s)
 

@@ -5,15 +5,16 @@ Observation: ``rgb`` uint8 [H,W,3], ``pointgoal`` float32 [2] (x forward, y left
 metres), ``depth`` float32 [H,W] when ``depth=True``. Actions: ``Discrete(4)``
 (`rvn_data.conventions.Action`).
 
-Per step: STOP with the goal within ``success_distance`` (default 2·r_robot, measured
-as the geodesic distance given by the goal's distance field, as Habitat's Success;
-``success_metric="euclidean"`` uses the straight-line floor distance) → reward +1.0 and
-the next goal (train: sampled from the current pose; eval: the episode's next goal),
-scene and pose kept; after N_goal goals the episode terminates (success). A collision
-(`Simulator` step with ``collided``) → reward −0.1, ``info["cost"] = 1.0``, terminated
-(failure). STOP farther away → a no-op step (or a terminating failure with
-``stop_far_is_failure``). Otherwise reward −Δ(geodesic distance to goal) − 0.01. No goal
-within ``t_max`` steps of being given → truncated (failure).
+Per step the env moves the agent, builds a `measures.StepRecord` and takes the reward,
+``info["cost"]`` and the episode's ending from `rvn_data.benchmark.measures` (the one
+definition of each; the paper's values): STOP within ``success_distance`` (default 2·r_robot,
+geodesic as Habitat's Success; ``success_metric="euclidean"``: the straight-line floor
+distance) → +1.0 and the next goal (train: sampled from the current pose; eval: the episode's
+next goal), scene and pose kept, terminated (success) after N_goal goals; a collision
+(`Simulator` step with ``collided``) → −0.1, cost 1.0, terminated (failure); STOP farther
+away → a no-op step (or a terminating failure with ``stop_far_is_failure``); otherwise
+−Δ(geodesic distance to goal) − 0.01. No goal within ``t_max`` steps of being given →
+truncated (failure).
 
 Modes: ``train`` draws random episodes with the benchmark sampler from ``np_random`` (goals
 from a fixed per-scene pool with ``goal_pool`` > 0: `rvn_data.benchmark.goal_pool`)
@@ -32,6 +33,7 @@ import numpy as np
 from gymnasium import spaces
 
 from rvn_data.conventions import Action, relative_goal, to_planar
+from rvn_data.benchmark import measures
 from rvn_data.benchmark.episodes import sample_goal, sample_start
 from rvn_data.benchmark.episodes_source import EnvConfig, SceneSlot, eval_schedule
 from rvn_data.benchmark.metrics import EpisodeTracker
@@ -56,7 +58,12 @@ class RVNEnv(gym.Env):
         self.observation_space = spaces.Dict(obs)
         self.action_space = spaces.Discrete(len(Action))
         self.agent = self.config.agent
-        self.success_distance = self.config.success_distance
+        c = self.config
+        self.rules = measures.TaskRules(  # what the reward, the cost and the episode's ending read
+            success_distance=c.success_distance, n_goals=c.episodes.n_goals, t_max=c.t_max,
+            stop_far_is_failure=c.stop_far_is_failure, reward_goal=c.reward_goal,
+            reward_collision=c.reward_collision, slack_penalty=c.slack_penalty)
+        self.success_distance = self.rules.success_distance
         self._slots = self.config.scene_slots()
         self._scene: SceneSlot | None = None
         self._schedule = eval_schedule(self._slots, self.config.per_scene) if self.config.mode == "eval" else []
@@ -78,11 +85,7 @@ class RVNEnv(gym.Env):
     position = property(lambda self: self._pos, doc="The agent's floor position [3].")
     yaw = property(lambda self: self._yaw, doc="The agent's heading (rad).")
     goal = property(lambda self: self._goal, doc="The current goal [3].")
-
-    @property
-    def goal_field(self):
-        """Geodesic distance field to the current goal (``.distance(p)``)."""
-        return self._field
+    goal_field = property(lambda self: self._field, doc="Geodesic distance field to the goal (``.distance(p)``).")
 
     @property
     def episode_key(self) -> tuple[int, int, int]:
@@ -103,6 +106,10 @@ class RVNEnv(gym.Env):
             return float(np.linalg.norm(to_planar(p) - to_planar(self._goal)))
         return self.distance_to_goal(p)
 
+    def at_goal(self, position: np.ndarray | None = None) -> bool:
+        """A STOP at ``position`` (default: the agent's) would reach the goal (`measures`' test)."""
+        return measures.within_success_distance(self.success_distance_now(position), self.success_distance)
+
     # ---- gymnasium API ------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
@@ -114,7 +121,7 @@ class RVNEnv(gym.Env):
         self._done = False
         self._ended = None
         self._goal_steps = 0
-        return self._observe(), self._info(collided=False, displacement=0.0)
+        return self._observe(), self._info(None)
 
     def _load(self, pos: int) -> None:
         if self._scene is None or self._scene.pos != pos:
@@ -212,43 +219,39 @@ class RVNEnv(gym.Env):
         except (ValueError, TypeError):
             raise ValueError(f"invalid action {action!r}: expected one of "
                              f"{[f'{x.value}={x.name}' for x in Action]}") from None
-        cfg = self.config
-        terminated = truncated = collided = False
-        displacement, reward = 0.0, -cfg.slack_penalty
-        if a == Action.STOP:
-            self._goal_steps += 1
-            self._tracker.step(0.0, False, int(a))
-            if self.success_distance_now() <= self.success_distance:
-                reward = cfg.reward_goal
-                self._goals_reached += 1
-                self._tracker.goal_reached()
-                if self._goals_reached >= cfg.episodes.n_goals:
-                    terminated, self._ended = True, "success"
-                elif not self._next_goal():
-                    raise SceneError(f"scene {self._tracker.record['scene_id']}: no goal found "
-                                     f"{cfg.episodes.d_min}-{cfg.episodes.d_max} m from {self._pos.tolist()}")
-            elif cfg.stop_far_is_failure:
-                terminated, self._ended = True, "stop_far"
-        else:
+        step = self._act(a)
+        self._tracker.step(step.displacement, step.collided, int(a))
+        self._goal_steps, self._dist = step.goal_steps, step.dtg_after
+        ending, reward = measures.termination(self.rules, step), measures.reward(self.rules, step)
+        if measures.goal_reached(self.rules, step):
+            self._goals_reached += 1
+            self._tracker.goal_reached()
+            if ending is None and not self._next_goal():
+                e = self.config.episodes
+                raise SceneError(f"scene {self._tracker.record['scene_id']}: no goal found "
+                                 f"{e.d_min}-{e.d_max} m from {self._pos.tolist()}")
+        self._ended = ending
+        truncated = measures.is_truncation(ending)
+        terminated = ending is not None and not truncated
+        self._done = ending is not None
+        obs = self._observe()
+        info = self._info(step)
+        if self._done:
+            info["episode"] = self._tracker.finish(ending)
+        return obs, float(reward), terminated, truncated, info
+
+    def _act(self, a: Action) -> measures.StepRecord:
+        """Carry out action ``a`` (the simulator moves or turns the agent; STOP stays) and
+        record what it did for the measures."""
+        collided, displacement = False, 0.0
+        if a != Action.STOP:
             res = self.simulator.step(a)
             self._pos, self._yaw = np.asarray(res.position, dtype=np.float64), float(res.yaw)
             collided, displacement = bool(res.collided), float(res.displacement)
-            self._goal_steps += 1
-            self._tracker.step(displacement, collided, int(a))
-            if collided:
-                reward, terminated, self._ended = cfg.reward_collision, True, "collision"
-            else:
-                d = self.distance_to_goal()
-                reward = -(d - self._dist) - cfg.slack_penalty
-                self._dist = d
-        if not terminated and self._goal_steps >= cfg.t_max:
-            truncated, self._ended = True, "timeout"
-        self._done = terminated or truncated
-        obs = self._observe()
-        info = self._info(collided, displacement)
-        if self._done:
-            info["episode"] = self._tracker.finish(self._ended)
-        return obs, float(reward), terminated, truncated, info
+        dtg = self._dist if a == Action.STOP else self.distance_to_goal()
+        return measures.StepRecord(action=int(a), collided=collided, displacement=displacement,
+                                   dtg_before=self._dist, dtg_after=dtg, goal_distance=self.success_distance_now(),
+                                   goal_steps=self._goal_steps + 1, goals_reached=self._goals_reached)
 
     def episode_record(self) -> dict:
         """The per-episode record so far (`rvn_data.benchmark.metrics`); final once the episode ended."""
@@ -263,11 +266,12 @@ class RVNEnv(gym.Env):
         self._obs = obs
         return obs
 
-    def _info(self, collided: bool, displacement: float) -> dict:
+    def _info(self, step: measures.StepRecord | None) -> dict:
+        """The step's ``info`` (None: the reset's, before any step)."""
         return {
-            "cost": 1.0 if collided else 0.0,
-            "collided": bool(collided),
-            "displacement": float(displacement),
+            "cost": 0.0 if step is None else measures.cost(step),
+            "collided": step is not None and step.collided,
+            "displacement": 0.0 if step is None else step.displacement,
             "goals_reached": int(self._goals_reached),
             "distance_to_goal": float(self.distance_to_goal()),
             "goal_steps": int(self._goal_steps),
@@ -276,7 +280,7 @@ class RVNEnv(gym.Env):
             "scene_index": int(self._key[1]),
             "episode_index": int(self._key[2]),
             "termination": self._ended,
-            "success": self._ended == "success",
+            "success": self._ended == measures.SUCCESS,
         }
 
     def render(self):

@@ -37,12 +37,12 @@ import math
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from rvn_data.atomic import write_text_atomic  # noqa: F401 (re-exported: eval code imports it from here)
+from rvn_data.benchmark.measures import TERMINATIONS, episode_success
 
 RECORD_KEYS = (
     "scene_id", "scene_index", "episode_index", "episode_id", "goals_reached",
     "first_goal_success", "path_length", "collisions", "steps", "d0", "termination", "goals",
 )
-TERMINATIONS = ("success", "collision", "timeout", "stop_far")
 
 
 def spl(success: bool, d0: float, length: float) -> float:
@@ -108,7 +108,7 @@ def compute_metrics(records: Sequence[dict]) -> dict:
         "collisions": collisions,
         "distance_km": km,
         "steps": sum(int(r["steps"]) for r in records),
-        "success_all_goals": sum(r["termination"] == "success" for r in records) / n,
+        "success_all_goals": sum(episode_success(r) for r in records) / n,
     }
     if stats:
         out["policy_stats"] = stats

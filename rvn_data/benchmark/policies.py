@@ -74,7 +74,7 @@ class OraclePolicy:
             self._goal_key = goal_key
             self._visits.clear()
             self._plan, self._planned = [], False
-        if env.success_distance_now() <= env.success_distance:
+        if env.at_goal():
             return int(Action.STOP)
         if self._sim is None or self._sim_navmesh is not env.navmesh:
             self._sim, self._sim_navmesh = Simulator(env.navmesh, env.agent), env.navmesh
@@ -111,7 +111,7 @@ class OraclePolicy:
 
     def _search(self, env) -> list[int]:
         """Shortest collision-free action list to a pose passing the success test ([] if none found)."""
-        theta, goal_ok = env.agent.theta_step, env.success_distance
+        theta = env.agent.theta_step
         start = (np.asarray(env.position, dtype=np.float64), float(env.yaw))
         frontier = [(start, [])]
         seen = {(*self._key(start[0]), round(math.remainder(start[1], 2 * math.pi), 3))}
@@ -135,7 +135,7 @@ class OraclePolicy:
                         continue
                     seen.add(key)
                     plan = acts + [int(a)]
-                    if a == Action.MOVE_FORWARD and env.success_distance_now(q) <= goal_ok:
+                    if a == Action.MOVE_FORWARD and env.at_goal(q):
                         return plan
                     nxt.append(((q, y), plan))
             frontier = nxt

@@ -134,66 +134,78 @@ def run_scene(spec: str, settings: GenSettings, out_dir: Path, trajectories_per_
             name = naming.traj_name(slug, s.kind, index)
             problem, meta = checked[name] if name in checked else gnm.check(name, recorded.get(name))
             if meta is not None:
-                kept.append(meta)
                 reasons.update(meta["rejected"])
                 res.skipped += 1
-                if on_trajectory:
-                    on_trajectory(1)
-                continue
-            if problem is not None:
-                gnm.discard(name)
-                res.redone[name] = problem
-            if scene is None:
-                scene = _Scene(spec, s, scenes, res.timing)
-            rejected = Counter()
-            rollout = None
-            t0 = time.perf_counter()
-            for a in range(s.max_attempts):
-                out = attempt(scene.ctx, naming.attempt_rng(s.seed, s.kind, slug, index, a))
-                if isinstance(out, Rollout):
-                    rollout = out
-                    break
-                rejected[out] += 1
-            res.timing["planning"] += time.perf_counter() - t0
-            reasons.update(rejected)
-            if rollout is None:
-                if not kept:
-                    raise SceneError(_diagnose(s, scene.scene.scene_id, rejected, scene.ctx.stats["max_geodesic_seen"]))
-                failed.append({"index": index, "rejected": dict(sorted(rejected.items()))})
-                if on_trajectory:
-                    on_trajectory(1)
-                continue
-            jpegs, depth = _render(scene.renderer, rollout, s, res.timing)
-            t0 = time.perf_counter()
-            meta = _meta(s, scene.scene.scene_id, spec, split, name, index, a, rejected, rollout,
-                         scene.renderer.backend)
-            gnm.write_trajectory(name, jpegs, rollout.planar, rollout.yaws, meta, depth)
-            res.timing["writing"] += time.perf_counter() - t0
-            kept.append(meta)
-            res.written += 1
-            res.frames += len(jpegs)
+            else:
+                if problem is not None:
+                    gnm.discard(name)
+                    res.redone[name] = problem
+                if scene is None:
+                    scene = _Scene(spec, s, scenes, res.timing)
+                meta, rejected = _new_trajectory(scene, gnm, s, spec, split, name, index, res)
+                reasons.update(rejected)
+                if meta is None:
+                    if not kept:
+                        raise SceneError(_diagnose(s, scene.scene.scene_id, rejected,
+                                                   scene.ctx.stats["max_geodesic_seen"]))
+                    failed.append({"index": index, "rejected": dict(sorted(rejected.items()))})
+            if meta is not None:
+                kept.append(meta)
             if on_trajectory:
                 on_trajectory(1)
         if scene is None:  # everything was on disk but the record was not: load for the map
             scene = _Scene(spec, s, scenes, res.timing)
-        t0 = time.perf_counter()
-        gnm.write_map(slug, _map_png(gnm.out_dir, scene, kept))
-        rec = {
-            "scene": scene.scene.scene_id, "spec": spec, "slug": slug, "split": split, "kind": s.kind,
-            "trajectories_per_scene": trajectories_per_scene,
-            "trajectories": [{"name": m["name"], "index": m["index"], "frames": m["frames"], "t_c": m["t_c"],
-                              "path_length": m["path_length"], "attempt": m["attempt"]} for m in kept],
-            "failed": failed, "rejected": dict(sorted(reasons.items())),
-            "attempts": int(sum(reasons.values()) + len(kept)),
-            "renderers": sorted({m["renderer"] for m in kept}),
-        }
-        gnm.close_scene(slug, rec)
-        res.timing["writing"] += time.perf_counter() - t0
-        res.record = rec
+        res.record = _close_scene(gnm, scene, res, split, s.kind, trajectories_per_scene, kept, failed, reasons)
         return res
     finally:
         if scene is not None:
             scene.close()
+
+
+def _new_trajectory(scene: _Scene, gnm: GNMWriter, s: GenSettings, spec: str, split: str, name: str, index: int,
+                    res: SceneResult) -> tuple[dict | None, Counter]:
+    """Trajectory ``index``: the first of ``max_attempts`` draws the expert (or the negative rule)
+    keeps, rendered and written as folder ``name``. Returns (its sidecar, or None when every
+    attempt was rejected; the rejections by reason); adds to ``res``' timings and counts."""
+    rejected = Counter()
+    rollout = None
+    t0 = time.perf_counter()
+    for a in range(s.max_attempts):
+        out = attempt(scene.ctx, naming.attempt_rng(s.seed, s.kind, res.slug, index, a))
+        if isinstance(out, Rollout):
+            rollout = out
+            break
+        rejected[out] += 1
+    res.timing["planning"] += time.perf_counter() - t0
+    if rollout is None:
+        return None, rejected
+    jpegs, depth = _render(scene.renderer, rollout, s, res.timing)
+    t0 = time.perf_counter()
+    meta = _meta(s, scene.scene.scene_id, spec, split, name, index, a, rejected, rollout, scene.renderer.backend)
+    gnm.write_trajectory(name, jpegs, rollout.planar, rollout.yaws, meta, depth)
+    res.timing["writing"] += time.perf_counter() - t0
+    res.written += 1
+    res.frames += len(jpegs)
+    return meta, rejected
+
+
+def _close_scene(gnm: GNMWriter, scene: _Scene, res: SceneResult, split: str, kind: str, trajectories_per_scene: int,
+                 kept: list[dict], failed: list[dict], reasons: Counter) -> dict:
+    """Write the scene's map and, last, its record (`GNMWriter.close_scene`); returns the record."""
+    t0 = time.perf_counter()
+    gnm.write_map(res.slug, _map_png(gnm.out_dir, scene, kept))
+    rec = {
+        "scene": scene.scene.scene_id, "spec": res.spec, "slug": res.slug, "split": split, "kind": kind,
+        "trajectories_per_scene": trajectories_per_scene,
+        "trajectories": [{"name": m["name"], "index": m["index"], "frames": m["frames"], "t_c": m["t_c"],
+                          "path_length": m["path_length"], "attempt": m["attempt"]} for m in kept],
+        "failed": failed, "rejected": dict(sorted(reasons.items())),
+        "attempts": int(sum(reasons.values()) + len(kept)),
+        "renderers": sorted({m["renderer"] for m in kept}),
+    }
+    gnm.close_scene(res.slug, rec)
+    res.timing["writing"] += time.perf_counter() - t0
+    return rec
 
 
 def _render(renderer, r: Rollout, s: GenSettings, timing: dict) -> tuple[list[bytes], np.ndarray | None]:

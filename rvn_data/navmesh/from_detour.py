@@ -127,6 +127,33 @@ def navmesh_from_detour(mesh: DetourMesh, settings: NavMeshSettings, scene_id: s
     x0, z0 = lo[0] - _MARGIN * cs, lo[2] - _MARGIN * cs
     rows = int(math.ceil((hi[2] - z0) / cs)) + _MARGIN
     cols = int(math.ceil((hi[0] - x0) / cs)) + _MARGIN
+    cell, h, t, rc = _surface_samples(mesh, tris, flat, x0, z0, cs, cols)
+    rank = np.arange(len(cell)) - np.searchsorted(cell, cell)
+    nlayers = int(rank.max()) + 1
+    # per layer: own cells (sample index), heights
+    sample_at = np.full((nlayers, rows, cols), -1, np.int64)
+    sample_at[rank, rc[:, 0], rc[:, 1]] = np.arange(len(cell))
+    pairs = _neighbour_pairs(sample_at, h, climb)
+    g = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(cell), len(cell)))
+    comp = connected_components(g, directed=False)[1]
+    island, areas = _islands(mesh, settings, owner, owner[t], comp, area)
+    layers, where = _layers(sample_at, h, island, seg, x0, z0, cs, r, climb)
+    cross = pairs[(rank[pairs[:, 0]] != rank[pairs[:, 1]]) & (island[pairs[:, 0]] >= 0)]
+    lay = np.full(nlayers, -1, np.int64)
+    lay[list(where)] = list(where.values())
+    origin = np.array([(g.r0, g.c0) for g in layers], np.int64)
+    a, b = cross[:, 0], cross[:, 1]
+    links = np.concatenate([lay[rank[a]][:, None], rc[a] - origin[lay[rank[a]]],
+                            lay[rank[b]][:, None], rc[b] - origin[lay[rank[b]]]], 1).reshape(-1, 6)
+    nm = NavMesh(scene_id, settings, layers, areas, (x0, z0, rows, cols), links)
+    nm.source_file = mesh.path
+    return nm
+
+
+def _surface_samples(mesh: DetourMesh, tris, flat, x0: float, z0: float, cs: float, cols: int):
+    """The detail triangles rasterised at the cell centres, one sample per surface and cell
+    (samples of a cell closer than `SAME_SURFACE` in height merged), sorted by cell, then
+    height: (scene-grid cell index, height, triangle, (row, col)) per sample."""
     box = (np.ceil((flat.max(1) - flat.min(1)) / cs) + 1).prod(1).astype(np.int64)
     cap_n = int(box.sum())
     rc, h, t = np.zeros((cap_n, 2), np.int64), np.zeros(cap_n), np.zeros(cap_n, np.int64)
@@ -145,13 +172,12 @@ def navmesh_from_detour(mesh: DetourMesh, settings: NavMeshSettings, scene_id: s
     for i in np.flatnonzero(~new_cell):  # cells with several samples are rare
         keep[i] = h[i] - last_h[i - 1] > SAME_SURFACE
         last_h[i] = h[i] if keep[i] else last_h[i - 1]
-    cell, h, t, rc = cell[keep], h[keep], t[keep], rc[keep]
-    rank = np.arange(len(cell)) - np.searchsorted(cell, cell)
-    nlayers = int(rank.max()) + 1
-    poly = owner[t]
-    # per layer: own cells (sample index), heights
-    sample_at = np.full((nlayers, rows, cols), -1, np.int64)
-    sample_at[rank, rc[:, 0], rc[:, 1]] = np.arange(len(cell))
+    return cell[keep], h[keep], t[keep], rc[keep]
+
+
+def _neighbour_pairs(sample_at: np.ndarray, h: np.ndarray, climb: float) -> np.ndarray:
+    """[P, 2] samples of 4-neighbour cells (in any two layers) within ``climb`` of each other."""
+    nlayers, rows, cols = sample_at.shape
     pairs = []
     for di, dj in ((0, 1), (1, 0)):
         a = sample_at[:, :rows - di, :cols - dj].reshape(nlayers, -1)
@@ -162,10 +188,13 @@ def navmesh_from_detour(mesh: DetourMesh, settings: NavMeshSettings, scene_id: s
                 sa, sb = a[la][ok], b[lb][ok]
                 near = np.abs(h[sa] - h[sb]) <= climb + 1e-9
                 pairs.append(np.stack([sa[near], sb[near]], 1))
-    pairs = np.concatenate(pairs)
-    g = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(cell), len(cell)))
-    comp = connected_components(g, directed=False)[1]
-    # island area: horizontal area of the polygons, each polygon in its cells' main component
+    return np.concatenate(pairs)
+
+
+def _islands(mesh: DetourMesh, settings: NavMeshSettings, owner, poly, comp, area):
+    """(island id per sample, -1 where dropped; island areas, largest first). An island's area
+    is the horizontal area of its polygons, each polygon in its cells' main component; those
+    under ``min_island_area`` are dropped (ValueError naming the file when none is left)."""
     npoly = int(owner.max()) + 1
     pc = np.zeros((npoly,), np.int64)
     votes = coo_matrix((np.ones(len(poly)), (poly, comp)), shape=(npoly, comp.max() + 1)).tocsr()
@@ -180,18 +209,7 @@ def navmesh_from_detour(mesh: DetourMesh, settings: NavMeshSettings, scene_id: s
     kept = kept[np.argsort(-comp_area[kept], kind="stable")]
     new_id = np.full(len(comp_area), -1, np.int64)
     new_id[kept] = np.arange(len(kept))
-    island = new_id[comp]
-    layers, where = _layers(sample_at, h, island, seg, x0, z0, cs, r, climb)
-    cross = pairs[(rank[pairs[:, 0]] != rank[pairs[:, 1]]) & (island[pairs[:, 0]] >= 0)]
-    lay = np.full(nlayers, -1, np.int64)
-    lay[list(where)] = list(where.values())
-    origin = np.array([(g.r0, g.c0) for g in layers], np.int64)
-    a, b = cross[:, 0], cross[:, 1]
-    links = np.concatenate([lay[rank[a]][:, None], rc[a] - origin[lay[rank[a]]],
-                            lay[rank[b]][:, None], rc[b] - origin[lay[rank[b]]]], 1).reshape(-1, 6)
-    nm = NavMesh(scene_id, settings, layers, [float(a) for a in comp_area[kept]], (x0, z0, rows, cols), links)
-    nm.source_file = mesh.path
-    return nm
+    return new_id[comp], [float(a) for a in comp_area[kept]]
 
 
 def _layers(sample_at, h, island, seg, x0, z0, cs, r, climb):

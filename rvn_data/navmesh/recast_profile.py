@@ -92,19 +92,7 @@ def rasterize_recast(verts, faces, walk, bmin, bmax, cs, ch, nx, nz, emit,
                 row, p2 = p2, row
                 if nv < 3 or x < 0:
                     continue
-                ylo = p1[0, 1]
-                yhi = p1[0, 1]
-                bx0 = p1[0, 0]
-                bx1 = p1[0, 0]
-                bz0 = p1[0, 2]
-                bz1 = p1[0, 2]
-                for a in range(1, nv):
-                    ylo = min(ylo, p1[a, 1])
-                    yhi = max(yhi, p1[a, 1])
-                    bx0 = min(bx0, p1[a, 0])
-                    bx1 = max(bx1, p1[a, 0])
-                    bz0 = min(bz0, p1[a, 2])
-                    bz1 = max(bz1, p1[a, 2])
+                ylo, yhi, bx0, bx1, bz0, bz1 = _piece_bounds(p1, nv)
                 smin = ylo - bmin[1]
                 smax = yhi - bmin[1]
                 if smax < 0 or smin > by:
@@ -124,6 +112,25 @@ def rasterize_recast(verts, faces, walk, bmin, bmax, cs, ch, nx, nz, emit,
                     o_ytop[count] = yhi
                 count += 1
     return count
+
+
+@njit(cache=True)
+def _piece_bounds(p, nv):
+    """(y min, y max, x min, x max, z min, z max) of the first ``nv`` vertices of polygon ``p``."""
+    ylo = p[0, 1]
+    yhi = p[0, 1]
+    bx0 = p[0, 0]
+    bx1 = p[0, 0]
+    bz0 = p[0, 2]
+    bz1 = p[0, 2]
+    for a in range(1, nv):
+        ylo = min(ylo, p[a, 1])
+        yhi = max(yhi, p[a, 1])
+        bx0 = min(bx0, p[a, 0])
+        bx1 = max(bx1, p[a, 0])
+        bz0 = min(bz0, p[a, 2])
+        bz1 = max(bz1, p[a, 2])
+    return ylo, yhi, bx0, bx1, bz0, bz1
 
 
 def recast_voxels(st) -> tuple[int, int]:

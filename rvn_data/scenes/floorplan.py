@@ -121,6 +121,37 @@ def _root(parent: list[int], i: int) -> int:
 
 def try_plan(rng: np.random.Generator, split_code: int) -> Plan | None:
     """One attempt at a plan; None when the draw gives no connected layout."""
+    area, width, depth = _footprint(rng, split_code)
+    rects, frozen, corridor = _corridor(rng, area, width, depth)
+    target = int(np.clip(round(area / rng.uniform(10.0, 17.0)), 3, 9)) + (corridor >= 0)
+    _split_rects(rng, rects, frozen, target)
+    n = len(rects)
+    adj = {(i, j): s for i in range(n) for j in range(i + 1, n) if (s := _shared(rects[i], rects[j]))}
+    parent, merged = _merge_rooms(rng, rects, adj, corridor)
+    keep = _drop_corner(rng, rects, parent, merged, corridor, width, depth)
+    rooms_of = {}
+    rect_room = []
+    for i in keep:
+        rect_room.append(rooms_of.setdefault(_root(parent, i), len(rooms_of)))
+    kept = [rects[i] for i in keep]
+    idx = {old: new for new, old in enumerate(keep)}
+    num_rooms = len(rooms_of)
+    if not 3 <= num_rooms <= 8:
+        return None
+    corridor_room = rect_room[idx[corridor]] if corridor >= 0 else -1
+    edges = _door_walls(adj, idx, rect_room)
+    chosen = _door_edges(rng, edges, num_rooms, corridor_room)
+    if chosen is None:
+        return None
+    doors = [_place_door(rng, edges[(a, b)], (a, b)) for a, b in sorted(chosen)]
+    kinds = _room_kinds(rng, kept, rect_room, num_rooms, corridor_room)
+    plan = Plan(width, depth, kept, rect_room, kinds, doors)
+    plan.walls = wall_runs(plan)
+    return plan
+
+
+def _footprint(rng: np.random.Generator, split_code: int) -> tuple[float, int, int]:
+    """(area m², width dm, depth dm) of the apartment's outline; width mod 3 is the split's code."""
     area = rng.uniform(48.0, 112.0)
     aspect = rng.uniform(1.0, 1.7)
     width = int(round(np.sqrt(area * aspect) / DM))
@@ -128,9 +159,13 @@ def try_plan(rng: np.random.Generator, split_code: int) -> Plan | None:
     if rng.random() < 0.5:
         width, depth = depth, width
     width += (split_code - width) % 3  # x size mod 3 == split code: splits never share a layout
+    return area, width, depth
+
+
+def _corridor(rng: np.random.Generator, area: float, width: int, depth: int) -> tuple[list[Rect], set[int], int]:
+    """The first rectangles (rects, the frozen ones, the corridor's index or -1): the whole
+    footprint, or in large apartments sometimes three strips with a corridor in the middle."""
     rects = [Rect(0, 0, width, depth)]
-    frozen: set[int] = set()
-    corridor = -1
     short = min(width, depth)
     if area > 62 and short >= 2 * MIN_SIDE + 16 and rng.random() < 0.55:
         cw = int(rng.integers(12, 16))
@@ -139,12 +174,14 @@ def try_plan(rng: np.random.Generator, split_code: int) -> Plan | None:
             rects = [Rect(0, 0, width, c), Rect(0, c, width, c + cw), Rect(0, c + cw, width, depth)]
         else:
             rects = [Rect(0, 0, c, depth), Rect(c, 0, c + cw, depth), Rect(c + cw, 0, width, depth)]
-        corridor, frozen = 1, {1}
-    target = int(np.clip(round(area / rng.uniform(10.0, 17.0)), 3, 9)) + (corridor >= 0)
-    _split_rects(rng, rects, frozen, target)
+        return rects, {1}, 1
+    return rects, set(), -1
+
+
+def _merge_rooms(rng: np.random.Generator, rects: list[Rect], adj: dict, corridor: int) -> tuple[list[int], set[int]]:
+    """L-shaped rooms: merge a few neighbour pairs whose common wall is not a full edge.
+    Returns (union-find parents of the rectangles, the merged rectangles)."""
     n = len(rects)
-    adj = {(i, j): s for i in range(n) for j in range(i + 1, n) if (s := _shared(rects[i], rects[j]))}
-    # L-shaped rooms: merge a few neighbour pairs whose common wall is not a full edge.
     parent = list(range(n))
     merged: set[int] = set()
     for _ in range(int(rng.integers(0, 3))):
@@ -163,7 +200,13 @@ def try_plan(rng: np.random.Generator, split_code: int) -> Plan | None:
         i, j = pairs[int(rng.integers(len(pairs)))]
         parent[_root(parent, j)] = _root(parent, i)
         merged |= {i, j}
-    # Optionally drop a corner rectangle (L-shaped apartment).
+    return parent, merged
+
+
+def _drop_corner(rng, rects: list[Rect], parent: list[int], merged: set[int], corridor: int,
+                 width: int, depth: int) -> list[int]:
+    """Indices of the rectangles kept: optionally without one corner rectangle (L-shaped apartment)."""
+    n = len(rects)
     keep = list(range(n))
     if rng.random() < 0.3:
         corners = [i for i, r in enumerate(rects) if i not in merged and i != corridor
@@ -172,23 +215,23 @@ def try_plan(rng: np.random.Generator, split_code: int) -> Plan | None:
         corners = [i for i in corners if (total - rects[i].area) * DM * DM >= 42.0]
         if corners and len(set(_root(parent, k) for k in range(n))) >= 5:
             keep.remove(corners[int(rng.integers(len(corners)))])
-    rooms_of = {}
-    rect_room = []
-    for i in keep:
-        rect_room.append(rooms_of.setdefault(_root(parent, i), len(rooms_of)))
-    kept = [rects[i] for i in keep]
-    idx = {old: new for new, old in enumerate(keep)}
-    num_rooms = len(rooms_of)
-    if not 3 <= num_rooms <= 8:
-        return None
-    corridor_room = rect_room[idx[corridor]] if corridor >= 0 else -1
-    # Doors: random spanning tree over walls long enough for a doorway, plus extra loops.
+    return keep
+
+
+def _door_walls(adj: dict, idx: dict, rect_room: list[int]) -> dict:
+    """{(room a, room b): the shared walls of kept rectangles long enough for a doorway}."""
     edges = {}
     for (i, j), s in adj.items():
         if i in idx and j in idx and s[3] - s[2] >= MIN_SHARED:
             a, b = rect_room[idx[i]], rect_room[idx[j]]
             if a != b:
                 edges.setdefault((min(a, b), max(a, b)), []).append(s)
+    return edges
+
+
+def _door_edges(rng, edges: dict, num_rooms: int, corridor_room: int) -> list[tuple[int, int]] | None:
+    """Room pairs that get a door: a random spanning tree of the room graph plus extra loops
+    (likelier next to the corridor); None when the rooms are not all connected."""
     keys = sorted(edges)
     order = rng.permutation(len(keys))
     uf = list(range(num_rooms))
@@ -204,19 +247,17 @@ def try_plan(rng: np.random.Generator, split_code: int) -> Plan | None:
             chosen.append(keys[k])
     if len({_root(uf, r) for r in range(num_rooms)}) != 1:
         return None
-    doors = []
-    for a, b in sorted(chosen):
-        cands = edges[(a, b)]
-        axis, c, s0, s1, _side = cands[int(rng.integers(len(cands)))]
-        w = int(rng.integers(DOOR_MIN, DOOR_MAX + 1))
-        lo, hi = s0 + DOOR_MARGIN, s1 - DOOR_MARGIN - w
-        u = rng.random()  # doorways sit near a corner more often than mid-wall (room for furniture)
-        t0 = lo if u < 0.3 else hi if u < 0.6 else int(rng.integers(lo, hi + 1))
-        doors.append(Door(axis, c, t0, t0 + w, (a, b)))
-    kinds = _room_kinds(rng, kept, rect_room, num_rooms, corridor_room)
-    plan = Plan(width, depth, kept, rect_room, kinds, doors)
-    plan.walls = wall_runs(plan)
-    return plan
+    return chosen
+
+
+def _place_door(rng, walls: list, rooms: tuple[int, int]) -> Door:
+    """A doorway on one of the rooms' shared ``walls``, more often near a corner than mid-wall."""
+    axis, c, s0, s1, _side = walls[int(rng.integers(len(walls)))]
+    w = int(rng.integers(DOOR_MIN, DOOR_MAX + 1))
+    lo, hi = s0 + DOOR_MARGIN, s1 - DOOR_MARGIN - w
+    u = rng.random()  # doorways sit near a corner more often than mid-wall (room for furniture)
+    t0 = lo if u < 0.3 else hi if u < 0.6 else int(rng.integers(lo, hi + 1))
+    return Door(axis, c, t0, t0 + w, rooms)
 
 
 def _room_kinds(rng, rects, rect_room, num_rooms, corridor_room) -> list[str]:
