@@ -32,15 +32,14 @@ def overrides(args, out_dir: str) -> list[str]:
             f"env.goal_pool={args.goal_pool}", f"ppo.ppo_epoch={args.ppo_epoch}", f"ppo.num_mini_batch={args.mini_batches}"]
 
 
-def collection(cfg: dict, steps: int, with_policy: bool) -> float:
-    from rvn_rl.config import model_kwargs
+def collection(cfg, steps: int, with_policy: bool) -> float:
     from rvn_rl.model import PointNavResNetPolicy
     from rvn_rl.trainer import make_envs
 
     envs = make_envs(cfg, seed=0)
     n = envs.num_envs
     rng = np.random.default_rng(0)
-    net = PointNavResNetPolicy(**model_kwargs(cfg)).eval() if with_policy else None
+    net = PointNavResNetPolicy(**cfg.model_kwargs()).eval() if with_policy else None
     state, prev, masks = (net.initial_state(n), torch.zeros(n, dtype=torch.long), torch.zeros(n)) if net else (0, 0, 0)
     try:
         obs = envs.reset()
@@ -67,15 +66,14 @@ def collection(cfg: dict, steps: int, with_policy: bool) -> float:
         envs.close()
 
 
-def forward_gflop(cfg: dict, n: int = 8) -> float:
+def forward_gflop(cfg, n: int = 8) -> float:
     """GFLOP of one batched ``act()`` of the policy, per frame."""
     from torch.utils.flop_counter import FlopCounterMode
 
-    from rvn_rl.config import model_kwargs
     from rvn_rl.model import PointNavResNetPolicy
 
-    net = PointNavResNetPolicy(**model_kwargs(cfg)).eval()
-    size = int(cfg["env"]["size"])
+    net = PointNavResNetPolicy(**cfg.model_kwargs()).eval()
+    size = cfg.env.size
     obs = {"rgb": torch.zeros(n, size, size, 3, dtype=torch.uint8), "pointgoal": torch.ones(n, 2)}  # algo=ppo: RGB only
     counter = FlopCounterMode(display=False)
     with counter, torch.no_grad():
@@ -125,7 +123,7 @@ def main() -> None:
         train(cfg)
         rows = [json.loads(line) for line in open(f"{tmp}/run/metrics.jsonl")]
         gflop, peak = forward_gflop(cfg), matmul_gflops()
-        epochs, mini_batches = int(cfg["ppo"]["ppo_epoch"]), int(cfg["ppo"]["num_mini_batch"])
+        epochs, mini_batches = cfg.ppo.ppo_epoch, cfg.ppo.num_mini_batch
     learn = rows[1:] or rows  # the first update includes scene loading
     fps = sum(r["fps"] for r in learn) / len(learn)
     print(f"rvn-rl at {args.size}x{args.size} RGB, resnet18 (base planes {args.base_planes}), {args.envs} envs, workers={args.workers}, "

@@ -15,6 +15,8 @@ from safetensors.torch import load_file, save_file
 
 from rvn_data.atomic import atomic_path, write_bytes_atomic, write_text_atomic
 
+from .settings import ALGOS
+
 KIND = "rl"
 POLICY_LOADER = "rvn_rl.policy.load_rl_policy"  # recorded for readers; rvn-eval finds it by KIND (entry point rvn.checkpoint_loaders)
 
@@ -32,7 +34,6 @@ def read_rl_config(out_dir: str | Path) -> dict:
         found = cfg.get("kind", "rvn-train (IL)") if isinstance(cfg, dict) else "unknown"
         raise ValueError(f"{path} holds a checkpoint of kind {found!r}, not an rvn-rl (kind: rl) one")
     algo = (cfg.get("algo") or {}).get("name")
-    from .config import ALGOS
     if algo not in ALGOS or "policy" not in cfg:
         raise ValueError(f"{path}: unknown RL algo {algo!r} or no policy settings; expected one of {', '.join(ALGOS)}")
     return cfg

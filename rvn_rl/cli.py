@@ -1,6 +1,7 @@
 """``rvn-rl``: train an RL baseline on RVN-v0. Hydra config ``conf/rl.yaml`` with the groups
 ``algo`` (conf/rl/algo: ppo, ppo_lag, ddppo, ddppo_depth) and ``scale`` (conf/rl/scale:
-small, paper). DD-PPO: ``torchrun --nproc_per_node=N -m rvn_rl.cli algo=ddppo ...``.
+small, paper); the settings' schema is `rvn_rl.config.RLConfig` (``base_rl``, registered by `register_schema`),
+into which Hydra's config is turned once. DD-PPO: ``torchrun --nproc_per_node=N -m rvn_rl.cli algo=ddppo ...``.
 Bad input exits with status 2 and one line, writing nothing; a failed run with status 1
 (`rvn_data.cli.common`)."""
 from __future__ import annotations
@@ -12,10 +13,9 @@ from pathlib import Path
 import hydra
 from hydra.core.config_store import ConfigStore
 from omegaconf import DictConfig, OmegaConf
-from omegaconf.errors import OmegaConfBaseException
-from rvn_data.config import register_configs
 
-from .config import CONF_RL
+from .config import RLConfig, register_schema, settings_of
+from .settings import CONF_RL
 
 CONF_DIR = str(CONF_RL.parent)
 GROUPS = {"algo": "algo", "scale": "_global_"}
@@ -40,19 +40,19 @@ def check_choices(argv: list[str]) -> None:
                 sys.exit(2)
 
 
-def compose(overrides: list[str] = ()) -> dict:
-    """The resolved rvn-rl config for ``overrides`` (as on the command line), without running."""
+def compose(overrides: list[str] = ()) -> RLConfig:
+    """The rvn-rl settings for ``overrides`` (as on the command line), without running."""
     from hydra import compose as hydra_compose, initialize_config_dir
 
     check_choices(list(overrides))
-    register_configs()  # the task side's schemas (base_camera, base_scenes, ...) that conf/rl.yaml names
+    register_schema()
     register_groups()
     with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
         cfg = hydra_compose(config_name="rl", overrides=list(overrides))
-    return OmegaConf.to_container(cfg, resolve=True, throw_on_missing=True)
+    return settings_of(cfg)
 
 
-def run(cfg: dict, on_checked=None) -> dict:
+def run(cfg: RLConfig, on_checked=None) -> dict:
     from .trainer import train
 
     return train(cfg, on_checked)
@@ -64,24 +64,24 @@ def _main(cfg: DictConfig) -> None:
 
     entered_task()
     try:
-        plain = OmegaConf.to_container(cfg, resolve=True, throw_on_missing=True)
-    except OmegaConfBaseException as err:
-        fail("rvn-rl", ConfigError(str(err)))
+        settings = settings_of(cfg)
+    except ConfigError as err:
+        fail("rvn-rl", err)
     try:
-        result = run(plain, lambda: record_run(cfg, Path(plain["out_dir"]).expanduser(), "rvn-rl"))
+        result = run(settings, lambda: record_run(cfg, Path(settings.out_dir).expanduser(), "rvn-rl"))
     except (ValueError, TypeError, OSError) as err:  # SceneError is a ValueError; ConfigError: status 2
         fail("rvn-rl", err)
     if "summary" in result:
         print(result.pop("summary"))
         print(json.dumps({k: v for k, v in result.items() if isinstance(v, (int, float))}))
-        print(f"wrote {Path(plain['out_dir']) / 'config.yaml'}")
+        print(f"wrote {Path(settings.out_dir) / 'config.yaml'}")
 
 
 def main() -> None:
     from rvn_data.cli.common import run_hydra
 
     check_choices(sys.argv[1:])
-    register_configs()  # the task side's schemas (base_camera, base_scenes, ...) that conf/rl.yaml names
+    register_schema()
     register_groups()
     run_hydra(_main, "rvn-rl", "rl", CONF_DIR)
 

@@ -1,11 +1,26 @@
-"""Settings of an rvn-rl run: validation (one-line errors naming the setting), the
-`RVNEnv` keyword arguments of the train-mode environments, the network's keyword arguments."""
+"""rvn-rl's settings as one typed tree, `RLConfig` (conf/rl.yaml names it first, ``base_rl``, and holds only what
+differs from it): the task side's groups (agent, camera, navmesh, renderer, scenes, episodes), rvn-rl's own
+(`rvn_rl.settings`, ``ppo`` among them). rvn-rl turns Hydra's config into it once (`settings_of`), checks it
+in one place (`RLConfig.validate`: types come from the schema, ranges and cross-field rules there) and derives
+the environments' and the network's keyword arguments and the record config.yaml keeps from it."""
 from __future__ import annotations
 
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-ALGOS = ("ppo", "ppo_lag", "ddppo", "ddppo_depth")
-CONF_RL = Path(__file__).resolve().parents[1] / "conf" / "rl"
+from rvn_data.benchmark.episodes import EpisodeSettings
+from rvn_data.config import register, register_configs
+from rvn_data.conventions import AgentConfig
+from rvn_data.navmesh.settings import NavMeshSettings
+from rvn_data.render import RendererConfig
+from rvn_data.render.camera import CameraConfig
+from rvn_data.scenes.sets import ScenesConfig
+
+from .settings import (ALGOS, LAGRANGIAN, AlgoConfig, DDPPOSettings, DepthSettings, EnvSettings, ModelSettings,
+                       PPOConfig, TrainSettings)
+
+# the episode settings that act in train mode, in the order config.yaml records them (seed draws eval sets only)
+TRAIN_EPISODE_KEYS = ("n_goals", "d_min", "d_max", "max_tries", "max_restarts")
 
 
 def _positive_int(value, name: str) -> int:
@@ -14,81 +29,153 @@ def _positive_int(value, name: str) -> int:
     return value
 
 
-def validate(cfg: dict, world_size: int = 1) -> None:
-    algo = cfg["algo"]
-    if algo.get("name") not in ALGOS:
-        raise ValueError(f"algo={algo.get('name')!r} is not an RL algorithm; choose one of {', '.join(ALGOS)}")
-    env, ppo = cfg["env"], cfg["ppo"]
-    for key in ("num_envs", "size", "scene_switch_every", "t_max"):
-        _positive_int(env[key], f"env.{key}")
-    _positive_int(env["scene_cache"] + 1, "env.scene_cache + 1")
-    camera = cfg.get("camera") or {}
-    for key in ("width", "height"):  # conf/rl.yaml sets both to ${env.size}; a value given on its own would disagree
-        if key in camera and camera[key] != env["size"]:
-            raise ValueError(f"camera.{key}={camera[key]} differs from env.size={env['size']}: the observation is "
-                             f"env.size pixels square; set env.size={camera[key]} (camera.width and height follow it)")
-    workers = env.get("workers", 0)
-    if isinstance(workers, bool) or not isinstance(workers, int) or not 0 <= workers <= env["num_envs"]:
-        raise ValueError(f"env.workers={workers!r} must be between 0 (in process) and env.num_envs={env['num_envs']}")
-    for key in ("num_steps", "ppo_epoch", "num_mini_batch"):
-        _positive_int(ppo[key], f"ppo.{key}")
-    if env["num_envs"] < ppo["num_mini_batch"]:
-        raise ValueError(f"env.num_envs={env['num_envs']} is below ppo.num_mini_batch={ppo['num_mini_batch']}: "
-                         "each mini-batch holds whole rollouts of some envs; raise env.num_envs or lower num_mini_batch")
-    total = cfg["train"]["total_steps"]
-    if isinstance(total, float) and total.is_integer():  # 4e5 on the command line
-        total = cfg["train"]["total_steps"] = int(total)
-    _positive_int(total, "train.total_steps")
-    _positive_int(cfg["train"]["checkpoint_every"], "train.checkpoint_every")
-    if cfg["model"]["backbone"] not in ("resnet18", "resnet50"):
-        raise ValueError(f"model.backbone={cfg['model']['backbone']!r}: choose resnet50 or resnet18")
-    if world_size > 1 and not algo["distributed"]:
-        raise ValueError(f"algo={algo['name']} runs in one process; use algo=ddppo (or ddppo_depth) under torchrun")
-    if not 0.0 < float(cfg["ddppo"]["sync_frac"]) <= 1.0:
-        raise ValueError(f"ddppo.sync_frac={cfg['ddppo']['sync_frac']!r} must be in (0, 1]")
-    if cfg["depth"]["source"] is True:  # depth.source=true parses as a YAML boolean
-        cfg["depth"]["source"] = "true"
-    if algo["use_depth"]:
-        source = cfg["depth"]["source"]
+@dataclass
+class RLConfig:
+    """rvn-rl: algo=ppo|ppo_lag|ddppo|ddppo_depth scale=small|paper out_dir=... (conf/rl.yaml)."""
+
+    agent: AgentConfig = field(default_factory=AgentConfig)
+    camera: CameraConfig = field(default_factory=CameraConfig)  # conf/rl.yaml: width = height = env.size
+    navmesh: NavMeshSettings = field(default_factory=NavMeshSettings)
+    renderer: RendererConfig = field(default_factory=RendererConfig)
+    scenes: ScenesConfig = field(default_factory=ScenesConfig)  # conf/rl.yaml: num_scenes = env.num_scenes
+    split: str = "train"  # RL trains on the train scenes
+    seed: int = 0
+    out_dir: str = "runs/rl/${algo.name}"
+    device: str = "auto"  # auto | cpu | cuda (DD-PPO ranks use cuda:<local rank>)
+    progress: bool = True
+    env: EnvSettings = field(default_factory=EnvSettings)
+    model: ModelSettings = field(default_factory=ModelSettings)
+    ppo: PPOConfig = field(default_factory=PPOConfig)  # DD-PPO PointNav hyperparameters
+    ddppo: DDPPOSettings = field(default_factory=DDPPOSettings)
+    depth: DepthSettings = field(default_factory=DepthSettings)
+    train: TrainSettings = field(default_factory=TrainSettings)
+    episodes: EpisodeSettings = field(default_factory=EpisodeSettings)  # goal distances of the train episodes
+    algo: AlgoConfig = field(default_factory=AlgoConfig)  # the algo group (conf/rl/algo/<name>.yaml)
+
+    def validate(self, world_size: int = 1) -> None:
+        """Every range and cross-field rule of an rvn-rl run; a one-line ValueError naming the setting."""
+        if self.algo.name not in ALGOS:
+            raise ValueError(f"algo={self.algo.name!r} is not an RL algorithm; choose one of {', '.join(ALGOS)}")
+        env, ppo = self.env, self.ppo
+        check_env(env)
+        for key in ("width", "height"):  # conf/rl.yaml sets both to ${env.size}; a value given on its own would disagree
+            value = getattr(self.camera, key)
+            if value != env.size:
+                raise ValueError(f"camera.{key}={value} differs from env.size={env.size}: the observation is "
+                                 f"env.size pixels square; set env.size={value} (camera.width and height follow it)")
+        if not 0 <= env.workers <= env.num_envs:
+            raise ValueError(f"env.workers={env.workers!r} must be between 0 (in process) and env.num_envs={env.num_envs}")
+        for key in ("num_steps", "ppo_epoch", "num_mini_batch"):
+            _positive_int(getattr(ppo, key), f"ppo.{key}")
+        if env.num_envs < ppo.num_mini_batch:
+            raise ValueError(f"env.num_envs={env.num_envs} is below ppo.num_mini_batch={ppo.num_mini_batch}: "
+                             "each mini-batch holds whole rollouts of some envs; raise env.num_envs or lower num_mini_batch")
+        _positive_int(self.train.total_steps, "train.total_steps")
+        _positive_int(self.train.checkpoint_every, "train.checkpoint_every")
+        if self.model.backbone not in ("resnet18", "resnet50"):
+            raise ValueError(f"model.backbone={self.model.backbone!r}: choose resnet50 or resnet18")
+        if world_size > 1 and not self.algo.distributed:
+            raise ValueError(f"algo={self.algo.name} runs in one process; use algo=ddppo (or ddppo_depth) under torchrun")
+        if not 0.0 < self.ddppo.sync_frac <= 1.0:
+            raise ValueError(f"ddppo.sync_frac={self.ddppo.sync_frac!r} must be in (0, 1]")
+        self._check_depth()
+        self._check_lagrangian()
+        if self.episodes.seed != EpisodeSettings.seed:  # a setting that would act nowhere (and config.yaml omits)
+            raise ValueError(f"episodes.seed={self.episodes.seed} does nothing in rvn-rl: its episodes are drawn "
+                             f"from seed={self.seed}; leave episodes.seed out")
+
+    def _check_depth(self) -> None:
+        if not self.algo.use_depth:
+            return
+        source = self.depth.source
         if source not in ("model", "true"):
             raise ValueError(f"depth.source={source!r}: choose model (predicted depth) or true (rendered depth)")
         if source == "model":
-            path = cfg["depth"].get("model_path")
+            path = self.depth.model_path
             if not path:
                 raise ValueError("algo=ddppo_depth with depth.source=model needs depth.model_path=<trained depth "
                                  "model> (or depth.source=true for the rendered depth)")
             if not Path(str(path)).expanduser().exists():
                 raise ValueError(f"depth.model_path={path}: no such file or directory")
-    if algo["lagrangian"] and not float(algo["cost_limit"]) >= 0.0:
-        raise ValueError(f"algo.cost_limit={algo['cost_limit']!r} must be >= 0")
-    if algo["lagrangian"] and algo.get("lambda_max") is not None and not float(algo["lambda_max"]) > 0.0:
-        raise ValueError(f"algo.lambda_max={algo['lambda_max']!r} must be > 0 (or null: no upper bound)")
+
+    def _check_lagrangian(self) -> None:
+        algo = self.algo
+        if not algo.lagrangian:  # the Lagrangian settings would act nowhere (and config.yaml omits them)
+            given = [f"algo.{k}={getattr(algo, k)}" for k in LAGRANGIAN if getattr(algo, k) != getattr(AlgoConfig, k)]
+            if given:
+                raise ValueError(f"{given[0]} acts only in a Lagrangian algorithm (algo=ppo_lag), not algo={algo.name}")
+            return
+        if not float(algo.cost_limit) >= 0.0:
+            raise ValueError(f"algo.cost_limit={algo.cost_limit!r} must be >= 0")
+        if algo.lambda_max is not None and not float(algo.lambda_max) > 0.0:
+            raise ValueError(f"algo.lambda_max={algo.lambda_max!r} must be > 0 (or null: no upper bound)")
+
+    @property
+    def uses_true_depth(self) -> bool:
+        """The rendered depth is the 4th channel (algo=ddppo_depth depth.source=true)."""
+        return bool(self.algo.use_depth) and self.depth.source == "true"
+
+    @property
+    def uses_predicted_depth(self) -> bool:
+        """A frozen depth network predicts the 4th channel (algo=ddppo_depth depth.source=model)."""
+        return bool(self.algo.use_depth) and self.depth.source == "model"
+
+    def episode_kwargs(self) -> dict:
+        return {k: getattr(self.episodes, k) for k in TRAIN_EPISODE_KEYS}
+
+    def env_kwargs(self) -> dict:
+        """`RVNEnv` keyword arguments of the train-mode environments."""
+        scenes = {k: v for k, v in asdict(self.scenes).items() if k != "split"}
+        return {"mode": "train", "split": "train", "scenes": scenes, "agent": asdict(self.agent),
+                "navmesh": asdict(self.navmesh), "camera": asdict(self.camera), "renderer": asdict(self.renderer),
+                "episodes": self.episode_kwargs(), "t_max": self.env.t_max, "scene_switch_every": self.env.scene_switch_every,
+                "goal_pool": int(self.env.goal_pool), "depth": bool(self.env.depth) or self.uses_true_depth}
+
+    def model_kwargs(self) -> dict:
+        """`PointNavResNetPolicy` keyword arguments (also what a checkpoint's config.yaml records as ``policy``)."""
+        m = self.model
+        return {"obs_size": int(self.env.size), "backbone": m.backbone, "base_planes": int(m.base_planes),
+                "ngroups": int(m.ngroups), "input_size": int(m.input_size), "hidden_size": int(m.hidden_size),
+                "rnn_layers": int(m.rnn_layers), "use_depth": bool(self.algo.use_depth),
+                "cost_critic": bool(self.algo.lagrangian)}
+
+    def record(self) -> dict:
+        """The settings as config.yaml records them (rvn_rl.policy.load_rl_policy reads agent, camera, depth, algo):
+        every group in field order, the train-mode episode settings, the algo's settings that act."""
+        out = asdict(self)
+        out["episodes"] = self.episode_kwargs()
+        out["algo"] = self.algo.record()
+        return out
 
 
-def uses_true_depth(cfg: dict) -> bool:
-    return bool(cfg["algo"]["use_depth"]) and cfg["depth"]["source"] == "true"
+def check_env(env: EnvSettings) -> None:
+    """``env``'s ranges (`RLConfig.validate`'s first rules; `settings_of` applies them before the groups that follow env)."""
+    for key in ("num_envs", "size", "scene_switch_every", "t_max"):
+        _positive_int(getattr(env, key), f"env.{key}")
+    _positive_int(env.scene_cache + 1, "env.scene_cache + 1")
 
 
-def env_kwargs(cfg: dict) -> dict:
-    """`RVNEnv` keyword arguments of the train-mode environments."""
-    env = cfg["env"]
-    scenes = {k: v for k, v in dict(cfg["scenes"]).items() if k != "split"}
-    return {"mode": "train", "split": "train", "scenes": scenes, "agent": cfg["agent"], "navmesh": cfg["navmesh"],
-            "camera": cfg["camera"], "renderer": cfg.get("renderer") or {}, "episodes": dict(cfg["episodes"]),
-            "t_max": env["t_max"], "scene_switch_every": env["scene_switch_every"],
-            "goal_pool": int(env.get("goal_pool", 0)), "depth": bool(env.get("depth")) or uses_true_depth(cfg)}
+def settings_of(cfg) -> RLConfig:
+    """Hydra's composed rvn-rl config as `RLConfig` (interpolations resolved; each group's dataclass checks its
+    own values, ``env`` first: the camera's size and the scene count follow it, so env.size=0 is named as itself);
+    `ConfigError` (one line) for a missing or bad value. `RLConfig.validate` checks the rest."""
+    from omegaconf import OmegaConf
+    from omegaconf.errors import OmegaConfBaseException
+
+    from rvn_data.cli.common import ConfigError, one_line
+
+    try:
+        check_env(OmegaConf.to_object(cfg.env))
+        settings = OmegaConf.to_object(cfg)
+    except (OmegaConfBaseException, ValueError, TypeError) as err:
+        raise ConfigError(one_line(err)) from None
+    if not isinstance(settings, RLConfig):
+        raise TypeError(f"settings_of: a config composed against base_rl expected, got {type(settings).__name__}")
+    return settings
 
 
-def model_kwargs(cfg: dict) -> dict:
-    """`PointNavResNetPolicy` keyword arguments (also what a checkpoint's config.yaml records)."""
-    m = cfg["model"]
-    return {"obs_size": int(cfg["env"]["size"]), "backbone": m["backbone"], "base_planes": int(m["base_planes"]),
-            "ngroups": int(m["ngroups"]), "input_size": int(m["input_size"]), "hidden_size": int(m["hidden_size"]),
-            "rnn_layers": int(m["rnn_layers"]), "use_depth": bool(cfg["algo"]["use_depth"]),
-            "cost_critic": bool(cfg["algo"]["lagrangian"])}
-
-
-def load_depth_fn(path: str, device="cpu"):
-    """The frozen depth network of rvn_rl.depth: ``fn(rgb uint8 [N,H,W,3]) -> depth float32 [N,H,W]``."""
-    from .depth import load_depth_model
-    return load_depth_model(str(Path(str(path)).expanduser()), device=device)
+def register_schema() -> None:
+    """Store rvn-rl's schema (``base_rl``, conf/rl.yaml's first default) and the task side's in Hydra's ConfigStore;
+    rvn-rl calls it before composing."""
+    register_configs()
+    register("base_rl", RLConfig)

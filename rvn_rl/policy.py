@@ -97,8 +97,8 @@ def load_rl_policy(checkpoint_path: str | Path, device: str | torch.device = "cp
     if cfg["policy"]["use_depth"]:
         true_depth = cfg["depth"]["source"] == "true"
         if not true_depth:
-            from .config import load_depth_fn
-            depth_fn = load_depth_fn(overrides.get("depth_model_path") or cfg["depth"]["model_path"], dev)
+            from .depth import load_depth_model
+            depth_fn = load_depth_model(str(overrides.get("depth_model_path") or cfg["depth"]["model_path"]), device=dev)
     policy = RLPolicy(net, cfg["policy"]["obs_size"], dev, deterministic=bool(overrides.get("deterministic", False)),
                       threads=overrides.get("threads", 1), depth_fn=depth_fn, true_depth=true_depth)
     if cfg.get("agent") and cfg.get("camera"):  # the robot and camera it was trained with, checked by rvn-eval

@@ -4,29 +4,11 @@ clipping) as habitat-baselines' PPO, and the PPO-Lagrangian multiplier as OmniSa
 (A_r - lambda A_c) / (1 + lambda)."""
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import torch
 from torch import nn
 
 from .distrib import all_sum
-
-
-@dataclass
-class PPOConfig:
-    clip_param: float = 0.2
-    ppo_epoch: int = 2
-    num_mini_batch: int = 2
-    value_loss_coef: float = 0.5
-    entropy_coef: float = 0.01
-    lr: float = 2.5e-4
-    eps: float = 1e-5
-    max_grad_norm: float = 0.2
-    num_steps: int = 128
-    gamma: float = 0.99
-    tau: float = 0.95
-    use_normalized_advantage: bool = True
-    use_clipped_value_loss: bool = True
+from .settings import PPOConfig  # the ``ppo`` settings (defined there so that the schema imports no torch)
 
 
 class Lagrange:

@@ -97,7 +97,8 @@ def plot_learning_curve(out_dir: Path, title: str) -> Path | None:
     return path
 
 
-def summary(out_dir: Path, cfg: dict, env_steps: int, seconds: float, params: int) -> str:
+def summary(out_dir: Path, cfg, env_steps: int, seconds: float, params: int) -> str:
+    """The run's closing lines; ``cfg`` is its `rvn_rl.config.RLConfig`."""
     rows = [r for r in read_rows(out_dir) if "reward" in r]
     first, last = (rows[0], rows[-1]) if rows else ({}, {})
 
@@ -105,9 +106,9 @@ def summary(out_dir: Path, cfg: dict, env_steps: int, seconds: float, params: in
         a, b = first.get(key), last.get(key)
         return "-" if a is None else f"{a:.3f} -> {b:.3f}"
 
-    lines = [f"rvn-rl {cfg['algo']['name']}: {env_steps} env steps in {seconds / 60:.1f} min "
+    lines = [f"rvn-rl {cfg.algo.name}: {env_steps} env steps in {seconds / 60:.1f} min "
              f"({env_steps / max(seconds, 1e-9):.0f} steps/s), {params / 1e6:.2f}M parameters "
-             f"({cfg['model']['backbone']}, {cfg['env']['size']}px, {cfg['env']['num_envs']} envs/process)",
+             f"({cfg.model.backbone}, {cfg.env.size}px, {cfg.env.num_envs} envs/process)",
              f"  episode return     {fmt('reward')}", f"  goals per episode  {fmt('goals')}",
              f"  all goals reached  {fmt('success')}", f"  collisions per km  {fmt('collisions_per_km')}"]
     if "lambda" in last:

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import fields
 from pathlib import Path
 
 import numpy as np
@@ -19,10 +18,10 @@ from rvn_data.numba_note import note_first_compile
 from rvn_data.provenance import provenance_record
 
 from . import checkpoint as ck
-from .config import env_kwargs, load_depth_fn, model_kwargs, validate
+from .config import RLConfig
 from .distrib import Dist, all_sum, init
 from .model import PointNavResNetPolicy
-from .ppo import Lagrange, PPOConfig, ppo_update
+from .ppo import Lagrange, ppo_update
 from .rollout import RolloutStorage
 from .runlog import RunLog, episode_sums, plot_learning_curve, summary
 from .vec_env import BatchEnv
@@ -51,39 +50,36 @@ def pick_device(setting: str, d: Dist) -> torch.device:
     return torch.device("cpu")
 
 
-def _depth_fn(cfg: dict, device="cpu"):
-    if not cfg["algo"]["use_depth"] or cfg["depth"]["source"] != "model":
-        return None
-    return load_depth_fn(cfg["depth"]["model_path"], device)
-
-
-def make_envs(cfg: dict, seed: int, rank: int = 0, device="cpu"):
+def make_envs(cfg: RLConfig, seed: int, rank: int = 0, device="cpu"):
     """The run's environments: in this process (``env.workers=0``) or split over worker processes;
     predicted depth (algo=ddppo_depth, depth.source=model) runs on ``device``."""
-    workers = cfg["env"].get("workers", 0)
-    common = dict(seed=seed, rank=rank, scene_cache=cfg["env"]["scene_cache"], depth_fn=_depth_fn(cfg, device))
-    if workers:
+    depth_fn = None
+    if cfg.uses_predicted_depth:
+        from .depth import load_depth_model
+        depth_fn = load_depth_model(str(cfg.depth.model_path), device=device)
+    common = dict(seed=seed, rank=rank, scene_cache=cfg.env.scene_cache, depth_fn=depth_fn)
+    if cfg.env.workers:
         from .vec_procs import ProcessBatchEnv
-        return ProcessBatchEnv(env_kwargs(cfg), cfg["env"]["num_envs"], workers, **common)
-    return BatchEnv(env_kwargs(cfg), cfg["env"]["num_envs"], **common)
+        return ProcessBatchEnv(cfg.env_kwargs(), cfg.env.num_envs, cfg.env.workers, **common)
+    return BatchEnv(cfg.env_kwargs(), cfg.env.num_envs, **common)
 
 
-def _check_out_dir(out_dir: Path, cfg: dict) -> Path | None:
+def _check_out_dir(out_dir: Path, cfg: RLConfig) -> Path | None:
     """The checkpoint to resume from (or None); refuses an out_dir of another run or kind."""
     if not (out_dir / "config.yaml").is_file():
         return None
     old = ck.read_rl_config(out_dir)
-    if old["policy"] != model_kwargs(cfg) or old["algo"]["name"] != cfg["algo"]["name"]:
+    if old["policy"] != cfg.model_kwargs() or old["algo"]["name"] != cfg.algo.name:
         raise ValueError(f"out_dir={out_dir} holds another run ({old['algo']['name']}, {old['policy']['backbone']}, "
                          f"{old['policy']['obs_size']}px); choose a new out_dir")
-    return ck.latest(out_dir) if cfg["train"]["resume"] else None
+    return ck.latest(out_dir) if cfg.train.resume else None
 
 
-def train(cfg: dict, on_checked=None) -> dict:
+def train(cfg: RLConfig, on_checked=None) -> dict:
     """Train; settings, device and out_dir are checked first (`ConfigError`, nothing written),
     then ``on_checked()`` runs."""
-    d = init(cfg["ddppo"]["backend"], "cuda" if str(cfg["device"]).startswith("cuda") or
-             (cfg["device"] == "auto" and torch.cuda.is_available()) else "cpu")
+    d = init(cfg.ddppo.backend, "cuda" if cfg.device.startswith("cuda") or
+             (cfg.device == "auto" and torch.cuda.is_available()) else "cpu")
     try:
         return _train(cfg, d, on_checked)
     finally:
@@ -91,22 +87,21 @@ def train(cfg: dict, on_checked=None) -> dict:
         shutdown()
 
 
-def _train(cfg: dict, d: Dist, on_checked=None) -> dict:
+def _train(cfg: RLConfig, d: Dist, on_checked=None) -> dict:
     with validating():
-        validate(cfg, d.world_size)
-        device = pick_device(str(cfg["device"]), d)
-        out_dir = check_writable_dir(Path(cfg["out_dir"]).expanduser())
+        cfg.validate(d.world_size)
+        device = pick_device(cfg.device, d)
+        out_dir = check_writable_dir(Path(cfg.out_dir).expanduser())
         resume_from = _check_out_dir(out_dir, cfg)
     if on_checked is not None:
         on_checked()
-    if cfg["train"].get("threads"):
-        torch.set_num_threads(int(cfg["train"]["threads"]))
-    ppo = PPOConfig(**{f.name: cfg["ppo"][f.name] for f in fields(PPOConfig)})
-    lag = cfg["algo"] if cfg["algo"]["lagrangian"] else None
-    torch.manual_seed(int(cfg["seed"]))  # identical initial weights on every rank
-    policy = PointNavResNetPolicy(**model_kwargs(cfg)).to(device)
+    if cfg.train.threads:
+        torch.set_num_threads(cfg.train.threads)
+    ppo, lag = cfg.ppo, cfg.algo
+    torch.manual_seed(cfg.seed)  # identical initial weights on every rank
+    policy = PointNavResNetPolicy(**cfg.model_kwargs()).to(device)
     optimizer = torch.optim.Adam(policy.parameters(), lr=ppo.lr, eps=ppo.eps)
-    lagrange = Lagrange(lag["cost_limit"], lag["lambda_init"], lag["lambda_lr"], lag.get("lambda_max")) if lag else None
+    lagrange = Lagrange(lag.cost_limit, lag.lambda_init, lag.lambda_lr, lag.lambda_max) if lag.lagrangian else None
     env_steps, updates, ep_cost = 0, 0, 0.0
     if resume_from is not None:
         ck.load_weights(policy, resume_from)
@@ -118,17 +113,17 @@ def _train(cfg: dict, d: Dist, on_checked=None) -> dict:
     if d.rank == 0:
         out_dir.mkdir(parents=True, exist_ok=True)
         earlier = yaml.safe_load((out_dir / "config.yaml").read_text()) if (out_dir / "config.yaml").is_file() else None
-        ck.write_config(out_dir, {**cfg, "policy": model_kwargs(cfg),
+        ck.write_config(out_dir, {**cfg.record(), "policy": cfg.model_kwargs(),
                                   **provenance_record(earlier if isinstance(earlier, dict) else None, resume_from is not None)})
     learner = _Evaluate(policy)
     if d.enabled:
         from torch.nn.parallel import DistributedDataParallel as DDP
         learner = DDP(learner, device_ids=[device.index] if device.type == "cuda" else None,
                       broadcast_buffers=False, find_unused_parameters=False, gradient_as_bucket_view=True)
-    gen = torch.Generator().manual_seed(int(np.random.SeedSequence([int(cfg["seed"]), d.rank, updates]).generate_state(1)[0]))
+    gen = torch.Generator().manual_seed(int(np.random.SeedSequence([cfg.seed, d.rank, updates]).generate_state(1)[0]))
     if d.rank == 0:
         note_first_compile("rvn-rl")
-    envs = make_envs(cfg, seed=int(cfg["seed"]) + 7919 * updates, rank=d.rank, device=device)
+    envs = make_envs(cfg, seed=cfg.seed + 7919 * updates, rank=d.rank, device=device)
     logging.getLogger("rvn").setLevel(logging.WARNING)  # the first scenes' renderer lines are enough
     log = RunLog(out_dir, d.rank == 0)
     try:
@@ -154,9 +149,9 @@ def _loop(cfg, d, device, policy, learner, optimizer, lagrange, ppo, envs, log, 
     state = policy.initial_state(n, device)
     rollouts = RolloutStorage(ppo.num_steps, n, space, tuple(state.shape), heads)
     rollouts.set_first(obs, state.cpu(), torch.zeros(n, dtype=torch.long), torch.zeros(n))
-    total = int(cfg["train"]["total_steps"])
-    bar = tqdm(total=total, initial=min(env_steps, total), unit="step", desc=f"rvn-rl {cfg['algo']['name']}",
-               disable=d.rank != 0 or not cfg.get("progress", True), smoothing=0.1)
+    total = cfg.train.total_steps
+    bar = tqdm(total=total, initial=min(env_steps, total), unit="step", desc=f"rvn-rl {cfg.algo.name}",
+               disable=d.rank != 0 or not cfg.progress, smoothing=0.1)
     t_start, steps_start = time.perf_counter(), env_steps
     params = sum(p.numel() for p in policy.parameters())
     while env_steps < total:
@@ -172,7 +167,7 @@ def _loop(cfg, d, device, policy, learner, optimizer, lagrange, ppo, envs, log, 
             rewards = np.stack([reward, cost], -1) if heads == 2 else reward[:, None]
             rollouts.insert(obs, action.cpu(), logp.cpu(), values.cpu(), rewards, done)
             episodes += [info["episode"] for info in infos if "episode" in info]
-            if d.should_end_early(step + 1, ppo.num_steps, updates, float(cfg["ddppo"]["sync_frac"])):
+            if d.should_end_early(step + 1, ppo.num_steps, updates, cfg.ddppo.sync_frac):
                 break
         d.rollout_done(updates)
         t_collect = time.perf_counter() - t0
@@ -200,7 +195,7 @@ def _loop(cfg, d, device, policy, learner, optimizer, lagrange, ppo, envs, log, 
         row = log.record(env_steps, sums, scalars)
         bar.update(delta)
         bar.set_postfix({k: f"{row[k]:.3g}" for k in ("reward", "goals", "lambda") if k in row})
-        if d.rank == 0 and (updates % int(cfg["train"]["checkpoint_every"]) == 0 or env_steps >= total):
+        if d.rank == 0 and (updates % cfg.train.checkpoint_every == 0 or env_steps >= total):
             _save(out_dir, cfg, policy, optimizer, lagrange, env_steps, updates, ep_cost)
     bar.close()
     seconds = time.perf_counter() - t_start
@@ -208,7 +203,7 @@ def _loop(cfg, d, device, policy, learner, optimizer, lagrange, ppo, envs, log, 
     if d.rank == 0:
         if updates and ck.latest(out_dir) is None:
             _save(out_dir, cfg, policy, optimizer, lagrange, env_steps, updates, ep_cost)
-        plot_learning_curve(out_dir, f"rvn-rl {cfg['algo']['name']}")
+        plot_learning_curve(out_dir, f"rvn-rl {cfg.algo.name}")
         result["summary"] = summary(out_dir, cfg, env_steps - steps_start, seconds, params)
         result.update(log.stats())
     return result
@@ -230,4 +225,4 @@ def _save(out_dir, cfg, policy, optimizer, lagrange, env_steps, updates, ep_cost
     state = {"optimizer": optimizer.state_dict(), "env_steps": env_steps, "updates": updates, "ep_cost": ep_cost}
     if lagrange is not None:
         state["lagrange"] = lagrange.state_dict()
-    ck.save(out_dir, env_steps, policy, state, keep=int(cfg["train"]["keep_checkpoints"]))
+    ck.save(out_dir, env_steps, policy, state, keep=cfg.train.keep_checkpoints)

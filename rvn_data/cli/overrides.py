@@ -137,14 +137,14 @@ def _explain(err: BaseException, prog: str, config_dir: str, config_name: str, c
     key = getattr(cause, "full_key", None) or getattr(err, "full_key", None)
     msg = one_line(cause)
     if key:
-        given = next((o.split("=", 1)[1] for o in composed if o.split("=", 1)[0].lstrip("+~") == key), None)
+        given = next((o.split("=", 1)[1] for o in reversed(composed) if o.split("=", 1)[0].lstrip("+~") == key), None)  # the last wins
         return f"{key}={given}: {msg}" if given is not None else f"{key}: {msg}"
     return msg
 
 
 def _check_types(cfg, parsed: list, config_dir: str, config_name: str, composed: list[str]) -> None:
-    """Settings without a schema (rvn-rl's YAML) take any value at composition: a number or a boolean
-    given as text (``ppo.lr=abc``) is refused here, against the type of the setting's default."""
+    """Settings without a schema (conf/rl_depth.yaml's) take any value at composition: a number or a boolean
+    given as text (``train.lr=abc``) is refused here, against the type of the setting's default."""
     from omegaconf import OmegaConf
 
     given = {ov.get_key_element(): ov for ov in parsed if "/" not in ov.get_key_element()

@@ -1,0 +1,118 @@
+"""rvn-rl's own setting groups, every default here: ``env``, ``model``, ``ppo`` (`PPOConfig`, which `rvn_rl.ppo`
+updates with), ``ddppo``, ``depth``, ``train`` and ``algo`` (the option files conf/rl/algo/*.yaml hold only what differs
+from `AlgoConfig`). The whole tree, with the task side's groups, is `rvn_rl.config.RLConfig`.
+Field order is the order of the composed config, and so of the config.yaml rvn-rl writes into its out_dir."""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Union
+
+ALGOS = ("ppo", "ppo_lag", "ddppo", "ddppo_depth")
+CONF_RL = Path(__file__).resolve().parents[1] / "conf" / "rl"  # the groups algo/ and scale/
+
+
+@dataclass
+class EnvSettings:
+    """``env``: the train-mode environments of one process (of one rank for DD-PPO)."""
+
+    num_envs: int = 4  # environments per process (per rank for DD-PPO)
+    size: int = 256  # observation side (camera width = height), pixels
+    num_scenes: int | None = None  # train scenes (null = all 800)
+    scene_switch_every: int = 8  # resets of an env before it draws another scene
+    # train goals from a fixed pool of this many per scene, distance fields computed once per process
+    # (0: a fresh goal and two Dijkstra solves per draw)
+    goal_pool: int = 64
+    scene_cache: int = 2  # scenes each env keeps loaded besides the current one
+    workers: int = 0  # env worker processes (0: step the envs in this process)
+    t_max: int = 500  # steps allowed per goal
+    depth: bool = False  # rendered depth in the observation (set by depth.source=true)
+
+
+@dataclass
+class ModelSettings:
+    """``model``: `PointNavResNetPolicy`'s network (the paper's: half-width ResNet-50)."""
+
+    backbone: str = "resnet50"  # resnet50 (half width: base_planes 32) | resnet18
+    base_planes: int = 32
+    ngroups: int = 16  # GroupNorm groups
+    input_size: int = 128  # observations larger than this are average-pooled down to it
+    hidden_size: int = 512
+    rnn_layers: int = 2
+
+
+@dataclass
+class PPOConfig:
+    """``ppo``: the PPO update (`rvn_rl.ppo.ppo_update`); the defaults are DD-PPO's PointNav hyperparameters."""
+
+    clip_param: float = 0.2  # surrogate and value clipping
+    ppo_epoch: int = 2  # epochs over each rollout
+    num_mini_batch: int = 2  # mini-batches per epoch, each whole rollouts of some envs (at most env.num_envs)
+    value_loss_coef: float = 0.5
+    entropy_coef: float = 0.01
+    lr: float = 2.5e-4  # Adam
+    eps: float = 1e-5  # Adam
+    max_grad_norm: float = 0.2  # gradient-norm clip
+    num_steps: int = 128  # rollout length
+    gamma: float = 0.99  # discount
+    tau: float = 0.95  # GAE lambda
+    use_normalized_advantage: bool = True
+    use_clipped_value_loss: bool = True
+
+
+@dataclass
+class DDPPOSettings:
+    """``ddppo``: torchrun ranks (algo=ddppo, ddppo_depth)."""
+
+    sync_frac: float = 0.6  # straggler pre-emption: stop once this fraction of ranks finished
+    backend: str = "auto"  # auto (nccl on GPU, gloo on CPU) | gloo | nccl
+
+
+@dataclass
+class DepthSettings:
+    """``depth``: the 4th input channel of algo=ddppo_depth."""
+
+    # model: predicted from RGB by depth.model_path | true: the rendered depth (depth.source=true reads as a boolean)
+    source: Union[str, bool] = "model"
+    model_path: str | None = None  # out_dir of python -m rvn_rl.depth.cli
+
+    def __post_init__(self) -> None:
+        if self.source is True:
+            self.source = "true"
+
+
+@dataclass
+class TrainSettings:
+    """``train``: how long, checkpoints, threads."""
+
+    total_steps: Union[int, float] = 2_500_000_000  # env steps over all ranks (4e5 reads as a float: taken as 400000)
+    checkpoint_every: int = 50  # updates between checkpoints
+    keep_checkpoints: int = 2
+    resume: bool = True  # continue from out_dir's latest checkpoint
+    threads: int | None = None  # torch intra-op threads (null = torch's setting)
+
+    def __post_init__(self) -> None:
+        if isinstance(self.total_steps, float) and self.total_steps.is_integer():
+            self.total_steps = int(self.total_steps)
+
+
+LAGRANGIAN = ("cost_limit", "lambda_init", "lambda_lr", "lambda_max")
+
+
+@dataclass
+class AlgoConfig:
+    """``algo`` (conf/rl/algo/<name>.yaml): the algorithm; the defaults are PPO's."""
+
+    name: str = "ppo"  # ppo | ppo_lag | ddppo | ddppo_depth
+    distributed: bool = False  # DD-PPO: one rank per process under torchrun, a DDP replica each
+    lagrangian: bool = False  # PPO-Lagrangian: cost critic, cost GAE, lambda >= 0 by Adam on -lambda (J_c - cost_limit)
+    use_depth: bool = False  # depth as a 4th input channel (depth.source)
+    # PPO-Lagrangian only:
+    cost_limit: float = 1.0e-4  # expected episode cost limit (the paper's)
+    lambda_init: float = 0.001
+    lambda_lr: float = 0.035
+    lambda_max: float | None = None  # upper bound on lambda (null: none; jobs/rl_small.sh uses 1.0)
+
+    def record(self) -> dict:
+        """As config.yaml records it: the Lagrangian settings only for a Lagrangian algorithm, where they act."""
+        return {k: v for k, v in asdict(self).items() if self.lagrangian or k not in LAGRANGIAN}

@@ -1,0 +1,85 @@
+"""rvn-rl's typed settings (issue 33): conf/rl.yaml and conf/rl/algo/*.yaml hold only what differs from
+`RLConfig`'s dataclasses, Hydra's config becomes one `RLConfig`, its checks give one line naming the setting,
+and config.yaml records the settings in the layout rvn-rl has always written (rvn-eval's loader reads it)."""
+from __future__ import annotations
+
+from dataclasses import asdict, fields
+from pathlib import Path
+
+import pytest
+import yaml
+
+from rvn_data.benchmark.episodes import EpisodeSettings
+from rvn_rl.cli import compose
+from rvn_rl.config import TRAIN_EPISODE_KEYS, RLConfig
+from rvn_rl.settings import CONF_RL, LAGRANGIAN, AlgoConfig, PPOConfig
+
+TINY = ["env.size=32", "env.num_envs=2", "env.num_scenes=2", "ppo.num_mini_batch=2", "model.backbone=resnet18"]
+
+
+def test_rl_yaml_holds_only_the_interpolations():
+    raw = yaml.safe_load((CONF_RL.parent / "rl.yaml").read_text())
+    assert raw["defaults"][0] == "base_rl"
+    assert {k: v for k, v in raw.items() if k not in ("defaults", "hydra")} == {
+        "camera": {"width": "${env.size}", "height": "${env.size}"}, "scenes": {"num_scenes": "${env.num_scenes}"}}
+
+
+@pytest.mark.parametrize("path", sorted((CONF_RL / "algo").glob("*.yaml")), ids=lambda p: p.stem)
+def test_algo_files_hold_only_what_differs(path: Path):
+    raw = yaml.safe_load(path.read_text())
+    assert raw["name"] == path.stem
+    assert all(getattr(AlgoConfig, k) != v for k, v in raw.items() if k != "name"), raw
+
+
+def test_compose_gives_the_typed_tree():
+    cfg = compose(TINY + ["train.total_steps=4e5", "algo=ddppo_depth", "depth.source=true"])
+    assert isinstance(cfg, RLConfig) and isinstance(cfg.ppo, PPOConfig) and isinstance(cfg.episodes, EpisodeSettings)
+    assert cfg.train.total_steps == 400000 and type(cfg.train.total_steps) is int  # 4e5 reads as a float
+    assert cfg.depth.source == "true" and cfg.uses_true_depth and cfg.env_kwargs()["depth"] is True
+    assert (cfg.camera.width, cfg.camera.height, cfg.scenes.num_scenes) == (32, 32, 2)  # they follow env
+    assert cfg.ppo.num_steps == 64 and cfg.ppo.ppo_epoch == 4  # scale=small
+    assert cfg.model_kwargs() == {"obs_size": 32, "backbone": "resnet18", "base_planes": 32, "ngroups": 16,
+                                  "input_size": 128, "hidden_size": 512, "rnn_layers": 2, "use_depth": True,
+                                  "cost_critic": False}
+
+
+def test_record_keeps_config_yaml_layout():
+    ppo = compose(TINY).record()
+    assert list(ppo) == [f.name for f in fields(RLConfig)]
+    assert list(ppo["algo"]) == ["name", "distributed", "lagrangian", "use_depth"]  # the Lagrangian settings act only there
+    assert list(ppo["episodes"]) == list(TRAIN_EPISODE_KEYS)  # episodes.seed draws eval sets only
+    assert ppo["ppo"] == {**asdict(PPOConfig()), "num_steps": 64, "ppo_epoch": 4, "num_mini_batch": 2,
+                          "max_grad_norm": 0.5}
+    lag = compose(TINY + ["algo=ppo_lag", "algo.lambda_max=1.0"]).record()
+    assert list(lag["algo"]) == ["name", "distributed", "lagrangian", "use_depth", *LAGRANGIAN]
+    assert lag["algo"]["lambda_max"] == 1.0 and lag["algo"]["cost_limit"] == 1e-4
+
+
+@pytest.mark.parametrize("args, line", [
+    (["ppo.num_mini_batch=3"], "env.num_envs=2 is below ppo.num_mini_batch=3"),
+    (["env.workers=3"], "env.workers=3 must be between 0 (in process) and env.num_envs=2"),
+    (["camera.width=48"], "camera.width=48 differs from env.size=32"),
+    (["train.total_steps=4.5"], "train.total_steps=4.5 must be a positive integer"),
+    (["algo=ppo_lag", "algo.lambda_max=0"], "algo.lambda_max=0.0 must be > 0"),
+    (["algo=ddppo_depth", "depth.source=sensor"], "depth.source='sensor': choose model"),
+    (["episodes.seed=4"], "episodes.seed=4 does nothing in rvn-rl"),
+])
+def test_validate_names_the_setting(args, line):
+    cfg = compose(TINY + args)
+    with pytest.raises(ValueError) as err:
+        cfg.validate()
+    assert line in str(err.value) and "\n" not in str(err.value)
+
+
+def test_group_dataclasses_check_their_values_at_conversion():
+    """env first (camera.width and height follow env.size), then every group's own dataclass."""
+    from rvn_data.cli.common import ConfigError
+
+    with pytest.raises(ConfigError, match=r"^env.num_envs=0 must be a positive integer$"):
+        compose(TINY + ["env.num_envs=0"])
+    with pytest.raises(ConfigError, match=r"^env.size=0 must be a positive integer$"):
+        compose(TINY + ["env.size=0"])
+    with pytest.raises(ConfigError, match="camera setting hfov_deg=200.0 must be in"):
+        compose(TINY + ["camera.hfov_deg=200"])
+    with pytest.raises(ConfigError, match="d_min=9.0, d_max=8.0 must satisfy"):
+        compose(TINY + ["episodes.d_min=9"])
