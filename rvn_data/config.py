@@ -10,8 +10,8 @@ with Hydra's own message.
 Schemas: groups ``agent`` (`AgentConfig`), ``camera`` (`CameraConfig`), ``navmesh``
 (`NavMeshSettings`), ``dataset`` (`DatasetConfig`), ``renderer`` (`RendererConfig`),
 ``scenes`` (`ScenesConfig`); primary configs ``gen`` (`GenConfig`) and ``eval``
-(`EvalConfig`) here, ``train`` in `rvn_il.train.settings` (`register_schema`, which rvn-train calls;
-the task side never imports the IL side).
+(`EvalConfig`) here, ``train`` in `rvn_il.train.settings` and ``rl`` in `rvn_rl.config` (each its
+``register_schema``, which rvn-train / rvn-rl call; the task side never imports the IL or RL side).
 
     cfg = load_config("eval", overrides=["policy=random", "episodes.per_scene=2"])
 """

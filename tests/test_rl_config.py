@@ -31,6 +31,13 @@ def test_algo_files_hold_only_what_differs(path: Path):
     assert all(getattr(AlgoConfig, k) != v for k, v in raw.items() if k != "name"), raw
 
 
+@pytest.mark.parametrize("path", sorted((CONF_RL / "scale").glob("*.yaml")), ids=lambda p: p.stem)
+def test_scale_files_hold_only_what_differs(path: Path):
+    defaults = asdict(RLConfig())  # scale=paper: the defaults are the paper's
+    raw = yaml.safe_load(path.read_text()) or {}
+    assert all(defaults[group][k] != v for group, values in raw.items() for k, v in values.items()), raw
+
+
 def test_compose_gives_the_typed_tree():
     cfg = compose(TINY + ["train.total_steps=4e5", "algo=ddppo_depth", "depth.source=true"])
     assert isinstance(cfg, RLConfig) and isinstance(cfg.ppo, PPOConfig) and isinstance(cfg.episodes, EpisodeSettings)
