@@ -66,10 +66,11 @@ def typed(cls: type, cfg):
         return cfg
     try:
         return OmegaConf.to_object(OmegaConf.merge(schema_node(cls), cfg))
-    except OmegaConfBaseException as err:
-        key = f" ({err.full_key})" if getattr(err, "full_key", None) else ""
+    except OmegaConfBaseException as err:  # e.g. policy.checkpoint_path=??? not given
         first = (str(err).strip().splitlines() or [type(err).__name__])[0]
-        raise ValueError(f"{first}{key}") from None
+        key = getattr(err, "full_key", None)
+        hint = f" (config key {key}: set it on the command line, e.g. {key}=...)" if key else ""
+        raise ValueError(f"{first}{hint}") from None
 
 
 def register_configs() -> None:

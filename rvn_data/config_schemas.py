@@ -3,11 +3,11 @@ rvn-eval (`EvalConfig`, conf/eval.yaml). Field order is the order of the compose
 Registered in Hydra's ConfigStore by `rvn_data.config.register_configs`."""
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from typing import Any
 
 from rvn_data.benchmark.episodes import EpisodeSettings
-from rvn_data.benchmark.episodes_source import EpisodeRules
+from rvn_data.benchmark.episodes_source import EnvConfig, EpisodeRules
 from rvn_data.render import RendererConfig
 from rvn_data.scenes.sets import ScenesConfig
 from rvn_data.conventions import AgentConfig
@@ -87,3 +87,21 @@ class EvalConfig:
     embodiment_mismatch: str = "error"
     episodes: EvalEpisodesConfig = field(default_factory=EvalEpisodesConfig)
     env: EpisodeRules = field(default_factory=EpisodeRules)
+
+    def env_config(self) -> EnvConfig:
+        """`RVNEnv`'s settings (eval mode) for this run: the typed groups as they are, the episode cache under
+        ``episodes.dir``, else the cache root's ``episodes/`` (`rvn_data.cache_root`)."""
+        from rvn_data.cache_root import cache_root
+
+        eps = self.episodes
+        draw = {f.name: getattr(eps, f.name) for f in fields(EpisodeSettings)}
+        scenes = {k: v for k, v in asdict(self.scenes).items() if k != "split"}
+        return EnvConfig.from_kwargs(
+            mode="eval", split=self.split, scenes=scenes, agent=self.agent, navmesh=self.navmesh, camera=self.camera,
+            renderer=asdict(self.renderer), episodes=EpisodeSettings(**draw),
+            episodes_dir=str(eps.dir or cache_root(self.cache_dir, self.out_dir) / "episodes"),
+            per_scene=eps.per_scene, **asdict(self.env))
+
+    def record(self) -> dict:
+        """The run's settings as plain data (its identity: `rvn_data.benchmark.results.run_identity`)."""
+        return asdict(self)

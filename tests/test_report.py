@@ -199,12 +199,13 @@ def test_runs_of_different_identity_are_different_rows(runs, tmp_path):
 def test_checkpoint_runs_are_labelled_by_their_folder(tmp_path):
     """Issue 35: rvn-eval policy=checkpoint without method= records the checkpoint folder's name as the
     method (never 'checkpoint' for every model)."""
-    from rvn_data.benchmark.cli import _plain_config
+    from rvn_data.benchmark.cli import _typed_config
     from rvn_data.config import load_config
 
     cfg = load_config("eval", ["policy=checkpoint", f"policy.checkpoint_path={tmp_path / 'nomad_seed1'}", "out_dir=x"])
-    assert _plain_config(cfg)["method"] == "nomad_seed1"
-    assert _plain_config(load_config("eval", ["policy=random", "out_dir=x"]))["method"] == "policy"
+    config, _ = _typed_config(cfg)
+    assert config.method == "nomad_seed1" and config.policy["checkpoint_path"] == str(tmp_path / "nomad_seed1")
+    assert _typed_config(load_config("eval", ["policy=random", "out_dir=x"]))[0].method == "policy"
 
 
 def test_paired_tests_on_the_same_episodes():

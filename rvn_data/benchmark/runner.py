@@ -1,7 +1,6 @@
 """Run a policy over an episode set, in this process or in worker processes.
 
-Each worker builds its own `RVNEnv` (eval mode) and policy from the same plain-dict
-config; episodes are addressed by their position in the set's schedule, so the records
+Each worker builds its own `RVNEnv` (eval mode) and policy from the same `EvalJob`; episodes are addressed by their position in the set's schedule, so the records
 do not depend on the number of workers. The policy config is instantiated with
 ``hydra.utils.instantiate``: any object with ``reset()`` and ``act(obs)`` is a policy;
 one with ``bind(env)`` gets the env (privileged state) once.
@@ -13,38 +12,29 @@ import operator
 import os
 import sys
 from collections.abc import Callable, Iterable, Iterator
-from dataclasses import fields
+from dataclasses import dataclass, fields
 
 import numpy as np
 
-from rvn_data.benchmark.episodes_source import EpisodeRules
-from rvn_data.cache_root import cache_root
+from rvn_data.benchmark.episodes_source import EnvConfig
 from rvn_data.conventions import Action
 from rvn_data.numba_note import note_first_compile
 
-ENV_KEYS = tuple(f.name for f in fields(EpisodeRules))  # rvn-eval's ``env`` group
 
 
 class InvalidActionError(ValueError):
     """A policy returned something that is not an `Action`."""
 
 
-def env_kwargs(cfg: dict) -> dict:
-    """`RVNEnv` keyword arguments (eval mode) from a resolved rvn-eval config dict."""
-    eps = dict(cfg["episodes"])
-    scenes = {k: v for k, v in dict(cfg["scenes"]).items() if k != "split"}
-    return {
-        "mode": "eval", "split": cfg["split"], "scenes": scenes, "agent": cfg["agent"],
-        "navmesh": cfg["navmesh"], "camera": cfg["camera"], "renderer": cfg.get("renderer") or {},
-        "episodes": {k: v for k, v in eps.items() if k not in ("dir", "per_scene", "num_scenes", "first_scene")},
-        "episodes_dir": str(eps.get("dir") or cache_root(cfg.get("cache_dir"), cfg.get("out_dir")) / "episodes"),
-        "per_scene": eps.get("per_scene"),
-        **{k: v for k, v in dict(cfg.get("env") or {}).items() if k in ENV_KEYS},
-    }
+@dataclass(frozen=True)
+class EvalJob:
+    """What every worker of one evaluation builds from: the env's settings, the policy's config (instantiated
+    with ``hydra.utils.instantiate``), the row's name and the run's seed."""
 
-
-def policy_name(cfg: dict) -> str:
-    return str(cfg.get("method") or cfg.get("policy_name") or dict(cfg["policy"]).get("_target_", "policy"))
+    env: EnvConfig
+    policy: dict
+    name: str
+    seed: int = 0
 
 
 def make_policy(policy_cfg: dict, env, name: str):
@@ -134,14 +124,12 @@ def share_cpu_threads(workers: int) -> None:
         os.environ["LP_NUM_THREADS"] = str(max(1, (os.cpu_count() or 1) // workers))
 
 
-def _init_worker(cfg: dict, workers: int = 1) -> None:
+def _init_worker(job: EvalJob, workers: int = 1) -> None:
     from rvn_data.benchmark.env import RVNEnv
 
     share_cpu_threads(workers)
-
-    env = RVNEnv(**env_kwargs(cfg))
-    name = policy_name(cfg)
-    _WORKER.update(env=env, policy=make_policy(cfg["policy"], env, name), name=name, seed=int(cfg.get("seed", 0)))
+    env = RVNEnv(**{f.name: getattr(job.env, f.name) for f in fields(job.env)})
+    _WORKER.update(env=env, policy=make_policy(job.policy, env, job.name), name=job.name, seed=job.seed)
 
 
 def _run_task(k: int) -> tuple[int, dict]:
@@ -150,23 +138,23 @@ def _run_task(k: int) -> tuple[int, dict]:
 
 
 def _prepare_task(args) -> int:
-    from rvn_data.benchmark.episodes_source import EnvConfig, ensure_scene_episodes
+    from rvn_data.benchmark.episodes_source import ensure_scene_episodes
 
-    cfg, slot = args
-    return ensure_scene_episodes(EnvConfig.from_kwargs(**env_kwargs(cfg)), slot)
+    env, slot = args
+    return ensure_scene_episodes(env, slot)
 
 
-def _pool(workers: int, cfg: dict | None = None):
+def _pool(workers: int, job: EvalJob | None = None):
     ctx = mp.get_context("spawn")  # GL contexts and torch do not survive fork
-    if cfg is None:
+    if job is None:
         return ctx.Pool(workers)
-    return ctx.Pool(workers, initializer=_init_worker, initargs=(cfg, workers))
+    return ctx.Pool(workers, initializer=_init_worker, initargs=(job, workers))
 
 
-def prepare_episodes(cfg: dict, slots: list, workers: int, progress: Callable | None = None) -> None:
+def prepare_episodes(env: EnvConfig, slots: list, workers: int, progress: Callable | None = None) -> None:
     """Generate and cache the episode files of every scene (in parallel when workers > 1)."""
     note_first_compile("rvn-eval")
-    tasks = [(cfg, slot) for slot in slots]
+    tasks = [(env, slot) for slot in slots]
     if not tasks:  # every episode already done (a resumed run): no pool of zero processes
         return
     if workers <= 1:
@@ -181,12 +169,12 @@ def prepare_episodes(cfg: dict, slots: list, workers: int, progress: Callable | 
                 progress(1)
 
 
-def run_episodes(cfg: dict, todo: list[int], workers: int) -> Iterator[tuple[int, dict]]:
+def run_episodes(job: EvalJob, todo: list[int], workers: int) -> Iterator[tuple[int, dict]]:
     """Yield (k, record) for the schedule positions ``todo`` (completion order)."""
     if not todo:
         return
     if workers <= 1:
-        _init_worker(cfg)
+        _init_worker(job)
         try:
             for k in todo:
                 yield _run_task(k)
@@ -194,5 +182,5 @@ def run_episodes(cfg: dict, todo: list[int], workers: int) -> Iterator[tuple[int
             _WORKER.pop("env").close()
             _WORKER.clear()
         return
-    with _pool(min(workers, len(todo)), cfg) as pool:
+    with _pool(min(workers, len(todo)), job) as pool:
         yield from pool.imap_unordered(_run_task, todo)
