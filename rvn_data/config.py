@@ -60,17 +60,20 @@ def typed(cls: type, cfg):
     OmegaConf checks keys and types (an unknown key or a value of the wrong type is a ValueError
     naming it); each dataclass's ``__post_init__`` checks its ranges. The one conversion a command makes."""
     from omegaconf import OmegaConf
-    from omegaconf.errors import OmegaConfBaseException
+    from omegaconf.errors import InterpolationResolutionError, MissingMandatoryValue, OmegaConfBaseException
 
     if isinstance(cfg, cls):
         return cfg
     try:
         return OmegaConf.to_object(OmegaConf.merge(schema_node(cls), cfg))
-    except OmegaConfBaseException as err:  # e.g. policy.checkpoint_path=??? not given
+    except OmegaConfBaseException as err:
         first = (str(err).strip().splitlines() or [type(err).__name__])[0]
         key = getattr(err, "full_key", None)
-        hint = f" (config key {key}: set it on the command line, e.g. {key}=...)" if key else ""
-        raise ValueError(f"{first}{hint}") from None
+        if key and isinstance(err, (MissingMandatoryValue, InterpolationResolutionError)):  # policy.checkpoint_path=???
+            first += f" (config key {key}: set it on the command line, e.g. {key}=...)"
+        elif key:
+            first += f" (config key {key})"
+        raise ValueError(first) from None
 
 
 def register_configs() -> None:

@@ -9,7 +9,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from rvn_data.benchmark.episodes import EpisodeSettings
-from rvn_data.config import register, register_configs
+from rvn_data.config import register, register_configs, typed
 from rvn_data.conventions import AgentConfig
 from rvn_data.navmesh.settings import NavMeshSettings
 from rvn_data.render import RendererConfig
@@ -156,22 +156,14 @@ def check_env(env: EnvSettings) -> None:
 
 
 def settings_of(cfg) -> RLConfig:
-    """Hydra's composed rvn-rl config as `RLConfig` (interpolations resolved; each group's dataclass checks its
-    own values, ``env`` first: the camera's size and the scene count follow it, so env.size=0 is named as itself);
-    `ConfigError` (one line) for a missing or bad value. `RLConfig.validate` checks the rest."""
-    from omegaconf import OmegaConf
-    from omegaconf.errors import OmegaConfBaseException
+    """Hydra's composed rvn-rl config as `RLConfig` (`rvn_data.config.typed`: interpolations resolved; each group's
+    dataclass checks its own values, ``env`` first: the camera's size and the scene count follow it, so env.size=0
+    is named as itself); `ConfigError` (one line) for a missing or bad value. `RLConfig.validate` checks the rest."""
+    from rvn_data.cli.common import validating
 
-    from rvn_data.cli.common import ConfigError, one_line
-
-    try:
-        check_env(OmegaConf.to_object(cfg.env))
-        settings = OmegaConf.to_object(cfg)
-    except (OmegaConfBaseException, ValueError, TypeError) as err:
-        raise ConfigError(one_line(err)) from None
-    if not isinstance(settings, RLConfig):
-        raise TypeError(f"settings_of: a config composed against base_rl expected, got {type(settings).__name__}")
-    return settings
+    with validating():
+        check_env(typed(EnvSettings, cfg.env))
+        return typed(RLConfig, cfg)
 
 
 def register_schema() -> None:
