@@ -124,10 +124,10 @@ class RLConfig:
         return {k: getattr(self.episodes, k) for k in TRAIN_EPISODE_KEYS}
 
     def env_kwargs(self) -> dict:
-        """`RVNEnv` keyword arguments of the train-mode environments."""
+        """`RVNEnv` keyword arguments of the train-mode environments (the typed groups as they are)."""
         scenes = {k: v for k, v in asdict(self.scenes).items() if k != "split"}
-        return {"mode": "train", "split": "train", "scenes": scenes, "agent": asdict(self.agent),
-                "navmesh": asdict(self.navmesh), "camera": asdict(self.camera), "renderer": asdict(self.renderer),
+        return {"mode": "train", "split": "train", "scenes": scenes, "agent": self.agent,
+                "navmesh": self.navmesh, "camera": self.camera, "renderer": asdict(self.renderer),
                 "episodes": self.episode_kwargs(), "t_max": self.env.t_max, "scene_switch_every": self.env.scene_switch_every,
                 "goal_pool": int(self.env.goal_pool), "depth": bool(self.env.depth) or self.uses_true_depth}
 
