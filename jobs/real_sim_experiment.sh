@@ -7,7 +7,7 @@
 #   rvn-gen sim + real (train scenes) -> rvn-train sim-only, real-only, sim+real (model.size=small, same settings)
 #   -> rvn-eval each model on the sim robot and on the real robot (200 val episodes a row at SCALE=small; a model
 #      on the other robot runs with embodiment_mismatch=allow, recorded in its run.json), beside the trajectory
-#      oracle and the blind goal follower on each robot -> report.md with paired tests between the compared rows.
+#      oracle, the blind goal follower and a random policy on each robot -> report.md with paired tests between the compared rows.
 #
 #   bash jobs/real_sim_experiment.sh [OUT]               # SCALE=small on 2 CPU cores
 #   SIM_DATA=runs/small_main/data/rvn_expert bash jobs/real_sim_experiment.sh   # reuse an rvn-gen expert dataset
@@ -69,7 +69,9 @@ for ROBOT in sim real; do
     policy.waypoint_index=null out_dir="$OUT/eval/trajectory_oracle_$ROBOT" "${EVAL[@]}" "${HERE[@]}"
   step "eval_goal_follower_$ROBOT" rvn-eval policy=goal_follower "method=Goal follower @$ROBOT" \
     out_dir="$OUT/eval/goal_follower_$ROBOT" "${EVAL[@]}" "${HERE[@]}"
-  RUNS+=("$OUT/eval/trajectory_oracle_$ROBOT" "$OUT/eval/goal_follower_$ROBOT")
+  step "eval_random_$ROBOT" rvn-eval policy=random "method=Random @$ROBOT" \
+    out_dir="$OUT/eval/random_$ROBOT" "${EVAL[@]}" "${HERE[@]}"
+  RUNS+=("$OUT/eval/trajectory_oracle_$ROBOT" "$OUT/eval/goal_follower_$ROBOT" "$OUT/eval/random_$ROBOT")
   for MODEL in sim real mix; do
     step "eval_${MODEL}_$ROBOT" rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/$MODEL" \
       "method=NoMaD-PointGoal $MODEL-data @$ROBOT" +policy.waypoint_index=null embodiment_mismatch=allow \

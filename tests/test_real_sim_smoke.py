@@ -34,9 +34,12 @@ def test_real_sim_recipe_end_to_end(tmp_path):
     for model in ("sim", "real", "mix"):
         for robot in ("sim", "real"):
             assert f"| NoMaD-PointGoal {model}-data @{robot} | Val |" in report
+    for robot in ("sim", "real"):  # the reference rows beside them
+        for row in ("Trajectory oracle", "Goal follower", "Random"):
+            assert f"| {row} @{robot} | Val |" in report
     assert "| NoMaD-PointGoal mix-data @real | NoMaD-PointGoal sim-data @real |" in report
     assert "Evaluated on another robot or camera than they were trained for: NoMaD-PointGoal real-data @sim" in report
     again = recipe(out)
-    assert again.returncode == 0 and again.stdout.count("done before, skipped") == 15, again.stdout[-2000:]
+    assert again.returncode == 0 and again.stdout.count("done before, skipped") == 17, again.stdout[-2000:]
     bad = recipe(tmp_path / "bad", SIM_WEIGHT="1.5")
     assert bad.returncode == 2 and "SIM_WEIGHT=1.5" in bad.stderr and not (tmp_path / "bad").exists()
