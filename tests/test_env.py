@@ -49,6 +49,17 @@ def test_registered(tmp_path):
     e.close()
 
 
+def test_typed_config_builds_the_same_env(env, tmp_path):
+    """rvn-eval's workers hand RVNEnv its typed EnvConfig (config=): the same episodes as the keywords."""
+    typed = RVNEnv(config=env.config)
+    a, _ = env.reset(options={"episode": 1})
+    b, _ = typed.reset(options={"episode": 1})
+    assert np.array_equal(a["rgb"], b["rgb"]) and np.array_equal(a["pointgoal"], b["pointgoal"])
+    typed.close()
+    with pytest.raises(ValueError, match=r"config= or settings as keywords, not both \(got \['t_max'\]\)"):
+        RVNEnv(config=env.config, t_max=3)
+
+
 def test_wall_collision_terminates(env):
     obs, info = env.reset(seed=0)
     d = info["distance_to_goal"]

@@ -9,7 +9,8 @@ import pytest
 from rvn_data.conventions import AgentConfig
 from rvn_data.benchmark.episodes import (GENERATOR_VERSION, EpisodeSettings, episode_rng, sample_episode,
                                         sample_episodes)
-from rvn_data.benchmark.episodes_source import EnvConfig, ensure_scene_episodes, open_scene
+from rvn_data.benchmark.episodes_source import EnvConfig, ensure_scene_episodes
+from rvn_data.navmesh.source import open_scene
 from rvn_data.benchmark.episodes_store import EpisodeStore, make_settings, scene_fingerprint
 from rvn_data.navmesh import NavMeshSettings
 from rvn_data.scenes import Part, Scene, SceneError

@@ -130,7 +130,7 @@ def test_real_recast_files(name):
 
 
 def test_source_setting_and_checks(wall_glb, tmp_path):
-    from rvn_data.benchmark.episodes_source import open_scene
+    from rvn_data.navmesh.source import open_scene
 
     assert "source" not in NavMeshSettings().to_dict()  # defaults are not recorded: old records match
     assert NavMeshSettings.from_config({"source": "file", "file": "x.navmesh"}).to_dict()["file"] == "x.navmesh"

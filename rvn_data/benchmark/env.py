@@ -41,12 +41,16 @@ from rvn_data.scenes import SceneError
 
 
 class RVNEnv(gym.Env):
-    """Collision-aware point-goal navigation; keyword arguments as `EnvConfig`."""
+    """Collision-aware point-goal navigation; settings as `EnvConfig` keywords, or ``config=`` a typed `EnvConfig`."""
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
 
-    def __init__(self, render_mode: str | None = None, **kwargs):
-        self.config = EnvConfig.from_kwargs(**kwargs)
+    def __init__(self, render_mode: str | None = None, *, config: EnvConfig | None = None, **kwargs):
+        if config is not None and kwargs:
+            raise ValueError(f"RVNEnv takes config= or settings as keywords, not both (got {sorted(kwargs)})")
+        if config is not None:
+            config.validate()  # fills the split's defaults of a config built directly
+        self.config = config if config is not None else EnvConfig.from_kwargs(**kwargs)
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode={render_mode!r}: only 'rgb_array' is supported")
         self.render_mode = render_mode

@@ -12,6 +12,7 @@ from rvn_data.conventions import AgentConfig
 from rvn_data.benchmark.episodes import DEFAULT_PER_SCENE, EpisodeSettings, split_code
 from rvn_data.benchmark.episodes_store import EpisodeStore, make_settings
 from rvn_data.navmesh.settings import NavMeshSettings
+from rvn_data.navmesh.source import open_scene
 from rvn_data.render.camera import CameraConfig
 
 SCENE_DEFAULTS = {k: v for k, v in asdict(ScenesConfig()).items() if k != "split"}
@@ -91,10 +92,11 @@ class EnvConfig(EpisodeRules):
             if eps_map.get(key) is not None and kw.get(name) is None:
                 kw[name] = eps_map[key]
         cfg = cls(**kw)
-        cfg._validate()
+        cfg.validate()
         return cfg
 
-    def _validate(self) -> None:
+    def validate(self) -> None:
+        """Fill the split's defaults (split, success_distance, per_scene) and check every range; idempotent."""
         if self.mode not in ("train", "eval"):
             raise ValueError(f"RVNEnv mode={self.mode!r} must be 'train' or 'eval'")
         if self.split is None:
@@ -142,16 +144,6 @@ class EnvConfig(EpisodeRules):
 
     def with_(self, **changes) -> "EnvConfig":
         return replace(self, **changes)
-
-
-def open_scene(spec: str, scenes: dict, navmesh_settings: NavMeshSettings):
-    """(Scene, NavMesh) for a spec; raises SceneError naming the scene on failure."""
-    from rvn_data.navmesh.source import open_navmesh
-    from rvn_data.scenes.loader import load_scene
-
-    scene = load_scene(spec, up_axis=scenes.get("up_axis", "y"), unit_scale=float(scenes.get("unit_scale", 1.0)),
-                       level=bool(scenes.get("level", False)))
-    return scene, open_navmesh(scene, navmesh_settings)
 
 
 class SceneSlot:

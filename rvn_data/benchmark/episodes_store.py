@@ -17,7 +17,7 @@ import hashlib
 import json
 import os
 import re
-from dataclasses import asdict, is_dataclass
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +26,8 @@ from rvn_data.atomic import write_bytes_atomic
 from rvn_data.cache_root import absolute, settings_key
 from rvn_data.dataset.naming import scene_slug
 from rvn_data.identity import check_identity
-from rvn_data.navmesh.settings import recorded
+from rvn_data.conventions import AgentConfig
+from rvn_data.navmesh.settings import NavMeshSettings, recorded
 from rvn_data.benchmark.episodes import GENERATOR_VERSION, Episode, EpisodeSettings, sample_episodes
 
 FORMAT_SCENE = "rvn-episodes/scene"
@@ -34,27 +35,22 @@ FORMAT_INDEX = "rvn-episodes/index"
 SCENE_OPTION_KEYS = ("source", "up_axis", "unit_scale", "level")
 
 
-def _plain(obj) -> dict:
-    if is_dataclass(obj):
-        return asdict(obj)
-    return {k: (v.item() if hasattr(v, "item") else v) for k, v in dict(obj).items()}
+def _floats(d: dict) -> dict:
+    return {k: (float(v) if isinstance(v, int) and not isinstance(v, bool) else v) for k, v in d.items()}
 
 
-def make_settings(episodes: EpisodeSettings, agent, navmesh, scenes: dict, split: str) -> dict:
+def make_settings(episodes: EpisodeSettings, agent: AgentConfig, navmesh: NavMeshSettings, scenes: dict,
+                  split: str) -> dict:
     """The settings recorded in (and checked against) every episode file."""
     scene_opts = {k: scenes.get(k) for k in SCENE_OPTION_KEYS}
-    for k in ("unit_scale",):
-        if scene_opts[k] is not None:
-            scene_opts[k] = float(scene_opts[k])
-    nav = recorded(_plain(navmesh))  # source/file only when not the defaults
+    if scene_opts["unit_scale"] is not None:
+        scene_opts["unit_scale"] = float(scene_opts["unit_scale"])
     return {
         "generator_version": GENERATOR_VERSION,
         "split": split,
         "episodes": episodes.as_dict(),
-        "agent": {k: (float(v) if isinstance(v, int) and not isinstance(v, bool) else v)
-                  for k, v in _plain(agent).items()},
-        "navmesh": {k: (float(v) if isinstance(v, int) and not isinstance(v, bool) else v)
-                    for k, v in nav.items()},
+        "agent": _floats(asdict(agent)),
+        "navmesh": _floats(recorded(asdict(navmesh))),  # source/file only when not the defaults
         "scenes": scene_opts,
     }
 
@@ -63,6 +59,13 @@ def check_settings(path: Path, stored: dict, wanted: dict, what: str = "episode 
                    hint: str = "use another episodes.dir or delete {dir}") -> None:
     """ValueError naming ``path`` and the settings that differ (`rvn_data.identity`)."""
     check_identity(path, stored, wanted, what, hint)
+
+
+def _read_gzip_json(path: Path) -> dict:
+    try:
+        return json.loads(gzip.decompress(path.read_bytes()))
+    except (OSError, EOFError, json.JSONDecodeError) as err:
+        raise ValueError(f"episode file {path} is unreadable ({err}); delete it to regenerate") from None
 
 
 def dumps_gzip_json(obj: dict) -> bytes:
@@ -101,28 +104,32 @@ class EpisodeStore:
                     pass
         return path
 
-    def check_index(self) -> None:
-        """Raise if an existing index was made with other settings."""
-        if self.index_path.exists():
-            try:
-                stored = json.loads(self.index_path.read_text())["settings"]
-            except (json.JSONDecodeError, KeyError) as err:
-                raise ValueError(f"episode index {self.index_path} is unreadable ({err}); delete it") from None
-            check_settings(self.index_path, stored, self.settings)
+    def _index_settings(self) -> list[tuple[Path, dict]]:
+        """[(index.json, the settings it records)], or [] when there is no index yet."""
+        if not self.index_path.exists():
+            return []
+        try:
+            return [(self.index_path, json.loads(self.index_path.read_text())["settings"])]
+        except (json.JSONDecodeError, KeyError) as err:
+            raise ValueError(f"episode index {self.index_path} is unreadable ({err}); delete it") from None
+
+    def _check_made_here(self, files: list[tuple[Path, dict]]) -> None:
+        """Raise, naming the file and the settings that differ, if any of ``files`` (path, recorded
+        settings) was made with other settings than this store's."""
+        for path, stored in files:
+            check_settings(path, stored, self.settings)
 
     def read_scene(self, scene_index: int, spec: str) -> dict | None:
         """The stored file of a scene (``scene_id``, ``fingerprint``, ``episodes``: list of
-        `Episode`), or None if there is none; raises if it was made with other settings."""
+        `Episode`), or None if there is none; raises if it, or the set's index, was made with
+        other settings."""
         path = self.scene_path(scene_index, spec)
-        if not path.exists():
-            return None
-        try:
-            data = json.loads(gzip.decompress(path.read_bytes()))
-        except (OSError, EOFError, json.JSONDecodeError) as err:
-            raise ValueError(f"episode file {path} is unreadable ({err}); delete it to regenerate") from None
-        if data.get("format") != FORMAT_SCENE:
+        data = _read_gzip_json(path) if path.exists() else None
+        if data is not None and data.get("format") != FORMAT_SCENE:
             raise ValueError(f"episode file {path} is not an RVN episode file (format={data.get('format')!r})")
-        check_settings(path, data["settings"], self.settings)
+        self._check_made_here(self._index_settings() + ([(path, data["settings"])] if data else []))
+        if data is None:
+            return None
         if int(data["scene_index"]) != int(scene_index):
             raise ValueError(f"episode file {path} holds scene index {data['scene_index']}, expected {scene_index}")
         data["episodes"] = [Episode.from_json(e, data["scene_id"], scene_index) for e in data["episodes"]]
@@ -159,13 +166,10 @@ class EpisodeStore:
 
     def write_index(self) -> Path:
         """(Re)write index.json from the scene files present."""
-        self.check_index()
-        scenes = []
-        for path in sorted(self.dir.glob("*.json.gz")):
-            data = json.loads(gzip.decompress(path.read_bytes()))
-            check_settings(path, data["settings"], self.settings)
-            scenes.append({"file": path.name, "scene_id": data["scene_id"], "scene_index": data["scene_index"],
-                           "fingerprint": data.get("fingerprint"), "episodes": len(data["episodes"])})
+        files = [(path, _read_gzip_json(path)) for path in sorted(self.dir.glob("*.json.gz"))]
+        self._check_made_here(self._index_settings() + [(path, data["settings"]) for path, data in files])
+        scenes = [{"file": path.name, "scene_id": data["scene_id"], "scene_index": data["scene_index"],
+                   "fingerprint": data.get("fingerprint"), "episodes": len(data["episodes"])} for path, data in files]
         index = {"format": FORMAT_INDEX, "settings": self.settings, "split": self.split, "scenes": scenes}
         text = json.dumps(index, sort_keys=True, indent=1, allow_nan=False) + "\n"
         write_bytes_atomic(self.index_path, text.encode())
@@ -178,7 +182,6 @@ class EpisodeStore:
         ``loaded`` = (scene, navmesh) already at hand is checked against the file's scene id
         and mesh fingerprint (and used for generation).
         """
-        self.check_index()
         stored = self.read_scene(scene_index, spec)
         have = stored["episodes"] if stored else []
         if loaded is not None and stored:

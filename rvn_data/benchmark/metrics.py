@@ -195,9 +195,3 @@ def metrics_from_jsonl(path: str | Path) -> dict:
     """Recompute every metric from an ``episodes.jsonl`` file."""
     return compute_metrics(read_records(path))
 
-
-def format_metric(value: float | None, digits: int) -> str:
-    """A metric for a table: fixed digits, '–' when undefined."""
-    if value is None or (isinstance(value, float) and not math.isfinite(value)):
-        return "–"
-    return f"{value:.{digits}f}"

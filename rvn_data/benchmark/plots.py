@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from rvn_data.atomic import atomic_path
-from rvn_data.benchmark.metrics import format_metric
+from rvn_data.benchmark.table import format_metric
 
 
 def _save(fig, path: Path) -> None:

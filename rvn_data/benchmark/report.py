@@ -22,11 +22,11 @@ import sys
 from collections import Counter
 from pathlib import Path
 
-from rvn_data.benchmark.metrics import TERMINATIONS, format_metric, write_text_atomic
+from rvn_data.benchmark.metrics import TERMINATIONS, write_text_atomic
 from rvn_data.benchmark.plots import bar_plot, ends_plot, goals_plot
 from rvn_data.benchmark.runs import Run, find_runs, load_run, merge_shards, provenance_note  # noqa: F401 (API)
 from rvn_data.benchmark.significance import Row, significance_table
-from rvn_data.benchmark.table import SPLIT_TITLES, render_table
+from rvn_data.benchmark.table import SPLIT_TITLES, format_metric, render_table
 
 def _rel(path: Path, base: Path) -> str:
     return Path(os.path.relpath(Path(path).resolve(), Path(base).resolve())).as_posix()

@@ -30,11 +30,11 @@ def run_identity(cfg: dict) -> dict:
     ident = {k: cfg.get(k) for k in IDENTITY_KEYS}
     ident["episodes"] = {k: v for k, v in dict(cfg.get("episodes") or {}).items() if k != "dir"}
     ident["scenes"] = {k: v for k, v in dict(cfg.get("scenes") or {}).items() if k != "root"}
-    if ident["navmesh"] is not None:  # navmesh.source/file only when not the defaults
-        ident["navmesh"] = recorded(dict(ident["navmesh"]))
     files = policy_files_digest(cfg.get("policy") or {})
     if files:
         ident["policy_files"] = files
+    if ident["navmesh"] is not None:  # navmesh.source/file only when not the defaults
+        ident["navmesh"] = recorded(dict(ident["navmesh"]))
     return json.loads(json.dumps(ident, sort_keys=True))
 
 

@@ -12,7 +12,7 @@ import operator
 import os
 import sys
 from collections.abc import Callable, Iterable, Iterator
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -128,7 +128,7 @@ def _init_worker(job: EvalJob, workers: int = 1) -> None:
     from rvn_data.benchmark.env import RVNEnv
 
     share_cpu_threads(workers)
-    env = RVNEnv(**{f.name: getattr(job.env, f.name) for f in fields(job.env)})
+    env = RVNEnv(config=job.env)
     _WORKER.update(env=env, policy=make_policy(job.policy, env, job.name), name=job.name, seed=job.seed)
 
 

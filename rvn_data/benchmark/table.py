@@ -9,10 +9,11 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
-from rvn_data.benchmark.metrics import format_metric, write_text_atomic
+from rvn_data.benchmark.metrics import write_text_atomic
 
 SPLITS = ("train", "val", "test")
 SPLIT_TITLES = {"train": "Train", "val": "Val", "test": "Test"}
@@ -26,6 +27,13 @@ PAPER_RESULTS = {
     ("RL", "DD-PPO"): {"train": (0.899, 13.28, 9.2), "val": (0.865, 11.86, 10.5), "test": (0.886, 13.90, 8.7)},
     ("RL", "DDPPO-DAV2"): {"train": (0.937, 20.79, 3.5), "val": (0.909, 19.88, 4.0), "test": (0.928, 20.79, 3.6)},
 }
+
+
+def format_metric(value: float | None, digits: int) -> str:
+    """A metric for a table: fixed digits, '–' when undefined."""
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return "–"
+    return f"{value:.{digits}f}"
 
 
 def _cells(m: tuple | None) -> list[str]:

@@ -83,3 +83,13 @@ def open_navmesh(scene, settings: NavMeshSettings | None = None):
     if path is None:
         return NavMesh.build(scene, settings)
     return load_navmesh_file(path, settings, scene)
+
+
+def open_scene(spec: str, scenes: dict, settings: NavMeshSettings):
+    """(Scene, NavMesh) of a scene spec loaded with the ``scenes`` group's options (``up_axis``,
+    ``unit_scale``, ``level``); raises SceneError naming the scene on failure."""
+    from rvn_data.scenes.loader import load_scene
+
+    scene = load_scene(spec, up_axis=scenes.get("up_axis", "y"), unit_scale=float(scenes.get("unit_scale", 1.0)),
+                       level=bool(scenes.get("level", False)))
+    return scene, open_navmesh(scene, settings)

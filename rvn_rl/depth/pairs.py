@@ -43,7 +43,8 @@ def render_scene_pairs(spec: str, scene_index: int, split: str, per_scene: int, 
                        navmesh_settings, renderer: dict) -> tuple[np.ndarray, np.ndarray]:
     """(rgb uint8 [K, H, W, 3], depth float32 [K, H, W]) of ``per_scene`` poses in one scene."""
     from rvn_data.benchmark.episodes import split_code
-    from rvn_data.benchmark.episodes_source import SCENE_DEFAULTS, open_scene
+    from rvn_data.benchmark.episodes_source import SCENE_DEFAULTS
+    from rvn_data.navmesh.source import open_scene
     from rvn_data.render import make_renderer
 
     scene, navmesh = open_scene(spec, SCENE_DEFAULTS, navmesh_settings)
