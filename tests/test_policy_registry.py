@@ -73,6 +73,9 @@ def test_unregistered_target_is_imported_by_its_dotted_path(tmp_path, monkeypatc
     assert type(policy.kw["probs"]) is list and type(policy.kw["extra"]) is dict
     with pytest.raises(ValueError, match=r"policy\.extra\._target_: rvn-eval builds the policy's own _target_"):
         make_policy({"_target_": "ownpol.OwnPolicy", "extra": {"_target_": "ownpol.OwnPolicy"}}, None, "own")
+    (tmp_path / "brokenpol.py").write_text("def Policy(:\n")
+    with pytest.raises(ValueError, match=r"policy\._target_=brokenpol\.Policy cannot be imported \(.*\); registered"):
+        make_policy({"_target_": "brokenpol.Policy"}, None, "broken")
 
 
 def test_stale_metadata_says_pip_install(monkeypatch):

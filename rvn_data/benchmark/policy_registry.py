@@ -68,7 +68,7 @@ def policy_factory(target) -> tuple[Callable, str | None]:
                              " it predates this checkout: run pip install -e . in RVN's checkout")
     try:
         factory = registered[name].load() if name is not None else import_object(target)
-    except ImportError as err:
+    except Exception as err:  # not found, or the module fails on import (its own imports, a syntax error)
         what = f" (registered as {name!r})" if name is not None else ""
         raise ValueError(f"policy._target_={target}{what} cannot be imported ({_one_line(err)}); "
                          f"{_choices(registered)}") from err
