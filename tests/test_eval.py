@@ -102,6 +102,8 @@ def test_invalid_action_names_policy(runs, tmp_path):
                     "method=Bad", f"out_dir={tmp_path / 'bad'}", env=env)
     assert proc.returncode != 0
     assert "policy 'Bad' returned invalid action 7" in proc.stderr and "Traceback" not in proc.stderr
+    # no package registers it (entry points rvn.policies): imported by its dotted path, with a note saying so
+    assert "rvn-eval: note: policy._target_=badpol.BadPolicy is not a registered policy" in proc.stderr
 
 
 def test_missing_scene_is_named(runs, tmp_path):

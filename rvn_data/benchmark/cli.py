@@ -21,6 +21,7 @@ from pathlib import Path
 import hydra
 from omegaconf import DictConfig
 
+from rvn_data.benchmark.policy_registry import registered_name, unregistered_note
 from rvn_data.benchmark.results import RunDir, record_key, run_identity
 from rvn_data.benchmark.runner import EvalJob, make_policy, prepare_episodes, run_episodes
 from rvn_data.benchmark.table import render_table
@@ -53,6 +54,9 @@ def evaluate(config: EvalConfig, choice: str = "policy", on_checked=None) -> dic
         check_writable_dir(config.out_dir)
         run = RunDir(config.out_dir, run_identity(config.record()), {"embodiment_mismatch": diffs})
         done = run.open(resume=config.resume)
+    target = dict(config.policy).get("_target_")  # make_policy built it: a registered policy, else its dotted path
+    if registered_name(str(target)) is None:  # a policy of one's own, imported by its dotted path
+        print(f"rvn-eval: note: {unregistered_note(target)}", file=sys.stderr)
     if diffs:
         print(f"rvn-eval: note: policy {config.method!r} was trained for another robot or camera: {describe(diffs)} "
               "(embodiment_mismatch=allow; recorded in run.json and metrics.json)", file=sys.stderr)

@@ -1,9 +1,10 @@
 """Run a policy over an episode set, in this process or in worker processes.
 
 Each worker builds its own `RVNEnv` (eval mode) and policy from the same `EvalJob`; episodes are addressed by their position in the set's schedule, so the records
-do not depend on the number of workers. The policy config is instantiated with
-``hydra.utils.instantiate``: any object with ``reset()`` and ``act(obs)`` is a policy;
-one with ``bind(env)`` gets the env (privileged state) once.
+do not depend on the number of workers. The policy config's ``_target_`` is resolved through the policies
+installed packages register (entry point group ``rvn.policies``, :mod:`.policy_registry`) and called with the
+config's other keys: any object with ``reset()`` and ``act(obs)`` is a policy; one with ``bind(env)`` gets the
+env (privileged state) once.
 """
 from __future__ import annotations
 
@@ -28,8 +29,8 @@ class InvalidActionError(ValueError):
 
 @dataclass(frozen=True)
 class EvalJob:
-    """What every worker of one evaluation builds from: the env's settings, the policy's config (instantiated
-    with ``hydra.utils.instantiate``), the row's name and the run's seed."""
+    """What every worker of one evaluation builds from: the env's settings, the policy's config (``_target_``, a
+    registered policy's dotted path, and its keyword settings; `make_policy`), the row's name and the run's seed."""
 
     env: EnvConfig
     policy: dict
@@ -38,16 +39,18 @@ class EvalJob:
 
 
 def make_policy(policy_cfg: dict, env, name: str):
-    """Instantiate a policy config and bind it to ``env`` when it has ``bind`` (and ``env`` is
-    not None: rvn-eval builds it once without an env to check it before any work)."""
-    from hydra.errors import InstantiationException
-    from hydra.utils import instantiate
+    """Build a policy config: its ``_target_``'s class or factory (`policy_registry.policy_factory`: the registered
+    entry point that names it, else its dotted path) called with the config's other keys as plain dicts and lists;
+    bound to ``env`` when it has ``bind`` (and ``env`` is not None: rvn-eval builds it once without an env to check
+    it before any work)."""
+    from rvn_data.benchmark.policy_registry import policy_factory
 
+    settings = plain_settings(policy_cfg)
+    factory, _ = policy_factory(settings.pop("_target_", None))
     try:
-        policy = instantiate(dict(policy_cfg), _convert_="all")
-    except InstantiationException as err:  # unwrap Hydra's wrapper: the cause names the problem
-        cause = err.__cause__ or err
-        raise ValueError(f"policy {name!r}: {cause}{_valid_settings(policy_cfg, cause)}") from cause
+        policy = factory(**settings)
+    except Exception as err:  # the policy's own check (a missing checkpoint, a bad setting): one line naming it
+        raise ValueError(f"policy {name!r}: {err}{_valid_settings(factory, err)}") from err
     for method in ("reset", "act"):
         if not callable(getattr(policy, method, None)):
             raise TypeError(f"policy {name!r} ({type(policy).__name__}) has no {method}() method; "
@@ -57,7 +60,31 @@ def make_policy(policy_cfg: dict, env, name: str):
     return policy
 
 
-def _valid_settings(policy_cfg: dict, cause: BaseException) -> str:
+def plain_settings(policy_cfg) -> dict:
+    """A policy config (a mapping or an OmegaConf node) as a new plain dict, interpolations resolved, nested
+    mappings and sequences as dicts and lists (what ``hydra.utils.instantiate(..., _convert_="all")`` handed the
+    target); a ValueError for a nested ``_target_`` or another of Hydra's ``_x_`` keys: no policy config has one,
+    and rvn-eval builds only the policy's own ``_target_``."""
+    from omegaconf import OmegaConf
+
+    cfg = OmegaConf.to_container(OmegaConf.create(dict(policy_cfg), flags={"allow_objects": True}), resolve=True)
+
+    def check(value, key: str) -> None:
+        if isinstance(value, dict):
+            for k, v in value.items():
+                if (key and k == "_target_") or (str(k).startswith("_") and str(k).endswith("_") and k != "_target_"):
+                    raise ValueError(f"policy.{key}{k}: rvn-eval builds the policy's own _target_ with plain keyword "
+                                     "settings; nested objects and Hydra's instantiate keys are not built")
+                check(v, f"{key}{k}.")
+        elif isinstance(value, list):
+            for i, v in enumerate(value):
+                check(v, f"{key}{i}.")
+
+    check(cfg, "")
+    return cfg
+
+
+def _valid_settings(factory, cause: BaseException) -> str:
     """``; policy settings: a, b (nearest: a)`` for an unexpected keyword, from the class's signature."""
     import difflib
     import inspect
@@ -67,10 +94,8 @@ def _valid_settings(policy_cfg: dict, cause: BaseException) -> str:
     if m is None:
         return ""
     try:
-        from hydra.utils import get_object
-
-        params = [p for p in inspect.signature(get_object(str(policy_cfg["_target_"]))).parameters if p not in ("self", "env")]
-    except (ImportError, ValueError, TypeError, KeyError, AttributeError):
+        params = [p for p in inspect.signature(factory).parameters if p not in ("self", "env")]
+    except (ValueError, TypeError):
         return ""
     close = difflib.get_close_matches(m.group(1), params, n=2, cutoff=0.6)
     return f"; policy.* settings: {', '.join(params) or 'none'}" + (f" (nearest: {', '.join(close)})" if close else "")

@@ -1,6 +1,7 @@
 """``load_policy``: rebuild a policy from an rvn-train checkpoint directory alone.
 
-Hydra: ``{_target_: rvn_il.policies.load_policy, checkpoint_path: <out_dir>, device: cpu,
+rvn-eval's ``policy=checkpoint`` (conf/policy/checkpoint.yaml, registered as entry point ``rvn.policies``
+``checkpoint``): ``{_target_: rvn_il.policies.load_policy, checkpoint_path: <out_dir>, device: cpu,
 selection: argmin}`` — every keyword besides ``checkpoint_path``/``device``/``model`` overrides
 a ``model.policy`` setting (lookahead_min_dist, waypoint_index, num_samples, aggregate, stop_radius,
 selection, cor_alpha, ensemble, sampler, depth_veto, depth_veto_rule, depth_veto_hfov, escape_after, escape_steps,
