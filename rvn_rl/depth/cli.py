@@ -123,7 +123,7 @@ def main(argv: list[str] | None = None) -> int:
         from rvn_data.config import CONF_DIR
 
         register_schema()
-        overrides.check(PROG, "rl_depth", CONF_DIR, argv)  # a typo'd key or a wrong type, with or without +, in one line
+        overrides.check(PROG, "rl_depth", CONF_DIR, argv)  # a typo'd key or a wrong type (with or without +): one line
         cfg = compose(argv)  # typed once; each settings dataclass checks its own ranges
     except (ValueError, TypeError, KeyError, OmegaConfBaseException, HydraException) as err:
         print(f"{PROG}: error: {one_line(err)}", file=sys.stderr)

@@ -41,7 +41,7 @@ class PairsSettings:
 class DepthModelSettings:
     """``model``: `rvn_rl.depth.model.DepthNet`'s arguments."""
 
-    widths: list[int] = field(default_factory=lambda: [16, 32, 64, 96, 128])  # encoder channels, one stride-2 stage each
+    widths: list[int] = field(default_factory=lambda: [16, 32, 64, 96, 128])  # encoder channels, a stride-2 stage each
     min_depth: float = 0.05  # m, output range
     max_depth: float = 20.0
 
