@@ -34,9 +34,9 @@ def overrides(args, out_dir: str) -> list[str]:
 
 def collection(cfg, steps: int, with_policy: bool) -> float:
     from rvn_rl.model import PointNavResNetPolicy
-    from rvn_rl.trainer import make_envs
+    from rvn_rl.vec_env import make_envs
 
-    envs = make_envs(cfg, seed=0)
+    envs = make_envs(cfg.env_kwargs(), cfg.env, seed=0)
     n = envs.num_envs
     rng = np.random.default_rng(0)
     net = PointNavResNetPolicy(**cfg.model_kwargs()).eval() if with_policy else None

@@ -14,6 +14,7 @@ import yaml
 from safetensors.torch import load_file, save_file
 
 from rvn_data.atomic import atomic_path, write_bytes_atomic, write_text_atomic
+from rvn_data.provenance import provenance_record
 
 from .settings import ALGOS
 
@@ -39,9 +40,27 @@ def read_rl_config(out_dir: str | Path) -> dict:
     return cfg
 
 
-def write_config(out_dir: Path, cfg: dict) -> None:
-    write_text_atomic(out_dir / "config.yaml",
-                      yaml.safe_dump({"kind": KIND, "policy_loader": POLICY_LOADER, **cfg}, sort_keys=False))
+def resume_point(out_dir: Path, policy: dict, algo: str, resume: bool) -> Path | None:
+    """The checkpoint a run of network ``policy`` (`RLConfig.model_kwargs`) and ``algo`` continues from (None: it
+    starts afresh); a one-line ValueError for an out_dir that holds another run or another kind."""
+    if not (out_dir / "config.yaml").is_file():
+        return None
+    old = read_rl_config(out_dir)
+    if old["policy"] != policy or old["algo"]["name"] != algo:
+        raise ValueError(f"out_dir={out_dir} holds another run ({old['algo']['name']}, {old['policy']['backbone']}, "
+                         f"{old['policy']['obs_size']}px); choose a new out_dir")
+    return latest(out_dir) if resume else None
+
+
+def write_config(out_dir: Path, settings: dict, resuming: bool) -> None:
+    """config.yaml: ``kind: rl``, the loader, ``settings`` and what code made the run (a resumed run keeps what the
+    earlier record says of its start)."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    path = out_dir / "config.yaml"
+    earlier = yaml.safe_load(path.read_text()) if path.is_file() else None
+    made_by = provenance_record(earlier if isinstance(earlier, dict) else None, resuming)
+    write_text_atomic(path, yaml.safe_dump({"kind": KIND, "policy_loader": POLICY_LOADER, **settings, **made_by},
+                                           sort_keys=False))
 
 
 def latest(out_dir: str | Path) -> Path | None:
@@ -66,6 +85,12 @@ def save(out_dir: Path, env_steps: int, model: torch.nn.Module, state: dict, kee
     for old in sorted(p for p in root.glob("ckpt_*") if p.is_dir())[:-keep]:
         shutil.rmtree(old, ignore_errors=True)
     return ckpt
+
+
+def load(ckpt: Path, model: torch.nn.Module) -> dict:
+    """Load ``ckpt``'s weights into ``model``; returns its state.pt."""
+    load_weights(model, ckpt)
+    return load_state(ckpt)
 
 
 def load_weights(model: torch.nn.Module, ckpt: Path) -> None:

@@ -38,14 +38,16 @@ def world_size_from_env() -> int:
     return int(os.environ.get("WORLD_SIZE", "1"))
 
 
-def init(backend: str, device_type: str) -> Dist:
-    """Join the process group described by torchrun's environment (a no-op for one process)."""
+def init(backend: str, device: str) -> Dist:
+    """Join the process group described by torchrun's environment (a no-op for one process); ``device`` is the
+    run's device setting, from which backend=auto picks NCCL (a GPU) or gloo."""
     world = world_size_from_env()
     if world <= 1:
         return Dist()
     rank, local = int(os.environ["RANK"]), int(os.environ.get("LOCAL_RANK", "0"))
     if backend == "auto":
-        backend = "nccl" if device_type == "cuda" else "gloo"
+        on_gpu = device.startswith("cuda") or (device == "auto" and torch.cuda.is_available())
+        backend = "nccl" if on_gpu else "gloo"
     if backend not in ("gloo", "nccl"):
         raise ValueError(f"ddppo.backend={backend!r}: choose auto, gloo or nccl")
     if backend == "nccl":
@@ -54,6 +56,20 @@ def init(backend: str, device_type: str) -> Dist:
     store = dist.TCPStore(host, port + 1, world, rank == 0, timeout=datetime.timedelta(minutes=30))
     dist.init_process_group(backend, store=dist.PrefixStore("pg", store), rank=rank, world_size=world)
     return Dist(rank, local, world, dist.PrefixStore("rollout_tracker", store))
+
+
+def pick_device(setting: str, d: Dist) -> torch.device:
+    """This process's device for the setting ``device`` (auto | cpu | cuda[:i]); a DD-PPO rank takes
+    cuda:<local rank>."""
+    if setting == "auto":
+        setting = "cuda" if torch.cuda.is_available() else "cpu"
+    if setting.startswith("cuda"):
+        if not torch.cuda.is_available():
+            raise ValueError(f"device={setting}: this torch finds no GPU; use device=cpu or auto")
+        return torch.device("cuda", d.local_rank if d.enabled else torch.device(setting).index or 0)
+    if setting != "cpu":
+        raise ValueError(f"device={setting!r}: choose auto, cpu or cuda")
+    return torch.device("cpu")
 
 
 def all_sum(x: torch.Tensor) -> torch.Tensor:

@@ -1,6 +1,6 @@
 """Rollout storage for recurrent PPO with GAE over one or two value heads (reward, and cost
 for PPO-Lagrangian). Rollouts may end early (DD-PPO's straggler pre-emption): only the
-first ``step`` transitions are used."""
+first ``step`` transitions are used. `DeviceRollouts` hands the update its mini-batches on the learner's device."""
 from __future__ import annotations
 
 import numpy as np
@@ -83,3 +83,24 @@ class RolloutStorage:
                        prev_actions=flat(self.prev_actions), masks=flat(self.masks), actions=flat(self.actions),
                        logp=flat(self.logp), values=flat(self.values), returns=flat(self.returns),
                        advantages=flat(advantages))
+
+
+def to_device(obs: dict, device) -> dict:
+    """A batch of observations (arrays or tensors) as tensors on ``device``."""
+    return {k: torch.as_tensor(v).to(device, non_blocking=True) for k, v in obs.items()}
+
+
+class DeviceRollouts:
+    """Mini-batches of a CPU `RolloutStorage` moved to the learner's device."""
+
+    def __init__(self, rollouts: RolloutStorage, device):
+        self.r, self.device = rollouts, device
+        self.returns, self.values = rollouts.returns, rollouts.values
+
+    @property
+    def step(self) -> int:
+        return self.r.step
+
+    def minibatches(self, adv, num_mini_batch, generator):
+        for mb in self.r.minibatches(adv, num_mini_batch, generator):
+            yield {k: (to_device(v, self.device) if isinstance(v, dict) else v.to(self.device)) for k, v in mb.items()}

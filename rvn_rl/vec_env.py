@@ -18,6 +18,8 @@ import numpy as np
 from rvn_data.benchmark.env import RVNEnv
 from rvn_data.benchmark.episodes_source import SceneSlot
 
+from .settings import EnvSettings
+
 
 class CachedSceneEnv(RVNEnv):
     """`RVNEnv` that keeps up to ``scene_cache`` scenes loaded besides the current one."""
@@ -111,3 +113,13 @@ class BatchEnv:
         for env in self.envs:
             env.close()
         self.envs = []
+
+
+def make_envs(env_kwargs: dict, env: EnvSettings, seed: int, rank: int = 0, depth_fn=None):
+    """A run's ``env.num_envs`` environments (`RVNEnv` keyword arguments ``env_kwargs``, `RLConfig.env_kwargs`): in this
+    process (``env.workers=0``) or split over worker processes; ``depth_fn`` predicts the depth channel."""
+    common = dict(seed=seed, rank=rank, scene_cache=env.scene_cache, depth_fn=depth_fn)
+    if not env.workers:
+        return BatchEnv(env_kwargs, env.num_envs, **common)
+    from .vec_procs import ProcessBatchEnv
+    return ProcessBatchEnv(env_kwargs, env.num_envs, env.workers, **common)

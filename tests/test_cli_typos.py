@@ -30,10 +30,12 @@ def run(prog: str, *args: str, cwd: Path) -> subprocess.CompletedProcess:
     ("rvn-train", ["+train.max_step=5"], "train.max_step is not a setting of rvn-train; nearest: train.max_steps"),
     ("rvn-eval", ["+episodes.num_scene=2"], "episodes.num_scene is not a setting of rvn-eval; nearest: episodes.num_scenes"),
     ("rvn_rl.depth.cli", ["train.step=3"], "train.step is not a setting of rvn_rl.depth.cli; nearest: train.steps"),
-    # without +, in a multirun sweep, a wrong type (in a schema; in a config without one), an unknown group option, bad syntax
+    # without +, in a multirun sweep, a wrong type (in a schema; in rvn-eval's policy group, which has none), an unknown
+    # group option, bad syntax
     ("rvn-gen", ["-m", "seed=1,2", "dataset.margn=0.3"], "dataset.margn is not a setting of rvn-gen; nearest: dataset.margin"),
     ("rvn-rl", ["ppo.lr=abc"], "ppo.lr=abc: Value 'abc' of type 'str' could not be converted to Float"),
-    ("rvn_rl.depth.cli", ["train.lr=abc"], "train.lr='abc': give a number (default 0.002)"),
+    ("rvn_rl.depth.cli", ["train.lr=abc"], "train.lr=abc: Value 'abc' of type 'str' could not be converted to Float"),
+    ("rvn-eval", ["policy=oracle", "policy.turn_cost=abc"], "policy.turn_cost='abc': give a number (default 0.01)"),
     ("rvn-eval", ["policy=orcle"], "policy=orcle is not an option; choose one of checkpoint, goal_follower, oracle"),
     ("rvn-train", ["x=[1"], "cannot read the override 'x=[1'"),
     ("rvn-rl", ["out_dir="], "out_dir= is empty: give a folder or file"),  # would write into the current folder

@@ -57,9 +57,11 @@ def command(line: str) -> tuple[str, list[str]]:
 
 def composed(tool: str, args: list[str], cwd: Path) -> dict:
     if tool == "rvn_rl.depth.cli":
+        from dataclasses import asdict
+
         from rvn_rl.depth.cli import compose
 
-        return compose(args)
+        return asdict(compose(args))
     from rvn_data.cli.overrides import first_values
 
     args = first_values([a for a in args if a != "-m"])  # one job of a sweep, Hydra's own settings left out

@@ -143,8 +143,9 @@ def _explain(err: BaseException, prog: str, config_dir: str, config_name: str, c
 
 
 def _check_types(cfg, parsed: list, config_dir: str, config_name: str, composed: list[str]) -> None:
-    """Settings without a schema (conf/rl_depth.yaml's) take any value at composition: a number or a boolean
-    given as text (``train.lr=abc``) is refused here, against the type of the setting's default."""
+    """Settings without a schema (rvn-eval's ``policy`` group: keyword arguments of the chosen class) take any value
+    at composition: a number or a boolean given as text (``policy.turn_cost=abc``) is refused here, against the type
+    of the setting's default."""
     from omegaconf import OmegaConf
 
     given = {ov.get_key_element(): ov for ov in parsed if "/" not in ov.get_key_element()

@@ -20,12 +20,16 @@ from pathlib import Path
 import numpy as np
 
 from rvn_data.atomic import atomic_path
+from rvn_data.navmesh.settings import NavMeshSettings
+from rvn_data.render import RendererConfig
+from rvn_data.render.camera import CameraConfig
 
 
-def pair_meta(split: str, specs: list[tuple[str, int]], per_scene: int, seed: int, camera, renderer: dict) -> dict:
+def pair_meta(split: str, specs: list[tuple[str, int]], per_scene: int, seed: int, camera: CameraConfig,
+              renderer: RendererConfig) -> dict:
     """The settings that determine a pairs file (compared to decide whether to reuse it)."""
     return {"split": split, "scenes": [[s, int(i)] for s, i in specs], "per_scene": int(per_scene),
-            "seed": int(seed), "camera": asdict(camera), "renderer_backend": str(renderer.get("backend", "auto"))}
+            "seed": int(seed), "camera": asdict(camera), "renderer_backend": str(renderer.backend)}
 
 
 def split_scenes(source: str, split: str, num_scenes: int, first_scene: int = 0, root=None) -> list[tuple[str, int]]:
@@ -39,8 +43,8 @@ def split_scenes(source: str, split: str, num_scenes: int, first_scene: int = 0,
     return [(spec, first_scene + i) for i, spec in enumerate(specs)]
 
 
-def render_scene_pairs(spec: str, scene_index: int, split: str, per_scene: int, seed: int, camera,
-                       navmesh_settings, renderer: dict) -> tuple[np.ndarray, np.ndarray]:
+def render_scene_pairs(spec: str, scene_index: int, split: str, per_scene: int, seed: int, camera: CameraConfig,
+                       navmesh_settings: NavMeshSettings, renderer: RendererConfig) -> tuple[np.ndarray, np.ndarray]:
     """(rgb uint8 [K, H, W, 3], depth float32 [K, H, W]) of ``per_scene`` poses in one scene."""
     from rvn_data.benchmark.episodes import split_code
     from rvn_data.benchmark.episodes_source import SCENE_DEFAULTS
@@ -51,8 +55,7 @@ def render_scene_pairs(spec: str, scene_index: int, split: str, per_scene: int, 
     rng = np.random.default_rng([int(seed), split_code(split), int(scene_index)])
     rgb = np.empty((per_scene, camera.height, camera.width, 3), np.uint8)
     depth = np.empty((per_scene, camera.height, camera.width), np.float32)
-    with make_renderer(scene, camera, backend=renderer.get("backend", "auto"),
-                       device=int(renderer.get("device", 0))) as r:
+    with make_renderer(scene, camera, backend=renderer.backend, device=renderer.device) as r:
         for k in range(per_scene):
             position = navmesh.sample(rng)
             yaw = float(rng.uniform(-math.pi, math.pi))
@@ -73,8 +76,9 @@ def read_meta(path: Path) -> dict | None:
         return None
 
 
-def make_pairs(path: str | Path, split: str, specs: list[tuple[str, int]], per_scene: int, seed: int, camera,
-               navmesh_settings, renderer: dict, progress: bool = False) -> tuple[Path, bool]:
+def make_pairs(path: str | Path, split: str, specs: list[tuple[str, int]], per_scene: int, seed: int,
+               camera: CameraConfig, navmesh_settings: NavMeshSettings, renderer: RendererConfig,
+               progress: bool = False) -> tuple[Path, bool]:
     """Render the pairs of ``specs`` into ``path`` (atomic); returns (path, reused) where
     ``reused`` says an existing file with the same settings was kept."""
     import h5py

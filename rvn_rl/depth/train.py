@@ -15,43 +15,14 @@ frames (what the fixed camera height alone predicts).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 import torch
 
 from .model import DepthNet, to_input
+from .settings import TrainSettings  # the ``train`` group
 
 DELTA = 1.25
-
-
-@dataclass
-class TrainSettings:
-    steps: int = 2000
-    batch_size: int = 16
-    lr: float = 2e-3
-    weight_decay: float = 1e-4
-    warmup: int = 50
-    silog_weight: float = 1.0
-    l1_weight: float = 1.0
-    variance_focus: float = 0.85
-    flip: bool = True
-    eval_every: int = 500  # steps between val evaluations (0: only at the end)
-
-    def validate(self) -> "TrainSettings":
-        for name in ("steps", "batch_size"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-                raise ValueError(f"train.{name}={v!r} must be a positive integer")
-        for name in ("warmup", "eval_every"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < 0:
-                raise ValueError(f"train.{name}={v!r} must be a non-negative integer")
-        if not self.lr > 0:
-            raise ValueError(f"train.lr={self.lr!r} must be > 0")
-        if self.silog_weight < 0 or self.l1_weight <= 0:
-            raise ValueError("train.l1_weight must be > 0 (it fixes the metric scale) and train.silog_weight >= 0")
-        return self
 
 
 def depth_loss(log_pred: torch.Tensor, depth: torch.Tensor, s: TrainSettings) -> torch.Tensor:
