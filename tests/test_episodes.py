@@ -8,10 +8,10 @@ import pytest
 
 from rvn_data.conventions import AgentConfig
 from rvn_data.benchmark.episodes import (GENERATOR_VERSION, EpisodeSettings, episode_rng, sample_episode,
-                                        sample_episodes)
+                                        sample_episodes, settings_record)
 from rvn_data.benchmark.episodes_source import EnvConfig, ensure_scene_episodes
 from rvn_data.navmesh.source import open_scene
-from rvn_data.benchmark.episodes_store import EpisodeStore, make_settings, scene_fingerprint
+from rvn_data.benchmark.episodes_store import EpisodeStore, scene_fingerprint
 from rvn_data.navmesh import NavMeshSettings
 from rvn_data.scenes import Part, Scene, SceneError
 
@@ -31,7 +31,7 @@ def navmesh(loaded):
 
 def store_for(root, settings=SETTINGS, agent=AgentConfig(), split="val"):
     nav = NavMeshSettings(agent_radius=agent.r_robot, agent_height=agent.h_robot)
-    return EpisodeStore(root, split, make_settings(settings, agent, nav, {"source": "procedural"}, split))
+    return EpisodeStore(root, split, settings_record(settings, agent, nav, {"source": "procedural"}, split))
 
 
 def test_goal_chain_geodesic_range(navmesh):

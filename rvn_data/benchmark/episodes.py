@@ -15,11 +15,14 @@ from dataclasses import asdict, dataclass, field, fields
 
 import numpy as np
 
+from rvn_data.conventions import AgentConfig
+from rvn_data.navmesh.settings import NavMeshSettings, recorded
 from rvn_data.scenes import SceneError
 
 # Part of every episode set's key: bump when the same settings draw other episodes. 2: the
 # navmesh's doorway fix (issue 17: a lintel no longer widens one jamb) moves procedural edges.
 GENERATOR_VERSION = 2
+SCENE_OPTION_KEYS = ("source", "up_axis", "unit_scale", "level")  # scene loading options an episode depends on
 SPLIT_CODES = {"train": 0, "val": 1, "test": 2}
 DEFAULT_PER_SCENE = {"train": 2, "val": 20, "test": 20}
 
@@ -172,3 +175,25 @@ def sample_episodes(navmesh, settings: EpisodeSettings, split: str, scene_id: st
                     scene_index: int, episode_indices) -> list[Episode]:
     """Episodes with the given indices (each from its own random stream)."""
     return [sample_episode(navmesh, settings, split, scene_id, scene_index, e)[0] for e in episode_indices]
+
+
+def _floats(d: dict) -> dict:
+    return {k: (float(v) if isinstance(v, int) and not isinstance(v, bool) else v) for k, v in d.items()}
+
+
+def settings_record(episodes: EpisodeSettings, agent: AgentConfig, navmesh: NavMeshSettings, scenes: dict,
+                  split: str) -> dict:
+    """What an episode set depends on, as recorded in (and checked against) every episode file of it and
+    hashed into its cache folder's name (`rvn_data.benchmark.episodes_store`): the generator, split, episode,
+    agent and navmesh settings and the scene loading options."""
+    scene_opts = {k: scenes.get(k) for k in SCENE_OPTION_KEYS}
+    if scene_opts["unit_scale"] is not None:
+        scene_opts["unit_scale"] = float(scene_opts["unit_scale"])
+    return {
+        "generator_version": GENERATOR_VERSION,
+        "split": split,
+        "episodes": episodes.as_dict(),
+        "agent": _floats(asdict(agent)),
+        "navmesh": _floats(recorded(asdict(navmesh))),  # source/file only when not the defaults
+        "scenes": scene_opts,
+    }

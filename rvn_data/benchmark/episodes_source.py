@@ -9,8 +9,8 @@ from rvn_data.cache_root import cache_root
 from rvn_data.render import RendererConfig
 from rvn_data.scenes.sets import ScenesConfig
 from rvn_data.conventions import AgentConfig
-from rvn_data.benchmark.episodes import DEFAULT_PER_SCENE, EpisodeSettings, split_code
-from rvn_data.benchmark.episodes_store import EpisodeStore, make_settings
+from rvn_data.benchmark.episodes import DEFAULT_PER_SCENE, EpisodeSettings, settings_record, split_code
+from rvn_data.benchmark.episodes_store import EpisodeStore
 from rvn_data.navmesh.settings import NavMeshSettings
 from rvn_data.navmesh.source import open_scene
 from rvn_data.render.camera import CameraConfig
@@ -138,7 +138,7 @@ class EnvConfig(EpisodeRules):
         return [(spec, first + i) for i, spec in enumerate(specs)]
 
     def store(self) -> EpisodeStore:
-        settings = make_settings(self.episodes, self.agent, self.navmesh, self.scenes, self.split)
+        settings = settings_record(self.episodes, self.agent, self.navmesh, self.scenes, self.split)
         root = self.episodes_dir or cache_root() / "episodes"
         return EpisodeStore(root, self.split, settings, self.scenes.get("root"))
 

@@ -17,7 +17,6 @@ import hashlib
 import json
 import os
 import re
-from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
@@ -26,33 +25,10 @@ from rvn_data.atomic import write_bytes_atomic
 from rvn_data.cache_root import absolute, settings_key
 from rvn_data.dataset.naming import scene_slug
 from rvn_data.identity import check_identity
-from rvn_data.conventions import AgentConfig
-from rvn_data.navmesh.settings import NavMeshSettings, recorded
-from rvn_data.benchmark.episodes import GENERATOR_VERSION, Episode, EpisodeSettings, sample_episodes
+from rvn_data.benchmark.episodes import Episode, EpisodeSettings, sample_episodes
 
 FORMAT_SCENE = "rvn-episodes/scene"
 FORMAT_INDEX = "rvn-episodes/index"
-SCENE_OPTION_KEYS = ("source", "up_axis", "unit_scale", "level")
-
-
-def _floats(d: dict) -> dict:
-    return {k: (float(v) if isinstance(v, int) and not isinstance(v, bool) else v) for k, v in d.items()}
-
-
-def make_settings(episodes: EpisodeSettings, agent: AgentConfig, navmesh: NavMeshSettings, scenes: dict,
-                  split: str) -> dict:
-    """The settings recorded in (and checked against) every episode file."""
-    scene_opts = {k: scenes.get(k) for k in SCENE_OPTION_KEYS}
-    if scene_opts["unit_scale"] is not None:
-        scene_opts["unit_scale"] = float(scene_opts["unit_scale"])
-    return {
-        "generator_version": GENERATOR_VERSION,
-        "split": split,
-        "episodes": episodes.as_dict(),
-        "agent": _floats(asdict(agent)),
-        "navmesh": _floats(recorded(asdict(navmesh))),  # source/file only when not the defaults
-        "scenes": scene_opts,
-    }
 
 
 def check_settings(path: Path, stored: dict, wanted: dict, what: str = "episode file",
