@@ -2,7 +2,7 @@
 
 Layout: ``<dir>/<scene source>/<split>-<key>/<NNNNN>_<scene name>.json.gz`` and
 ``<dir>/<scene source>/<split>-<key>/index.json``, ``<dir>`` = ``episodes.dir``, by default
-``<cache root>/episodes`` (`rvn_data.cache_root`), ``<key>`` a hash of the settings below and
+``<cache root>/episodes`` (`rvn_data.cache_root`), ``<key>`` a hash of the settings record below (`episodes.settings_record`) and
 of the scenes' root folder, so sets made with other settings never meet. Every file carries
 the settings that made it (generator version, episode settings, agent, navmesh settings,
 scene loading options, split); reading a file made with other settings raises ValueError naming the
