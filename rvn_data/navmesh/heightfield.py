@@ -18,7 +18,7 @@ import numpy as np
 from numba import njit
 
 from rvn_data.navmesh.clip import divide_poly
-from rvn_data.navmesh.recast_profile import rasterize_recast
+from rvn_data.navmesh.recast_profile import piece_bounds, rasterize_recast
 
 
 
@@ -71,19 +71,7 @@ def _rasterize(verts, faces, walk, x0, z0, cs, nx, nz, y0, ch, emit,
                         break
                     continue
                 if emit:
-                    ylo = 1e30
-                    yhi = -1e30
-                    bx0 = 1e30
-                    bx1 = -1e30
-                    bz0 = 1e30
-                    bz1 = -1e30
-                    for a in range(ncell):
-                        ylo = min(ylo, cell[a, 1])
-                        yhi = max(yhi, cell[a, 1])
-                        bx0 = min(bx0, cell[a, 0])
-                        bx1 = max(bx1, cell[a, 0])
-                        bz0 = min(bz0, cell[a, 2])
-                        bz1 = max(bz1, cell[a, 2])
+                    ylo, yhi, bx0, bx1, bz0, bz1 = piece_bounds(cell, ncell)
                     smin = int(math.floor((ylo - y0) / ch + 1e-4))
                     smax = max(int(math.ceil((yhi - y0) / ch - 1e-4)), smin)
                     o_cell[count] = r * nx + col

@@ -92,7 +92,7 @@ def rasterize_recast(verts, faces, walk, bmin, bmax, cs, ch, nx, nz, emit,
                 row, p2 = p2, row
                 if nv < 3 or x < 0:
                     continue
-                ylo, yhi, bx0, bx1, bz0, bz1 = _piece_bounds(p1, nv)
+                ylo, yhi, bx0, bx1, bz0, bz1 = piece_bounds(p1, nv)
                 smin = ylo - bmin[1]
                 smax = yhi - bmin[1]
                 if smax < 0 or smin > by:
@@ -115,7 +115,7 @@ def rasterize_recast(verts, faces, walk, bmin, bmax, cs, ch, nx, nz, emit,
 
 
 @njit(cache=True)
-def _piece_bounds(p, nv):
+def piece_bounds(p, nv):
     """(y min, y max, x min, x max, z min, z max) of the first ``nv`` vertices of polygon ``p``."""
     ylo = p[0, 1]
     yhi = p[0, 1]
