@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import importlib.metadata
 import os
+import pkgutil
 import subprocess
 import sys
 from pathlib import Path
@@ -14,7 +15,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from rvn_data.benchmark.policy_registry import POLICIES_GROUP, import_object, registered_policies
+from rvn_data.benchmark.policy_registry import POLICIES_GROUP, registered_policies
 from rvn_data.benchmark.runner import make_policy
 from rvn_data.config import CONF_DIR
 
@@ -33,7 +34,7 @@ def test_every_policy_config_is_registered_under_its_name():
         assert path.stem in registered, f"{path.name}: no entry point {POLICIES_GROUP} {path.stem!r} (pip install -e .?)"
         ep = registered[path.stem]
         assert f"{ep.module}.{ep.attr}" == target, (path.name, ep.value, target)
-        assert ep.load() is import_object(target)
+        assert ep.load() is pkgutil.resolve_name(target)
 
 
 def test_registered_policy_is_loaded_through_its_entry_point(monkeypatch):

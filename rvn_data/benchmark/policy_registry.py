@@ -9,7 +9,7 @@ PYTHONPATH) is still imported by its dotted path, and rvn-eval says it is not re
 """
 from __future__ import annotations
 
-import importlib
+import pkgutil
 from collections.abc import Callable
 from importlib.metadata import EntryPoint
 from pathlib import Path
@@ -67,7 +67,7 @@ def policy_factory(target) -> tuple[Callable, str | None]:
                              f"package metadata (entry points {POLICIES_GROUP}: {', '.join(sorted(registered)) or 'none'});"
                              " it predates this checkout: run pip install -e . in RVN's checkout")
     try:
-        factory = registered[name].load() if name is not None else import_object(target)
+        factory = registered[name].load() if name is not None else pkgutil.resolve_name(target)
     except Exception as err:  # not found, or the module fails on import (its own imports, a syntax error)
         what = f" (registered as {name!r})" if name is not None else ""
         raise ValueError(f"policy._target_={target}{what} cannot be imported ({_one_line(err)}); "
@@ -83,28 +83,6 @@ def unregistered_note(target: str) -> str:
     return f"policy._target_={target} is not a registered policy (entry points {POLICIES_GROUP}), imported by its " \
            f'dotted path; to register it, add name = "module:attr" under [project.entry-points."{POLICIES_GROUP}"] ' \
            "in its package's pyproject.toml and pip install -e that package"
-
-
-def import_object(path: str):
-    """The object a dotted path names (``pkg.module.Class`` or ``pkg.module.func``): the longest prefix that is
-    a module, then attributes; an ImportError saying what is missing."""
-    parts = path.split(".")
-    if len(parts) < 2 or not all(p.isidentifier() for p in parts):
-        raise ImportError(f"{path!r} is not a dotted path module.attr")
-    for i in range(len(parts) - 1, 0, -1):
-        module = ".".join(parts[:i])
-        try:
-            obj = importlib.import_module(module)
-        except ModuleNotFoundError as err:  # this prefix is not a module: try a shorter one
-            if err.name is not None and (module == err.name or module.startswith(err.name + ".")):
-                continue
-            raise  # the module exists and failed on one of its own imports
-        for k, attr in enumerate(parts[i:], start=i):
-            if not hasattr(obj, attr):
-                raise ImportError(f"{'.'.join(parts[:k])} has no attribute {attr!r}")
-            obj = getattr(obj, attr)
-        return obj
-    raise ImportError(f"no module named {parts[0]!r}")
 
 
 def _choices(registered: dict[str, EntryPoint]) -> str:

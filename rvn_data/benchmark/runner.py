@@ -72,7 +72,8 @@ def plain_settings(policy_cfg) -> dict:
     def check(value, key: str) -> None:
         if isinstance(value, dict):
             for k, v in value.items():
-                if (key and k == "_target_") or (str(k).startswith("_") and str(k).endswith("_") and k != "_target_"):
+                hydra_key = str(k).startswith("_") and str(k).endswith("_")  # _target_, _args_, _partial_, ...
+                if hydra_key and (key or k != "_target_"):  # only the policy's own, top-level _target_ is built
                     raise ValueError(f"policy.{key}{k}: rvn-eval builds the policy's own _target_ with plain keyword "
                                      "settings; nested objects and Hydra's instantiate keys are not built")
                 check(v, f"{key}{k}.")
