@@ -26,7 +26,9 @@ from torch import nn
 
 from rvn_data.atomic import write_bytes_atomic, write_text_atomic
 
-DEFAULT_WIDTHS = (16, 32, 64, 96, 128)
+from .settings import DepthModelSettings
+
+DEFAULTS = DepthModelSettings()  # the ``model`` group's defaults and range rules (one place: settings.py)
 WEIGHTS, CONFIG = "model.safetensors", "model.json"
 KIND = "rvn_rl.depth"
 
@@ -40,14 +42,11 @@ def conv_block(cin: int, cout: int, stride: int) -> nn.Sequential:
 class DepthNet(nn.Module):
     """RGB float [N,3,H,W] in [0,1] -> log depth [N,H,W] (metres), clamped to [min_depth, max_depth]."""
 
-    def __init__(self, widths=DEFAULT_WIDTHS, min_depth: float = 0.05, max_depth: float = 20.0,
-                 init_depth: float = 2.0):
+    def __init__(self, widths=tuple(DEFAULTS.widths), min_depth: float = DEFAULTS.min_depth,
+                 max_depth: float = DEFAULTS.max_depth, init_depth: float = 2.0):
         super().__init__()
         widths = [int(w) for w in widths]
-        if len(widths) < 2 or min(widths) < 1:
-            raise ValueError(f"model.widths={widths}: give at least two positive channel counts")
-        if not 0.0 < min_depth < max_depth:
-            raise ValueError(f"model.min_depth={min_depth}, model.max_depth={max_depth} must satisfy 0 < min < max")
+        DepthModelSettings(widths, min_depth, max_depth)  # its range rules: one line naming the setting
         self.config = {"widths": widths, "min_depth": float(min_depth), "max_depth": float(max_depth)}
         cin, self.down = 5, nn.ModuleList()
         for w in widths:
