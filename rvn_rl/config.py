@@ -17,16 +17,10 @@ from rvn_data.render.camera import CameraConfig
 from rvn_data.scenes.sets import ScenesConfig
 
 from .settings import (ALGOS, LAGRANGIAN, AlgoConfig, DDPPOSettings, DepthSettings, EnvSettings, ModelSettings,
-                       PPOConfig, TrainSettings)
+                       PPOConfig, TrainSettings, at_least)
 
 # the episode settings that act in train mode, in the order config.yaml records them (seed draws eval sets only)
 TRAIN_EPISODE_KEYS = ("n_goals", "d_min", "d_max", "max_tries", "max_restarts")
-
-
-def _positive_int(value, name: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-        raise ValueError(f"{name}={value!r} must be a positive integer")
-    return value
 
 
 @dataclass
@@ -66,12 +60,12 @@ class RLConfig:
         if not 0 <= env.workers <= env.num_envs:
             raise ValueError(f"env.workers={env.workers!r} must be between 0 (in process) and env.num_envs={env.num_envs}")
         for key in ("num_steps", "ppo_epoch", "num_mini_batch"):
-            _positive_int(getattr(ppo, key), f"ppo.{key}")
+            at_least(f"ppo.{key}", getattr(ppo, key))
         if env.num_envs < ppo.num_mini_batch:
             raise ValueError(f"env.num_envs={env.num_envs} is below ppo.num_mini_batch={ppo.num_mini_batch}: "
                              "each mini-batch holds whole rollouts of some envs; raise env.num_envs or lower num_mini_batch")
-        _positive_int(self.train.total_steps, "train.total_steps")
-        _positive_int(self.train.checkpoint_every, "train.checkpoint_every")
+        at_least("train.total_steps", self.train.total_steps)
+        at_least("train.checkpoint_every", self.train.checkpoint_every)
         if self.model.backbone not in ("resnet18", "resnet50"):
             raise ValueError(f"model.backbone={self.model.backbone!r}: choose resnet50 or resnet18")
         if world_size > 1 and not self.algo.distributed:
@@ -151,8 +145,8 @@ class RLConfig:
 def check_env(env: EnvSettings) -> None:
     """``env``'s ranges (`RLConfig.validate`'s first rules; `settings_of` applies them before the groups that follow env)."""
     for key in ("num_envs", "size", "scene_switch_every", "t_max"):
-        _positive_int(getattr(env, key), f"env.{key}")
-    _positive_int(env.scene_cache + 1, "env.scene_cache + 1")
+        at_least(f"env.{key}", getattr(env, key))
+    at_least("env.scene_cache + 1", env.scene_cache + 1)
 
 
 def settings_of(cfg) -> RLConfig:

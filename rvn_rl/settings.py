@@ -9,6 +9,13 @@ from pathlib import Path
 from typing import Union
 
 ALGOS = ("ppo", "ppo_lag", "ddppo", "ddppo_depth")
+
+
+def at_least(name: str, value, minimum: int = 1) -> None:
+    """A one-line ValueError naming the setting ``name`` unless ``value`` is an integer >= ``minimum``."""
+    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+        what = "a positive integer" if minimum == 1 else f"an integer >= {minimum}"
+        raise ValueError(f"{name}={value!r} must be {what}")
 CONF_RL = Path(__file__).resolve().parents[1] / "conf" / "rl"  # the groups algo/ and scale/
 
 

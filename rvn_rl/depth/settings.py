@@ -14,11 +14,7 @@ from rvn_data.navmesh.settings import NavMeshSettings
 from rvn_data.render import RendererConfig
 from rvn_data.render.camera import CameraConfig
 
-
-def at_least(name: str, value, minimum: int) -> None:
-    """A ValueError naming ``name`` unless ``value`` is an integer >= ``minimum`` (OmegaConf already made it an int)."""
-    if value < minimum:
-        raise ValueError(f"{name}={value!r} must be an integer >= {minimum}")
+from ..settings import at_least
 
 
 @dataclass
