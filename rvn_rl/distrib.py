@@ -52,8 +52,9 @@ def init(backend: str, device: str) -> Dist:
         raise ValueError(f"ddppo.backend={backend!r}: choose auto, gloo or nccl")
     if backend == "nccl":
         torch.cuda.set_device(local)
-    host, port = os.environ.get("MASTER_ADDR", "127.0.0.1"), int(os.environ.get("MASTER_PORT", "29500"))
-    store = dist.TCPStore(host, port + 1, world, rank == 0, timeout=datetime.timedelta(minutes=30))
+    # torch's env:// rendezvous: under torchrun, a client of the launcher's own store (no port of ours to collide
+    # with another job's); with MASTER_ADDR/MASTER_PORT set by hand, rank 0 hosts it there
+    store, _, _ = next(dist.rendezvous("env://", rank=rank, world_size=world, timeout=datetime.timedelta(minutes=30)))
     dist.init_process_group(backend, store=dist.PrefixStore("pg", store), rank=rank, world_size=world)
     return Dist(rank, local, world, dist.PrefixStore("rollout_tracker", store))
 
