@@ -14,6 +14,8 @@ Rows (each timed for --seconds-per-row after its warm-up, so figures are steady 
     on a CPU: samples/s;
  4. one decision (act) of a NoMaD-PointGoal policy, 8 samples x its diffusion steps, on the GPU and on one
     CPU thread: median ms (the GPU row says "skipped" on a machine without CUDA);
+ (--compile, on by default with CUDA: rows 3 and 4 with train.compile / policy.compile, the plain decision
+    timed beside the compiled one; the first compile takes minutes, kernels are cached for the next run);
  5. rvn-rl PPO collection + learning at 128², ResNet-18, scale=small PPO settings, envs in worker processes:
     env steps/s.
 With CUDA, each row shows issue 32's goal and measured/goal, and "GPU busy": GPU 0's mean utilization
@@ -54,6 +56,9 @@ def parse(argv: list[str] | None = None) -> argparse.Namespace:
                     help="torch intra-op threads of the training rows (rvn-train, rvn-rl); default: all cores "
                          "(rvn-rl on a GPU: 4), --quick: 1 (on a busy machine threads spin-wait on each other)")
     ap.add_argument("--scene", default="procedural:train/0", help="scene of the renderer rows")
+    ap.add_argument("--compile", choices=("auto", "on", "off"), default="auto",
+                    help="train.compile and policy.compile in the training and decision rows (auto: on with CUDA, "
+                         "not with --quick; the plain decision is timed beside the compiled one)")
     args = ap.parse_args(argv)
     if args.seconds_per_row is None:
         args.seconds_per_row = 1.0 if args.quick else 15.0
@@ -78,6 +83,7 @@ def make_plan(args, cuda: bool, cpus: int) -> SimpleNamespace:
     q = args.quick
     return SimpleNamespace(
         quick=q, seconds=args.seconds_per_row, cuda=cuda, cpus=cpus, scene=args.scene,
+        compile=args.compile == "on" or (args.compile == "auto" and cuda and not q),
         size=64 if q else 256,
         render_processes=sorted({1, 2, cpus}),
         gen_workers=min(2, cpus) if q else cpus,

@@ -109,10 +109,12 @@ def train_rows(plan) -> list[dict]:
             cfg = load_model_config(name, size)
             with intra_op_threads(plan.train_threads), GpuBusy() as busy:
                 rate, steps = train_bench.steady_train_rate(root, cfg, plan.train_batch, plan.seconds, device,
-                                                            precision, plan.loader_workers, str(Path(tmp) / "cache"))
+                                                            precision, plan.loader_workers, str(Path(tmp) / "cache"),
+                                                            plan.compile)
             w, h = cfg["image_size"]
             rows.append(row(3, f"train_{name}", f"rvn-train {name} ({device})", "samples/s", f"train_{name}", rate,
                             f"model.size={size}, {w}x{h}, batch {plan.train_batch}, train.precision={precision}, "
+                            f"train.compile={str(plan.compile).lower()}, "
                             f"{plan.loader_workers} loader workers, {plan.train_threads or 'all'} torch threads, "
                             f"{steps} steps timed, synthetic GNM data",
                             gpu_busy=busy.share))
@@ -131,12 +133,15 @@ def decision_rows(plan) -> list[dict]:
         if where == "gpu" and not plan.cuda:
             rows.append(row(4, "decision_gpu", label, "ms", "decision_gpu", skipped=NO_CUDA))
             continue
-        with GpuBusy() as busy:
-            ms, _ = train_bench.decision_ms("nomad_pointgoal", size, 5, threads=1, reference=False,
-                                            seconds=plan.seconds, device="cuda" if where == "gpu" else "cpu")
+        with GpuBusy() as busy:  # compiled: the plain path timed alternately beside it
+            ms, plain = train_bench.decision_ms("nomad_pointgoal", size, 5, threads=1, reference=plan.compile,
+                                                seconds=plan.seconds, device="cuda" if where == "gpu" else "cpu",
+                                                compile=plan.compile)
+        compiled = f"policy.compile=true (plain path {plain:.1f} ms, x{plain / ms:.2f})" if plan.compile \
+            else "policy.compile=false"
         rows.append(row(4, f"decision_{where}", label, "ms", f"decision_{where}", ms,
-                        f"model.size={size}, 8 samples x {steps} steps, 256x256 frame -> action, median after warm-up",
-                        gpu_busy=busy.share if where == "gpu" else None))
+                        f"model.size={size}, 8 samples x {steps} steps, 256x256 frame -> action, {compiled}, "
+                        "median after warm-up", gpu_busy=busy.share if where == "gpu" else None))
     return rows
 
 

@@ -30,6 +30,7 @@ from rvn_data.conventions import AgentConfig
 from rvn_il.data import BatchView, EpochSampler, make_dataset
 from rvn_il.data.synthetic import render_frame, write_synthetic_gnm
 from rvn_il.models import build_model, load_model_config
+from rvn_il.models.compiled import compile_for_inference, compile_for_training
 from rvn_il.policies import ControlConfig, Member, NoMaDNegPolicy, PointGoalPolicy
 from rvn_il.policies.depth_veto import DepthVeto, predicted_depth
 
@@ -71,19 +72,24 @@ def train_rate(root: Path, cfg: dict, batch: int, steps: int, channels_last: boo
 
 
 def steady_train_rate(root: Path, cfg: dict, batch: int, seconds: float, device: str = "cpu",
-                      precision: str = "fp32", workers: int = 0, cache_dir: str | None = None) -> tuple[float, int]:
+                      precision: str = "fp32", workers: int = 0, cache_dir: str | None = None,
+                      compile: bool = False) -> tuple[float, int]:
     """(samples/s, steps timed) of rvn-train's step in steady state: its DataLoader (``workers`` processes,
-    pinned memory on a GPU), channels-last model on ``device``, bf16 autocast with ``precision=bf16``,
-    AdamW and, where the model trains one (NoMaD), the EMA; timed for ``seconds`` after a warm-up
+    pinned memory on a GPU, uint8 frames), channels-last model on ``device`` (compiled with ``compile``, as
+    train.compile), bf16 autocast with ``precision=bf16``, AdamW (fused on a GPU) and, where the model trains
+    one (NoMaD), the EMA; no host sync inside a step; timed for ``seconds`` after a warm-up
     (at least 3 steps and a fifth of ``seconds``, until a step takes at most 1.5 x the fastest one
     so far, or ``seconds`` have passed)."""
     from rvn_il.train.ema import EMA
+    from rvn_il.train.optimisation import fused_on
 
     dev = torch.device(device)
     ds = make_dataset(root, cfg, {"progress": False, "cache_dir": cache_dir})
     torch.manual_seed(0)
     model = build_model(cfg).to(dev).use_channels_last().train()
-    opt = torch.optim.AdamW(model.parameters(), lr=1e-4)
+    opt = torch.optim.AdamW(model.parameters(), lr=1e-4, fused=fused_on(dev))
+    if compile:
+        compile_for_training(model)
     ema = EMA(model, float(cfg.get("ema_power", 0.75))) if cfg.get("ema", False) else None
     sampler = BatchSampler(EpochSampler(len(ds)), batch, drop_last=True)
     loader = DataLoader(BatchView(ds), batch_size=None, sampler=sampler, num_workers=workers,
@@ -120,16 +126,21 @@ def steady_train_rate(root: Path, cfg: dict, batch: int, seconds: float, device:
 
 def decision_ms(name: str, size: str, decisions: int, threads: int | None = 1,
                 sampler: str = "ddpm", device: str = "cpu", reference: bool = True,
-                seconds: float | None = None) -> tuple[float, float | None]:
+                seconds: float | None = None, compile: bool = False) -> tuple[float, float | None]:
     """Median ms per ``act`` of the policy on ``device`` and, for NoMaD models with ``reference``, of
     the same policy on the reference sampling path (same weights and frames, the two timed
-    alternately); NoMaD samples with ``sampler`` (policy.sampler). After 3 warm-up decisions,
-    ``decisions`` are timed, or with ``seconds`` as many as fit in that time (at least ``decisions``)."""
+    alternately); NoMaD samples with ``sampler`` (policy.sampler). With ``compile`` the first policy
+    is compiled (policy.compile; its first decisions, which compile, are warm-up) and the second, with
+    ``reference``, is the plain fast path, for any model. After 3 warm-up decisions, ``decisions`` are
+    timed, or with ``seconds`` as many as fit in that time (at least ``decisions``)."""
     cfg = load_model_config("nomad_pointgoal" if name == "nomad_neg" else name, size)
     ctrl = ControlConfig.from_agent(AgentConfig())
-    paths = (True, False) if name != "vint_pointgoal" and reference else (True,)
+    if compile:
+        paths = ((True, True), (True, False)) if reference else ((True, True),)
+    else:
+        paths = ((True, False), (False, False)) if name != "vint_pointgoal" and reference else ((True, False),)
     policies = []
-    for fast in paths:
+    for fast, compiled in paths:
         torch.manual_seed(0)
         members = [Member(build_model(cfg).eval().to(device), 0.25) for _ in range(2 if name == "nomad_neg" else 1)]
         for m in members:
@@ -138,6 +149,8 @@ def decision_ms(name: str, size: str, decisions: int, threads: int | None = 1,
             m.model.fast_sampling = fast
             if name != "vint_pointgoal":
                 m.model.sampler = sampler
+            if compiled:
+                compile_for_inference(m.model, device)
         policies.append(NoMaDNegPolicy(members, ctrl, 8, device=device, threads=threads) if name == "nomad_neg"
                         else PointGoalPolicy(members, ctrl, 1 if name == "vint_pointgoal" else 8, device=device,
                                              threads=threads))
@@ -205,6 +218,9 @@ def main() -> None:
     ap.add_argument("--latency-only", action="store_true", help="only the per-decision latency figures")
     ap.add_argument("--sampler", choices=("ddpm", "ddim"), default="ddpm",
                     help="NoMaD's reverse process (policy.sampler)")
+    ap.add_argument("--compile", action="store_true",
+                    help="also time policy.compile=true decisions beside the plain path (each model compiles first: "
+                         "about a minute per network on one core)")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
     reps = 3 if args.quick else 10
@@ -221,6 +237,10 @@ def main() -> None:
             ms, ref = decision_ms(name, size, reps * 2, policy_threads, args.sampler)
             old = f"; reference path {ref:7.1f} ms, x{ref / ms:.2f}" if ref is not None else ""
             print(f"  {name:16s} {size:5s} {what:26s}: {ms:7.1f} ms{goals.get((name, size), '')}{old}")
+            if args.compile and name != "nomad_neg":  # NoMaD-Neg: two NoMaD-PointGoal networks, twice the time
+                compiled, plain = decision_ms(name, size, reps * 2, policy_threads, args.sampler, compile=True)
+                print(f"  {name:16s} {size:5s} {'  policy.compile=true':26s}: {compiled:7.1f} ms; plain path "
+                      f"{plain:7.1f} ms, x{plain / compiled:.2f}")
     for size in ("full", "small"):  # what policy.depth_veto adds to a forward decision (rule swept; band is cheaper)
         print(f"  {'nomad_pointgoal':16s} {size:5s} {'+ depth veto check (swept)':26s}: "
               f"{veto_check_ms(size, DepthVeto(0.5, 'swept', 90.0)):7.3f} ms per MOVE_FORWARD")

@@ -13,7 +13,8 @@ Resolution, first that applies:
 Input datasets, the package and the home folder are never written to. Inside the root every
 cache has its own folder (``packed/``, ``episodes/``, ``clips/``), and below that a key
 (`settings_key`) of whatever its content depends on, so runs with different settings never
-share, or fight over, a file.
+share, or fight over, a file. torch.compile's kernels (``policy.compile``, ``train.compile``) go
+to ``<root>/compiled`` (`keep_compiled_kernels`), unless ``TORCHINDUCTOR_CACHE_DIR`` is set.
 """
 from __future__ import annotations
 
@@ -21,6 +22,7 @@ import hashlib
 import json
 import logging
 import os
+import sys
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -47,6 +49,29 @@ def cache_root(setting: str | os.PathLike | None = None, out_dir: str | os.PathL
         log.warning("no cache folder given: caching in %s (set %s or pass cache_dir= to keep caches elsewhere)",
                     tmp, ENV)
     return tmp
+
+
+KERNELS_ENV = "TORCHINDUCTOR_CACHE_DIR"  # torch.compile's kernel cache (Triton's lies inside it)
+
+
+def kernels_placed() -> bool:
+    """Whether ``TORCHINDUCTOR_CACHE_DIR`` names a folder already: the user's, or one a command set. Torch's
+    own default (a temporary folder it writes into the variable once imported) does not count."""
+    current = os.environ.get(KERNELS_ENV)
+    if not current:
+        return False
+    if "torch" not in sys.modules:
+        return True
+    from torch._inductor.runtime.cache_dir_utils import default_cache_dir
+
+    return os.path.abspath(current) != os.path.abspath(default_cache_dir())
+
+
+def keep_compiled_kernels(root: str | os.PathLike) -> None:
+    """torch.compile's kernels (``policy.compile``, ``train.compile``) under ``<root>/compiled`` for this
+    process and the workers it starts, unless `kernels_placed` (then they go where they were put)."""
+    if not kernels_placed():
+        os.environ[KERNELS_ENV] = str(Path(root).expanduser().absolute() / "compiled")
 
 
 def settings_key(settings: Any, length: int = 12) -> str:

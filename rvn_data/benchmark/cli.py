@@ -25,6 +25,7 @@ from rvn_data.benchmark.policy_registry import registered_name, unregistered_not
 from rvn_data.benchmark.results import RunDir, record_key, run_identity
 from rvn_data.benchmark.runner import EvalJob, make_policy, prepare_episodes, run_episodes
 from rvn_data.benchmark.table import render_table
+from rvn_data.cache_root import cache_root, keep_compiled_kernels
 from rvn_data.config import CONF_DIR, register_configs, typed
 from rvn_data.config_schemas import EvalConfig
 from rvn_data.embodiment import check_embodiment, describe, embodiment_of
@@ -48,6 +49,7 @@ def evaluate(config: EvalConfig, choice: str = "policy", on_checked=None) -> dic
         slots = env_cfg.scene_slots("episodes.first_scene")
         keys = [(slots[pos][1], e) for pos, e in eval_schedule(slots, env_cfg.per_scene)]
         job = EvalJob(env_cfg, config.policy, config.method, config.seed)
+        keep_compiled_kernels(cache_root(config.cache_dir, config.out_dir))  # a policy's torch.compile, if it has one
         policy = make_policy(job.policy, None, job.name)  # a checkpoint that does not load fails here
         diffs = check_embodiment(getattr(policy, "embodiment", None), embodiment_of(env_cfg.agent, env_cfg.camera),
                                  _policy_what(config), config.embodiment_mismatch)

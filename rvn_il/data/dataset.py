@@ -18,6 +18,8 @@ With ``pad_context=True`` (``data.pad_context``; a departure from GNM, off by de
 and context frames before the trajectory's first repeat frame 0, as the policy fills its context after
 ``reset()``: GNM never trains the first ``context_size`` decisions of a trajectory, which are an
 episode's first decisions at deployment (where the expert mostly turns in place to face its path).
+``obs_image`` is uint8 (0-255, a quarter of float32's bytes through the loader's workers, pinned memory
+and the copy to a GPU); the model scales it to [0, 1] (:meth:`PointGoalModel.encode_frames`).
 When the cache holds depth maps (``model.depth_aux_weight`` > 0) an item also has ``depth``
 float32 [S,S], the current frame's (metres, 0 where nothing was hit).
 Each item's randomness comes from ``default_rng([seed, index])``; indices past ``len(self)``
@@ -128,11 +130,11 @@ class GNMDataset(Dataset):
         actions = self.waypoints(n)
         pos, yaw = self.cache.position, self.cache.yaw[g]
         goal = to_local(pos[g + ks * self.stride][:, None], pos[g][:, None], yaw[:, None])[:, 0] / self.spacing
-        images = torch.empty(obs.shape, dtype=torch.float32)
+        images = torch.empty(obs.shape, dtype=torch.uint8)  # 0-255: the model scales them on its device
         if get_worker_info() is not None:  # built in shared memory: the main process maps it, no copy
             images.share_memory_()
         out = {
-            "obs_image": images.copy_(obs).div_(255.0),
+            "obs_image": images.copy_(obs),
             "goal_pos": torch.from_numpy(goal.astype(np.float32)),
             "actions": torch.from_numpy(actions.astype(np.float32)),
             "distance": torch.from_numpy(ks),

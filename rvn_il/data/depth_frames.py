@@ -11,7 +11,7 @@ depth loss, with the same weight, to the step's loss. Nothing else learns from t
 imitates the expert alone.
 
 Batches (the keys a model's ``forward`` reads, beside the sample dict):
-``depth_image`` float32 [B, 3, H, W] in [0, 1] and ``depth_target`` float32 [B, S, S] (metres, 0 where
+``depth_image`` uint8 [B, 3, H, W] (0-255, scaled by the model) and ``depth_target`` float32 [B, S, S] (metres, 0 where
 nothing was hit). Order and resume come from :class:`~rvn_il.data.dataset.EpochSampler` with its own
 seed, so a resumed run draws the same frames as an uninterrupted one.
 """
@@ -45,7 +45,7 @@ class DepthFrames(Dataset):
     def __getitem__(self, indices) -> dict[str, torch.Tensor]:
         g = np.asarray(indices, dtype=np.int64).reshape(-1) % self.n
         frames = self.cache.read_frames(g)
-        return {"depth_image": torch.from_numpy(np.ascontiguousarray(frames)).float().div_(255.0),
+        return {"depth_image": torch.from_numpy(np.ascontiguousarray(frames)),  # uint8: scaled by the model
                 "depth_target": torch.from_numpy(self.cache.read_depth(g).astype(np.float32))}
 
 

@@ -119,6 +119,7 @@ class NoMaDPointGoal(PointGoalModel):
         return self.scheduler.get_velocity(naction, noise, t)
 
     fast_sampling = True  # predict's default path; False: module forward + diffusers' scheduler.step
+    denoise_step = None  # the fast path's compiled forward_packed (policy.compile: rvn_il.models.compiled)
     sampler = "ddpm"  # the reverse process of predict (module docstring); set by the policy loader
 
     @torch.inference_mode()
@@ -156,8 +157,9 @@ class NoMaDPointGoal(PointGoalModel):
         else:
             packed = net.packed_weights()
             biases = net.packed_film_biases(torch.tensor([s.t for s in plan]), cond, packed)
+            denoise = self.denoise_step or net.forward_packed
             for step, step_biases in zip(plan, biases):
-                x = step.update(net.forward_packed(x, step_biases, packed), x, generator)
+                x = step.update(denoise(x, step_biases, packed), x, generator)
         return self.unnormalize_actions(x).view(b, num_samples, self.len_traj_pred, 2)
 
     def _plan(self) -> list[DDPMStep] | list[DDIMStep] | None:

@@ -12,6 +12,11 @@ on CPU, default 1, null: torch's setting; see :mod:`.policy`) or an agent settin
 the first checkpoint's in ``aggregate=vote`` (every member draws ``num_samples``; ties go to the
 earliest sample, the first checkpoint's first). Control and agent settings are the first checkpoint's.
 
+``compile``: true runs each network's frame encoder and NoMaD's denoising step through torch.compile
+(on CUDA as CUDA graphs; :mod:`rvn_il.models.compiled`): same noise, same actions up to float
+rounding, a faster decision after a first one that compiles (about a minute per network on a CPU
+core; kernels cached under the cache root).
+
 ``sampler``: NoMaD's reverse process, ``ddpm`` (default, the paper's) or ``ddim`` (η = 0), for every
 network of the policy (:mod:`rvn_il.models.nomad`); ViNT has none, so anything but ddpm is an error.
 
@@ -37,6 +42,7 @@ from ..data.images import crop_setting
 from ..models import build_model, resolve_size
 from ..models.checkpoint import (latest_checkpoint, load_state_dict_checked, members_of, read_config, read_stats,
                                  read_weights)
+from ..models.compiled import check_compile, compile_for_inference
 from ..models.nomad import check_sampler
 from .control import ControlConfig
 from .depth_veto import check_depth_veto
@@ -44,7 +50,7 @@ from .escape import Escape
 from .policy import Member, NoMaDNegPolicy, PointGoalPolicy
 
 POLICY_KEYS = {"lookahead_min_dist", "waypoint_index", "num_samples", "aggregate", "stop_radius", "selection", "cor_alpha",
-               "seed", "threads", "ensemble", "sampler", "depth_veto", "depth_veto_rule", "depth_veto_hfov",
+               "seed", "threads", "ensemble", "sampler", "compile", "depth_veto", "depth_veto_rule", "depth_veto_hfov",
                "escape_after", "escape_steps", "escape_clearance"}
 AGENT_KEYS = set(EMBODIMENT_AGENT_KEYS)  # policy.* settings that change the robot's control
 
@@ -140,6 +146,7 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
     agent = AgentConfig(**{**(cfg.get("agent") or {}), **{k: v for k, v in overrides.items() if k in AGENT_KEYS}})
     control = ControlConfig.from_agent(agent, pol.get("stop_radius"), pol.get("lookahead_min_dist"), pol.get("waypoint_index"))
     dev = resolve_device(device, "policy.device")
+    compiled = check_compile(pol.get("compile", False), "policy.compile")
     members = [load_member(out_dir, m, model_cfg, dev) for m in members_of(name)]
     hfov = pol.get("depth_veto_hfov")
     veto = check_depth_veto(pol.get("depth_veto"), members[0].model.depth_head is not None, pol.get("depth_veto_rule", "band"),
@@ -157,6 +164,7 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
         if pol.get("aggregate", "first") != "first":
             raise ValueError(f"policy aggregate={pol['aggregate']!r}: NoMaD-Neg chooses its sample by CoR (policy.selection)")
         set_sampler(members, pol.get("sampler"), name)
+        compile_members(members, compiled, dev)
         policy = NoMaDNegPolicy(members, control, selection=pol.get("selection", "argmax"),
                                 cor_alpha=float(pol.get("cor_alpha", 1.0)), **common)
         policy.embodiment = trained_embodiment(cfg, members[0])
@@ -167,6 +175,7 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
                          "into one vote")
     members += [load_ensemble_member(d, name, dev) for d in extra]
     set_sampler(members, pol.get("sampler"), name)
+    compile_members(members, compiled, dev)
     policy = PointGoalPolicy(members, control, aggregate=aggregate, **common)
     policy.embodiment = trained_embodiment(cfg, members[0])
     return policy
@@ -202,6 +211,13 @@ def set_sampler(members: list[Member], sampler: Any, name: str) -> None:
     sampler = check_sampler(sampler)
     for m in members:
         m.model.sampler = sampler
+
+
+def compile_members(members: list[Member], compiled: bool, device: torch.device) -> None:
+    """``policy.compile``: every member's network compiled for decisions (:mod:`rvn_il.models.compiled`)."""
+    if compiled:
+        for m in members:
+            compile_for_inference(m.model, device)
 
 
 def ensemble_dirs(value: Any) -> list[Path]:

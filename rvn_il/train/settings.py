@@ -97,6 +97,9 @@ class TrainLoopConfig:
     expert_from: str | None = None
     tqdm_interval: float = 1.0  # s between progress bar refreshes
     precision: str = "fp32"  # fp32 | bf16: mixed precision with torch.autocast (GPUs with bf16; CPUs run it too)
+    # torch.compile of the encoder, Transformer and decoder (rvn_il/models/compiled.py): same losses to float
+    # rounding, faster steps after a first one that compiles (minutes on a CPU; kernels cached under the cache root)
+    compile: bool = False
     val_every: int = 1000  # steps between validations (and at the last step), when data.val_root is set
     val_batches: int = 8  # held-out loss on val_batches x batch_size fixed samples
     val_trajectories: int = 20  # expert trajectories replayed for the open-loop agreement

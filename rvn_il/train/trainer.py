@@ -1,5 +1,5 @@
-"""Training loop of rvn-train: AdamW, linear warm-up + cosine schedule (per step), EMA for
-NoMaD, TensorBoard scalars, tqdm, atomic checkpoints with exact resume, DDP under torchrun.
+"""Training loop of rvn-train (AdamW, warm-up + cosine schedule and EMA: `.optimisation`): TensorBoard
+scalars, tqdm, atomic checkpoints with exact resume, DDP under torchrun.
 
 Randomness: model init from ``[seed, member]``; data order and per-item draws from
 :class:`EpochSampler`/``GNMDataset`` (``[seed, epoch]``, ``[seed, index]``); diffusion noise,
@@ -9,31 +9,27 @@ depends on process history, so a resumed run continues exactly as an uninterrupt
 from __future__ import annotations
 
 import logging
-import math
 import os
 from pathlib import Path
-from dataclasses import dataclass
 from typing import Any, Callable, Iterator, Mapping
 
 import numpy as np
 import torch
 import torch.distributed as dist
 from torch.utils.data import BatchSampler, DataLoader
-from safetensors.torch import load_file
 from tqdm import tqdm
 
 from ..data import (BatchView, EpochSampler, MixtureDataset, crop_setting, depth_seed, entry_settings, make_depth_frames,
                     make_training_data, recorded_hfov)
 from ..data.report import dataset_report
 from ..data.sources import ignored_official_keys
-from rvn_data.cache_root import cache_root
+from rvn_data.cache_root import cache_root, keep_compiled_kernels
 from rvn_data.provenance import provenance_record
-from ..models import build_model, resolve_size
-from ..models.checkpoint import (latest_checkpoint, load_state_dict_checked, read_config, read_weights, save_checkpoint,
-                                 write_config)
+from ..models import resolve_size
+from ..models.checkpoint import read_config, save_checkpoint, write_config
 from ..models.encoders import IMAGENET_MEAN, IMAGENET_STD
 from .adopt import adopt_expert
-from .ema import EMA
+from .optimisation import Optimisation, optimisation, resume
 from .preflight import data_roots, member_entries, preflight
 from .settings import complete_config
 from .validate import Validator
@@ -43,16 +39,6 @@ log = logging.getLogger(__name__)
 
 def derive_seed(*ints: int) -> int:
     return int(np.random.SeedSequence([int(i) for i in ints]).generate_state(1, np.uint64)[0] >> 1)
-
-
-def lr_lambda(warmup: int, max_steps: int):
-    """Linear warm-up over ``warmup`` steps, then cosine decay to 0 at ``max_steps``."""
-    def f(step: int) -> float:
-        if step < warmup:
-            return (step + 1) / warmup
-        progress = (step - warmup) / max(1, max_steps - warmup)
-        return 0.5 * (1.0 + math.cos(math.pi * min(1.0, progress)))
-    return f
 
 
 def _dist_info() -> tuple[int, int, int]:
@@ -113,19 +99,6 @@ def run_training(cfg: Mapping[str, Any], on_checked: Callable[[dict], None] | No
     return out_dir
 
 
-@dataclass
-class Optimisation:
-    """A member's network and its optimiser state (`optimisation`, `resume`)."""
-
-    model: torch.nn.Module
-    opt: torch.optim.Optimizer
-    sched: torch.optim.lr_scheduler.LambdaLR
-    ema: EMA | None
-    batch_size: int
-    max_steps: int
-    step: int = 0
-
-
 def train_member(cfg: Mapping, member: str, index: int, entries: list[dict], out_dir: Path, device: torch.device,
                  rank: int, world: int) -> None:
     """Train (or, for NoMaD_e with train.expert_from, adopt) one member from its datasets ``entries``."""
@@ -141,6 +114,8 @@ def train_member(cfg: Mapping, member: str, index: int, entries: list[dict], out
         return
     data_cfg["progress"] = rank == 0
     data_cfg["cache_dir"] = str(data_cfg["cache_dir"] or cache_root(cfg["cache_dir"], out_dir) / "packed")
+    if tcfg["compile"]:
+        keep_compiled_kernels(cache_root(cfg["cache_dir"], out_dir))
     root = entries[0]["root"]  # the first dataset is the deployment robot's (its spacing, hfov, embodiment)
     dataset = built_by_rank_0(lambda build: make_training_data(entries, model_cfg, data_cfg, seed, build=build), rank, world)
     report = dataset_report(dataset, entries) if rank == 0 else None
@@ -180,42 +155,6 @@ def train_member(cfg: Mapping, member: str, index: int, entries: list[dict], out
                (seed, index, rank, world), device)
 
 
-def optimisation(model_cfg: Mapping, tcfg: Mapping, dataset, world: int, device: torch.device) -> Optimisation:
-    """The member's network (NoMaD's action_stats from its data), AdamW, the warm-up + cosine schedule, EMA."""
-    model = build_model(model_cfg).to(device).use_channels_last()
-    if model_cfg.get("action_stats") == "auto":  # NoMaD: delta range of this member's data
-        lo, hi = dataset.delta_range()
-        model.action_min.copy_(torch.from_numpy(lo).float())
-        model.action_max.copy_(torch.from_numpy(hi).float())
-    bs = int(tcfg["batch_size"] or model_cfg["batch_size"])
-    lr = float(tcfg["lr"] or model_cfg["lr"])
-    use_ema = model_cfg.get("ema", False) if tcfg["ema"] is None else bool(tcfg["ema"])
-    steps_per_epoch = max(1, len(dataset) // (bs * world))
-    max_steps = int(tcfg["max_steps"] if tcfg["max_steps"] is not None else int(tcfg["epochs"]) * steps_per_epoch)
-    warmup = int(tcfg["warmup_steps"] or round(float(tcfg["warmup_frac"]) * max_steps))
-    for key, value in (("train.batch_size", bs), ("train.max_steps", max_steps), ("train.lr", lr)):
-        if not value > 0:
-            raise ValueError(f"{key}={value} must be positive")
-    opt = torch.optim.AdamW(model.parameters(), lr=lr, weight_decay=float(tcfg["weight_decay"]))
-    sched = torch.optim.lr_scheduler.LambdaLR(opt, lr_lambda(max(1, warmup), max_steps))
-    ema = EMA(model, float(model_cfg.get("ema_power", 0.75))) if use_ema else None
-    return Optimisation(model, opt, sched, ema, bs, max_steps)
-
-
-def resume(run: Optimisation, member_dir: Path, model_cfg: Mapping, device: torch.device) -> None:
-    """Continue from the member's latest checkpoint, if any: weights, optimiser, schedule, EMA, step."""
-    ckpt = latest_checkpoint(member_dir)
-    if ckpt is None:
-        return
-    load_state_dict_checked(run.model, read_weights(ckpt, model_cfg["name"], prefer_ema=False), ckpt)
-    state = torch.load(ckpt / "state.pt", map_location=device, weights_only=False)
-    run.opt.load_state_dict(state["optimizer"])
-    run.sched.load_state_dict(state["scheduler"])
-    if run.ema is not None and state.get("ema"):
-        run.ema.load_state_dict(state["ema"], load_file(str(ckpt / "ema.safetensors"), device=str(device)))
-    run.step = int(state["step"])
-
-
 def training_batches(dataset, depth_frames, data_cfg: Mapping, seed: int, rank: int, world: int, step: int, bs: int,
                      device: torch.device) -> Iterator[dict]:
     """The batches from ``step`` on (sample order from the seed and the position alone), with the depth head's
@@ -238,6 +177,15 @@ def training_batches(dataset, depth_frames, data_cfg: Mapping, seed: int, rank: 
         yield batch
 
 
+def check_finite(pending: list[tuple[int, torch.Tensor]], label: str) -> None:
+    """A ValueError naming the first step of ``pending`` whose loss is not finite (one host sync for all); empties it."""
+    finite = torch.isfinite(torch.stack([loss for _, loss in pending])).tolist()
+    steps = [s for s, _ in pending]
+    pending.clear()
+    if not all(finite):
+        raise ValueError(f"non-finite loss at step {steps[finite.index(False)]} of {label}; lower train.lr or check the data")
+
+
 def train_loop(run: Optimisation, batches: Iterator[dict], stats: dict, validator, tcfg: Mapping, label: str,
                member_dir: Path, ids: tuple[int, int, int, int], device: torch.device) -> None:
     """Optimise until ``run.max_steps``: per-step seeds from ``[seed, index, rank, step]``, TensorBoard scalars,
@@ -255,6 +203,7 @@ def train_loop(run: Optimisation, batches: Iterator[dict], stats: dict, validato
     gen = torch.Generator(device=device)
     log_every, ckpt_every = int(tcfg["log_every"]), int(tcfg["ckpt_every"])
     net.train()
+    pending: list[tuple[int, torch.Tensor]] = []  # (step, loss) checked together: no host sync every step
     bar = tqdm(total=max_steps, initial=step, desc=label, disable=rank != 0, mininterval=float(tcfg["tqdm_interval"]))
     try:
         for batch in batches:
@@ -263,8 +212,7 @@ def train_loop(run: Optimisation, batches: Iterator[dict], stats: dict, validato
             torch.manual_seed(derive_seed(seed, index, rank, step, 1))
             with torch.autocast(device.type, dtype=torch.bfloat16, enabled=bf16):
                 losses = net(batch, gen)
-            if not torch.isfinite(losses["loss"]):
-                raise ValueError(f"non-finite loss at step {step} of {label}; lower train.lr or check the data")
+            pending.append((step, losses["loss"].detach()))
             run.opt.zero_grad(set_to_none=True)
             losses["loss"].backward()
             if tcfg["grad_clip"]:
@@ -275,6 +223,8 @@ def train_loop(run: Optimisation, batches: Iterator[dict], stats: dict, validato
             if run.ema is not None:
                 run.ema.update(model)
             bar.update(1)
+            if step % log_every == 0 or step % val_every == 0 or step % ckpt_every == 0 or step >= max_steps:
+                check_finite(pending, label)  # before anything is logged, validated or saved
             if writer is not None and (step % log_every == 0 or step == max_steps):
                 for k, v in losses.items():
                     writer.add_scalar(f"train/{k}", float(v.detach()), step)

@@ -1,0 +1,72 @@
+"""train.compile and policy.compile (issue 32, rvn_il/models/compiled.py): through rvn-train's CLI and
+load_policy, the compiled paths give the plain paths' losses, checkpoints and actions."""
+from __future__ import annotations
+
+import glob
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import torch
+from safetensors.torch import load_file
+
+from rvn_il.data.synthetic import render_frame, write_synthetic_gnm
+from rvn_il.policies import load_policy
+
+pytestmark = pytest.mark.slow  # torch.compile builds its kernels: about two minutes on one core
+
+ENV = {**os.environ, "OMP_NUM_THREADS": "1"}
+
+
+def losses(out_dir) -> dict[str, list[float]]:
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    acc = EventAccumulator(glob.glob(f"{out_dir}/tb/model")[0])
+    acc.Reload()
+    return {tag: [e.value for e in acc.Scalars(tag)] for tag in acc.Tags()["scalars"] if tag.endswith("loss")}
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    """NoMaD-PointGoal (small, 3 steps) trained by rvn-train plainly and with train.compile=true."""
+    base = tmp_path_factory.mktemp("compiled")
+    write_synthetic_gnm(base / "expert", 3, 24, image_size=64, seed=0)
+    common = ["model=nomad_pointgoal", f"data.root={base / 'expert'}", "model.size=small", "train.max_steps=3",
+              "train.batch_size=4", "train.log_every=1", "data.num_workers=0", f"cache_dir={base / 'cache'}"]
+    for name, extra in (("plain", []), ("compiled", ["train.compile=true"])):
+        r = subprocess.run([sys.executable, "-m", "rvn_il.train.cli", f"out_dir={base / name}", *common, *extra],
+                           capture_output=True, text=True, env=ENV, timeout=900)
+        assert r.returncode == 0, r.stderr[-3000:]
+    return base
+
+
+def test_compiled_training_gives_the_plain_losses_and_checkpoint(runs):
+    plain, compiled = losses(runs / "plain"), losses(runs / "compiled")
+    assert set(plain) == set(compiled) and "train/diffusion_loss" in plain
+    for tag, values in plain.items():  # same draws (dropout, drop-connect, noise): float rounding apart
+        np.testing.assert_allclose(compiled[tag], values, rtol=1e-4, atol=1e-6, err_msg=tag)
+    a = load_file(str(runs / "plain" / "model" / "ckpt_00000003" / "weights.safetensors"))
+    b = load_file(str(runs / "compiled" / "model" / "ckpt_00000003" / "weights.safetensors"))
+    assert a.keys() == b.keys()  # compiled in place: the plain model's names, loadable by every tool
+    for k in a:
+        torch.testing.assert_close(b[k], a[k], rtol=0, atol=2e-3, msg=k)
+    assert list((runs / "cache" / "compiled").iterdir()), "compiled kernels belong under the cache root"
+
+
+def test_compiled_policy_acts_as_the_plain_one(runs, tmp_path, monkeypatch):
+    monkeypatch.setenv("TORCHINDUCTOR_CACHE_DIR", str(tmp_path / "kernels"))
+    plain = load_policy(runs / "plain")
+    compiled = load_policy(runs / "plain", compile=True)
+    assert compiled.members[0].model.denoise_step is not None and plain.members[0].model.denoise_step is None
+    for p in (plain, compiled):
+        p.reset()
+    for t in range(12):
+        obs = {"rgb": render_frame(np.array([0.2 * t, 0.05 * t]), 0.1 * t, 64),
+               "pointgoal": np.array([3.0 - 0.2 * t, 1.0 - 0.1 * t], np.float32)}
+        assert compiled.act(obs) == plain.act(obs), f"decision {t}"
+        np.testing.assert_allclose(compiled.last_waypoints, plain.last_waypoints, atol=1e-4)
+    assert list((tmp_path / "kernels").iterdir())
+    with pytest.raises(ValueError, match=r"policy.compile='yes': give true or false"):
+        load_policy(runs / "plain", compile="yes")
