@@ -108,7 +108,7 @@ def train_rows(plan) -> list[dict]:
         for name in ("nomad_pointgoal", "vint_pointgoal"):
             cfg = load_model_config(name, size)
             with intra_op_threads(plan.train_threads), GpuBusy() as busy:
-                rate, steps = train_bench.steady_train_rate(root, cfg, plan.train_batch, plan.seconds, device,
+                rate, steps, waiting = train_bench.steady_train_rate(root, cfg, plan.train_batch, plan.seconds, device,
                                                             precision, plan.loader_workers, str(Path(tmp) / "cache"),
                                                             plan.compile)
             w, h = cfg["image_size"]
@@ -116,7 +116,8 @@ def train_rows(plan) -> list[dict]:
                             f"model.size={size}, {w}x{h}, batch {plan.train_batch}, train.precision={precision}, "
                             f"train.compile={str(plan.compile).lower()}, "
                             f"{plan.loader_workers} loader workers, {plan.train_threads or 'all'} torch threads, "
-                            f"{steps} steps timed, synthetic GNM data",
+                            f"{steps} steps timed, waiting for the loader {100 * waiting:.0f}% of the time, "
+                            "synthetic GNM data",
                             gpu_busy=busy.share))
     return rows
 
@@ -157,29 +158,34 @@ def rl_rows(plan) -> list[dict]:
     args = SimpleNamespace(size=plan.rl_size, envs=envs, workers=workers, scenes=plan.rl_scenes, base_planes=32,
                            num_steps=plan.rl_num_steps, threads=plan.rl_threads, renderer="auto", updates=2,
                            goal_pool=64, ppo_epoch=4, mini_batches=min(4, envs))
-    counted = []  # (env steps, seconds) of the updates that count
+    counted = []  # (env steps, seconds, update's metrics) of the updates that count
     with tempfile.TemporaryDirectory() as tmp, GpuBusy() as busy:
         out = f"{tmp}/run"
         train(compose(rl_bench.overrides(args, out)))
         counted += [_steps_seconds(r, envs) for r in _metrics(out)[1:]]
-        left = plan.seconds - sum(s for _, s in counted)
+        left = plan.seconds - sum(s for _, s, _ in counted)
         if left > 0 and not plan.quick:
             args.updates += 1 + math.ceil(left / (counted[-1][1] or 1e-3))
             seen = len(_metrics(out))
             train(compose(rl_bench.overrides(args, out)))
             counted += [_steps_seconds(r, envs) for r in _metrics(out)[seen + 1:]]
-    steps, seconds = sum(n for n, _ in counted), sum(s for _, s in counted)
+    steps, seconds = sum(n for n, _, _ in counted), sum(s for _, s, _ in counted)
+
+    def share(key: str) -> float:  # time-weighted share of the counted updates' time
+        return sum(s * r.get(key, float("nan")) for _, s, r in counted) / seconds
     return [row(5, "rl", f"rvn-rl PPO collection + learning ({'cuda' if plan.cuda else 'cpu'})", "env steps/s", "rl",
                 steps / seconds, f"{plan.rl_size}² RGB, resnet18 (base planes 32), scale=small PPO (rollouts of "
                 f"{plan.rl_num_steps} x {envs} envs, 4 epochs x {args.mini_batches} mini-batches), "
                 f"{workers} env worker processes, "
-                f"{len(counted)} updates timed ({seconds:.1f} s)", gpu_busy=busy.share)]
+                f"{len(counted)} updates timed ({seconds:.1f} s); time: envs stepping {100 * share('time_envs'):.0f}%, "
+                f"policy and storage {100 * (1 - share('time_envs') - share('time_learn')):.0f}%, "
+                f"PPO update {100 * share('time_learn'):.0f}%", gpu_busy=busy.share)]
 
 
-def _steps_seconds(update: dict, envs: int) -> tuple[float, float]:
-    """Env steps and seconds of one update of rvn-rl's metrics.jsonl."""
+def _steps_seconds(update: dict, envs: int) -> tuple[float, float, dict]:
+    """Env steps and seconds of one update of rvn-rl's metrics.jsonl, and the update's row."""
     steps = update["rollout_steps"] * envs
-    return steps, steps / update["fps"]
+    return steps, steps / update["fps"], update
 
 
 def _metrics(out: str) -> list[dict]:

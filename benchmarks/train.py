@@ -73,8 +73,9 @@ def train_rate(root: Path, cfg: dict, batch: int, steps: int, channels_last: boo
 
 def steady_train_rate(root: Path, cfg: dict, batch: int, seconds: float, device: str = "cpu",
                       precision: str = "fp32", workers: int = 0, cache_dir: str | None = None,
-                      compile: bool = False) -> tuple[float, int]:
-    """(samples/s, steps timed) of rvn-train's step in steady state: its DataLoader (``workers`` processes,
+                      compile: bool = False) -> tuple[float, int, float]:
+    """(samples/s, steps timed, share of the timed wall time spent waiting for the loader's next batch) of
+    rvn-train's step in steady state: its DataLoader (``workers`` processes,
     pinned memory on a GPU, uint8 frames), channels-last model on ``device`` (compiled with ``compile``, as
     train.compile), bf16 autocast with ``precision=bf16``, AdamW (fused on a GPU) and, where the model trains
     one (NoMaD), the EMA; no host sync inside a step; timed for ``seconds`` after a warm-up
@@ -97,9 +98,14 @@ def steady_train_rate(root: Path, cfg: dict, batch: int, seconds: float, device:
                         prefetch_factor=4 if workers else None)
     gen = torch.Generator(device=dev).manual_seed(0)
     sync = torch.cuda.synchronize if dev.type == "cuda" else (lambda: None)
-    steps, t_start, t_step, fastest = 0, None, time.perf_counter(), float("inf")
+    steps, t_start, t_step, fastest, waited = 0, None, time.perf_counter(), float("inf"), 0.0
     warm_until, warm_limit = t_step + seconds / 5, t_step + seconds
-    for b in loader:
+    batches = iter(loader)
+    while True:
+        t_wait = time.perf_counter()
+        b = next(batches)
+        if t_start is not None:
+            waited += time.perf_counter() - t_wait
         b = {k: v.to(dev, non_blocking=True) for k, v in b.items()}
         with torch.autocast(dev.type, dtype=torch.bfloat16, enabled=precision == "bf16"):
             loss = model(b, gen)["loss"]
@@ -119,9 +125,9 @@ def steady_train_rate(root: Path, cfg: dict, batch: int, seconds: float, device:
         elif time.perf_counter() - t_start >= seconds:
             sync()
             break
-    rate = steps * batch / (time.perf_counter() - t_start)
-    del loader
-    return rate, steps
+    wall = time.perf_counter() - t_start
+    del batches, loader
+    return steps * batch / wall, steps, waited / wall
 
 
 def decision_ms(name: str, size: str, decisions: int, threads: int | None = 1,

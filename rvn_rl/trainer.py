@@ -149,13 +149,16 @@ def _loop(run: Run, envs, log: RunLog, cfg: RLConfig, d: Dist, device, out_dir: 
     while run.env_steps < total:
         t0 = time.perf_counter()
         policy.eval()
-        episodes = []
+        episodes, t_env = [], 0.0
         for step in range(ppo.num_steps):
             o, prev, masks = rollouts.current()
             with torch.no_grad():
                 action, logp, values, state = policy.act(to_device(o, device), state, prev.to(device),
                                                          masks.to(device), generator=None)
-            obs, reward, cost, done, infos = envs.step(action.cpu().numpy())
+            actions = action.cpu().numpy()
+            t_step = time.perf_counter()
+            obs, reward, cost, done, infos = envs.step(actions)
+            t_env += time.perf_counter() - t_step
             rewards = np.stack([reward, cost], -1) if heads == 2 else reward[:, None]
             rollouts.insert(obs, action.cpu(), logp.cpu(), values.cpu(), rewards, done)
             episodes += [info["episode"] for info in infos if "episode" in info]
@@ -179,7 +182,9 @@ def _loop(run: Run, envs, log: RunLog, cfg: RLConfig, d: Dist, device, out_dir: 
         rollouts.after_update(state.cpu())
         run.env_steps += delta
         run.updates += 1
-        scalars = {"fps": delta / (time.perf_counter() - t0), "fps_collect": delta / max(t_collect, 1e-9), **losses,
+        t_update = time.perf_counter() - t0
+        scalars = {"fps": delta / t_update, "fps_collect": delta / max(t_collect, 1e-9), **losses,
+                   "time_envs": t_env / t_update, "time_learn": (t_update - t_collect) / t_update,  # shares of the update
                    "updates": run.updates, "rollout_steps": delta / (n * d.world_size)}
         if run.lagrange is not None:
             scalars.update({"lambda": run.lagrange.value, "J_c": run.ep_cost})

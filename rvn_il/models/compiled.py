@@ -61,10 +61,23 @@ def compile_for_inference(model: torch.nn.Module, device: torch.device | str) ->
     """``model`` (eval mode, already on ``device``) with its frame encoder and, for NoMaD, its
     denoising step compiled for decisions (``model.frame_encoder``, ``model.denoise_step``)."""
     _kernel_cache()
-    model.frame_encoder = CompiledCall(model.obs_encoder, torch.device(device))
+    device = torch.device(device)
+    model.frame_encoder = CompiledCall(model.obs_encoder, device)
     if hasattr(model, "noise_pred_net"):
-        model.denoise_step = CompiledCall(model.noise_pred_net.forward_packed, torch.device(device))
+        net = model.noise_pred_net
+        if device.type == "cuda":  # the repacked weights stay where they are: CUDA graphs need not copy them in
+            for t in _tensors(net.packed_weights()):
+                torch._dynamo.mark_static_address(t)
+        model.denoise_step = CompiledCall(net.forward_packed, device)
     return model
+
+
+def _tensors(tree) -> list[torch.Tensor]:
+    """Every tensor in nested dicts, lists and tuples."""
+    if isinstance(tree, torch.Tensor):
+        return [tree]
+    items = tree.values() if isinstance(tree, dict) else tree if isinstance(tree, (list, tuple)) else ()
+    return [t for item in items for t in _tensors(item)]
 
 
 def compile_for_training(model: torch.nn.Module) -> torch.nn.Module:
