@@ -17,7 +17,7 @@ Rows (each timed for --seconds-per-row after its warm-up, so figures are steady 
  (--compile, on by default with CUDA: rows 3 and 4 with train.compile / policy.compile, the plain decision
     timed beside the compiled one; the first compile takes minutes, kernels are cached for the next run);
  5. rvn-rl PPO collection + learning at 128², ResNet-18, scale=small PPO settings, envs in worker processes:
-    env steps/s.
+    env steps/s; and with the paper's network and PPO settings (ResNet-50, 256²) beside DD-PPO's ~160 per GPU.
 With CUDA, each row shows issue 32's goal and measured/goal, and "GPU busy": GPU 0's mean utilization
 while the row ran (torch.cuda.utilization or pynvml; "n/a" without them). On a 16-core GPU node the
 default run takes about 5 minutes. --quick: about a second per figure at tiny sizes (a smoke test;
@@ -95,6 +95,7 @@ def make_plan(args, cuda: bool, cpus: int) -> SimpleNamespace:
         cpu_model_size="small",
         decision_cpu_size="small" if q else "full",
         rl_size=64 if q else 128,
+        rl_paper_size=64 if q else 256,
         rl_envs=2 if q else 2 * max(1, cpus - 1) if cuda else 8,
         rl_workers=1 if q else max(1, cpus - 1) if cuda else min(cpus, 8),
         rl_scenes=1 if q else 4,

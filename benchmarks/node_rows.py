@@ -147,17 +147,32 @@ def decision_rows(plan) -> list[dict]:
 
 
 def rl_rows(plan) -> list[dict]:
-    """5. rvn-rl PPO collection + learning, ResNet-18 (scale=small), envs in worker processes: env steps/s.
-    A first run of two updates (the first one loads scenes: not counted) times an update; when that left
-    part of ``plan.seconds``, the run resumes for as many more updates as fit (the first again not counted)."""
+    """5. rvn-rl PPO collection + learning with envs in worker processes: env steps/s at scale=small (ResNet-18,
+    128², 4 PPO epochs x 4 mini-batches of 64-step rollouts) and at the paper's network and PPO settings
+    (half-width ResNet-50, 256² pooled to 128, 2 epochs x 2 mini-batches of 128-step rollouts; beside DD-PPO's
+    ~160 frames/s per GPU), both with the same envs. A first run of two updates (the first one loads scenes: not
+    counted) times an update; when that left part of ``plan.seconds``, the run resumes for as many more updates as
+    fit (the first again not counted)."""
+    small = dict(size=plan.rl_size, backbone="resnet18", num_steps=plan.rl_num_steps, ppo_epoch=4,
+                 mini_batches=min(4, plan.rl_envs))
+    paper = dict(size=plan.rl_paper_size, backbone="resnet50", num_steps=2 * plan.rl_num_steps, ppo_epoch=2,
+                 mini_batches=min(2, plan.rl_envs))
+    what, ddppo = "scale=paper network and PPO", "DD-PPO (Wijmans et al. 2020): ~160 frames/s per GPU (2.5B frames, 180 GPU-days)"
+    if not (plan.cuda or plan.quick):  # minutes per update on a few cores; --quick runs it small
+        return [_rl_row(plan, "rl", "scale=small", small, "rl", ""),
+                row(5, "rl_paper", f"rvn-rl PPO collection + learning, {what}", "env steps/s",
+                    skipped="ResNet-50 at 256² is sized for a GPU (--quick runs it at 64²)")]
+    return [_rl_row(plan, "rl", "scale=small", small, "rl", ""), _rl_row(plan, "rl_paper", what, paper, None, ddppo)]
+
+
+def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, baseline: str) -> dict:
     import rl as rl_bench
     from rvn_rl.cli import compose
     from rvn_rl.trainer import train
 
     envs, workers = plan.rl_envs, plan.rl_workers
-    args = SimpleNamespace(size=plan.rl_size, envs=envs, workers=workers, scenes=plan.rl_scenes, base_planes=32,
-                           num_steps=plan.rl_num_steps, threads=plan.rl_threads, renderer="auto", updates=2,
-                           goal_pool=64, ppo_epoch=4, mini_batches=min(4, envs))
+    args = SimpleNamespace(envs=envs, workers=workers, scenes=plan.rl_scenes, base_planes=32, threads=plan.rl_threads,
+                           renderer="auto", updates=2, goal_pool=64, **settings)
     counted = []  # (env steps, seconds, update's metrics) of the updates that count
     with tempfile.TemporaryDirectory() as tmp, GpuBusy() as busy:
         out = f"{tmp}/run"
@@ -171,15 +186,16 @@ def rl_rows(plan) -> list[dict]:
             counted += [_steps_seconds(r, envs) for r in _metrics(out)[seen + 1:]]
     steps, seconds = sum(n for n, _, _ in counted), sum(s for _, s, _ in counted)
 
-    def share(key: str) -> float:  # time-weighted share of the counted updates' time
-        return sum(s * r.get(key, float("nan")) for _, s, r in counted) / seconds
-    return [row(5, "rl", f"rvn-rl PPO collection + learning ({'cuda' if plan.cuda else 'cpu'})", "env steps/s", "rl",
-                steps / seconds, f"{plan.rl_size}² RGB, resnet18 (base planes 32), scale=small PPO (rollouts of "
-                f"{plan.rl_num_steps} x {envs} envs, 4 epochs x {args.mini_batches} mini-batches), "
-                f"{workers} env worker processes, "
-                f"{len(counted)} updates timed ({seconds:.1f} s); time: envs stepping {100 * share('time_envs'):.0f}%, "
-                f"policy and storage {100 * (1 - share('time_envs') - share('time_learn')):.0f}%, "
-                f"PPO update {100 * share('time_learn'):.0f}%", gpu_busy=busy.share)]
+    def share(k: str) -> float:  # time-weighted share of the counted updates' time
+        return sum(s * r.get(k, float("nan")) for _, s, r in counted) / seconds
+
+    return row(5, key, f"rvn-rl PPO collection + learning, {what} ({'cuda' if plan.cuda else 'cpu'})", "env steps/s",
+               goal_key, steps / seconds,
+               f"{args.size}² RGB, {args.backbone} (base planes 32), PPO rollouts of {args.num_steps} x {envs} envs, "
+               f"{args.ppo_epoch} epochs x {args.mini_batches} mini-batches, {workers} env worker processes, "
+               f"{len(counted)} updates timed ({seconds:.1f} s); time: envs stepping {100 * share('time_envs'):.0f}%, "
+               f"policy and storage {100 * (1 - share('time_envs') - share('time_learn')):.0f}%, "
+               f"PPO update {100 * share('time_learn'):.0f}%", baseline, busy.share)
 
 
 def _steps_seconds(update: dict, envs: int) -> tuple[float, float, dict]:

@@ -25,7 +25,7 @@ import torch
 
 def overrides(args, out_dir: str) -> list[str]:
     return [f"env.size={args.size}", f"env.num_envs={args.envs}", f"env.workers={args.workers}",
-            f"env.num_scenes={args.scenes}", "model.backbone=resnet18", f"model.base_planes={args.base_planes}",
+            f"env.num_scenes={args.scenes}", f"model.backbone={getattr(args, 'backbone', 'resnet18')}", f"model.base_planes={args.base_planes}",
             f"model.ngroups={min(16, args.base_planes // 2)}", f"ppo.num_steps={args.num_steps}",
             f"train.threads={args.threads}", "progress=false", f"renderer={args.renderer}", f"out_dir={out_dir}",
             f"train.total_steps={args.updates * args.num_steps * args.envs}", "train.checkpoint_every=1000",
