@@ -82,8 +82,8 @@ def _tensors(tree) -> list[torch.Tensor]:
 
 def compile_for_training(model: torch.nn.Module) -> torch.nn.Module:
     """``model`` with its encoder, Transformer and decoder compiled in place (``nn.Module.compile``:
-    same parameters and state_dict keys). Batches of one size compile once; the last, smaller
-    validation batch compiles once more. Dropout and EfficientNet's drop-connect draw from torch's generator
+    same parameters and state_dict keys). Training batches have one size (drop_last), so they compile once;
+    validation runs on the validator's copy, which ``copy.deepcopy`` leaves uncompiled. Dropout and EfficientNet's drop-connect draw from torch's generator
     as in the plain model (inductor's ``fallback_random``), so the per-step seeds of rvn-train decide them."""
     _kernel_cache()
     torch._inductor.config.fallback_random = True
