@@ -39,10 +39,17 @@ def list_scenes(scenes: ScenesConfig) -> list[str]:
     return list(specs)
 
 
+ONE_THREAD = ("LP_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
 def _init_worker() -> None:
-    """One core per worker process: Mesa's software GL (llvmpipe) would otherwise start a
-    thread per core in every process."""
+    """One core per worker process: Mesa's software GL (llvmpipe), OpenMP/BLAS (read from the environment
+    the worker inherits, `_run`) and OpenCV would otherwise each start a thread per core in every process
+    (on a 16-core node, 16 workers x 16 threads contend for 16 cores)."""
+    import cv2
+
     os.environ.setdefault("LP_NUM_THREADS", "1")
+    cv2.setNumThreads(1)
 
 
 def _scene_worker(args: tuple) -> SceneResult:
@@ -170,7 +177,14 @@ def _run(jobs: list[tuple], workers: int, n: int, progress: bool) -> list[SceneR
         bar.close()
         return out
     ctx = mp.get_context("spawn")
-    with ctx.Pool(min(workers, len(jobs)), initializer=_init_worker) as pool:
+    unset = [k for k in ONE_THREAD if k not in os.environ]  # the workers inherit one thread each, unless set
+    os.environ.update(dict.fromkeys(unset, "1"))
+    try:
+        pool = ctx.Pool(min(workers, len(jobs)), initializer=_init_worker)
+    finally:
+        for k in unset:
+            del os.environ[k]
+    with pool:
         bar = tqdm(total=len(jobs), unit="scene", disable=not progress, dynamic_ncols=True)
         out = []
         for r in pool.imap_unordered(_scene_worker, jobs):
