@@ -188,3 +188,34 @@ def test_stairs_to_an_upper_floor_over_the_lower_one():
     assert nm.geodesic_distance(low, under) == pytest.approx(np.hypot(6.0, 1.0), rel=0.01)
     path = nm.shortest_path(low, up)
     assert (np.diff(path[:, 1]) >= -0.011).all() and path[-1, 1] == pytest.approx(2.4, abs=0.011)
+
+
+def _field_read_at_points(nm: NavMesh, rng: np.random.Generator, sources: int = 6, n: int = 32) -> int:
+    """`distance_field(s, at=pts)` (smoothed only where the lookup of pts reads) gives the very
+    numbers of the whole field at pts: navigable samples, points pushed off them (walls, gaps,
+    off the mesh) and one beside the source. Returns how many distances were finite."""
+    finite = 0
+    for _ in range(sources):
+        s = nm.sample(rng)
+        pts = np.array([nm.sample(rng) for _ in range(n)])
+        pts[::4, [0, 2]] += rng.normal(0.0, 0.3, (len(pts[::4]), 2))
+        pts[1] = s + np.array([0.03, 0.0, -0.02])
+        whole = nm.distance_field(s).distance(pts)
+        nm._fields.clear()  # not from the cache: solved again, for pts only
+        assert np.array_equal(nm.distance_field(s, at=pts).distance(pts), whole)
+        finite += int(np.isfinite(whole).sum())
+    return finite
+
+
+def test_field_read_at_points_equals_the_whole_field():
+    from rvn_data.scenes.procedural import make_apartment
+
+    rng = np.random.default_rng(3)
+    for split, i in [("train", 0), ("val", 1)]:
+        nm = NavMesh.build(make_apartment(split, i))
+        assert _field_read_at_points(nm, rng) > 150
+    boxes = room_boxes(8.0, 4.0, height=5.0)  # two storeys (the stairs test's scene): several layers
+    boxes += [((1.0 + 0.25 * k, 0, 0), (1.25 + 0.25 * k, 0.15 * (k + 1), 1.2)) for k in range(16)]
+    boxes += [((5.0, 2.3, 0), (8.0, 2.4, 4.0))]
+    nm = NavMesh.build(box_scene(boxes, "two-storey"))
+    assert len(nm.layers) > 1 and _field_read_at_points(nm, rng) > 100

@@ -98,7 +98,8 @@ def attempt(ctx: SceneContext, rng: np.random.Generator) -> Rollout | str:
     if entry is None:
         return "start_blocked"
     candidates = np.array([ctx.navmesh.sample(rng) for _ in range(s.goal_candidates)], dtype=np.float64)
-    dists = np.asarray(ctx.navmesh.distance_field(start).distance(candidates), dtype=np.float64).reshape(-1)
+    dists = np.asarray(ctx.navmesh.distance_field(start, at=candidates).distance(candidates),
+                       dtype=np.float64).reshape(-1)
     finite = dists[np.isfinite(dists)]
     if finite.size:
         ctx.stats["max_geodesic_seen"] = max(ctx.stats["max_geodesic_seen"], float(finite.max()))

@@ -21,6 +21,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from rvn_data.navmesh.grid import NavGrid
+from rvn_data.navmesh.kernels import locate
 
 _MOVES = [(0, 1), (1, 0), (1, 1), (1, -1), (1, 2), (2, 1), (1, -2), (2, -1),
           (1, 3), (3, 1), (1, -3), (3, -1), (2, 3), (3, 2), (2, -3), (3, -2)]
@@ -127,6 +128,34 @@ def _visible(meta, clearance, island, k, i0, j0, i1, j1, r):
 
 
 @njit(cache=True)
+def _smooth_node(v, pred, cells, centres, meta, clearance, island, goal, gk, gi, gj, r, out, parent):
+    """`any_angle`'s step at node v, once its tree ancestors are done: the goal point itself
+    when in line of sight, else its tree parent p, or p's any-angle parent when in line of
+    sight and no longer."""
+    k = cells[v, 0]
+    if k == gk and _visible(meta, clearance, island, k, gi, gj, float(cells[v, 1]), float(cells[v, 2]), r):
+        out[v] = np.sqrt(((centres[v] - goal) ** 2).sum())
+        parent[v] = -2
+        return
+    p = pred[v]
+    if p < 0:
+        out[v] = np.sqrt(((centres[v] - goal) ** 2).sum())
+        parent[v] = -2
+        return
+    best = out[p] + np.sqrt(((centres[v] - centres[p]) ** 2).sum())
+    parent[v] = p
+    g = parent[p]
+    if g >= 0 and g != p and cells[g, 0] == k and _visible(
+            meta, clearance, island, k, float(cells[g, 1]), float(cells[g, 2]),
+            float(cells[v, 1]), float(cells[v, 2]), r):
+        d = out[g] + np.sqrt(((centres[v] - centres[g]) ** 2).sum())
+        if d <= best:
+            best = d
+            parent[v] = g
+    out[v] = best
+
+
+@njit(cache=True)
 def any_angle(dist, pred, source, cells, centres, meta, clearance, island, goal, gk, gi, gj, r):
     """Theta*-style smoothing of a Dijkstra tree rooted at the goal point: visiting nodes by
     increasing distance, a node takes its tree parent's any-angle parent (or the goal point
@@ -142,27 +171,54 @@ def any_angle(dist, pred, source, cells, centres, meta, clearance, island, goal,
         v = order[m]
         if not np.isfinite(dist[v]):
             break
-        k = cells[v, 0]
-        if k == gk and _visible(meta, clearance, island, k, gi, gj, float(cells[v, 1]), float(cells[v, 2]), r):
-            out[v] = np.sqrt(((centres[v] - goal) ** 2).sum())
-            parent[v] = -2
+        _smooth_node(v, pred, cells, centres, meta, clearance, island, goal, gk, gi, gj, r, out, parent)
+    return out
+
+
+@njit(cache=True)
+def any_angle_at(dist, pred, cells, centres, meta, clearance, island, goal, gk, gi, gj, r, wanted):
+    """`any_angle`'s values at the nodes ``wanted`` (int64 array, -1 entries ignored), inf at the
+    nodes neither wanted nor a tree ancestor of one. A node's value depends only on its tree
+    ancestors' (each has a smaller Dijkstra distance), so each chain is smoothed from its root
+    down, once: the same numbers as the whole field, for a lookup of a few points."""
+    n = dist.shape[0]
+    out = np.full(n, np.inf)
+    parent = np.full(n, -1, np.int64)
+    done = np.zeros(n, np.bool_)
+    chain = np.empty(n, np.int64)
+    for w in wanted.ravel():
+        m = 0
+        v = w
+        while v >= 0 and not done[v] and np.isfinite(dist[v]):
+            done[v] = True
+            chain[m] = v
+            m += 1
+            v = pred[v]
+        for t in range(m - 1, -1, -1):
+            _smooth_node(chain[t], pred, cells, centres, meta, clearance, island, goal, gk, gi, gj, r, out, parent)
+    return out
+
+
+@njit(cache=True)
+def field_support(meta, height, x0, z0, cs, node_of, pts, tol):
+    """The graph nodes `kernels.field_lookup` may read for points [N, 3] (int64 [N, 13], -1 where
+    none): the 4 cells of its bilinear lookup and the 3x3 cells around the point's cell."""
+    out = np.full((pts.shape[0], 13), -1, np.int64)
+    for n in range(pts.shape[0]):
+        x, y, z = pts[n, 0], pts[n, 1], pts[n, 2]
+        k, f = locate(meta, height, x0, z0, cs, x, y, z, tol)
+        if k < 0:
             continue
-        p = pred[v]
-        if p < 0:
-            out[v] = np.sqrt(((centres[v] - goal) ** 2).sum())
-            parent[v] = -2
-            continue
-        best = out[p] + np.sqrt(((centres[v] - centres[p]) ** 2).sum())
-        parent[v] = p
-        g = parent[p]
-        if g >= 0 and g != p and cells[g, 0] == k and _visible(
-                meta, clearance, island, k, float(cells[g, 1]), float(cells[g, 2]),
-                float(cells[v, 1]), float(cells[v, 2]), r):
-            d = out[g] + np.sqrt(((centres[v] - centres[g]) ** 2).sum())
-            if d <= best:
-                best = d
-                parent[v] = g
-        out[v] = best
+        rows, cols, off = meta[k, 2], meta[k, 3], meta[k, 4]
+        i0 = int(math.floor((z - z0) / cs - 0.5 - meta[k, 0]))
+        j0 = int(math.floor((x - x0) / cs - 0.5 - meta[k, 1]))
+        i = (f - off) // cols
+        j = (f - off) % cols
+        for c in range(13):  # c < 4: the bilinear 2x2 from (i0, j0); then the 3x3 around (i, j)
+            ii = i0 + c // 2 if c < 4 else i + (c - 4) // 3 - 1
+            jj = j0 + c % 2 if c < 4 else j + (c - 4) % 3 - 1
+            if 0 <= ii < rows and 0 <= jj < cols:
+                out[n, c] = node_of[off + ii * cols + jj]
     return out
 
 

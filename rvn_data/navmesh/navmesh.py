@@ -14,8 +14,8 @@ from scipy import ndimage
 
 from rvn_data.navmesh import kernels as K
 from rvn_data.navmesh.build import build_layers
-from rvn_data.navmesh.geodesic import (GeodesicField, any_angle, build_graph, node_cells, node_centres,
-                                      run_dijkstra)
+from rvn_data.navmesh.geodesic import (GeodesicField, any_angle, any_angle_at, build_graph, field_support, node_cells,
+                                      node_centres, run_dijkstra)
 from rvn_data.navmesh.grid import NavGrid, pack
 from rvn_data.navmesh.settings import NavMeshSettings
 from rvn_data.scenes.scene import Scene
@@ -217,32 +217,39 @@ class NavMesh:
         i, j = divmod(f - int(self.offsets[k]), g.shape[1])
         return int(node_of[self.offsets[k] + ii[i, j] * g.shape[1] + jj[i, j]])
 
-    def _solve(self, node: int, goal: np.ndarray | None = None):
-        """(distances per node to the goal point (default: the node's centre), predecessors)."""
+    def _solve(self, node: int, goal: np.ndarray | None = None, wanted: np.ndarray | None = None):
+        """(distances per node to the goal point (default: the node's centre), predecessors). With
+        ``wanted`` (node ids), a field not cached is smoothed only there (`any_angle_at`) and not kept."""
         graph, _, centres, cells = self._ensure_graph()
         goal = centres[node] if goal is None else goal
         key = (node, *np.round(goal, 9).tolist())
         if key not in self._fields:
-            if len(self._fields) >= 8:
-                self._fields.pop(next(iter(self._fields)))
             dist, pred = run_dijkstra(graph, node, predecessors=True)
             k, gi, gj = cells[node]
             g = self.layers[k]
             fi, fj = (goal[2] - g.z0) / g.cs - 0.5, (goal[0] - g.x0) / g.cs - 0.5
             P = self.packed
-            smooth = any_angle(dist, pred, node, cells, centres, P.meta, P.clearance, P.island,
-                               goal, k, fi, fj, self.settings.agent_radius - 1e-6)
-            self._fields[key] = (smooth, pred)
+            args = (cells, centres, P.meta, P.clearance, P.island, goal, k, fi, fj, self.settings.agent_radius - 1e-6)
+            if wanted is not None:
+                return any_angle_at(dist, pred, *args, wanted), pred
+            if len(self._fields) >= 8:
+                self._fields.pop(next(iter(self._fields)))
+            self._fields[key] = (any_angle(dist, pred, node, *args), pred)
         return self._fields[key]
 
-    def distance_field(self, goal: np.ndarray) -> GeodesicField:
-        """Geodesic distance field to `goal` (one Dijkstra over the goal's island)."""
+    def distance_field(self, goal: np.ndarray, at: np.ndarray | None = None) -> GeodesicField:
+        """Geodesic distance field to `goal` (one Dijkstra over the goal's island). ``at``: the only
+        points [N, 3] it will be read at; then it is smoothed only at the nodes their lookup reads."""
         goal = np.asarray(goal, dtype=np.float64).reshape(3)
         node = self._node(goal)
-        n = self._ensure_graph()[0].shape[0]
+        graph, node_of = self._ensure_graph()[:2]
         if node >= 0 and not self.is_navigable(goal):
             goal = self.snap(goal)
-        values = self._solve(node, goal)[0] if node >= 0 else np.full(n, np.inf)
+        wanted = None
+        if at is not None:
+            P, pts = self.packed, np.ascontiguousarray(np.asarray(at, dtype=np.float64).reshape(-1, 3))
+            wanted = field_support(P.meta, P.height, P.x0, P.z0, P.cs, node_of, pts, MAX_Y_DELTA)
+        values = self._solve(node, goal, wanted)[0] if node >= 0 else np.full(graph.shape[0], np.inf)
         return GeodesicField(self, goal, values)
 
     def _field_distance(self, field: GeodesicField, p: np.ndarray):
