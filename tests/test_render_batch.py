@@ -22,8 +22,8 @@ def one_at_a_time(renderer, poses):
 
 
 def assert_batch_equals_single(renderer, poses, batch_views: int) -> None:
-    """render_batch over passes of ``batch_views`` views (the last one partial) equals render per
-    pose, byte for byte; without depth the same RGB and depth None."""
+    """render_batch over passes of ``batch_views`` views (the last one partial), and in one pass,
+    equals render per pose, byte for byte; without depth the same RGB and depth None."""
     renderer.batch_views = batch_views
     rgb, depth = renderer.render_batch(poses)
     want_rgb, want_depth = one_at_a_time(renderer, poses)
@@ -38,6 +38,10 @@ def assert_batch_equals_single(renderer, poses, batch_views: int) -> None:
     np.testing.assert_array_equal(rgb_only, want_rgb[:3])
     again, _ = renderer.render_batch(poses[-1:])  # a batch of one after bigger ones
     np.testing.assert_array_equal(again[0], want_rgb[-1])
+    renderer.batch_views = len(poses)  # one pass for all: gl's staging buffer grows
+    rgb, depth = renderer.render_batch(poses)
+    np.testing.assert_array_equal(rgb, want_rgb)
+    np.testing.assert_array_equal(depth, want_depth)
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
