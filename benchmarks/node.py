@@ -6,7 +6,8 @@ in one table with the device (GPU name or "CPU only"), CPU count, torch version 
 
 Rows (each timed for --seconds-per-row after its warm-up, so figures are steady state):
  1. renderer=gl and raycast, 256² RGB + depth, procedural:train/0: frames/s in 1, 2 and cpu_count processes
-    (beside habitat-sim's published 1,042 frames/s in one process and 1,774 with five, Titan Xp);
+    (beside habitat-sim's published 1,042 frames/s in one process and 1,774 with five, Titan Xp), one view per
+    render call, then 8 views per render_batch call in one process and 32 in 1, 2 and cpu_count processes;
  2. rvn-gen with cpu_count workers, 256², renderer=auto: frames/s written end to end (start-up and scene
     set-up included), and the share of time in planning / rendering / other;
  3. rvn-train's step (its DataLoader with cpu_count workers, forward, backward, AdamW, EMA) of NoMaD-PointGoal
@@ -20,7 +21,7 @@ Rows (each timed for --seconds-per-row after its warm-up, so figures are steady 
     env steps/s; and with the paper's network and PPO settings (ResNet-50, 256²) beside DD-PPO's ~160 per GPU.
 With CUDA, each row shows issue 32's goal and measured/goal, and "GPU busy": GPU 0's mean utilization
 while the row ran (torch.cuda.utilization or pynvml; "n/a" without them). On a 16-core GPU node the
-default run takes about 5 minutes. --quick: about a second per figure at tiny sizes (a smoke test;
+default run takes about 7 minutes. --quick: about a second per figure at tiny sizes (a smoke test;
 its figures mean little). --out DIR: DIR/node.md and DIR/node.json (with the commit), e.g.
 docs/results/<date>_gpu/. Exit status 1 when a row failed (its error is in the table), 2 for bad options.
 """
@@ -86,6 +87,7 @@ def make_plan(args, cuda: bool, cpus: int) -> SimpleNamespace:
         compile=args.compile == "on" or (args.compile == "auto" and cuda and not q),
         size=64 if q else 256,
         render_processes=sorted({1, 2, cpus}),
+        render_batches=[(4, [1])] if q else [(8, [1]), (32, sorted({1, 2, cpus}))],
         gen_workers=min(2, cpus) if q else cpus,
         train_data=(6, 20) if q else (64, 40) if cuda else (16, 30),
         train_image=64 if q else 128,

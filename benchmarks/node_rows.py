@@ -37,7 +37,8 @@ def lp_threads(processes: int, cpus: int):
 
 
 def render_rows(plan) -> list[dict]:
-    """1. renderer=gl and raycast, RGB + depth: frames/s with 1, 2 and cpu_count processes."""
+    """1. renderer=gl and raycast, RGB + depth: frames/s with 1, 2 and cpu_count processes, one view per
+    render call, then with ``plan.render_batches`` [(views per render_batch call, process counts), ...]."""
     from render import poses_for
     from rvn_data.render import CameraConfig, make_renderer
     from rvn_data.render.parallel import render_parallel
@@ -46,6 +47,7 @@ def render_rows(plan) -> list[dict]:
     scene = load_scene(plan.scene)
     camera = CameraConfig(width=plan.size, height=plan.size)
     poses = poses_for(scene, 200)
+    runs = [(1, n) for n in plan.render_processes] + [(b, n) for b, counts in plan.render_batches for n in counts]
     rows = []
     for backend in ("gl", "raycast"):
         goal = "render_gl" if backend == "gl" else None
@@ -56,11 +58,13 @@ def render_rows(plan) -> list[dict]:
             rows.append(row(1, f"render_{backend}", f"renderer={backend}", "frames/s", goal,
                             skipped=f"unavailable ({e})"))
             continue
-        for n in plan.render_processes:
+        for batch, n in runs:
             with lp_threads(n, plan.cpus), GpuBusy() as busy:
                 res = render_parallel(scene, camera, poses, backend, processes=n, return_images=False,
-                                      seconds=plan.seconds)
-            rows.append(row(1, f"render_{backend}_{n}p", f"renderer={backend}, {n} process{'es' if n > 1 else ''}",
+                                      seconds=plan.seconds, batch=batch)
+            key = f"render_{backend}_{n}p" if batch == 1 else f"render_{backend}_b{batch}_{n}p"
+            label = f"renderer={backend}, {n} process{'es' if n > 1 else ''}"
+            rows.append(row(1, key, label + (f", {batch} views per call" if batch > 1 else ""),
                             "frames/s", goal, res.frames_per_second,
                             f"{plan.size}² RGB+depth, {plan.scene} ({scene.num_triangles:,} triangles), {info}, "
                             f"cpu share {res.cpu_share:.2f}", HABITAT[1 if n == 1 else 5], busy.share))

@@ -5,7 +5,6 @@ import io
 import json
 import logging
 import math
-from functools import lru_cache
 
 import numpy as np
 import pytest
@@ -16,39 +15,7 @@ from rvn_data.render import CameraConfig, make_renderer
 from rvn_data.scenes import Part, Scene, SceneError
 
 from conftest import DREAM_APARTMENT as DREAM  # tests/ is on sys.path (pytest's prepend import mode)
-
-
-@lru_cache(maxsize=1)
-def egl_error() -> str | None:
-    from rvn_data.render import gl
-
-    try:
-        gl.create_context(0).release()
-    except RuntimeError as e:
-        return str(e)
-    return None
-
-
-needs_egl = pytest.mark.skipif(egl_error() is not None, reason=f"gl back-end unavailable: {egl_error()}")
-BACKENDS = [pytest.param("gl", marks=needs_egl), "raycast"]
-
-
-def box(name, lo, hi, color=(0.7, 0.7, 0.7, 1.0), texture=None) -> Part:
-    b = trimesh.creation.box(bounds=[lo, hi])
-    uv = b.vertices[:, [0, 2]] if texture is not None else None
-    return Part(name, b.vertices, b.faces, uv=uv, base_color=color, texture=texture)
-
-
-def coloured_room() -> Scene:
-    """4 x 4 m room: north (-z) red, east (+x) blue, south green, west yellow, checker floor."""
-    checker = np.zeros((8, 8, 3), np.uint8)
-    checker[::2, ::2] = checker[1::2, 1::2] = 255
-    return Scene("test:room", [
-        box("floor", [-2, -0.1, -2], [2, 0, 2], (1, 1, 1, 1), checker),
-        box("north", [-2, 0, -2.1], [2, 2.5, -2], (1, 0, 0, 1)),
-        box("south", [-2, 0, 2], [2, 2.5, 2.1], (0, 1, 0, 1)),
-        box("east", [2, 0, -2], [2.1, 2.5, 2], (0, 0, 1, 1)),
-        box("west", [-2.1, 0, -2], [-2, 2.5, 2], (1, 1, 0, 1))])
+from render_helpers import BACKENDS, box, coloured_room, egl_error, navigable_poses, needs_egl
 
 
 def compare(scene: Scene, poses, camera: CameraConfig):
@@ -64,14 +31,6 @@ def compare(scene: Scene, poses, camera: CameraConfig):
     finally:
         gl.close(), rc.close()
     return min(depth_ok), min(mask_ok), max(mad)
-
-
-def navigable_poses(scene: Scene, n: int, seed: int = 0):
-    from rvn_data.navmesh import NavMesh, NavMeshSettings
-
-    nm = NavMesh.build(scene, NavMeshSettings())
-    rng = np.random.default_rng(seed)
-    return [(nm.sample(rng), float(rng.uniform(-math.pi, math.pi))) for _ in range(n)]
 
 
 # ---- camera ---------------------------------------------------------------------------

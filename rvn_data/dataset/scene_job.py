@@ -27,6 +27,7 @@ from rvn_data.scenes.scene import SceneError
 from rvn_data.scenes.sets import ScenesConfig
 
 TIMERS = ("setup", "planning", "rendering", "encoding", "writing")
+RENDER_BATCH = 32  # frames per render call: one GPU sync per 32 frames with renderer=gl
 
 
 @dataclass
@@ -209,15 +210,18 @@ def _close_scene(gnm: GNMWriter, scene: _Scene, res: SceneResult, split: str, ki
 
 
 def _render(renderer, r: Rollout, s: GenSettings, timing: dict) -> tuple[list[bytes], np.ndarray | None]:
-    """JPEG bytes of every frame and, with dataset.save_depth, the depth maps float16 [T, S, S]."""
+    """JPEG bytes of every frame and, with dataset.save_depth, the depth maps float16 [T, S, S]. Frames
+    are rendered RENDER_BATCH at a time (`Renderer.render_batch`: the same images as one by one)."""
     jpegs, depths = [], []
-    for i in range(r.num_render):
+    for k in range(0, r.num_render, RENDER_BATCH):
         t0 = time.perf_counter()
-        rgb, depth = renderer.render(r.positions[i], float(r.yaws[i]))
+        poses = [(r.positions[i], float(r.yaws[i])) for i in range(k, min(k + RENDER_BATCH, r.num_render))]
+        rgb, depth = renderer.render_batch(poses, depth=s.save_depth)
         t1 = time.perf_counter()
-        jpegs.append(writer.encode_jpeg(rgb, s.jpeg_quality))
-        if s.save_depth:
-            depths.append(writer.downsample_depth(depth, s.depth_size))
+        for j in range(len(poses)):
+            jpegs.append(writer.encode_jpeg(rgb[j], s.jpeg_quality))
+            if s.save_depth:
+                depths.append(writer.downsample_depth(depth[j], s.depth_size))
         timing["rendering"] += t1 - t0
         timing["encoding"] += time.perf_counter() - t1
     jpegs += [jpegs[-1]] * (len(r.yaws) - r.num_render)  # I_t = I_{t_c} after the collision

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import abc
 import logging
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,6 +44,30 @@ class Renderer(abc.ABC):
         """(rgb uint8 [H, W, 3], depth float32 [H, W] planar metres, 0 = no hit). With
         ``depth=False`` a back-end may skip the depth (returned as None) where that is cheaper."""
 
+    batch_views: int = 64  # views per internal pass of `render_batch` (bigger batches are split)
+
+    def render_batch(self, poses, depth: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+        """Many views in one call: (rgb uint8 [N, H, W, 3], depth float32 [N, H, W] or None with
+        ``depth=False``) for ``poses`` [(position [3], yaw), ...], equal to `render` per pose. A
+        back-end renders up to `batch_views` views per pass with one synchronisation."""
+        poses = check_poses(poses)
+        cam = self.camera
+        rgb = np.empty((len(poses), cam.height, cam.width, 3), np.uint8)
+        out = np.empty((len(poses), cam.height, cam.width), np.float32) if depth else None
+        step = max(1, int(self.batch_views))
+        for k in range(0, len(poses), step):
+            self._render_views(poses[k:k + step], rgb[k:k + step], None if out is None else out[k:k + step])
+        return rgb, out
+
+    def _render_views(self, poses: list, rgb: np.ndarray, depth: np.ndarray | None) -> None:
+        """Fill rgb [n, H, W, 3] (and depth [n, H, W] unless None) for n checked poses; this
+        default renders them one at a time."""
+        for k, (position, yaw) in enumerate(poses):
+            image, d = self.render(position, yaw, depth=depth is not None)
+            rgb[k] = image
+            if depth is not None:
+                depth[k] = d
+
     @abc.abstractmethod
     def close(self) -> None:
         """Release the back-end's resources; the renderer is unusable afterwards."""
@@ -55,6 +80,33 @@ class Renderer(abc.ABC):
 
     def __repr__(self) -> str:
         return f"<{type(self).__name__} backend={self.backend!r} info={self.info!r} scene={self.scene.scene_id!r}>"
+
+
+def check_poses(poses) -> list[tuple[np.ndarray, float]]:
+    """[(position float64 [3], yaw float), ...] from a non-empty sequence of (position, yaw) pairs;
+    ValueError naming the first bad pose."""
+    try:
+        poses = list(poses)
+    except TypeError:
+        raise ValueError(f"render_batch: poses must be a list of (position [x, y, z], yaw) pairs, "
+                         f"got {type(poses).__name__}") from None
+    if not poses:
+        raise ValueError("render_batch: no poses given (a list of (position [x, y, z], yaw) pairs)")
+    out = []
+    for i, pose in enumerate(poses):
+        try:
+            position, yaw = pose
+            position = np.asarray(position, np.float64)
+            yaw = float(yaw)
+            ok = position.shape == (3,) and bool(np.isfinite(position).all()) and math.isfinite(yaw)
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            text = repr(pose)
+            raise ValueError(f"render_batch: pose {i} {text[:80]}{'...' if len(text) > 80 else ''} is not "
+                             "(position [x, y, z], yaw) with finite numbers")
+        out.append((position, yaw))
+    return out
 
 
 @dataclass

@@ -3,7 +3,8 @@
 embreex holds the GIL and software GL shares one process's threads, so throughput comes
 from processes. Workers start with the `spawn` (default) or `forkserver` context, build
 their renderer, wait at a barrier, then render their share of the poses; the reported
-time runs from the first worker's start to the last worker's end.
+time runs from the first worker's start to the last worker's end. With ``batch`` > 1 a
+worker renders ``batch`` poses per `Renderer.render_batch` call instead of one per `render`.
 """
 from __future__ import annotations
 
@@ -27,6 +28,7 @@ class ParallelRenders:
     cpu_seconds: float  # CPU time of all workers' processes while rendering
     processes: int
     backend: str  # what the workers' renderers picked
+    batch: int = 1  # poses per render call
 
     @property
     def frames_per_second(self) -> float:
@@ -38,7 +40,15 @@ class ParallelRenders:
         return self.cpu_seconds / (self.seconds * self.processes) if self.seconds > 0 else 0.0
 
 
-def _worker(rank, scene, camera, backend, device, poses, keep, barrier, results, seconds=None) -> None:
+def _next(renderer, poses, done: int, batch: int) -> tuple:
+    """The next frames after ``done``: one `render`, or `render_batch` of ``batch`` poses (cycling)."""
+    if batch == 1:
+        rgb, depth = renderer.render(*poses[done % len(poses)])
+        return rgb[None], depth[None]
+    return renderer.render_batch([poses[(done + i) % len(poses)] for i in range(batch)])
+
+
+def _worker(rank, scene, camera, backend, device, poses, keep, barrier, results, seconds=None, batch=1) -> None:
     try:
         from rvn_data.render import make_renderer
 
@@ -48,19 +58,20 @@ def _worker(rank, scene, camera, backend, device, poses, keep, barrier, results,
             scene = load_scene(scene)
         with make_renderer(scene, camera, backend=backend, device=device) as renderer:
             if len(poses):
-                renderer.render(*poses[0])  # warm-up: numba / GL pipelines
+                _next(renderer, poses, 0, min(batch, len(poses)))  # warm-up: numba / GL pipelines
             barrier.wait()
             t0, c0 = time.monotonic(), time.process_time()
             out, frames = [], 0
             while poses and (frames < len(poses) if seconds is None else time.monotonic() - t0 < seconds):
-                frame = renderer.render(*poses[frames % len(poses)])
-                frames += 1
+                n = min(batch, len(poses) - frames) if seconds is None else batch
+                frame = _next(renderer, poses, frames, n)
+                frames += n
                 if keep:
                     out.append(frame)
             t1, cpu = time.monotonic(), time.process_time() - c0
             picked = renderer.backend
-        rgb = np.stack([o[0] for o in out]) if keep and out else None
-        depth = np.stack([o[1] for o in out]) if keep and out else None
+        rgb = np.concatenate([o[0] for o in out]) if keep and out else None
+        depth = np.concatenate([o[1] for o in out]) if keep and out else None
         results.put(dict(rank=rank, t0=t0, t1=t1, cpu=cpu, backend=picked, rgb=rgb, depth=depth, frames=frames,
                          error=None))
     except BaseException as e:  # report to the parent instead of hanging it
@@ -70,12 +81,13 @@ def _worker(rank, scene, camera, backend, device, poses, keep, barrier, results,
 
 def render_parallel(scene, camera: CameraConfig, poses, backend: str = "raycast", processes: int = 2,
                     device: int = 0, return_images: bool = True, start_method: str = "spawn",
-                    seconds: float | None = None) -> ParallelRenders:
+                    seconds: float | None = None, batch: int = 1) -> ParallelRenders:
     """Render `poses` [(position[3], yaw), ...] split over `processes` workers.
 
     `scene` is a `Scene` (pickled to the workers) or a scene spec for `load_scene`. With
     `seconds`, each worker renders its share over and over for that long instead of once
-    (a throughput figure: images are not kept, `frames` counts what was rendered).
+    (a throughput figure: images are not kept, `frames` counts what was rendered). ``batch``:
+    poses per render call (`Renderer.render_batch` when > 1; the same images).
     """
     import multiprocessing as mp
 
@@ -85,6 +97,8 @@ def render_parallel(scene, camera: CameraConfig, poses, backend: str = "raycast"
         return_images = False
     if processes < 1:
         raise ValueError(f"processes={processes!r} must be >= 1")
+    if isinstance(batch, bool) or not isinstance(batch, int) or batch < 1:
+        raise ValueError(f"batch={batch!r} must be a positive integer (poses per render call)")
     if start_method not in ("spawn", "forkserver"):
         raise ValueError(f"start_method={start_method!r} must be 'spawn' or 'forkserver' (fork breaks GL/numba)")
     poses = [(np.asarray(p, np.float64), float(y)) for p, y in poses]
@@ -93,7 +107,7 @@ def render_parallel(scene, camera: CameraConfig, poses, backend: str = "raycast"
     shares = np.array_split(np.arange(len(poses)), processes)
     procs = [ctx.Process(target=_worker, daemon=True,
                          args=(r, scene, camera, backend, device, [poses[i] for i in idx], return_images,
-                               barrier, results, seconds))
+                               barrier, results, seconds, batch))
              for r, idx in enumerate(shares)]
     for p in procs:
         p.start()
@@ -123,4 +137,4 @@ def render_parallel(scene, camera: CameraConfig, poses, backend: str = "raycast"
         depth = np.concatenate([got[r]["depth"] for r in range(processes) if got[r]["depth"] is not None])
     cpu = sum(g["cpu"] for g in got.values())
     frames = sum(g["frames"] for g in got.values())
-    return ParallelRenders(rgb, depth, frames, wall, cpu, processes, got[0]["backend"])
+    return ParallelRenders(rgb, depth, frames, wall, cpu, processes, got[0]["backend"], batch)

@@ -5,7 +5,8 @@ barycentrics (u, v) interpolate UVs and vertex colours, textures are sampled NEA
 REPEAT wrap, and the lighting is `rvn_data.render.base`'s. Rays have a unit forward
 component and start on the near plane, so near + hit distance is the planar depth and
 near/far clip exactly as in GL. embreex holds the GIL: run several
-processes for throughput (`rvn_data.render.parallel`).
+processes for throughput (`rvn_data.render.parallel`). `render_batch` casts the rays of up to
+`MAX_BATCH_RAYS` pixels (16 views at 256²) in one embree call and shades them in one numba pass.
 """
 from __future__ import annotations
 
@@ -15,6 +16,8 @@ import numpy as np
 from rvn_data.render import base
 from rvn_data.render.camera import CameraConfig
 from rvn_data.scenes.scene import Scene
+
+MAX_BATCH_RAYS = 1 << 20  # rays per render_batch pass: about 60 MB of ray and hit arrays
 
 
 @numba.njit(cache=True, parallel=False)
@@ -27,6 +30,15 @@ def _rays(dirs_cam, rot, eye, near, far, origins, dirs, tfar):
             dirs[i, j] = d
             origins[i, j] = eye[j] + near * d
         tfar[i] = far - near
+
+
+@numba.njit(cache=True, parallel=False)
+def _rays_batch(dirs_cam, rots, eyes, near, far, origins, dirs, tfar):
+    """`_rays` of views k = 0..n-1 (rots [n, 3, 3], eyes [n, 3]) into rows k*P..(k+1)*P-1."""
+    npx = dirs_cam.shape[0]
+    for k in range(rots.shape[0]):
+        a, b = k * npx, (k + 1) * npx
+        _rays(dirs_cam, rots[k], eyes[k], near, far, origins[a:b], dirs[a:b], tfar[a:b])
 
 
 @numba.njit(cache=True, parallel=False)
@@ -116,6 +128,8 @@ class RaycastRenderer(base.Renderer):
         self._origins = np.empty((npx, 3), np.float32)
         self._dirs = np.empty((npx, 3), np.float32)
         self._tfar = np.empty(npx, np.float32)
+        self._batch_rays = None  # render_batch's (origins, dirs, tfar, depth), grown on demand
+        self.batch_views = max(1, MAX_BATCH_RAYS // npx)
         self.info = f"embree (embreex) + numba, 1 thread, {len(self._faces)} triangles"
 
     def render(self, position, yaw: float, depth: bool = True) -> tuple[np.ndarray, np.ndarray]:
@@ -124,15 +138,36 @@ class RaycastRenderer(base.Renderer):
         cam = self.camera
         eye, rot = cam.pose(position, yaw)
         _rays(self._dirs_cam, rot, eye, cam.near, cam.far, self._origins, self._dirs, self._tfar)
-        hit = self._embree.run(self._origins, self._dirs, dists=self._tfar, output=1)
-        prim = np.where(hit["geomID"] >= 0, hit["primID"], -1)
         npx = cam.width * cam.height
         rgb = np.empty((npx, 3), np.uint8)
         depth = np.empty(npx, np.float32)
-        _shade(prim, hit["u"], hit["v"], hit["tfar"], cam.near, self._faces, self._face_part,
+        self._cast(self._origins, self._dirs, self._tfar, rgb, depth)
+        return rgb.reshape(cam.height, cam.width, 3), depth.reshape(cam.height, cam.width)
+
+    def _render_views(self, poses: list, rgb: np.ndarray, depth: np.ndarray | None) -> None:
+        """Rays of all views, one embree call, one shading pass, written straight into rgb/depth."""
+        if self._embree is None:
+            raise RuntimeError("render_batch() on a closed raycast renderer")
+        cam, n = self.camera, len(poses)
+        rays = n * cam.width * cam.height
+        if self._batch_rays is None or len(self._batch_rays[2]) < rays:
+            self._batch_rays = (np.empty((rays, 3), np.float32), np.empty((rays, 3), np.float32),
+                                np.empty(rays, np.float32), np.empty(rays, np.float32))
+        origins, dirs, tfar, scratch = (a[:rays] for a in self._batch_rays)
+        frames = [cam.pose(position, yaw) for position, yaw in poses]
+        eyes = np.stack([eye for eye, _ in frames])
+        rots = np.stack([rot for _, rot in frames])
+        _rays_batch(self._dirs_cam, rots, eyes, cam.near, cam.far, origins, dirs, tfar)
+        self._cast(origins, dirs, tfar, rgb.reshape(rays, 3), scratch if depth is None else depth.reshape(rays))
+
+    def _cast(self, origins, dirs, tfar, rgb, depth) -> None:
+        """Intersect the rays with the scene and shade the hits into rgb [R, 3] and depth [R]."""
+        hit = self._embree.run(origins, dirs, dists=tfar, output=1)
+        prim = np.where(hit["geomID"] >= 0, hit["primID"], -1)
+        _shade(prim, hit["u"], hit["v"], hit["tfar"], self.camera.near, self._faces, self._face_part,
                self._face_shade, self._uv, self._col, self._part_rgb, self._tex_off, self._tex_w,
                self._tex_h, self._texels, rgb, depth)
-        return rgb.reshape(cam.height, cam.width, 3), depth.reshape(cam.height, cam.width)
 
     def close(self) -> None:
         self._embree = None
+        self._batch_rays = None

@@ -61,8 +61,8 @@ def write_views(scene: Scene | str, out_dir, n: int = 8, seed: int = 0, backend:
     poses = [(navmesh.sample(rng), float(rng.uniform(-math.pi, math.pi))) for _ in range(n)]
     paths: list[Path] = []
     with make_renderer(scene, camera, backend=backend) as renderer:
-        for i, (position, yaw) in enumerate(poses):
-            rgb, depth = renderer.render(position, yaw)
+        rgbs, depths = renderer.render_batch(poses)
+        for i, (rgb, depth) in enumerate(zip(rgbs, depths)):
             for kind, image in (("rgb", rgb), ("depth", depth_to_color(depth))):
                 path = out / f"view_{i:02d}_{kind}.png"
                 _write_png(path, image)

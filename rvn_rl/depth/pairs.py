@@ -55,11 +55,10 @@ def render_scene_pairs(spec: str, scene_index: int, split: str, per_scene: int, 
     rng = np.random.default_rng([int(seed), split_code(split), int(scene_index)])
     rgb = np.empty((per_scene, camera.height, camera.width, 3), np.uint8)
     depth = np.empty((per_scene, camera.height, camera.width), np.float32)
+    poses = [(navmesh.sample(rng), float(rng.uniform(-math.pi, math.pi))) for _ in range(per_scene)]
     with make_renderer(scene, camera, backend=renderer.backend, device=renderer.device) as r:
-        for k in range(per_scene):
-            position = navmesh.sample(rng)
-            yaw = float(rng.uniform(-math.pi, math.pi))
-            rgb[k], depth[k] = r.render(position, yaw)
+        for k in range(0, per_scene, 32):  # 32 views per render call: one GPU sync each with renderer=gl
+            rgb[k:k + 32], depth[k:k + 32] = r.render_batch(poses[k:k + 32])
     return rgb, depth
 
 
