@@ -21,7 +21,6 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from rvn_data.navmesh.grid import NavGrid
-from rvn_data.navmesh.kernels import locate
 
 _MOVES = [(0, 1), (1, 0), (1, 1), (1, -1), (1, 2), (2, 1), (1, -2), (2, -1),
           (1, 3), (3, 1), (1, -3), (3, -1), (2, 3), (3, 2), (2, -3), (3, -2)]
@@ -196,29 +195,6 @@ def any_angle_at(dist, pred, cells, centres, meta, clearance, island, goal, gk, 
             v = pred[v]
         for t in range(m - 1, -1, -1):
             _smooth_node(chain[t], pred, cells, centres, meta, clearance, island, goal, gk, gi, gj, r, out, parent)
-    return out
-
-
-@njit(cache=True)
-def field_support(meta, height, x0, z0, cs, node_of, pts, tol):
-    """The graph nodes `kernels.field_lookup` may read for points [N, 3] (int64 [N, 13], -1 where
-    none): the 4 cells of its bilinear lookup and the 3x3 cells around the point's cell."""
-    out = np.full((pts.shape[0], 13), -1, np.int64)
-    for n in range(pts.shape[0]):
-        x, y, z = pts[n, 0], pts[n, 1], pts[n, 2]
-        k, f = locate(meta, height, x0, z0, cs, x, y, z, tol)
-        if k < 0:
-            continue
-        rows, cols, off = meta[k, 2], meta[k, 3], meta[k, 4]
-        i0 = int(math.floor((z - z0) / cs - 0.5 - meta[k, 0]))
-        j0 = int(math.floor((x - x0) / cs - 0.5 - meta[k, 1]))
-        i = (f - off) // cols
-        j = (f - off) % cols
-        for c in range(13):  # c < 4: the bilinear 2x2 from (i0, j0); then the 3x3 around (i, j)
-            ii = i0 + c // 2 if c < 4 else i + (c - 4) // 3 - 1
-            jj = j0 + c % 2 if c < 4 else j + (c - 4) % 3 - 1
-            if 0 <= ii < rows and 0 <= jj < cols:
-                out[n, c] = node_of[off + ii * cols + jj]
     return out
 
 

@@ -134,6 +134,15 @@ def clearance_gradient(meta, height, clearance, x0, z0, cs, x, y, z, tol):
 
 
 @njit(cache=True)
+def lookup_cells(meta, x0, z0, cs, k, f, x, z):
+    """Where `field_lookup` reads around a point (x, z) located in cell f of layer k: the fractional
+    grid coordinates (u, v), the bilinear 2x2's first cell (i0, j0) and the point's own cell (i, j)."""
+    u = (z - z0) / cs - 0.5 - meta[k, 0]
+    v = (x - x0) / cs - 0.5 - meta[k, 1]
+    return u, v, int(math.floor(u)), int(math.floor(v)), (f - meta[k, 4]) // meta[k, 3], (f - meta[k, 4]) % meta[k, 3]
+
+
+@njit(cache=True)
 def field_lookup(meta, height, x0, z0, cs, node_of, field, pts, tol):
     """Geodesic distance at points [N, 3]: bilinear in the field of the 4 cell centres around
     a point when all are reachable, else min over the 3x3 reachable cells of
@@ -145,10 +154,7 @@ def field_lookup(meta, height, x0, z0, cs, node_of, field, pts, tol):
         if k < 0:
             continue
         rows, cols, off = meta[k, 2], meta[k, 3], meta[k, 4]
-        u = (z - z0) / cs - 0.5 - meta[k, 0]
-        v = (x - x0) / cs - 0.5 - meta[k, 1]
-        i0 = int(math.floor(u))
-        j0 = int(math.floor(v))
+        u, v, i0, j0, i, j = lookup_cells(meta, x0, z0, cs, k, f, x, z)
         acc = 0.0
         for di in range(2):
             for dj in range(2):
@@ -163,8 +169,6 @@ def field_lookup(meta, height, x0, z0, cs, node_of, field, pts, tol):
         if np.isfinite(acc):
             out[n] = acc
             continue
-        i = (f - off) // cols
-        j = (f - off) % cols
         best = np.inf
         for di in range(-1, 2):
             for dj in range(-1, 2):
@@ -181,6 +185,26 @@ def field_lookup(meta, height, x0, z0, cs, node_of, field, pts, tol):
                 d = field[node] + math.sqrt((cx - x) ** 2 + (cz - z) ** 2 + (height[g] - y) ** 2)
                 best = min(best, d)
         out[n] = best
+    return out
+
+
+@njit(cache=True)
+def field_support(meta, height, x0, z0, cs, node_of, pts, tol):
+    """The graph nodes `field_lookup` may read for points [N, 3] (int64 [N, 13], -1 where none):
+    the 4 cells of its bilinear lookup and the 3x3 cells around the point's cell."""
+    out = np.full((pts.shape[0], 13), -1, np.int64)
+    for n in range(pts.shape[0]):
+        x, y, z = pts[n, 0], pts[n, 1], pts[n, 2]
+        k, f = locate(meta, height, x0, z0, cs, x, y, z, tol)
+        if k < 0:
+            continue
+        rows, cols, off = meta[k, 2], meta[k, 3], meta[k, 4]
+        _, _, i0, j0, i, j = lookup_cells(meta, x0, z0, cs, k, f, x, z)
+        for c in range(13):  # c < 4: the bilinear 2x2 from (i0, j0); then the 3x3 around (i, j)
+            ii = i0 + c // 2 if c < 4 else i + (c - 4) // 3 - 1
+            jj = j0 + c % 2 if c < 4 else j + (c - 4) % 3 - 1
+            if 0 <= ii < rows and 0 <= jj < cols:
+                out[n, c] = node_of[off + ii * cols + jj]
     return out
 
 

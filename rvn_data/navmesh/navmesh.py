@@ -14,8 +14,8 @@ from scipy import ndimage
 
 from rvn_data.navmesh import kernels as K
 from rvn_data.navmesh.build import build_layers
-from rvn_data.navmesh.geodesic import (GeodesicField, any_angle, any_angle_at, build_graph, field_support, node_cells,
-                                      node_centres, run_dijkstra)
+from rvn_data.navmesh.geodesic import (GeodesicField, any_angle, any_angle_at, build_graph, node_cells, node_centres,
+                                      run_dijkstra)
 from rvn_data.navmesh.grid import NavGrid, pack
 from rvn_data.navmesh.settings import NavMeshSettings
 from rvn_data.scenes.scene import Scene
@@ -248,7 +248,7 @@ class NavMesh:
         wanted = None
         if at is not None:
             P, pts = self.packed, np.ascontiguousarray(np.asarray(at, dtype=np.float64).reshape(-1, 3))
-            wanted = field_support(P.meta, P.height, P.x0, P.z0, P.cs, node_of, pts, MAX_Y_DELTA)
+            wanted = K.field_support(P.meta, P.height, P.x0, P.z0, P.cs, node_of, pts, MAX_Y_DELTA)
         values = self._solve(node, goal, wanted)[0] if node >= 0 else np.full(graph.shape[0], np.inf)
         return GeodesicField(self, goal, values)
 
