@@ -23,11 +23,11 @@ from rvn_data.dataset.reader import load_traj_data
 from rvn_data.dataset.settings import GenSettings
 from rvn_data.dataset.topdown import render_map
 from rvn_data.dataset.trajectory import Rollout, SceneContext, attempt
+from rvn_data.render.base import CALL_VIEWS
 from rvn_data.scenes.scene import SceneError
 from rvn_data.scenes.sets import ScenesConfig
 
 TIMERS = ("setup", "planning", "rendering", "encoding", "writing")
-RENDER_BATCH = 32  # frames per render call: one GPU sync per 32 frames with renderer=gl
 
 
 @dataclass
@@ -211,11 +211,11 @@ def _close_scene(gnm: GNMWriter, scene: _Scene, res: SceneResult, split: str, ki
 
 def _render(renderer, r: Rollout, s: GenSettings, timing: dict) -> tuple[list[bytes], np.ndarray | None]:
     """JPEG bytes of every frame and, with dataset.save_depth, the depth maps float16 [T, S, S]. Frames
-    are rendered RENDER_BATCH at a time (`Renderer.render_batch`: the same images as one by one)."""
+    are rendered CALL_VIEWS at a time (`Renderer.render_batch`: the same images as one by one)."""
     jpegs, depths = [], []
-    for k in range(0, r.num_render, RENDER_BATCH):
+    for k in range(0, r.num_render, CALL_VIEWS):
         t0 = time.perf_counter()
-        poses = [(r.positions[i], float(r.yaws[i])) for i in range(k, min(k + RENDER_BATCH, r.num_render))]
+        poses = [(r.positions[i], float(r.yaws[i])) for i in range(k, min(k + CALL_VIEWS, r.num_render))]
         rgb, depth = renderer.render_batch(poses, depth=s.save_depth)
         t1 = time.perf_counter()
         for j in range(len(poses)):

@@ -82,6 +82,10 @@ class Renderer(abc.ABC):
         return f"<{type(self).__name__} backend={self.backend!r} info={self.info!r} scene={self.scene.scene_id!r}>"
 
 
+CALL_VIEWS = 32  # views per `render_batch` call where a caller renders many (rvn-gen, depth pairs): one GPU
+# synchronisation per 32 frames with renderer=gl, and only 32 frames' arrays held at a time
+
+
 def check_poses(poses) -> list[tuple[np.ndarray, float]]:
     """[(position float64 [3], yaw float), ...] from a non-empty sequence of (position, yaw) pairs;
     ValueError naming the first bad pose."""

@@ -22,6 +22,7 @@ import numpy as np
 from rvn_data.atomic import atomic_path
 from rvn_data.navmesh.settings import NavMeshSettings
 from rvn_data.render import RendererConfig
+from rvn_data.render.base import CALL_VIEWS
 from rvn_data.render.camera import CameraConfig
 
 
@@ -57,8 +58,8 @@ def render_scene_pairs(spec: str, scene_index: int, split: str, per_scene: int, 
     depth = np.empty((per_scene, camera.height, camera.width), np.float32)
     poses = [(navmesh.sample(rng), float(rng.uniform(-math.pi, math.pi))) for _ in range(per_scene)]
     with make_renderer(scene, camera, backend=renderer.backend, device=renderer.device) as r:
-        for k in range(0, per_scene, 32):  # 32 views per render call: one GPU sync each with renderer=gl
-            rgb[k:k + 32], depth[k:k + 32] = r.render_batch(poses[k:k + 32])
+        for k in range(0, per_scene, CALL_VIEWS):
+            rgb[k:k + CALL_VIEWS], depth[k:k + CALL_VIEWS] = r.render_batch(poses[k:k + CALL_VIEWS])
     return rgb, depth
 
 
