@@ -49,13 +49,13 @@ def evaluate(config: EvalConfig, choice: str = "policy", on_checked=None) -> dic
         slots = env_cfg.scene_slots("episodes.first_scene")
         keys = [(slots[pos][1], e) for pos, e in eval_schedule(slots, env_cfg.per_scene)]
         job = EvalJob(env_cfg, config.policy, config.method, config.seed)
-        keep_compiled_kernels(cache_root(config.cache_dir, config.out_dir))  # a policy's torch.compile, if it has one
         policy = make_policy(job.policy, None, job.name)  # a checkpoint that does not load fails here
         diffs = check_embodiment(getattr(policy, "embodiment", None), embodiment_of(env_cfg.agent, env_cfg.camera),
                                  _policy_what(config), config.embodiment_mismatch)
         check_writable_dir(config.out_dir)
         run = RunDir(config.out_dir, run_identity(config.record()), {"embodiment_mismatch": diffs})
         done = run.open(resume=config.resume)
+    keep_compiled_kernels(cache_root(config.cache_dir, config.out_dir))  # after the checks: torch makes the folder
     target = dict(config.policy).get("_target_")  # make_policy built it: a registered policy, else its dotted path
     if registered_name(str(target)) is None:  # a policy of one's own, imported by its dotted path
         print(f"rvn-eval: note: {unregistered_note(target)}", file=sys.stderr)

@@ -31,13 +31,19 @@ from rvn_data.cache_root import cache_root, keep_compiled_kernels, kernels_place
 class CompiledCall:
     """``fn`` compiled for fixed shapes; on CUDA as CUDA graphs (``reduce-overhead``), whose output
     buffers are reused by the next replay, so the output is cloned there before it is returned (a
-    policy keeps encoder tokens across decisions)."""
+    policy keeps encoder tokens across decisions). Where the kernels are cached is settled at the first call,
+    which compiles: a command (rvn-eval) places them under its cache root after its checks, once the policy
+    is built."""
 
     def __init__(self, fn: Callable, device: torch.device):
         self.cuda = torch.device(device).type == "cuda"
         self.fn = torch.compile(fn, dynamic=False, mode="reduce-overhead" if self.cuda else None)
+        self.called = False
 
     def __call__(self, *args):
+        if not self.called:
+            _kernel_cache()
+            self.called = True
         if not self.cuda:
             return self.fn(*args)
         torch.compiler.cudagraph_mark_step_begin()
@@ -60,7 +66,6 @@ def _kernel_cache() -> None:
 def compile_for_inference(model: torch.nn.Module, device: torch.device | str) -> torch.nn.Module:
     """``model`` (eval mode, already on ``device``) with its frame encoder and, for NoMaD, its
     denoising step compiled for decisions (``model.frame_encoder``, ``model.denoise_step``)."""
-    _kernel_cache()
     device = torch.device(device)
     model.frame_encoder = CompiledCall(model.obs_encoder, device)
     if hasattr(model, "noise_pred_net"):
