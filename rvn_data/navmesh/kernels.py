@@ -134,12 +134,16 @@ def clearance_gradient(meta, height, clearance, x0, z0, cs, x, y, z, tol):
 
 
 @njit(cache=True)
-def lookup_cells(meta, x0, z0, cs, k, f, x, z):
-    """Where `field_lookup` reads around a point (x, z) located in cell f of layer k: the fractional
-    grid coordinates (u, v), the bilinear 2x2's first cell (i0, j0) and the point's own cell (i, j)."""
+def lookup_cells(meta, height, x0, z0, cs, x, y, z, tol):
+    """Where `field_lookup` reads around a point: its layer k (-1 off the mesh, then nothing else
+    counts), the cell f it lies in, its fractional grid coordinates (u, v), the bilinear 2x2's first
+    cell (i0, j0) and its own cell (i, j)."""
+    k, f = locate(meta, height, x0, z0, cs, x, y, z, tol)
+    if k < 0:
+        return k, f, 0.0, 0.0, 0, 0, 0, 0
     u = (z - z0) / cs - 0.5 - meta[k, 0]
     v = (x - x0) / cs - 0.5 - meta[k, 1]
-    return u, v, int(math.floor(u)), int(math.floor(v)), (f - meta[k, 4]) // meta[k, 3], (f - meta[k, 4]) % meta[k, 3]
+    return k, f, u, v, int(math.floor(u)), int(math.floor(v)), (f - meta[k, 4]) // meta[k, 3], (f - meta[k, 4]) % meta[k, 3]
 
 
 @njit(cache=True)
@@ -150,11 +154,10 @@ def field_lookup(meta, height, x0, z0, cs, node_of, field, pts, tol):
     out = np.full(pts.shape[0], np.inf)
     for n in range(pts.shape[0]):
         x, y, z = pts[n, 0], pts[n, 1], pts[n, 2]
-        k, f = locate(meta, height, x0, z0, cs, x, y, z, tol)
+        k, f, u, v, i0, j0, i, j = lookup_cells(meta, height, x0, z0, cs, x, y, z, tol)
         if k < 0:
             continue
         rows, cols, off = meta[k, 2], meta[k, 3], meta[k, 4]
-        u, v, i0, j0, i, j = lookup_cells(meta, x0, z0, cs, k, f, x, z)
         acc = 0.0
         for di in range(2):
             for dj in range(2):
@@ -194,12 +197,10 @@ def field_support(meta, height, x0, z0, cs, node_of, pts, tol):
     the 4 cells of its bilinear lookup and the 3x3 cells around the point's cell."""
     out = np.full((pts.shape[0], 13), -1, np.int64)
     for n in range(pts.shape[0]):
-        x, y, z = pts[n, 0], pts[n, 1], pts[n, 2]
-        k, f = locate(meta, height, x0, z0, cs, x, y, z, tol)
+        k, _, _, _, i0, j0, i, j = lookup_cells(meta, height, x0, z0, cs, pts[n, 0], pts[n, 1], pts[n, 2], tol)
         if k < 0:
             continue
         rows, cols, off = meta[k, 2], meta[k, 3], meta[k, 4]
-        _, _, i0, j0, i, j = lookup_cells(meta, x0, z0, cs, k, f, x, z)
         for c in range(13):  # c < 4: the bilinear 2x2 from (i0, j0); then the 3x3 around (i, j)
             ii = i0 + c // 2 if c < 4 else i + (c - 4) // 3 - 1
             jj = j0 + c % 2 if c < 4 else j + (c - 4) % 3 - 1
