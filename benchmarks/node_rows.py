@@ -9,6 +9,7 @@ import json
 import math
 import os
 import tempfile
+import traceback
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -34,6 +35,18 @@ def lp_threads(processes: int, cpus: int):
     finally:
         if old is None:
             os.environ.pop("LP_NUM_THREADS", None)
+
+
+def compiled_or_plain(measure, compiled: bool):
+    """(``measure(compiled)``, None); when the compiled path fails, (``measure(False)``, what failed): the row keeps
+    the plain figure and says why (the traceback goes to stderr)."""
+    try:
+        return measure(compiled), None
+    except Exception as e:
+        if not compiled:
+            raise
+        traceback.print_exc()
+        return measure(False), f"{type(e).__name__}: {(str(e).strip().splitlines() or [''])[0][:200]}"
 
 
 def render_rows(plan) -> list[dict]:
@@ -111,14 +124,18 @@ def train_rows(plan) -> list[dict]:
         root = write_synthetic_gnm(Path(tmp) / "expert", trajectories, length, image_size=plan.train_image)
         for name in ("nomad_pointgoal", "vint_pointgoal"):
             cfg = load_model_config(name, size)
-            with intra_op_threads(plan.train_threads), GpuBusy() as busy:
-                rate, steps, waiting = train_bench.steady_train_rate(root, cfg, plan.train_batch, plan.seconds, device,
-                                                            precision, plan.loader_workers, str(Path(tmp) / "cache"),
-                                                            plan.compile)
+
+            def measure(compiled: bool):
+                with intra_op_threads(plan.train_threads), GpuBusy() as busy:
+                    return *train_bench.steady_train_rate(root, cfg, plan.train_batch, plan.seconds, device, precision,
+                                                          plan.loader_workers, str(Path(tmp) / "cache"), compiled), busy
+
+            (rate, steps, waiting, busy), failed = compiled_or_plain(measure, plan.compile)
+            compiled = f"true FAILED ({failed}), plain step" if failed else str(plan.compile).lower()
             w, h = cfg["image_size"]
             rows.append(row(3, f"train_{name}", f"rvn-train {name} ({device})", "samples/s", f"train_{name}", rate,
                             f"model.size={size}, {w}x{h}, batch {plan.train_batch}, train.precision={precision}, "
-                            f"train.compile={str(plan.compile).lower()}, "
+                            f"train.compile={compiled}, "
                             f"{plan.loader_workers} loader workers, {plan.train_threads or 'all'} torch threads, "
                             f"{steps} steps timed, waiting for the loader {100 * waiting:.0f}% of the time, "
                             "synthetic GNM data",
@@ -138,12 +155,17 @@ def decision_rows(plan) -> list[dict]:
         if where == "gpu" and not plan.cuda:
             rows.append(row(4, "decision_gpu", label, "ms", "decision_gpu", skipped=NO_CUDA))
             continue
-        with GpuBusy() as busy:  # compiled: the plain path timed alternately beside it
-            ms, plain = train_bench.decision_ms("nomad_pointgoal", size, 5, threads=1, reference=plan.compile,
-                                                seconds=plan.seconds, device="cuda" if where == "gpu" else "cpu",
-                                                compile=plan.compile)
-        compiled = f"policy.compile=true (plain path {plain:.1f} ms, x{plain / ms:.2f})" if plan.compile \
-            else "policy.compile=false"
+
+        def measure(compiled: bool):  # compiled: the plain path timed alternately beside it
+            with GpuBusy() as busy:
+                ms, plain = train_bench.decision_ms("nomad_pointgoal", size, 5, threads=1, reference=compiled,
+                                                    seconds=plan.seconds, device="cuda" if where == "gpu" else "cpu",
+                                                    compile=compiled)
+            return ms, plain, busy
+
+        (ms, plain, busy), failed = compiled_or_plain(measure, plan.compile)
+        compiled = f"policy.compile=true FAILED ({failed}), plain path" if failed else \
+            f"policy.compile=true (plain path {plain:.1f} ms, x{plain / ms:.2f})" if plan.compile else "policy.compile=false"
         rows.append(row(4, f"decision_{where}", label, "ms", f"decision_{where}", ms,
                         f"model.size={size}, 8 samples x {steps} steps, 256x256 frame -> action, {compiled}, "
                         "median after warm-up", gpu_busy=busy.share if where == "gpu" else None))

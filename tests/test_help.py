@@ -23,6 +23,16 @@ def test_help_describes_the_tool(tool, module, knob):
     assert "base_train" not in r.stdout and "base_eval" not in r.stdout  # schema entries are no choices
 
 
+
+def test_commands_load_torchs_compiler_only_when_asked():
+    """torch.compile's inductor costs a second at import: the command modules and the policy loader import it
+    only when train.compile / policy.compile is set (rvn_il.models.compiled)."""
+    code = ("import sys, rvn_il.train.cli, rvn_il.policies, rvn_data.benchmark.cli, rvn_rl.cli; "
+            "print(sorted(m for m in sys.modules if m.startswith('torch._inductor')))")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == "[]", r.stdout[:300]
+
 def test_scene_info_works_without_an_argument():
     r = subprocess.run([sys.executable, "-m", "rvn_data.cli.scene", "info", "--json"], capture_output=True,
                        text=True, timeout=300)

@@ -105,3 +105,21 @@ def test_goals_compared_on_a_gpu_node_only():
     assert "| 12.0 ms | <= 10.0 ms | 1.20 (not met) | n/a |" in text and "commit 0123456789" in text
     node_report.compare(rows[0], cuda=False)
     assert rows[0]["ratio"] is None and rows[0]["goal"] == {"op": ">=", "value": 4000.0}
+
+
+def test_a_failing_compiled_path_keeps_the_plain_figure(capsys):
+    """A row whose compiled path fails (untried on a new node) is timed plainly and names the failure; a plain
+    path that fails is an error of the row."""
+    sys.path.append(str(ROOT / "benchmarks"))
+    from node_rows import compiled_or_plain
+
+    def measure(compiled: bool):
+        if compiled:
+            raise RuntimeError("CUDA graphs: no\nmore lines")
+        return 40.0
+
+    assert compiled_or_plain(measure, True) == (40.0, "RuntimeError: CUDA graphs: no")
+    assert "CUDA graphs: no" in capsys.readouterr().err  # the traceback, for whoever reads the run's log
+    assert compiled_or_plain(lambda compiled: 31.0, True) == (31.0, None)
+    with pytest.raises(ZeroDivisionError):
+        compiled_or_plain(lambda compiled: 1 / 0, False)

@@ -23,7 +23,6 @@ from __future__ import annotations
 from typing import Callable
 
 import torch
-import torch._inductor.config
 
 from rvn_data.cache_root import cache_root, keep_compiled_kernels, kernels_placed
 
@@ -71,8 +70,10 @@ def compile_for_inference(model: torch.nn.Module, device: torch.device | str) ->
     if hasattr(model, "noise_pred_net"):
         net = model.noise_pred_net
         if device.type == "cuda":  # the repacked weights stay where they are: CUDA graphs need not copy them in
+            from torch._dynamo import mark_static_address
+
             for t in _tensors(net.packed_weights()):
-                torch._dynamo.mark_static_address(t)
+                mark_static_address(t)
         model.denoise_step = CompiledCall(net.forward_packed, device)
     return model
 
@@ -90,8 +91,10 @@ def compile_for_training(model: torch.nn.Module) -> torch.nn.Module:
     same parameters and state_dict keys). Training batches have one size (drop_last), so they compile once;
     validation runs on the validator's copy, which ``copy.deepcopy`` leaves uncompiled. Dropout and EfficientNet's drop-connect draw from torch's generator
     as in the plain model (inductor's ``fallback_random``), so the per-step seeds of rvn-train decide them."""
+    from torch._inductor import config  # imported here: inductor adds a second to every rvn-train and rvn-eval start
+
     _kernel_cache()
-    torch._inductor.config.fallback_random = True
+    config.fallback_random = True
     for name in ("obs_encoder", "transformer", "noise_pred_net", "decoder"):
         part = getattr(model, name, None)
         if part is not None:
