@@ -1,8 +1,9 @@
 """`ProcessBatchEnv`: the envs of a `BatchEnv` split over worker processes (``env.workers``),
 so stepping and rendering use several cores while the learner's process waits. Same
 interface and same same-step autoreset as `BatchEnv`; worker ``w`` owns envs
-``[offsets[w], offsets[w+1])`` with the same reset seeds as in one process. The depth
-function (a network) runs in the calling process on the gathered RGB batch."""
+``[offsets[w], offsets[w+1])`` with the same reset seeds as in one process, and its share of
+the cores, cores // workers CPU threads (`rvn_data.worker_threads`). The depth function (a
+network) runs in the calling process on the gathered RGB batch."""
 from __future__ import annotations
 
 import multiprocessing as mp
