@@ -4,7 +4,8 @@ under the oracle policy, with 1 and 2 worker processes (combined steps/s).
 Each worker builds its own env (eval mode, one procedural val scene each, episodes
 generated beforehand), takes a few warm-up steps, waits for the others, then runs
 ``--steps`` steps (resets included). As in rvn-eval, with 2 workers each gets half of the
-cores for software GL (LP_NUM_THREADS) unless LP_NUM_THREADS is set. Run: python benchmarks/env.py [--steps 600]
+cores for software GL, OpenMP/BLAS and OpenCV (`rvn_data.worker_threads`) unless the user set
+their variables. Run: python benchmarks/env.py [--steps 600]
 """
 from __future__ import annotations
 
@@ -21,12 +22,12 @@ def env_kwargs(args, rank: int, episodes_dir: str) -> dict:
                 episodes={"n_goals": 32, "dir": episodes_dir})
 
 
-def worker(args, rank: int, workers: int, episodes_dir: str, barrier, results) -> None:
+def worker(args, rank: int, threads: int, episodes_dir: str, barrier, results) -> None:
     from rvn_data.benchmark.env import RVNEnv
     from rvn_data.benchmark.policies import OraclePolicy
-    from rvn_data.benchmark.runner import share_cpu_threads
+    from rvn_data.worker_threads import settle_worker_threads
 
-    share_cpu_threads(workers)  # as rvn-eval does: llvmpipe threads split between workers
+    settle_worker_threads(threads)  # as rvn-eval's workers
 
     env = RVNEnv(**env_kwargs(args, rank, episodes_dir))
     oracle = OraclePolicy()
@@ -51,11 +52,15 @@ def worker(args, rank: int, workers: int, episodes_dir: str, barrier, results) -
 
 
 def measure(args, workers: int, episodes_dir: str) -> tuple[float, str]:
+    from rvn_data.worker_threads import threads_per_worker, worker_threads
+
     ctx = mp.get_context("spawn")
     barrier, results = ctx.Barrier(workers), ctx.Queue()
-    procs = [ctx.Process(target=worker, args=(args, r, workers, episodes_dir, barrier, results)) for r in range(workers)]
-    for p in procs:
-        p.start()
+    threads = threads_per_worker(workers)
+    procs = [ctx.Process(target=worker, args=(args, r, threads, episodes_dir, barrier, results)) for r in range(workers)]
+    with worker_threads(threads):  # as rvn-eval: the cores split between the workers
+        for p in procs:
+            p.start()
     out = [results.get() for _ in procs]
     for p in procs:
         p.join()

@@ -7,7 +7,6 @@ from __future__ import annotations
 import contextlib
 import json
 import math
-import os
 import tempfile
 import traceback
 from pathlib import Path
@@ -25,16 +24,16 @@ def row(group: int, key: str, label: str, unit: str, goal_key: str | None = None
 
 
 @contextlib.contextmanager
-def lp_threads(processes: int, cpus: int):
-    """Software GL (llvmpipe) threads shared between ``processes`` (as rvn-eval does), unless set by the user."""
-    old = os.environ.get("LP_NUM_THREADS")
-    if old is None and processes > 1:
-        os.environ["LP_NUM_THREADS"] = str(max(1, cpus // processes))
-    try:
+def shared_cores(processes: int, cpus: int):
+    """The cores shared between ``processes`` render workers as between rvn-eval's workers (software GL's
+    LP_NUM_THREADS, OpenMP/BLAS: `rvn_data.worker_threads`), unless set by the user; one process: as it is."""
+    if processes <= 1:
         yield
-    finally:
-        if old is None:
-            os.environ.pop("LP_NUM_THREADS", None)
+        return
+    from rvn_data.worker_threads import worker_threads
+
+    with worker_threads(max(1, cpus // processes)):
+        yield
 
 
 def compiled_or_plain(measure, compiled: bool):
@@ -72,7 +71,7 @@ def render_rows(plan) -> list[dict]:
                             skipped=f"unavailable ({e})"))
             continue
         for batch, n in runs:
-            with lp_threads(n, plan.cpus), GpuBusy() as busy:
+            with shared_cores(n, plan.cpus), GpuBusy() as busy:
                 res = render_parallel(scene, camera, poses, backend, processes=n, return_images=False,
                                       seconds=plan.seconds, batch=batch)
             key = f"render_{backend}_{n}p" if batch == 1 else f"render_{backend}_b{batch}_{n}p"

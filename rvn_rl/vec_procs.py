@@ -1,20 +1,22 @@
 """`ProcessBatchEnv`: the envs of a `BatchEnv` split over worker processes (``env.workers``),
 so stepping and rendering use several cores while the learner's process waits. Same
 interface and same same-step autoreset as `BatchEnv`; worker ``w`` owns envs
-``[offsets[w], offsets[w+1])`` with the same reset seeds as in one process. The depth
-function (a network) runs in the calling process on the gathered RGB batch."""
+``[offsets[w], offsets[w+1])`` with the same reset seeds as in one process, and its share of
+the cores, cores // workers CPU threads (`rvn_data.worker_threads`). The depth function (a
+network) runs in the calling process on the gathered RGB batch."""
 from __future__ import annotations
 
 import multiprocessing as mp
-import os
 
 import numpy as np
+
+from rvn_data.worker_threads import settle_worker_threads, threads_per_worker, worker_threads
 
 from .vec_env import BatchEnv
 
 
-def _worker(conn, env_kwargs: dict, indices: list[int], seed: int, rank: int, scene_cache: int, threads: str) -> None:
-    os.environ["LP_NUM_THREADS"] = threads  # software GL: share the cores between workers
+def _worker(conn, env_kwargs: dict, indices: list[int], seed: int, rank: int, scene_cache: int, threads: int) -> None:
+    settle_worker_threads(threads)
     envs = None
     try:
         envs = BatchEnv(env_kwargs, len(indices), seed=seed, rank=rank, scene_cache=scene_cache, index_offset=indices[0])
@@ -45,16 +47,17 @@ class ProcessBatchEnv:
         self.num_envs, self.depth_fn = num_envs, depth_fn
         ctx = mp.get_context("spawn")
         self.bounds = bounds = np.linspace(0, num_envs, workers + 1).round().astype(int)
-        threads = os.environ.get("LP_NUM_THREADS", str(max(1, (os.cpu_count() or 1) // workers)))
+        threads = threads_per_worker(workers)  # each worker's share of the cores (rvn_data.worker_threads)
         self.conns, self.procs = [], []
-        for w in range(workers):
-            parent, child = ctx.Pipe()
-            p = ctx.Process(target=_worker, daemon=True, args=(
-                child, env_kwargs, list(range(bounds[w], bounds[w + 1])), seed, rank, scene_cache, threads))
-            p.start()
-            child.close()
-            self.conns.append(parent)
-            self.procs.append(p)
+        with worker_threads(threads):
+            for w in range(workers):
+                parent, child = ctx.Pipe()
+                p = ctx.Process(target=_worker, daemon=True, args=(
+                    child, env_kwargs, list(range(bounds[w], bounds[w + 1])), seed, rank, scene_cache, threads))
+                p.start()
+                child.close()
+                self.conns.append(parent)
+                self.procs.append(p)
         for _ in self._gather():
             pass
 

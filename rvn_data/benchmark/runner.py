@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import multiprocessing as mp
 import operator
-import os
 import sys
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
@@ -20,6 +19,7 @@ import numpy as np
 from rvn_data.benchmark.episodes_source import EnvConfig
 from rvn_data.conventions import Action
 from rvn_data.numba_note import note_first_compile
+from rvn_data.worker_threads import settle_worker_threads, threads_per_worker, worker_threads
 
 
 
@@ -143,17 +143,13 @@ def run_episode(env, policy, k: int, name: str, seed: int = 0) -> dict:
 _WORKER: dict = {}
 
 
-def share_cpu_threads(workers: int) -> None:
-    """Give each of ``workers`` processes its share of the CPU cores for software GL
-    (Mesa llvmpipe's LP_NUM_THREADS; a GPU ignores it), unless the user set it."""
-    if workers > 1 and "LP_NUM_THREADS" not in os.environ:
-        os.environ["LP_NUM_THREADS"] = str(max(1, (os.cpu_count() or 1) // workers))
-
-
-def _init_worker(job: EvalJob, workers: int = 1) -> None:
+def _init_worker(job: EvalJob, threads: int | None = None) -> None:
+    """Build this process's env and policy; in a worker process (``threads``: its share of the cores, `_pool`)
+    its CPU threads are settled first."""
     from rvn_data.benchmark.env import RVNEnv
 
-    share_cpu_threads(workers)
+    if threads is not None:
+        settle_worker_threads(threads)
     env = RVNEnv(config=job.env)
     _WORKER.update(env=env, policy=make_policy(job.policy, env, job.name), name=job.name, seed=job.seed)
 
@@ -171,10 +167,14 @@ def _prepare_task(args) -> int:
 
 
 def _pool(workers: int, job: EvalJob | None = None):
+    """``workers`` processes, each with its share of the cores (`rvn_data.worker_threads`); with ``job``, each
+    builds its env and policy first."""
     ctx = mp.get_context("spawn")  # GL contexts and torch do not survive fork
-    if job is None:
-        return ctx.Pool(workers)
-    return ctx.Pool(workers, initializer=_init_worker, initargs=(job, workers))
+    threads = threads_per_worker(workers)
+    with worker_threads(threads):
+        if job is None:
+            return ctx.Pool(workers, initializer=settle_worker_threads, initargs=(threads,))
+        return ctx.Pool(workers, initializer=_init_worker, initargs=(job, threads))
 
 
 def prepare_episodes(env: EnvConfig, slots: list, workers: int, progress: Callable | None = None) -> None:

@@ -9,7 +9,6 @@ how shards meet.
 from __future__ import annotations
 
 import multiprocessing as mp
-import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,6 +27,7 @@ from rvn_data.dataset.verify import summarise
 from rvn_data.gen.summary import summary
 from rvn_data.numba_note import note_first_compile
 from rvn_data.scenes.sets import ScenesConfig
+from rvn_data.worker_threads import settle_worker_threads, worker_threads
 
 
 def list_scenes(scenes: ScenesConfig) -> list[str]:
@@ -39,17 +39,7 @@ def list_scenes(scenes: ScenesConfig) -> list[str]:
     return list(specs)
 
 
-ONE_THREAD = ("LP_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
-
-
-def _init_worker() -> None:
-    """One core per worker process: Mesa's software GL (llvmpipe), OpenMP/BLAS (read from the environment
-    the worker inherits, `_run`) and OpenCV would otherwise each start a thread per core in every process
-    (on a 16-core node, 16 workers x 16 threads contend for 16 cores)."""
-    import cv2
-
-    os.environ.setdefault("LP_NUM_THREADS", "1")
-    cv2.setNumThreads(1)
+GEN_WORKER_THREADS = 1  # CPU threads of each worker process (`rvn_data.worker_threads`): a node's cores are used by workers
 
 
 def _scene_worker(args: tuple) -> SceneResult:
@@ -177,13 +167,8 @@ def _run(jobs: list[tuple], workers: int, n: int, progress: bool) -> list[SceneR
         bar.close()
         return out
     ctx = mp.get_context("spawn")
-    unset = [k for k in ONE_THREAD if k not in os.environ]  # the workers inherit one thread each, unless set
-    os.environ.update(dict.fromkeys(unset, "1"))
-    try:
-        pool = ctx.Pool(min(workers, len(jobs)), initializer=_init_worker)
-    finally:
-        for k in unset:
-            del os.environ[k]
+    with worker_threads(GEN_WORKER_THREADS):
+        pool = ctx.Pool(min(workers, len(jobs)), initializer=settle_worker_threads, initargs=(GEN_WORKER_THREADS,))
     with pool:
         bar = tqdm(total=len(jobs), unit="scene", disable=not progress, dynamic_ncols=True)
         out = []

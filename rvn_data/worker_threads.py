@@ -1,0 +1,73 @@
+"""How many CPU threads each worker process uses: one rule for every process pool (rvn-gen's scenes,
+rvn-eval's episodes and episode sets, rvn-rl's env workers).
+
+Mesa's software GL (llvmpipe), OpenMP, OpenBLAS, MKL, OpenCV and torch each start a thread per core in
+every process by default; with one worker per core that is cores x cores threads, and BLAS pools that
+spin while they wait make small numpy/scipy calls many times slower (issue 32: 16 ms against 0.7 ms
+per planned frame on a 16-core node). The libraries read their variables when they load, before a
+worker's own code runs, so the parent sets them while it starts the workers (`worker_threads`); a
+worker then calls `settle_worker_threads` first thing for what has no variable (OpenCV) or was
+loaded before it ran (torch). A variable the user set is left as it is, in the workers too.
+"""
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+THREAD_VARS = ("LP_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def usable_cores() -> int:
+    """The cores this process may run on (its CPU affinity: a batch job's share of a node), else all."""
+    try:
+        return len(os.sched_getaffinity(0)) or 1
+    except (AttributeError, OSError):  # no affinity on this platform
+        return os.cpu_count() or 1
+
+
+def threads_per_worker(workers: int) -> int:
+    """Each of ``workers`` processes' share of the usable cores, at least 1."""
+    return max(1, usable_cores() // max(1, int(workers)))
+
+
+@contextmanager
+def worker_threads(threads: int) -> Iterator[None]:
+    """In the parent, around starting worker processes (they inherit its environment): the variables of
+    `THREAD_VARS` the user has not set hold ``threads``; afterwards the parent's environment is as before."""
+    if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
+        raise ValueError(f"worker threads={threads!r} must be a positive integer")
+    unset = [k for k in THREAD_VARS if k not in os.environ]
+    os.environ.update(dict.fromkeys(unset, str(threads)))
+    try:
+        yield
+    finally:
+        for k in unset:
+            os.environ.pop(k, None)
+
+
+def settle_worker_threads(threads: int) -> None:
+    """In a worker, first thing: the variables the parent did not pass set to ``threads`` (a process not
+    started inside `worker_threads`; software GL reads LP_NUM_THREADS when it makes its context); OpenCV
+    uses ``threads`` (it reads no variable of these) and torch, only if already imported (this does not
+    import it), OMP_NUM_THREADS's count, as it does itself when it loads later."""
+    for k in THREAD_VARS:
+        os.environ.setdefault(k, str(threads))
+    import cv2
+
+    cv2.setNumThreads(threads)
+    torch = sys.modules.get("torch")
+    if torch is not None:
+        torch.set_num_threads(_positive(os.environ["OMP_NUM_THREADS"]) or threads)
+
+
+def _positive(text: str) -> int | None:
+    try:
+        n = int(text)
+    except ValueError:
+        return None
+    return n if n > 0 else None
+
+
+__all__ = ["THREAD_VARS", "settle_worker_threads", "threads_per_worker", "usable_cores", "worker_threads"]
