@@ -23,7 +23,8 @@ With CUDA, each row shows issue 32's goal and measured/goal, and "GPU busy": GPU
 while the row ran (torch.cuda.utilization or pynvml; "n/a" without them). On a 16-core GPU node the
 default run takes about 7 minutes. --quick: about a second per figure at tiny sizes (a smoke test;
 its figures mean little). --out DIR: DIR/node.md and DIR/node.json (with the commit), e.g.
-docs/results/<date>_gpu/. Exit status 1 when a row failed (its error is in the table), 2 for bad options.
+docs/results/<date>_gpu/, rewritten after each group of rows (a run cut short keeps the rows it measured;
+benchmarks/node_gpu.sh runs it on an offline GPU node). Exit status 1 when a row failed (its error is in the table), 2 for bad options.
 """
 from __future__ import annotations
 
@@ -112,7 +113,7 @@ def main(argv: list[str] | None = None) -> int:
     plan = make_plan(args, info["cuda"], info["cpu_count"])
     print(f"[node] {info['device']}, {info['cpu_count']} CPUs, torch {info['torch']}: rows {' '.join(args.rows)}, "
           f"{plan.seconds:g} s per figure", file=sys.stderr, flush=True)
-    rows = []
+    rows, plan_dict = [], dict(vars(plan))
     for group, name in enumerate(GROUPS, 1):
         if name not in args.rows:
             continue
@@ -129,7 +130,8 @@ def main(argv: list[str] | None = None) -> int:
             node_report.compare(r, info["cuda"])
         rows += got
         print(f"[node] {name}: {len(got)} row(s) in {wall:.0f} s", file=sys.stderr, flush=True)
-    plan_dict = {k: v for k, v in vars(plan).items()}
+        if args.out is not None:  # the rows so far: a run stopped by a time limit keeps what it measured
+            node_report.write(args.out, info, rows, plan_dict, node_report.markdown(info, rows, plan_dict))
     text = node_report.markdown(info, rows, plan_dict)
     print(text, end="")
     if args.out is not None:

@@ -123,3 +123,25 @@ def test_a_failing_compiled_path_keeps_the_plain_figure(capsys):
     assert compiled_or_plain(lambda compiled: 31.0, True) == (31.0, None)
     with pytest.raises(ZeroDivisionError):
         compiled_or_plain(lambda compiled: 1 / 0, False)
+
+
+@pytest.mark.slow
+def test_the_table_is_written_after_each_group(tmp_path):
+    """A run cut short (a GPU node's time limit) keeps the groups it finished: node.md and node.json are
+    rewritten after each group, here read as soon as the first one appears, while the RL group still runs."""
+    import time
+
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, str(NODE), "--quick", "--rows", "decision", "rl", "--out", str(out)],
+                            cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 600
+        while not (out / "node.json").exists() and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        first = json.loads((out / "node.json").read_text())
+        assert proc.poll() is None, "the run ended before the first group's table was read"
+    finally:
+        proc.kill()
+        proc.wait()
+    assert {r["key"] for r in first["rows"]} == {"decision_gpu", "decision_cpu"}
+    assert "NoMaD decision, one CPU thread" in (out / "node.md").read_text()
