@@ -16,7 +16,9 @@ Rows (each timed for --seconds-per-row after its warm-up, so figures are steady 
  4. one decision (act) of a NoMaD-PointGoal policy, 8 samples x its diffusion steps, on the GPU and on one
     CPU thread: median ms (the GPU row says "skipped" on a machine without CUDA);
  (--compile, on by default with CUDA: rows 3 and 4 with train.compile / policy.compile, the plain decision
-    timed beside the compiled one; the first compile takes minutes, kernels are cached for the next run);
+    timed beside the compiled one; the first compile takes minutes, kernels are cached for the next run;
+    --profile, on by default with CUDA: torch.profiler's operator table of a few more steps of rows 3 and 4,
+    written beside node.md as profile_<row>.txt, so a goal the table misses comes with what bounds it);
  5. rvn-rl PPO collection + learning at 128², ResNet-18, scale=small PPO settings, envs in worker processes:
     env steps/s; and with the paper's network and PPO settings (ResNet-50, 256²) beside DD-PPO's ~160 per GPU.
 With CUDA, each row shows issue 32's goal and measured/goal, and "GPU busy": GPU 0's mean utilization
@@ -61,6 +63,9 @@ def parse(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument("--compile", choices=("auto", "on", "off"), default="auto",
                     help="train.compile and policy.compile in the training and decision rows (auto: on with CUDA, "
                          "not with --quick; the plain decision is timed beside the compiled one)")
+    ap.add_argument("--profile", choices=("auto", "on", "off"), default="auto",
+                    help="torch.profiler's operator table of a few steps of the training and decision rows, written "
+                         "beside node.md as profile_<row>.txt (auto: on with CUDA, not with --quick)")
     args = ap.parse_args(argv)
     if args.seconds_per_row is None:
         args.seconds_per_row = 1.0 if args.quick else 15.0
@@ -86,6 +91,7 @@ def make_plan(args, cuda: bool, cpus: int) -> SimpleNamespace:
     return SimpleNamespace(
         quick=q, seconds=args.seconds_per_row, cuda=cuda, cpus=cpus, scene=args.scene,
         compile=args.compile == "on" or (args.compile == "auto" and cuda and not q),
+        profile=args.profile == "on" or (args.profile == "auto" and cuda and not q),
         size=64 if q else 256,
         render_processes=sorted({1, 2, cpus}),
         render_batches=[(4, [1])] if q else [(8, [1]), (32, sorted({1, 2, cpus}))],

@@ -126,6 +126,9 @@ def markdown(info: dict, rows: list[dict], plan: dict) -> str:
         extra = "; ".join(x for x in (r["settings"], r["baseline"]) if x)
         lines.append(f"| {r['group']} | {r['label']} | {_num(r['value'])} {r['unit']} | {goal} | {ratio} | {busy} | "
                      f"{extra} |")
+    profiled = [profile_name(r) for r in rows if r.get("profile")]
+    if profiled:
+        lines += ["", f"Operator profiles (torch.profiler, a few steps after the timing): {', '.join(profiled)}"]
     return "\n".join(lines) + "\n"
 
 
@@ -136,10 +139,20 @@ def _atomic_write(path: Path, text: str) -> None:
 
 
 def write(out: Path, info: dict, rows: list[dict], plan: dict, text: str) -> list[Path]:
-    """node.md and node.json in ``out`` (each written to a temporary file, then renamed)."""
+    """node.md, node.json and a profile_<row>.txt per profiled row (node.py --profile) in ``out``, each written to
+    a temporary file, then renamed; node.json names the profile files in place of their text."""
     out.mkdir(parents=True, exist_ok=True)
-    doc = {**info, "quick": plan["quick"], "seconds_per_row": plan["seconds"], "plan": plan, "rows": rows}
-    paths = [out / "node.md", out / "node.json"]
-    _atomic_write(paths[0], text)
-    _atomic_write(paths[1], json.dumps(doc, indent=1, default=str) + "\n")
-    return paths
+    paths = []
+    for r in rows:
+        if r.get("profile"):
+            paths.append(out / profile_name(r))
+            _atomic_write(paths[-1], f"{r['label']}: {r['settings']}\n\n{r['profile']}")
+    listed = [{**r, "profile": profile_name(r) if r.get("profile") else None} for r in rows]
+    doc = {**info, "quick": plan["quick"], "seconds_per_row": plan["seconds"], "plan": plan, "rows": listed}
+    _atomic_write(out / "node.md", text)
+    _atomic_write(out / "node.json", json.dumps(doc, indent=1, default=str) + "\n")
+    return [out / "node.md", out / "node.json", *paths]
+
+
+def profile_name(row: dict) -> str:
+    return f"profile_{row['key']}.txt"

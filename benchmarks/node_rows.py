@@ -18,9 +18,11 @@ NO_CUDA = "no CUDA on this machine (a GPU row)"
 
 
 def row(group: int, key: str, label: str, unit: str, goal_key: str | None = None, value: float | None = None,
-        settings: str = "", baseline: str = "", gpu_busy: float | None = None, skipped: str | None = None) -> dict:
+        settings: str = "", baseline: str = "", gpu_busy: float | None = None, skipped: str | None = None,
+        profile: str | None = None) -> dict:
+    """One row of the table; ``profile``: torch.profiler's operator table of the row (node.py --profile)."""
     return dict(group=group, key=key, label=label, value=value, unit=unit, goal_key=goal_key, settings=settings,
-                baseline=baseline, gpu_busy=gpu_busy, skipped=skipped, error=None)
+                baseline=baseline, gpu_busy=gpu_busy, skipped=skipped, error=None, profile=profile)
 
 
 @contextlib.contextmanager
@@ -124,10 +126,13 @@ def train_rows(plan) -> list[dict]:
         for name in ("nomad_pointgoal", "vint_pointgoal"):
             cfg = load_model_config(name, size)
 
+            profiles = {} if plan.profile else None
+
             def measure(compiled: bool):
                 with intra_op_threads(plan.train_threads), GpuBusy() as busy:
                     return *train_bench.steady_train_rate(root, cfg, plan.train_batch, plan.seconds, device, precision,
-                                                          plan.loader_workers, str(Path(tmp) / "cache"), compiled), busy
+                                                          plan.loader_workers, str(Path(tmp) / "cache"), compiled,
+                                                          profiles), busy
 
             (rate, steps, waiting, busy), failed = compiled_or_plain(measure, plan.compile)
             compiled = f"true FAILED ({failed}), plain step" if failed else str(plan.compile).lower()
@@ -138,7 +143,7 @@ def train_rows(plan) -> list[dict]:
                             f"{plan.loader_workers} loader workers, {plan.train_threads or 'all'} torch threads, "
                             f"{steps} steps timed, waiting for the loader {100 * waiting:.0f}% of the time, "
                             "synthetic GNM data",
-                            gpu_busy=busy.share))
+                            gpu_busy=busy.share, profile=(profiles or {}).get("train")))
     return rows
 
 
@@ -155,11 +160,13 @@ def decision_rows(plan) -> list[dict]:
             rows.append(row(4, "decision_gpu", label, "ms", "decision_gpu", skipped=NO_CUDA))
             continue
 
+        profiles = {} if plan.profile else None
+
         def measure(compiled: bool):  # compiled: the plain path timed alternately beside it
             with GpuBusy() as busy:
                 ms, plain = train_bench.decision_ms("nomad_pointgoal", size, 5, threads=1, reference=compiled,
                                                     seconds=plan.seconds, device="cuda" if where == "gpu" else "cpu",
-                                                    compile=compiled)
+                                                    compile=compiled, profiles=profiles)
             return ms, plain, busy
 
         (ms, plain, busy), failed = compiled_or_plain(measure, plan.compile)
@@ -167,7 +174,8 @@ def decision_rows(plan) -> list[dict]:
             f"policy.compile=true (plain path {plain:.1f} ms, x{plain / ms:.2f})" if plan.compile else "policy.compile=false"
         rows.append(row(4, f"decision_{where}", label, "ms", f"decision_{where}", ms,
                         f"model.size={size}, 8 samples x {steps} steps, 256x256 frame -> action, {compiled}, "
-                        "median after warm-up", gpu_busy=busy.share if where == "gpu" else None))
+                        "median after warm-up", gpu_busy=busy.share if where == "gpu" else None,
+                        profile=(profiles or {}).get("decision")))
     return rows
 
 

@@ -73,14 +73,16 @@ def train_rate(root: Path, cfg: dict, batch: int, steps: int, channels_last: boo
 
 def steady_train_rate(root: Path, cfg: dict, batch: int, seconds: float, device: str = "cpu",
                       precision: str = "fp32", workers: int = 0, cache_dir: str | None = None,
-                      compile: bool = False) -> tuple[float, int, float]:
+                      compile: bool = False, profiles: dict | None = None) -> tuple[float, int, float]:
     """(samples/s, steps timed, share of the timed wall time spent waiting for the loader's next batch) of
     rvn-train's step in steady state: its DataLoader (``workers`` processes,
     pinned memory on a GPU, uint8 frames), channels-last model on ``device`` (compiled with ``compile``, as
     train.compile), bf16 autocast with ``precision=bf16``, AdamW (fused on a GPU) and, where the model trains
     one (NoMaD), the EMA; no host sync inside a step; timed for ``seconds`` after a warm-up
     (at least 3 steps and a fifth of ``seconds``, until a step takes at most 1.5 x the fastest one
-    so far, or ``seconds`` have passed)."""
+    so far, or ``seconds`` have passed). With ``profiles`` (a dict), 3 more steps are profiled after the timing
+    into ``profiles["train"]`` (`op_profile.op_table`)."""
+    from op_profile import op_table
     from rvn_il.train.ema import EMA
     from rvn_il.train.optimisation import fused_on
 
@@ -101,11 +103,12 @@ def steady_train_rate(root: Path, cfg: dict, batch: int, seconds: float, device:
     steps, t_start, t_step, fastest, waited = 0, None, time.perf_counter(), float("inf"), 0.0
     warm_until, warm_limit = t_step + seconds / 5, t_step + seconds
     batches = iter(loader)
-    while True:
+
+    def step() -> float:  # one step; returns the seconds spent waiting for the batch
         t_wait = time.perf_counter()
-        b = next(batches)
-        if t_start is not None:
-            waited += time.perf_counter() - t_wait
+        with torch.profiler.record_function("loader wait"):
+            b = next(batches)
+        wait = time.perf_counter() - t_wait
         b = {k: v.to(dev, non_blocking=True) for k, v in b.items()}
         with torch.autocast(dev.type, dtype=torch.bfloat16, enabled=precision == "bf16"):
             loss = model(b, gen)["loss"]
@@ -114,6 +117,12 @@ def steady_train_rate(root: Path, cfg: dict, batch: int, seconds: float, device:
         opt.step()
         if ema is not None:
             ema.update(model)
+        return wait
+
+    while True:
+        wait = step()
+        if t_start is not None:
+            waited += wait
         steps += 1
         if t_start is None:  # warm-up: 3 steps, a fifth of ``seconds``, and the last step near the fastest one
             sync()
@@ -126,19 +135,23 @@ def steady_train_rate(root: Path, cfg: dict, batch: int, seconds: float, device:
             sync()
             break
     wall = time.perf_counter() - t_start
+    if profiles is not None:
+        profiles["train"] = op_table(lambda: [step() for _ in range(3)], dev.type == "cuda")
     del batches, loader
     return steps * batch / wall, steps, waited / wall
 
 
 def decision_ms(name: str, size: str, decisions: int, threads: int | None = 1,
                 sampler: str = "ddpm", device: str = "cpu", reference: bool = True,
-                seconds: float | None = None, compile: bool = False) -> tuple[float, float | None]:
+                seconds: float | None = None, compile: bool = False,
+                profiles: dict | None = None) -> tuple[float, float | None]:
     """Median ms per ``act`` of the policy on ``device`` and, for NoMaD models with ``reference``, of
     the same policy on the reference sampling path (same weights and frames, the two timed
     alternately); NoMaD samples with ``sampler`` (policy.sampler). With ``compile`` the first policy
     is compiled (policy.compile; its first decisions, which compile, are warm-up) and the second, with
     ``reference``, is the plain fast path, for any model. After 3 warm-up decisions, ``decisions`` are
-    timed, or with ``seconds`` as many as fit in that time (at least ``decisions``)."""
+    timed, or with ``seconds`` as many as fit in that time (at least ``decisions``). With ``profiles`` (a dict),
+    5 more decisions of the first policy are profiled into ``profiles["decision"]`` (`op_profile.op_table`)."""
     cfg = load_model_config("nomad_pointgoal" if name == "nomad_neg" else name, size)
     ctrl = ControlConfig.from_agent(AgentConfig())
     if compile:
@@ -175,6 +188,14 @@ def decision_ms(name: str, size: str, decisions: int, threads: int | None = 1,
             ts.append(time.perf_counter() - t)
         k += 1
     ms = [1e3 * statistics.median(ts[3:]) for ts in times]
+    if profiles is not None:
+        from op_profile import op_table
+
+        def act() -> None:
+            for f in frames[:5]:
+                with torch.profiler.record_function("policy.act"):
+                    policies[0].act({"rgb": f, "pointgoal": np.array([4.0, 1.0], np.float32)})
+        profiles["decision"] = op_table(act, torch.device(device).type == "cuda")
     return ms[0], ms[1] if len(ms) > 1 else None
 
 

@@ -145,3 +145,15 @@ def test_the_table_is_written_after_each_group(tmp_path):
         proc.wait()
     assert {r["key"] for r in first["rows"]} == {"decision_gpu", "decision_cpu"}
     assert "NoMaD decision, one CPU thread" in (out / "node.md").read_text()
+
+
+@pytest.mark.slow
+def test_profile_writes_an_operator_table_per_row(tmp_path):
+    """--profile on: torch.profiler's operator table of the decision row, beside node.md, named in node.json."""
+    proc = node("--quick", "--rows", "decision", "--profile", "on", "--out", str(tmp_path), timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    rows = {r["key"]: r for r in json.loads((tmp_path / "node.json").read_text())["rows"]}
+    assert rows["decision_cpu"]["profile"] == "profile_decision_cpu.txt" and rows["decision_gpu"]["profile"] is None
+    table = (tmp_path / "profile_decision_cpu.txt").read_text()
+    assert table.startswith("NoMaD decision, one CPU thread: ") and "policy.act" in table and "aten::" in table
+    assert "profile_decision_cpu.txt" in (tmp_path / "node.md").read_text()

@@ -1,0 +1,24 @@
+"""torch.profiler's operator table of a few steady-state steps (benchmarks/node.py --profile): where a training
+step's or a decision's time goes, by operator, on the CPU and, with CUDA, on the GPU (issue 32: "the profile
+decides"). ``loader wait`` and ``policy.act`` mark the parts that are not one operator."""
+from __future__ import annotations
+
+from typing import Callable
+
+import torch
+
+ROWS = 30  # operators listed, by self time on the device that does the work
+
+
+def op_table(run: Callable[[], None], cuda: bool, rows: int = ROWS) -> str:
+    """The operator table of ``run()`` (CPU time, and GPU time with ``cuda``; the GPU is synchronised before
+    the profile ends), sorted by self GPU time with ``cuda``, else by self CPU time."""
+    from torch.profiler import ProfilerActivity, profile
+
+    activities = [ProfilerActivity.CPU] + ([ProfilerActivity.CUDA] if cuda else [])
+    with profile(activities=activities) as prof:
+        run()
+        if cuda:
+            torch.cuda.synchronize()
+    return prof.key_averages().table(sort_by="self_cuda_time_total" if cuda else "self_cpu_time_total",
+                                     row_limit=rows, max_name_column_width=60)
