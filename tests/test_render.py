@@ -120,20 +120,41 @@ def test_backends_agree_on_dream_apartment():
 
 
 @needs_egl
-def test_two_gl_renderers_in_one_process_keep_their_own_context():
+def test_gl_renderers_in_one_process_share_one_context_and_draw_as_alone():
+    """Renderers of two scenes share the process's EGL context (an RL worker's envs: no context switch between
+    scenes), interleaved frames are byte-identical to renderers with contexts of their own, and the context goes
+    when the last renderer closes."""
+    from rvn_data.render import gl
+
     cam, room = CameraConfig(width=24, height=24), coloured_room()
     other = Scene("test:other", [box("wall", [1, 0, -3], [1.2, 3, 3], (0, 1, 1, 1))])
+    alone = [gl.GLRenderer(scene, cam, ctx=gl.create_context(0)) for scene in (room, other)]  # own contexts
     a = make_renderer(room, cam, "gl")
-    first = a.render([0.0, 0.0, 0.0], 0.0)
     b = make_renderer(other, cam, "gl")
-    b_first = b.render([0.0, 0.0, 0.0], 0.0)
-    again = a.render([0.0, 0.0, 0.0], 0.0)
-    assert np.array_equal(first[0], again[0]) and np.array_equal(first[1], again[1])
+    assert a.ctx is b.ctx and alone[0].ctx is not a.ctx
+    poses = [([0.0, 0.0, 0.0], 0.0), ([0.3, 0.0, 0.2], 1.0), ([-0.2, 0.0, 0.1], -2.0)]
+    for pose in poses:  # a, b, a, b, ...: each draw sets the state it uses
+        for shared, own in zip((a, b), alone):
+            got, want = shared.render(*pose), own.render(*pose)
+            assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
+    for r in alone:
+        r.close()
     a.close()
-    assert np.array_equal(b.render([0.0, 0.0, 0.0], 0.0)[0], b_first[0])
+    assert np.array_equal(b.render(*poses[0])[0], alone_frame(other, cam, poses[0]))  # the context lives on for b
     b.close()
+    assert 0 not in gl._SHARED  # released with the last renderer
     with pytest.raises(RuntimeError, match="closed"):
         b.render([0.0, 0.0, 0.0], 0.0)
+
+
+def alone_frame(scene, cam, pose) -> np.ndarray:
+    from rvn_data.render import gl
+
+    r = gl.GLRenderer(scene, cam, ctx=gl.create_context(0))
+    try:
+        return r.render(*pose)[0]
+    finally:
+        r.close()
 
 
 @needs_egl
@@ -237,6 +258,7 @@ def test_auto_picks_and_reports(monkeypatch, caplog):
 
     import moderngl
 
+    monkeypatch.setattr(gl, "_SHARED", {})  # no context made yet in this process (an earlier test may keep one)
     real = moderngl.create_standalone_context  # as on a machine without libEGL:
     monkeypatch.setattr(moderngl, "create_standalone_context",
                         lambda **kw: real(**kw, libegl="libEGL_missing_for_test.so.1"))

@@ -57,7 +57,7 @@ def make_renderer(scene: Scene, camera: CameraConfig | Mapping | None = None, ba
     if backend == "gl":
         return _picked(gl.GLRenderer(scene, camera, device=device), "requested backend=gl")
     try:
-        ctx = gl.create_context(device)
+        ctx = gl.shared_context(device)
     except RuntimeError as e:
         log.warning("renderer auto: %s Falling back to the raycast back-end.", e)
         return _picked(RaycastRenderer(scene, camera), "auto: no EGL context, raycast fallback")
@@ -68,7 +68,7 @@ def make_renderer(scene: Scene, camera: CameraConfig | Mapping | None = None, ba
     elif n <= SOFTWARE_GL_MAX_TRIANGLES:
         reason = f"auto: software GL {name!r}, {n} triangles <= {SOFTWARE_GL_MAX_TRIANGLES}"
     else:
-        ctx.release()
+        gl.release_context(ctx)
         return _picked(RaycastRenderer(scene, camera),
                        f"auto: software GL {name!r} only and {n} triangles > {SOFTWARE_GL_MAX_TRIANGLES}")
     try:

@@ -1,4 +1,5 @@
-"""Back-end `gl`: moderngl on a headless EGL context (NVIDIA GPU or Mesa llvmpipe).
+"""Back-end `gl`: moderngl on a headless EGL context (NVIDIA GPU or Mesa llvmpipe), one per process and
+device, shared by the renderers of every scene the process keeps (`shared_context`).
 
 One vertex buffer per part, unindexed (three vertices per face, carrying the face's
 `base.face_shade`), with faces grouped in spatial chunks that are frustum-culled per frame;
@@ -92,13 +93,42 @@ def create_context(device: int = 0):
     return ctx
 
 
+_SHARED: dict[int, list] = {}  # EGL device -> [context, renderers using it]
+
+
+def shared_context(device: int = 0):
+    """This process's EGL context on ``device``, made at its first use and shared by the GL renderers of every
+    scene the process renders (an RL or rvn-eval worker keeps several): one context, so the GPU does not switch
+    contexts between scenes and software GL keeps one thread pool. Each call takes a reference that
+    :func:`release_context` gives back; the last one releases the context."""
+    entry = _SHARED.get(device)
+    if entry is None:
+        entry = _SHARED[device] = [create_context(device), 0]
+    entry[1] += 1
+    return entry[0]
+
+
+def release_context(ctx) -> None:
+    """Gives back a reference taken by :func:`shared_context` (a context not shared is released)."""
+    for device, entry in _SHARED.items():
+        if entry[0] is ctx:
+            entry[1] -= 1
+            if entry[1] == 0:
+                del _SHARED[device]
+                ctx.release()
+            return
+    ctx.release()
+
+
 def renderer_name(ctx) -> str:
     """The GL_RENDERER string, e.g. 'llvmpipe (LLVM 15.0.6, 256 bits)' or a GPU name."""
     return str(ctx.info.get("GL_RENDERER", "unknown"))
 
 
 class GLRenderer(base.Renderer):
-    """Rasterises the scene with OpenGL 3.3 on EGL; `info` names the GL renderer."""
+    """Rasterises the scene with OpenGL 3.3 on EGL; `info` names the GL renderer. It draws in the process's
+    shared context (:func:`shared_context`) unless given ``ctx``, which it then owns; every draw sets the state
+    it uses (framebuffer, program, uniforms, texture), so renderers sharing a context give the same images."""
 
     backend = "gl"
 
@@ -107,7 +137,7 @@ class GLRenderer(base.Renderer):
         base.check_scene(scene)
         import moderngl
 
-        self.ctx = ctx if ctx is not None else create_context(device)
+        self.ctx = ctx if ctx is not None else shared_context(device)
         name = renderer_name(self.ctx)
         kind = "software" if is_software(name) else "GPU"
         self.info = f"{name} ({kind}, EGL device {device})"
@@ -250,5 +280,5 @@ class GLRenderer(base.Renderer):
         self._objects.clear()
         self._staging = None
         self.parts = []
-        self.ctx.release()
+        release_context(self.ctx)
         self.ctx = None
