@@ -125,10 +125,7 @@ class RaycastRenderer(base.Renderer):
         TriangleMesh(self._embree, self._verts, self._faces)
         npx = camera.width * camera.height
         self._dirs_cam = np.ascontiguousarray(camera.ray_directions().reshape(npx, 3), np.float32)
-        self._origins = np.empty((npx, 3), np.float32)
-        self._dirs = np.empty((npx, 3), np.float32)
-        self._tfar = np.empty(npx, np.float32)
-        self._batch_rays = None  # render_batch's (origins, dirs, tfar, depth), grown on demand
+        self._batch_rays = None  # (origins, dirs, tfar, depth) of the views of a call, grown on demand
         self.batch_views = max(1, MAX_BATCH_RAYS // npx)
         self.info = f"embree (embreex) + numba, 1 thread, {len(self._faces)} triangles"
 
@@ -136,16 +133,13 @@ class RaycastRenderer(base.Renderer):
         if self._embree is None:  # depth comes free with the hit distances: always returned
             raise RuntimeError("render() on a closed raycast renderer")
         cam = self.camera
-        eye, rot = cam.pose(position, yaw)
-        _rays(self._dirs_cam, rot, eye, cam.near, cam.far, self._origins, self._dirs, self._tfar)
-        npx = cam.width * cam.height
-        rgb = np.empty((npx, 3), np.uint8)
-        depth = np.empty(npx, np.float32)
-        self._cast(self._origins, self._dirs, self._tfar, rgb, depth)
-        return rgb.reshape(cam.height, cam.width, 3), depth.reshape(cam.height, cam.width)
+        rgb = np.empty((1, cam.height, cam.width, 3), np.uint8)
+        depth = np.empty((1, cam.height, cam.width), np.float32)
+        self._render_views([(position, yaw)], rgb, depth)
+        return rgb[0], depth[0]
 
     def _render_views(self, poses: list, rgb: np.ndarray, depth: np.ndarray | None) -> None:
-        """Rays of all views, one embree call, one shading pass, written straight into rgb/depth."""
+        """Rays of all views, one embree call, one shading pass, written straight into rgb/depth (`render`: one view)."""
         if self._embree is None:
             raise RuntimeError("render_batch() on a closed raycast renderer")
         cam, n = self.camera, len(poses)
