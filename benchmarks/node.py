@@ -119,7 +119,7 @@ def main(argv: list[str] | None = None) -> int:
     plan = make_plan(args, info["cuda"], info["cpu_count"])
     print(f"[node] {info['device']}, {info['cpu_count']} CPUs, torch {info['torch']}: rows {' '.join(args.rows)}, "
           f"{plan.seconds:g} s per figure", file=sys.stderr, flush=True)
-    rows, plan_dict = [], dict(vars(plan))
+    rows, plan_dict, paths = [], dict(vars(plan)), []
     for group, name in enumerate(GROUPS, 1):
         if name not in args.rows:
             continue
@@ -137,11 +137,9 @@ def main(argv: list[str] | None = None) -> int:
         rows += got
         print(f"[node] {name}: {len(got)} row(s) in {wall:.0f} s", file=sys.stderr, flush=True)
         if args.out is not None:  # the rows so far: a run stopped by a time limit keeps what it measured
-            node_report.write(args.out, info, rows, plan_dict, node_report.markdown(info, rows, plan_dict))
-    text = node_report.markdown(info, rows, plan_dict)
-    print(text, end="")
-    if args.out is not None:
-        paths = node_report.write(args.out, info, rows, plan_dict, text)
+            paths = node_report.write(args.out, info, rows, plan_dict, node_report.markdown(info, rows, plan_dict))
+    print(node_report.markdown(info, rows, plan_dict), end="")
+    if paths:
         print(f"\nwritten: {', '.join(str(p) for p in paths)}")
     return 1 if any(r["error"] for r in rows) else 0
 

@@ -26,15 +26,15 @@ def row(group: int, key: str, label: str, unit: str, goal_key: str | None = None
 
 
 @contextlib.contextmanager
-def shared_cores(processes: int, cpus: int):
+def shared_cores(processes: int):
     """The cores shared between ``processes`` render workers as between rvn-eval's workers (software GL's
     LP_NUM_THREADS, OpenMP/BLAS: `rvn_data.worker_threads`), unless set by the user; one process: as it is."""
     if processes <= 1:
         yield
         return
-    from rvn_data.worker_threads import worker_threads
+    from rvn_data.worker_threads import threads_per_worker, worker_threads
 
-    with worker_threads(max(1, cpus // processes)):
+    with worker_threads(threads_per_worker(processes)):
         yield
 
 
@@ -73,7 +73,7 @@ def render_rows(plan) -> list[dict]:
                             skipped=f"unavailable ({e})"))
             continue
         for batch, n in runs:
-            with shared_cores(n, plan.cpus), GpuBusy() as busy:
+            with shared_cores(n), GpuBusy() as busy:
                 res = render_parallel(scene, camera, poses, backend, processes=n, return_images=False,
                                       seconds=plan.seconds, batch=batch)
             key = f"render_{backend}_{n}p" if batch == 1 else f"render_{backend}_b{batch}_{n}p"
@@ -162,7 +162,7 @@ def decision_rows(plan) -> list[dict]:
 
         profiles = {} if plan.profile else None
 
-        def measure(compiled: bool):  # compiled: the plain path timed alternately beside it
+        def measure(compiled: bool):  # compiled: the plain path timed beside it, in turns
             with GpuBusy() as busy:
                 ms, plain = train_bench.decision_ms("nomad_pointgoal", size, 5, threads=1, reference=compiled,
                                                     seconds=plan.seconds, device="cuda" if where == "gpu" else "cpu",
