@@ -2,7 +2,9 @@
 at 128x128 RGB with the ResNet-18 policy (goals on a 2-core CPU: >= 800 and >= 200).
 
 1. env: the batched envs stepped with random actions (no network), with the goal pool and
-   with fresh goals per draw (``env.goal_pool=0``, the ratio against it printed);
+   with fresh goals per draw (``env.goal_pool=0``, the ratio against it printed); and in this
+   process, their frames rendered together (`rvn_data.render.render_views`: gl draws them in one
+   pass with one GPU synchronisation) against each env rendering its own (best of two, alternated);
 2. collection: envs + the policy's act() (what a rollout costs);
 3. collection + learning: rvn-rl's own loop (``train()``) for a few PPO updates, its fps;
 4. the compute ceiling of 2 and 3: the policy's forward FLOPs per frame (torch's FlopCounterMode)
@@ -95,6 +97,35 @@ def matmul_gflops(size: int = 1024, reps: int = 30) -> float:
     return reps * 2 * size**3 / best / 1e9
 
 
+def frames_rate(cfg, steps: int, together: bool) -> float:
+    """Env steps/s of ``env.num_envs`` envs in this process with random actions: `BatchEnv.step`
+    (the envs' frames rendered together, `render_views`) or, ``together=False``, each env's own
+    `step` (one render and, with gl, one GPU synchronisation per env per step)."""
+    from rvn_rl.vec_env import BatchEnv
+
+    envs = BatchEnv(cfg.env_kwargs(), cfg.env.num_envs, seed=0, scene_cache=cfg.env.scene_cache)
+    n, rng = envs.num_envs, np.random.default_rng(0)
+    try:
+        envs.reset()
+
+        def run(k):
+            for _ in range(k):
+                actions = rng.integers(0, 4, n)
+                if together:
+                    envs.step(actions)
+                    continue
+                for env, a in zip(envs.envs, actions):
+                    if env.step(int(a))[2:4] != (False, False):
+                        env.reset()
+
+        run(10)  # warm-up: scenes of the first resets loaded
+        t = time.perf_counter()
+        run(steps)
+        return steps * n / (time.perf_counter() - t)
+    finally:
+        envs.close()
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--size", type=int, default=128)
@@ -118,6 +149,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         cfg = compose(overrides(args, f"{tmp}/run"))
         env_sps = collection(cfg, args.steps, with_policy=False)
+        together = [frames_rate(cfg, args.steps // 2, k % 2 == 0) for k in range(4)]  # alternated, in this process
         fresh_sps = collection(compose(overrides(args, f"{tmp}/run") + ["env.goal_pool=0"]), args.steps, False)
         col_sps = collection(cfg, args.steps, with_policy=True)
         train(cfg)
@@ -130,6 +162,9 @@ def main() -> None:
           f"{args.threads} torch threads:")
     print(f"  env steps/s, envs alone (random actions): {env_sps:8.0f}   (goal_pool={args.goal_pool}; "
           f"{fresh_sps:.0f} with fresh goals, x{env_sps / fresh_sps:.2f})")
+    both, alone = max(together[0::2]), max(together[1::2])
+    print(f"  env steps/s, {args.envs} envs in this process      : {both:8.0f}   (frames rendered together; each env "
+          f"rendering its own frame: {alone:.0f}, x{both / alone:.2f})")
     print(f"  env steps/s, collection (envs + policy) : {col_sps:8.0f}   (goal >= 800)")
     print(f"  env steps/s, collection + learning      : {fps:8.0f}   (goal >= 200; PPO {learn[0]['rollout_steps']:.0f}-step "
           f"rollouts, {epochs} epochs x {mini_batches} mini-batches)")

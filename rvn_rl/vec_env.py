@@ -17,6 +17,7 @@ import numpy as np
 
 from rvn_data.benchmark.env import RVNEnv
 from rvn_data.benchmark.episodes_source import SceneSlot
+from rvn_data.render import render_views
 
 from .settings import EnvSettings
 
@@ -79,10 +80,18 @@ class BatchEnv:
             out["depth"] = np.asarray(self.depth_fn(out["rgb"]), dtype=np.float32)
         return out
 
+    def _observe(self) -> list[dict]:
+        """Every env's observation, their frames rendered together (`render_views`: with gl, one pass
+        and one GPU synchronisation for the envs' scenes instead of one per env)."""
+        frames = render_views([env.view() for env in self.envs], depth=self.envs[0].config.depth)
+        return [env.observation(rgb, depth) for env, (rgb, depth) in zip(self.envs, frames)]
+
     def reset(self) -> dict:
         self._ret[:] = 0.0
         self._cost[:] = 0.0
-        return self._batch([env.reset(seed=env_seed(self.seed, self.rank, self.offset + i))[0] for i, env in enumerate(self.envs)])
+        for i, env in enumerate(self.envs):
+            env.reset_state(seed=env_seed(self.seed, self.rank, self.offset + i))
+        return self._batch(self._observe())
 
     def step(self, actions) -> tuple[dict, np.ndarray, np.ndarray, np.ndarray, list[dict]]:
         """(obs, reward [N], cost [N], done [N], infos). A finished episode's info holds
@@ -91,12 +100,12 @@ class BatchEnv:
         actions = np.asarray(actions).reshape(-1)
         if actions.shape[0] != self.num_envs:
             raise ValueError(f"BatchEnv.step: {actions.shape[0]} actions for {self.num_envs} envs")
-        obs_list, infos = [], []
+        infos = []
         reward = np.zeros(self.num_envs, np.float32)
         cost = np.zeros(self.num_envs, np.float32)
         done = np.zeros(self.num_envs, bool)
         for i, (env, a) in enumerate(zip(self.envs, actions)):
-            obs, r, terminated, truncated, info = env.step(int(a))
+            r, terminated, truncated, info = env.step_state(int(a))
             reward[i], cost[i] = r, info["cost"]
             self._ret[i] += r
             self._cost[i] += info["cost"]
@@ -104,10 +113,9 @@ class BatchEnv:
                 done[i] = True
                 info["episode"] = {**info["episode"], "return": float(self._ret[i]), "cost": float(self._cost[i])}
                 self._ret[i] = self._cost[i] = 0.0
-                obs, _ = env.reset()
-            obs_list.append(obs)
+                env.reset_state()
             infos.append(info)
-        return self._batch(obs_list), reward, cost, done, infos
+        return self._batch(self._observe()), reward, cost, done, infos
 
     def close(self) -> None:
         for env in self.envs:

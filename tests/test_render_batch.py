@@ -1,6 +1,7 @@
 """Renderer.render_batch: many views per call, byte-identical to one `render` per view, on both
 back-ends, a procedural apartment, a textured room and the real dream apartment; its errors;
-the base class's one-view-at-a-time default; render_parallel with a batch per call."""
+the base class's one-view-at-a-time default; render_parallel with a batch per call; render_views
+across the renderers of several scenes."""
 from __future__ import annotations
 
 import math
@@ -13,7 +14,7 @@ from rvn_data.render.base import Renderer
 from rvn_data.render.raycast import RaycastRenderer
 
 from conftest import DREAM_APARTMENT as DREAM  # tests/ is on sys.path (pytest's prepend import mode)
-from render_helpers import BACKENDS, coloured_room, navigable_poses
+from render_helpers import BACKENDS, coloured_room, navigable_poses, needs_egl
 
 
 def one_at_a_time(renderer, poses):
@@ -130,3 +131,38 @@ def test_render_parallel_with_batches_matches_single_views():
     np.testing.assert_array_equal(out.depth, want_depth)
     with pytest.raises(ValueError, match="batch"):
         render_parallel(room, cam, poses, batch=0)
+
+
+@needs_egl
+def test_render_views_of_several_scenes_draws_each_context_in_one_pass(monkeypatch):
+    """render_views over the views of two gl renderers (two scenes, one shared context) and a raycast
+    one: each frame equals its renderer's own render(); the gl views take one pass, not one per view
+    or per renderer; a closed renderer's view is an error."""
+    from rvn_data.render import gl, render_views
+    from rvn_data.scenes.procedural import make_apartment
+
+    cam = CameraConfig(width=40, height=32)
+    apartment, room = make_apartment("train", 1), coloured_room()
+    passes = []
+    real_pass = gl.GLRenderer._render_pass
+    monkeypatch.setattr(gl.GLRenderer, "_render_pass",
+                        lambda self, views, rgb, depth: (passes.append(len(views)), real_pass(self, views, rgb, depth)))
+    with make_renderer(apartment, cam, "gl") as a, make_renderer(room, cam, "gl") as b, \
+            make_renderer(room, cam, "raycast") as c:
+        poses_a, poses_b = navigable_poses(apartment, 3), [([0.3, 0.0, 0.2], 0.4), ([-0.5, 0.0, 0.1], 2.0)]
+        views = [(a, *poses_a[0]), (b, *poses_b[0]), (c, *poses_b[1]), (a, *poses_a[1]), (b, *poses_b[1]),
+                 (a, *poses_a[2])]
+        for depth in (True, False):
+            passes.clear()
+            frames = render_views(views, depth=depth)
+            assert passes == [5]  # the five gl views in one pass; raycast batches its own
+            for (renderer, position, yaw), (rgb, d) in zip(views, frames):
+                want_rgb, want_depth = renderer.render(position, yaw)
+                np.testing.assert_array_equal(rgb, want_rgb)
+                if depth:
+                    np.testing.assert_array_equal(d, want_depth)
+                else:
+                    assert d is None
+        b.close()
+        with pytest.raises(RuntimeError, match="closed"):
+            render_views(views[:2])

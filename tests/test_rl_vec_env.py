@@ -9,7 +9,9 @@ import torch
 
 from rvn_data.conventions import Action, relative_goal
 from rvn_rl.rollout import RolloutStorage
-from rvn_rl.vec_env import BatchEnv
+from rvn_rl.vec_env import BatchEnv, CachedSceneEnv, env_seed
+
+from render_helpers import needs_egl
 
 KW = dict(mode="train", split="train", scenes={"num_scenes": 2}, camera={"width": 32, "height": 32},
           renderer={"backend": "raycast"}, episodes={"n_goals": 2})
@@ -42,6 +44,47 @@ def test_autoreset_gives_the_next_episodes_first_observation():
         assert ended >= 2
     finally:
         envs.close()
+
+
+@needs_egl
+def test_batched_observations_equal_each_envs_own_and_take_one_render_pass(monkeypatch):
+    """The envs' frames rendered together (gl: one pass per step for envs in different scenes)
+    equal each env stepped alone with its own render() per step, autoresets and scene switches included."""
+    from rvn_data.render import gl
+
+    kw = {**KW, "scenes": {"num_scenes": 3}, "renderer": {"backend": "gl"}, "depth": True, "scene_switch_every": 1}
+    passes = []
+    real_pass = gl.GLRenderer._render_pass
+    monkeypatch.setattr(gl.GLRenderer, "_render_pass",
+                        lambda self, views, rgb, depth: (passes.append(len(views)), real_pass(self, views, rgb, depth)))
+    envs, alone = BatchEnv(kw, 3, seed=5), [CachedSceneEnv(**kw) for _ in range(3)]
+    try:
+        obs = envs.reset()
+        want = [env.reset(seed=env_seed(5, 0, i))[0] for i, env in enumerate(alone)]
+        assert passes == [3]
+        rng, ended, mixed = np.random.default_rng(0), 0, 0
+        for _ in range(40):
+            actions = rng.choice([0, 1, 1, 1, 2, 3], size=3)  # mostly forward: episodes end by collisions
+            for i, env in enumerate(alone):
+                np.testing.assert_array_equal(obs["rgb"][i], want[i]["rgb"])
+                np.testing.assert_array_equal(obs["depth"][i], want[i]["depth"])
+                np.testing.assert_array_equal(obs["pointgoal"][i], want[i]["pointgoal"])
+            passes.clear()
+            obs, reward, _, done, infos = envs.step(actions)
+            assert passes == [3]
+            mixed += len({env.view()[0].scene.scene_id for env in envs.envs}) > 1
+            for i, env in enumerate(alone):
+                want[i], r, terminated, truncated, info = env.step(int(actions[i]))
+                assert reward[i] == np.float32(r) and done[i] == (terminated or truncated)
+                if done[i]:
+                    assert infos[i]["episode"]["steps"] == info["episode"]["steps"]
+                    want[i] = env.reset()[0]
+                    ended += 1
+        assert ended >= 2 and mixed >= 5  # frames of different scenes in one pass
+    finally:
+        envs.close()
+        for env in alone:
+            env.close()
 
 
 def test_gae_stops_at_episode_ends():

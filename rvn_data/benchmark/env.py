@@ -34,8 +34,8 @@ from gymnasium import spaces
 
 from rvn_data.conventions import Action, relative_goal, to_planar
 from rvn_data.benchmark import measures
-from rvn_data.benchmark.episodes import sample_goal, sample_start
-from rvn_data.benchmark.episodes_source import EnvConfig, SceneSlot, eval_schedule
+from rvn_data.benchmark.episodes import sample_start
+from rvn_data.benchmark.episodes_source import EnvConfig, SceneSlot, eval_schedule, next_in_schedule
 from rvn_data.benchmark.metrics import EpisodeTracker
 from rvn_data.scenes import SceneError
 
@@ -116,6 +116,12 @@ class RVNEnv(gym.Env):
 
     # ---- gymnasium API ------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
+        info = self.reset_state(seed=seed, options=options)
+        return self._observe(), info
+
+    def reset_state(self, *, seed: int | None = None, options: dict | None = None) -> dict:
+        """`reset` without its observation: the info. Batched envs render the first observations of
+        many together: `view` for each, `rvn_data.render.render_views`, then `observation`."""
         super().reset(seed=seed)
         options = dict(options or {})
         if self.config.mode == "eval":
@@ -125,7 +131,7 @@ class RVNEnv(gym.Env):
         self._done = False
         self._ended = None
         self._goal_steps = 0
-        return self._observe(), self._info(None)
+        return self._info(None)
 
     def _load(self, pos: int) -> None:
         if self._scene is None or self._scene.pos != pos:
@@ -135,21 +141,8 @@ class RVNEnv(gym.Env):
             self._scene = SceneSlot.open(self.config, self._slots[pos], pos)
 
     def _reset_eval(self, seed, options) -> None:
-        if seed is not None:
-            self._cursor = 0
-        if "episode" in options:
-            self._cursor = int(options["episode"])
-            if not 0 <= self._cursor < len(self._schedule):
-                raise ValueError(f"episode={self._cursor} out of range: this {self.config.split} set has "
-                                 f"{len(self._schedule)} episodes")
-        elif "scene_index" in options:
-            key = (int(options["scene_index"]), int(options.get("episode_index", 0)))
-            matches = [k for k, (pos, e) in enumerate(self._schedule) if (self._slots[pos][1], e) == key]
-            if not matches:
-                raise ValueError(f"no episode {key[1]} of scene index {key[0]} in this {self.config.split} set")
-            self._cursor = matches[0]
-        if not 0 <= self._cursor < len(self._schedule):
-            self._cursor %= max(1, len(self._schedule))
+        self._cursor = next_in_schedule(self._schedule, self._slots, self._cursor, options, self.config.split,
+                                        rewind=seed is not None)
         pos, e = self._schedule[self._cursor]
         self._cursor += 1
         self._load(pos)
@@ -192,7 +185,7 @@ class RVNEnv(gym.Env):
         if self.config.mode == "eval":
             goal, field = self._episode.goals[self._goals_reached], None
         else:
-            found = self._draw_goal()
+            found = self._scene.draw_goal(self.config, self._pos, self.np_random)
             if found is None:
                 return False
             goal, field = found
@@ -203,19 +196,12 @@ class RVNEnv(gym.Env):
         self._tracker.new_goal(self._dist)
         return True
 
-    def _draw_goal(self):
-        """(goal, its field or None) for train mode: from the scene's goal pool when
-        ``goal_pool`` > 0 and one is in range, else a fresh uniform draw; None if none found."""
-        s = self.config.episodes
-        if self.config.goal_pool:
-            found = self._scene.goal_sampler(self.config).sample(self._pos, self.np_random, s.d_min, s.d_max)
-            if found is not None:
-                return found
-        found = sample_goal(self.navmesh, self.navmesh.distance_field(self._pos), self.np_random,
-                            s.d_min, s.d_max, s.max_tries)
-        return None if found is None else (found[0], None)
-
     def step(self, action):
+        reward, terminated, truncated, info = self.step_state(action)
+        return self._observe(), reward, terminated, truncated, info
+
+    def step_state(self, action) -> tuple[float, bool, bool, dict]:
+        """`step` without its observation: (reward, terminated, truncated, info); see `reset_state`."""
         if self._done:
             raise RuntimeError("RVNEnv.step() called on a finished episode; call reset() first")
         try:
@@ -238,11 +224,10 @@ class RVNEnv(gym.Env):
         truncated = measures.is_truncation(ending)
         terminated = ending is not None and not truncated
         self._done = ending is not None
-        obs = self._observe()
         info = self._info(step)
         if self._done:
             info["episode"] = self._tracker.finish(ending)
-        return obs, float(reward), terminated, truncated, info
+        return float(reward), terminated, truncated, info
 
     def _act(self, a: Action) -> measures.StepRecord:
         """Carry out action ``a`` (the simulator moves or turns the agent; STOP stays) and
@@ -261,8 +246,15 @@ class RVNEnv(gym.Env):
         """The per-episode record so far (`rvn_data.benchmark.metrics`); final once the episode ended."""
         return self._tracker.record
 
+    def view(self) -> tuple:
+        """(renderer, position, yaw) of the current observation's frame."""
+        return self._scene.renderer, self._pos, self._yaw
+
     def _observe(self) -> dict:
-        rgb, depth = self._scene.renderer.render(self._pos, self._yaw, depth=self.config.depth)
+        return self.observation(*self._scene.renderer.render(self._pos, self._yaw, depth=self.config.depth))
+
+    def observation(self, rgb: np.ndarray, depth: np.ndarray | None) -> dict:
+        """The observation of the current state from its `view`'s frame (depth used with ``depth=True``)."""
         obs = {"rgb": np.ascontiguousarray(rgb, dtype=np.uint8),
                "pointgoal": relative_goal(self._pos, self._yaw, self._goal)}
         if self.config.depth:

@@ -9,7 +9,7 @@ from rvn_data.cache_root import cache_root
 from rvn_data.render import RendererConfig
 from rvn_data.scenes.sets import ScenesConfig
 from rvn_data.conventions import AgentConfig
-from rvn_data.benchmark.episodes import DEFAULT_PER_SCENE, EpisodeSettings, settings_record, split_code
+from rvn_data.benchmark.episodes import DEFAULT_PER_SCENE, EpisodeSettings, sample_goal, settings_record, split_code
 from rvn_data.benchmark.episodes_store import EpisodeStore
 from rvn_data.navmesh.settings import NavMeshSettings
 from rvn_data.navmesh.source import open_scene
@@ -186,6 +186,17 @@ class SceneSlot:
             self._goal_sampler = PoolSampler(self.navmesh, pool)
         return self._goal_sampler
 
+    def draw_goal(self, config: EnvConfig, position, rng):
+        """(goal, its field or None) for train mode from ``position``: from this scene's goal pool when
+        ``goal_pool`` > 0 and one is in range, else a fresh uniform draw; None if none was found."""
+        s = config.episodes
+        if config.goal_pool:
+            found = self.goal_sampler(config).sample(position, rng, s.d_min, s.d_max)
+            if found is not None:
+                return found
+        found = sample_goal(self.navmesh, self.navmesh.distance_field(position), rng, s.d_min, s.d_max, s.max_tries)
+        return None if found is None else (found[0], None)
+
     def close(self) -> None:
         if self.renderer is not None:
             self.renderer.close()
@@ -195,6 +206,24 @@ class SceneSlot:
 def eval_schedule(slots: list, per_scene: int) -> list[tuple[int, int]]:
     """(scene position, episode index) pairs in evaluation order: scene by scene."""
     return [(pos, e) for pos in range(len(slots)) for e in range(per_scene)]
+
+
+def next_in_schedule(schedule: list, slots: list, cursor: int, options: dict, split: str, rewind: bool) -> int:
+    """Index in ``schedule`` of the episode an eval-mode reset gives: ``options`` ``episode`` (k-th of
+    the set) or ``scene_index`` [+ ``episode_index``]; else the one at ``cursor`` (0 with ``rewind``:
+    a reset with a seed), wrapping at the end."""
+    cursor = 0 if rewind else cursor
+    if "episode" in options:
+        cursor = int(options["episode"])
+        if not 0 <= cursor < len(schedule):
+            raise ValueError(f"episode={cursor} out of range: this {split} set has {len(schedule)} episodes")
+    elif "scene_index" in options:
+        key = (int(options["scene_index"]), int(options.get("episode_index", 0)))
+        matches = [k for k, (pos, e) in enumerate(schedule) if (slots[pos][1], e) == key]
+        if not matches:
+            raise ValueError(f"no episode {key[1]} of scene index {key[0]} in this {split} set")
+        cursor = matches[0]
+    return cursor if 0 <= cursor < len(schedule) else cursor % max(1, len(schedule))
 
 
 def ensure_scene_episodes(config: EnvConfig, slot: tuple[str, int]) -> int:

@@ -10,14 +10,15 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from rvn_data.render.base import Renderer, check_scene, log
+from rvn_data.render.base import Renderer, check_scene, log, render_views
 from rvn_data.render.camera import CameraConfig
 from rvn_data.scenes.scene import Scene
 
 BACKENDS = ("auto", "gl", "raycast")
 SOFTWARE_GL_MAX_TRIANGLES = 300_000
 
-__all__ = ["BACKENDS", "CameraConfig", "Renderer", "RendererConfig", "SOFTWARE_GL_MAX_TRIANGLES", "make_renderer"]
+__all__ = ["BACKENDS", "CameraConfig", "Renderer", "RendererConfig", "SOFTWARE_GL_MAX_TRIANGLES", "make_renderer",
+           "render_views"]
 
 
 @dataclass(frozen=True)

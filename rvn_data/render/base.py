@@ -68,6 +68,15 @@ class Renderer(abc.ABC):
             if depth is not None:
                 depth[k] = d
 
+    def pass_group(self) -> object:
+        """Renderers with equal groups draw their views together in `render_views` (one pass, one
+        synchronisation); by default a renderer is a group of its own."""
+        return self
+
+    def _render_pass(self, views: list, rgb: np.ndarray, depth: np.ndarray | None) -> None:
+        """Fill rgb/depth for views [(renderer, position, yaw)] of renderers of this one's `pass_group`."""
+        self._render_views([(position, yaw) for _, position, yaw in views], rgb, depth)
+
     @abc.abstractmethod
     def close(self) -> None:
         """Release the back-end's resources; the renderer is unusable afterwards."""
@@ -80,6 +89,31 @@ class Renderer(abc.ABC):
 
     def __repr__(self) -> str:
         return f"<{type(self).__name__} backend={self.backend!r} info={self.info!r} scene={self.scene.scene_id!r}>"
+
+
+def render_views(views, depth: bool = True) -> list[tuple[np.ndarray, np.ndarray | None]]:
+    """Frames (rgb, depth or None) of views [(renderer, position, yaw)] of several renderers (a batch
+    of environments in different scenes), each equal to its renderer's `render`. The views of one
+    `Renderer.pass_group` (gl: the renderers of one EGL context and camera size) are drawn in passes
+    of up to `batch_views` with one synchronisation each; other renderers batch their own views."""
+    views = list(views)
+    poses = check_poses([view[1:] for view in views])
+    groups: dict = {}
+    for k, (renderer, _, _) in enumerate(views):
+        groups.setdefault(renderer.pass_group(), []).append(k)
+    frames: list = [None] * len(views)
+    for members in groups.values():
+        lead = views[members[0]][0]
+        cam = lead.camera
+        rgb = np.empty((len(members), cam.height, cam.width, 3), np.uint8)
+        out = np.empty((len(members), cam.height, cam.width), np.float32) if depth else None
+        step = max(1, int(lead.batch_views))
+        for s in range(0, len(members), step):
+            lead._render_pass([(views[k][0], *poses[k]) for k in members[s:s + step]], rgb[s:s + step],
+                              None if out is None else out[s:s + step])
+        for j, k in enumerate(members):
+            frames[k] = (rgb[j], None if out is None else out[j])
+    return frames
 
 
 CALL_VIEWS = 32  # views per `render_batch` call where a caller renders many (rvn-gen, depth pairs): one GPU

@@ -243,20 +243,28 @@ class GLRenderer(base.Renderer):
             vao.render(self._mgl.TRIANGLES, vertices=count, first=first)
 
     def _render_views(self, poses: list, rgb: np.ndarray, depth: np.ndarray | None) -> None:
-        """Draw each view, copy it on the GPU into the staging buffer (colours of all views, then
-        depths), and read the buffer back once."""
-        if self.ctx is None:
+        self._render_pass([(self, position, yaw) for position, yaw in poses], rgb, depth)
+
+    def pass_group(self) -> object:
+        """GL renderers of one context and camera size draw their views in one pass (`base.render_views`)."""
+        return ("gl", id(self.ctx), self.camera.width, self.camera.height)
+
+    def _render_pass(self, views: list, rgb: np.ndarray, depth: np.ndarray | None) -> None:
+        """Draw each view [(renderer, position, yaw)] with its renderer (one context), copy it on the
+        GPU into this renderer's staging buffer (colours of all views, then depths), and read the
+        buffer back once."""
+        if any(renderer.ctx is None for renderer, _, _ in views):
             raise RuntimeError("render_batch() on a closed GL renderer")
-        n, cam = len(poses), self.camera
+        n, cam = len(views), self.camera
         rgb_bytes, depth_bytes = cam.width * cam.height * 3, cam.width * cam.height * 4
         with self.ctx:
             staging = self._staging_buffer(n * (rgb_bytes + (depth_bytes if depth is not None else 0)))
-            for k, (position, yaw) in enumerate(poses):
-                self._draw(position, yaw)
-                self.fbo.read_into(staging, components=3, attachment=0, write_offset=k * rgb_bytes)
+            for k, (renderer, position, yaw) in enumerate(views):
+                renderer._draw(position, yaw)
+                renderer.fbo.read_into(staging, components=3, attachment=0, write_offset=k * rgb_bytes)
                 if depth is not None:
-                    self.fbo.read_into(staging, components=1, attachment=1, dtype="f4",
-                                       write_offset=n * rgb_bytes + k * depth_bytes)
+                    renderer.fbo.read_into(staging, components=1, attachment=1, dtype="f4",
+                                           write_offset=n * rgb_bytes + k * depth_bytes)
             staging.read_into(rgb, size=n * rgb_bytes)  # waits for the GPU once
             if depth is not None:
                 staging.read_into(depth, size=n * depth_bytes, offset=n * rgb_bytes)
