@@ -82,7 +82,48 @@ def render_rows(plan) -> list[dict]:
                             "frames/s", goal, res.frames_per_second,
                             f"{plan.size}² RGB+depth, {plan.scene} ({scene.num_triangles:,} triangles), {info}, "
                             f"cpu share {res.cpu_share:.2f}", HABITAT[1 if n == 1 else 5], busy.share))
+        if backend == "gl":
+            rows.append(_scenes_row(plan, camera))
     return rows
+
+
+def _scenes_row(plan, camera, scenes: int = 4) -> dict:
+    """gl frames/s of one view of each of ``scenes`` scenes per call in one process, as rvn-rl's `BatchEnv` of
+    ``scenes`` envs renders them (`render_views`: one pass, one sync) beside each renderer's own `render`."""
+    import time
+
+    from render import poses_for
+    from rvn_data.render import make_renderer, render_views
+    from rvn_data.scenes.loader import load_scene
+
+    specs = ([f"procedural:train/{k}" for k in range(scenes)] if plan.scene.startswith("procedural:")
+             else [plan.scene] * scenes)
+    renderers = [make_renderer(load_scene(spec), camera, "gl") for spec in specs]
+    try:
+        poses = [poses_for(r.scene, 64, seed=k) for k, r in enumerate(renderers)]
+
+        def rate(together: bool, seconds: float) -> float:  # frames/s
+            t0, i = time.perf_counter(), 0
+            while time.perf_counter() - t0 < seconds or i < 2:
+                views = [(r, *poses[k][i % 64]) for k, r in enumerate(renderers)]
+                if together:
+                    render_views(views)
+                else:
+                    for r, position, yaw in views:
+                        r.render(position, yaw)
+                i += 1
+            return i * scenes / (time.perf_counter() - t0)
+
+        rate(True, 0.0), rate(False, 0.0)  # warm-up
+        with GpuBusy() as busy:
+            together, alone = rate(True, plan.seconds / 2), rate(False, plan.seconds / 2)
+    finally:
+        for r in renderers:
+            r.close()
+    return row(1, f"render_gl_{scenes}scenes", f"renderer=gl, 1 process, one view of each of {scenes} scenes per call",
+               "frames/s", None, together, f"{plan.size}² RGB+depth, render_views (one pass, as rvn-rl's BatchEnv); "
+               f"each renderer's own render: {alone:.0f} frames/s, x{together / alone:.2f}; {specs[0]}..",
+               gpu_busy=busy.share)
 
 
 def gen_rows(plan) -> list[dict]:
