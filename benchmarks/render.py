@@ -13,9 +13,12 @@ load on the machine took the cores (llvmpipe's threads can exceed 1).
 same images; gl syncs with the GPU once per batch) against one view per `render` call, the two
 timed in alternation over --rounds rounds of the same poses (medians; on a shared machine the
 alternation keeps other load from favouring either); "cpu ms/frame" counts all of its threads.
+"at 8x8" (--small): the same with the largest batch and a camera of --small² pixels, where rasterising
+costs next to nothing: what is left is each view's CPU work around it (pose, matrices, culling, uniforms,
+draw calls), the cap on frames/s on a fast GPU; llvmpipe also transforms the vertices there on the CPU.
 Goals (2-core CPU): gl >= 280 frames/s on a procedural scene; raycast >= 80 frames/s on
 dream_apartment; 2 processes >= 1.7 x one.
-Run: python benchmarks/render.py [--frames 300] [--size 256] [--batch 8 32] [--rounds 5]
+Run: python benchmarks/render.py [--frames 300] [--size 256] [--batch 8 32] [--rounds 5] [--small 8]
 """
 from __future__ import annotations
 
@@ -74,9 +77,10 @@ def main() -> int:
     ap.add_argument("--scenes", nargs="+", default=["procedural:train/0", str(DREAM)])
     ap.add_argument("--batch", nargs="*", type=int, default=[8, 32], help="views per render_batch call (1 process)")
     ap.add_argument("--rounds", type=int, default=5, help="alternating rounds of the batch figures")
+    ap.add_argument("--small", type=int, default=8, help="width = height of the per-view CPU figure (0: none)")
     args = ap.parse_args()
-    if any(b < 1 for b in args.batch) or args.rounds < 1:
-        ap.error(f"--batch {args.batch}, --rounds {args.rounds}: must be >= 1")
+    if any(b < 1 for b in args.batch) or args.rounds < 1 or args.small < 0:
+        ap.error(f"--batch {args.batch}, --rounds {args.rounds}: must be >= 1; --small {args.small}: >= 0")
 
     from rvn_data.render import CameraConfig, make_renderer
     from rvn_data.render.parallel import render_parallel
@@ -108,6 +112,13 @@ def main() -> int:
                     (fs, cs), (fb, cb) = fig["single"], fig["batch"]
                     print(f"  {backend:8s}: batch {b:3d} {fb:7.1f} frames/s (cpu {cb:5.2f} ms/frame) vs one view "
                           f"per call {fs:7.1f} frames/s (cpu {cs:5.2f} ms/frame): {fb / fs:4.2f}x")
+            if args.small and args.batch:
+                b = max(args.batch)
+                with make_renderer(scene, CameraConfig(width=args.small, height=args.small), backend) as r:
+                    fig = batch_figures(r, poses[:max(b, len(poses) // b * b)], b, args.rounds)
+                (fs, cs), (fb, cb) = fig["single"], fig["batch"]
+                print(f"  {backend:8s}: at {args.small}x{args.small}, batch {b:3d} {fb:8.1f} frames/s (cpu {cb:6.3f} "
+                      f"ms/frame) vs one view per call {fs:8.1f} frames/s (cpu {cs:6.3f} ms/frame)")
     return 0
 
 

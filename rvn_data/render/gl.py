@@ -15,6 +15,8 @@ depths differed), and moderngl has no layered depth attachment for array targets
 """
 from __future__ import annotations
 
+import struct
+
 import numpy as np
 
 from rvn_data.render import base
@@ -157,6 +159,9 @@ class GLRenderer(base.Renderer):
         ctx, mgl = self.ctx, self._mgl
         self.prog = self._keep(ctx.program(vertex_shader=_VERTEX, fragment_shader=_FRAGMENT))
         self._set("tex", 0)
+        self._uniforms = tuple(self.prog[name] for name in ("mvp", "eye", "axis", "base_rgb", "use_tex"))
+        self._part_uniforms_now = None  # (base_rgb, use_tex) bytes in the program: only _draw writes them
+        self._view = np.eye(4)  # _draw's view matrix: rows 0-2 rewritten per view
         self.parts, spans = [], []
         for part in scene.parts:
             if len(part.faces) == 0:
@@ -181,7 +186,8 @@ class GLRenderer(base.Renderer):
                 tex = self._keep(ctx.texture((w, h), 3, np.ascontiguousarray(mat.texture[::-1]).tobytes()))
                 tex.filter = (mgl.NEAREST, mgl.NEAREST)
                 tex.repeat_x = tex.repeat_y = True
-            self.parts.append((vao, tex, tuple(float(c) for c in mat.base_rgb)))
+            base_rgb = struct.pack("3f", *(float(c) for c in mat.base_rgb))  # the uniforms' bytes
+            self.parts.append((vao, tex, (base_rgb, struct.pack("1i", tex is not None))))
             spans.append(part_spans)
         self.chunks = build_chunks(spans)
         size = (camera.width, camera.height)
@@ -217,30 +223,36 @@ class GLRenderer(base.Renderer):
         return rgb, depth
 
     def _draw(self, position, yaw: float) -> None:
-        """Clear the framebuffer and draw the view from (position, yaw) into it."""
-        cam, ctx = self.camera, self.ctx
-        eye, rot = cam.pose(position, yaw)
-        view = np.eye(4)
+        """Clear the framebuffer and draw the view from (position, yaw) into it. The matrices are
+        computed as ``proj @ view_matrix`` (the same numpy operations, so the same bits); uniforms
+        are written as packed bytes, and a part's base colour and texture flag only when they differ
+        from what this renderer's program holds."""
+        eye, rot = self.camera.pose(position, yaw)
+        view = self._view
         view[:3, :3] = rot.T
         view[:3, 3] = -rot.T @ eye
         mvp = self.proj @ view
         self.fbo.use()
-        ctx.enable_only(self._mgl.DEPTH_TEST)
+        self.ctx.enable_only(self._mgl.DEPTH_TEST)
         self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-        prog = self.prog
-        prog["mvp"].write(mvp.T.astype("f4").tobytes())
-        prog["eye"].value = tuple(eye.tolist())
-        prog["axis"].value = tuple((-rot[:, 2]).tolist())  # camera forward
-        current = -1
+        u_mvp, u_eye, u_axis, u_rgb, u_tex = self._uniforms
+        u_mvp.write(mvp.T.astype("f4").tobytes())
+        u_eye.write(struct.pack("3f", *eye.tolist()))
+        u_axis.write(struct.pack("3f", *(-rot[:, 2]).tolist()))  # camera forward
+        parts, triangles, current = self.parts, self._mgl.TRIANGLES, -1
         for i, first, count in visible_runs(self.chunks, mvp):
-            vao, tex, base_rgb = self.parts[i]
             if i != current:
-                prog["base_rgb"].value = base_rgb
-                prog["use_tex"].value = tex is not None
+                vao, tex, uniforms = parts[i]
+                now = self._part_uniforms_now
+                if now is None or uniforms[0] != now[0]:
+                    u_rgb.write(uniforms[0])
+                if now is None or uniforms[1] != now[1]:
+                    u_tex.write(uniforms[1])
+                self._part_uniforms_now = uniforms
                 if tex is not None:
                     tex.use(0)
                 current = i
-            vao.render(self._mgl.TRIANGLES, vertices=count, first=first)
+            vao.render(triangles, vertices=count, first=first)
 
     def _render_views(self, poses: list, rgb: np.ndarray, depth: np.ndarray | None) -> None:
         self._render_pass([(self, position, yaw) for position, yaw in poses], rgb, depth)
