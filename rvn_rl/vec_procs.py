@@ -3,10 +3,17 @@ so stepping and rendering use several cores while the learner's process waits. S
 interface and same same-step autoreset as `BatchEnv`; worker ``w`` owns envs
 ``[offsets[w], offsets[w+1])`` with the same reset seeds as in one process, and its share of
 the cores, cores // workers CPU threads (`rvn_data.worker_threads`). The depth function (a
-network) runs in the calling process on the gathered RGB batch."""
+network) runs in the calling process on the gathered RGB batch.
+
+Observations travel through shared memory (`ObsBlocks`): a worker writes its envs' arrays into
+blocks it made at its first reply and sends only rewards, flags and episode records through its
+pipe; the caller copies the blocks out before it sends the next command, so a returned batch is
+never overwritten. Pickling frames through a pipe cost about 0.06 ms per env step (128² RGB;
+0.12 with depth), paid serially in the learner's process."""
 from __future__ import annotations
 
 import multiprocessing as mp
+from multiprocessing import shared_memory
 
 import numpy as np
 
@@ -15,20 +22,59 @@ from rvn_data.worker_threads import settle_worker_threads, threads_per_worker, w
 from .vec_env import BatchEnv
 
 
+class ObsBlocks:
+    """A worker's observation arrays in shared memory, one block per key: made by the worker
+    (``write``, which returns the blocks' layout the first time and None after), opened by the
+    caller (``attach``, then ``read`` views); the worker unlinks them at ``close``."""
+
+    def __init__(self):
+        self.blocks, self.arrays = [], {}
+
+    def write(self, obs: dict) -> dict | None:
+        layout = None
+        if not self.arrays:
+            layout = {}
+            for key, value in obs.items():
+                block = shared_memory.SharedMemory(create=True, size=max(1, value.nbytes))
+                self.blocks.append(block)
+                self.arrays[key] = np.ndarray(value.shape, value.dtype, buffer=block.buf)
+                layout[key] = (block.name, value.shape, value.dtype.str)
+        for key, value in obs.items():
+            self.arrays[key][...] = value
+        return layout
+
+    def attach(self, layout: dict) -> None:
+        for key, (name, shape, dtype) in layout.items():
+            block = shared_memory.SharedMemory(name=name)
+            self.blocks.append(block)
+            self.arrays[key] = np.ndarray(shape, np.dtype(dtype), buffer=block.buf)
+
+    def read(self) -> dict:
+        return self.arrays
+
+    def close(self, unlink: bool = False) -> None:
+        self.arrays = {}  # views first: a block with views into it cannot close
+        for block in self.blocks:
+            block.close()
+            if unlink:
+                block.unlink()
+        self.blocks = []
+
+
 def _worker(conn, env_kwargs: dict, indices: list[int], seed: int, rank: int, scene_cache: int, threads: int) -> None:
     settle_worker_threads(threads)
-    envs = None
+    envs, blocks = None, ObsBlocks()
     try:
         envs = BatchEnv(env_kwargs, len(indices), seed=seed, rank=rank, scene_cache=scene_cache, index_offset=indices[0])
         conn.send(("ok", None))
         while True:
             cmd, arg = conn.recv()
             if cmd == "reset":
-                conn.send(("ok", envs.reset()))
+                conn.send(("ok", (blocks.write(envs.reset()),)))
             elif cmd == "step":
                 obs, reward, cost, done, infos = envs.step(arg)
                 infos = [{"episode": i["episode"]} if "episode" in i else {} for i in infos]
-                conn.send(("ok", (obs, reward, cost, done, infos)))
+                conn.send(("ok", (blocks.write(obs), reward, cost, done, infos)))
             else:
                 break
     except Exception as err:  # reported to the caller as a one-line error
@@ -36,6 +82,7 @@ def _worker(conn, env_kwargs: dict, indices: list[int], seed: int, rank: int, sc
     finally:
         if envs is not None:
             envs.close()
+        blocks.close(unlink=True)
         conn.close()
 
 
@@ -58,6 +105,7 @@ class ProcessBatchEnv:
                 child.close()
                 self.conns.append(parent)
                 self.procs.append(p)
+        self.blocks = [ObsBlocks() for _ in range(workers)]
         for _ in self._gather():
             pass
 
@@ -76,14 +124,19 @@ class ProcessBatchEnv:
             obs["depth"] = np.asarray(self.depth_fn(obs["rgb"]), dtype=np.float32)
         return obs
 
-    @staticmethod
-    def _cat(parts: list[dict]) -> dict:
+    def _cat(self, layouts: list) -> dict:
+        """The workers' observations copied out of their blocks into one batch (``layouts``: each reply's
+        first item, the blocks' layout on a worker's first reply)."""
+        for blocks, layout in zip(self.blocks, layouts):
+            if layout is not None:
+                blocks.attach(layout)
+        parts = [blocks.read() for blocks in self.blocks]
         return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
     def reset(self) -> dict:
         for conn in self.conns:
             conn.send(("reset", None))
-        return self._with_depth(self._cat(self._gather()))
+        return self._with_depth(self._cat([p[0] for p in self._gather()]))
 
     def step(self, actions):
         """(obs, reward, cost, done, infos) as `BatchEnv.step`; infos hold only ``episode``."""
@@ -98,6 +151,9 @@ class ProcessBatchEnv:
         return obs, reward, cost, done, [i for p in parts for i in p[4]]
 
     def close(self) -> None:
+        for blocks in getattr(self, "blocks", []):
+            blocks.close()
+        self.blocks = []
         for conn in self.conns:
             try:
                 conn.send(("close", None))

@@ -87,6 +87,43 @@ def test_batched_observations_equal_each_envs_own_and_take_one_render_pass(monke
             env.close()
 
 
+@pytest.mark.slow
+def test_worker_processes_pass_the_same_observations_through_shared_memory():
+    """`ProcessBatchEnv` (2 workers, frames through shared memory) returns what `BatchEnv` does in one
+    process, step by step; a returned batch stays as it was after later steps; closing unlinks the blocks."""
+    from multiprocessing import shared_memory
+
+    from rvn_rl.vec_procs import ProcessBatchEnv
+
+    kw = {**KW, "depth": True}
+    alone, procs = BatchEnv(kw, 3, seed=7), ProcessBatchEnv(kw, 3, workers=2, seed=7)
+    try:
+        rng, kept = np.random.default_rng(1), []
+        pairs = [(alone.reset(), procs.reset())]
+        for _ in range(30):
+            actions = rng.choice([0, 1, 1, 1, 2, 3], size=3)
+            a, b = alone.step(actions), procs.step(actions)
+            for x, y in zip(a[1:4], b[1:4]):
+                np.testing.assert_array_equal(x, y)
+            assert [i.get("episode") for i in a[4]] == [i.get("episode") for i in b[4]]
+            pairs.append((a[0], b[0]))
+            kept.append({k: v.copy() for k, v in b[0].items()})
+        for (want, got), copy in zip(pairs, [None] + kept):
+            assert set(want) == set(got) == {"rgb", "pointgoal", "depth"}
+            for key in want:
+                np.testing.assert_array_equal(got[key], want[key])
+                if copy is not None:
+                    np.testing.assert_array_equal(got[key], copy[key])  # not overwritten by later steps
+        names = [block.name for blocks in procs.blocks for block in blocks.blocks]
+        assert len(names) == 6  # rgb, pointgoal, depth of each worker
+    finally:
+        alone.close()
+        procs.close()
+    for name in names:
+        with pytest.raises(FileNotFoundError):
+            shared_memory.SharedMemory(name=name)
+
+
 def test_gae_stops_at_episode_ends():
     T, N, gamma, tau = 5, 2, 0.9, 0.8
     st = RolloutStorage(T, N, {"pointgoal": ((2,), torch.float32)}, (4, N, 8), heads=1)
