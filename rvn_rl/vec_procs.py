@@ -8,8 +8,8 @@ network) runs in the calling process on the gathered RGB batch.
 Observations travel through shared memory (`ObsBlocks`): a worker writes its envs' arrays into
 blocks it made at its first reply and sends only rewards, flags and episode records through its
 pipe; the caller copies the blocks out before it sends the next command, so a returned batch is
-never overwritten. Pickling frames through a pipe cost about 0.06 ms per env step (128² RGB;
-0.12 with depth), paid serially in the learner's process."""
+never overwritten. Pickling frames through the pipes had cost the learner's process about 40 µs
+per env step at 128² RGB and 160 µs with depth (benchmarks/env_transport.py: 32 envs in 8 workers)."""
 from __future__ import annotations
 
 import multiprocessing as mp
