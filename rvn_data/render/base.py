@@ -50,13 +50,17 @@ class Renderer(abc.ABC):
         """Many views in one call: (rgb uint8 [N, H, W, 3], depth float32 [N, H, W] or None with
         ``depth=False``) for ``poses`` [(position [3], yaw), ...], equal to `render` per pose. A
         back-end renders up to `batch_views` views per pass with one synchronisation."""
-        poses = check_poses(poses)
+        return self._render_passes([(self, position, yaw) for position, yaw in check_poses(poses)], depth)
+
+    def _render_passes(self, views: list, depth: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        """(rgb [N, H, W, 3], depth [N, H, W] or None) of checked views [(renderer, position, yaw)] of this
+        renderer's `pass_group`, drawn in passes of up to `batch_views` (`_render_pass`)."""
         cam = self.camera
-        rgb = np.empty((len(poses), cam.height, cam.width, 3), np.uint8)
-        out = np.empty((len(poses), cam.height, cam.width), np.float32) if depth else None
+        rgb = np.empty((len(views), cam.height, cam.width, 3), np.uint8)
+        out = np.empty((len(views), cam.height, cam.width), np.float32) if depth else None
         step = max(1, int(self.batch_views))
-        for k in range(0, len(poses), step):
-            self._render_views(poses[k:k + step], rgb[k:k + step], None if out is None else out[k:k + step])
+        for k in range(0, len(views), step):
+            self._render_pass(views[k:k + step], rgb[k:k + step], None if out is None else out[k:k + step])
         return rgb, out
 
     def _render_views(self, poses: list, rgb: np.ndarray, depth: np.ndarray | None) -> None:
@@ -104,13 +108,7 @@ def render_views(views, depth: bool = True) -> list[tuple[np.ndarray, np.ndarray
     frames: list = [None] * len(views)
     for members in groups.values():
         lead = views[members[0]][0]
-        cam = lead.camera
-        rgb = np.empty((len(members), cam.height, cam.width, 3), np.uint8)
-        out = np.empty((len(members), cam.height, cam.width), np.float32) if depth else None
-        step = max(1, int(lead.batch_views))
-        for s in range(0, len(members), step):
-            lead._render_pass([(views[k][0], *poses[k]) for k in members[s:s + step]], rgb[s:s + step],
-                              None if out is None else out[s:s + step])
+        rgb, out = lead._render_passes([(views[k][0], *poses[k]) for k in members], depth)
         for j, k in enumerate(members):
             frames[k] = (rgb[j], None if out is None else out[j])
     return frames

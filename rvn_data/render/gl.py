@@ -254,9 +254,6 @@ class GLRenderer(base.Renderer):
                 current = i
             vao.render(triangles, vertices=count, first=first)
 
-    def _render_views(self, poses: list, rgb: np.ndarray, depth: np.ndarray | None) -> None:
-        self._render_pass([(self, position, yaw) for position, yaw in poses], rgb, depth)
-
     def pass_group(self) -> object:
         """GL renderers of one context and camera size draw their views in one pass (`base.render_views`)."""
         return ("gl", id(self.ctx), self.camera.width, self.camera.height)
