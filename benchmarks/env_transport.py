@@ -32,7 +32,7 @@ def worker(conn, envs: int, size: int, depth: bool, shared: bool) -> None:
 
 
 def ms_per_step(args, shared: bool) -> float:
-    from rvn_rl.vec_procs import ObsBlocks
+    from rvn_rl.vec_procs import ObsBlocks, gather_obs
 
     ctx = mp.get_context("spawn")
     per = np.diff(np.linspace(0, args.envs, args.workers + 1).round().astype(int))
@@ -50,13 +50,8 @@ def ms_per_step(args, shared: bool) -> float:
             c.send(1)
         replies = [c.recv()[1] for c in conns]
         if shared:
-            for b, r in zip(blocks, replies):
-                if r[0] is not None:
-                    b.attach(r[0])
-            parts = [b.read() for b in blocks]
-        else:
-            parts = [r[0] for r in replies]
-        return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+            return gather_obs(blocks, [r[0] for r in replies])
+        return {k: np.concatenate([r[0][k] for r in replies]) for k in replies[0][0]}  # as before shared memory
 
     for _ in range(20):
         step()

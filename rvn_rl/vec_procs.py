@@ -25,7 +25,7 @@ from .vec_env import BatchEnv
 class ObsBlocks:
     """A worker's observation arrays in shared memory, one block per key: made by the worker
     (``write``, which returns the blocks' layout the first time and None after), opened by the
-    caller (``attach``, then ``read`` views); the worker unlinks them at ``close``."""
+    caller (``attach``, then `gather_obs`); the worker unlinks them at ``close``."""
 
     def __init__(self):
         self.blocks, self.arrays = [], {}
@@ -49,9 +49,6 @@ class ObsBlocks:
             self.blocks.append(block)
             self.arrays[key] = np.ndarray(shape, np.dtype(dtype), buffer=block.buf)
 
-    def read(self) -> dict:
-        return self.arrays
-
     def close(self, unlink: bool = False) -> None:
         self.arrays = {}  # views first: a block with views into it cannot close
         for block in self.blocks:
@@ -59,6 +56,15 @@ class ObsBlocks:
             if unlink:
                 block.unlink()
         self.blocks = []
+
+
+def gather_obs(blocks: list[ObsBlocks], layouts: list) -> dict:
+    """The workers' observations copied out of their blocks into one batch (``layouts``: each reply's first
+    item, the blocks' layout on a worker's first reply, which attaches them, else None)."""
+    for worker_blocks, layout in zip(blocks, layouts):
+        if layout is not None:
+            worker_blocks.attach(layout)
+    return {k: np.concatenate([b.arrays[k] for b in blocks]) for k in blocks[0].arrays}
 
 
 def _worker(conn, env_kwargs: dict, indices: list[int], seed: int, rank: int, scene_cache: int, threads: int) -> None:
@@ -124,19 +130,10 @@ class ProcessBatchEnv:
             obs["depth"] = np.asarray(self.depth_fn(obs["rgb"]), dtype=np.float32)
         return obs
 
-    def _cat(self, layouts: list) -> dict:
-        """The workers' observations copied out of their blocks into one batch (``layouts``: each reply's
-        first item, the blocks' layout on a worker's first reply)."""
-        for blocks, layout in zip(self.blocks, layouts):
-            if layout is not None:
-                blocks.attach(layout)
-        parts = [blocks.read() for blocks in self.blocks]
-        return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
-
     def reset(self) -> dict:
         for conn in self.conns:
             conn.send(("reset", None))
-        return self._with_depth(self._cat([p[0] for p in self._gather()]))
+        return self._with_depth(gather_obs(self.blocks, [p[0] for p in self._gather()]))
 
     def step(self, actions):
         """(obs, reward, cost, done, infos) as `BatchEnv.step`; infos hold only ``episode``."""
@@ -146,7 +143,7 @@ class ProcessBatchEnv:
         for w, conn in enumerate(self.conns):
             conn.send(("step", actions[self.bounds[w]:self.bounds[w + 1]]))
         parts = self._gather()
-        obs = self._with_depth(self._cat([p[0] for p in parts]))
+        obs = self._with_depth(gather_obs(self.blocks, [p[0] for p in parts]))
         reward, cost, done = (np.concatenate([p[k] for p in parts]) for k in (1, 2, 3))
         return obs, reward, cost, done, [i for p in parts for i in p[4]]
 
