@@ -107,7 +107,7 @@ def make_plan(args, cuda: bool, cpus: int) -> SimpleNamespace:
         rl_paper_size=64 if q else 256,
         rl_envs=2 if q else 2 * max(1, cpus - 1) if cuda else 8,
         rl_workers=1 if q else max(1, cpus - 1) if cuda else min(cpus, 8),
-        rl_scenes=1 if q else 4,
+        rl_scenes=1 if q else 200,  # most scene switches load a scene the worker has not seen, as over all 800
         rl_num_steps=8 if q else 64,
         rl_threads=args.threads or (1 if q else min(4, cpus) if cuda else cpus),
     )

@@ -224,8 +224,9 @@ def rl_rows(plan) -> list[dict]:
     """5. rvn-rl PPO collection + learning with envs in worker processes: env steps/s at scale=small (ResNet-18,
     128², 4 PPO epochs x 4 mini-batches of 64-step rollouts) and at the paper's network and PPO settings
     (half-width ResNet-50, 256² pooled to 128, 2 epochs x 2 mini-batches of 128-step rollouts; beside DD-PPO's
-    ~160 frames/s per GPU), both with the same envs. A first run of two updates (the first one loads scenes: not
-    counted) times an update; when that left part of ``plan.seconds``, the run resumes for as many more updates as
+    ~160 frames/s per GPU), both with the same envs on ``plan.rl_scenes`` train scenes (200: envs keep loading
+    scenes they have not seen, as a run over all 800 does). A first run of two updates (the first one loads scenes:
+    not counted) times an update; when that left part of ``plan.seconds``, the run resumes for as many more updates as
     fit (the first again not counted)."""
     small = dict(size=plan.rl_size, backbone="resnet18", num_steps=plan.rl_num_steps, ppo_epoch=4,
                  mini_batches=min(4, plan.rl_envs))
@@ -267,6 +268,7 @@ def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, bas
                goal_key, steps / seconds,
                f"{args.size}² RGB, {args.backbone} (base planes 32), PPO rollouts of {args.num_steps} x {envs} envs, "
                f"{args.ppo_epoch} epochs x {args.mini_batches} mini-batches, {workers} env worker processes, "
+               f"{plan.rl_scenes} train scenes, goal pool {args.goal_pool}, "
                f"{len(counted)} updates timed ({seconds:.1f} s); time: envs stepping {100 * share('time_envs'):.0f}%, "
                f"policy and storage {100 * (1 - share('time_envs') - share('time_learn')):.0f}%, "
                f"PPO update {100 * share('time_learn'):.0f}%", baseline, busy.share)

@@ -2,7 +2,9 @@
 at 128x128 RGB with the ResNet-18 policy (goals on a 2-core CPU: >= 800 and >= 200).
 
 1. env: the batched envs stepped with random actions (no network), with the goal pool and
-   with fresh goals per draw (``env.goal_pool=0``, the ratio against it printed); and in this
+   with fresh goals per draw (``env.goal_pool=0``, the ratio against it printed); the same on
+   ``--many-scenes`` scenes (default 200), where most scene switches load a scene this process has not
+   seen (a run over all 800 train scenes), both ways; and in this
    process, their frames rendered together (`rvn_data.render.render_views`: gl draws them in one
    pass with one GPU synchronisation) against each env rendering its own (best of two, alternated);
 2. collection: envs + the policy's act() (what a rollout costs);
@@ -141,6 +143,8 @@ def main() -> None:
     p.add_argument("--base-planes", type=int, default=32, help="ResNet base width (32: DD-PPO's half width)")
     p.add_argument("--renderer", default="auto")
     p.add_argument("--goal-pool", type=int, default=64, help="env.goal_pool (0: fresh goals, two Dijkstra solves each)")
+    p.add_argument("--many-scenes", type=int, default=200, help="scenes of the cold-switch figure (0: none)")
+    p.add_argument("--many-steps", type=int, default=300, help="batched steps of the cold-switch figure")
     args = p.parse_args()
     torch.set_num_threads(args.threads)
     from rvn_rl.cli import compose
@@ -151,6 +155,8 @@ def main() -> None:
         env_sps = collection(cfg, args.steps, with_policy=False)
         together = [frames_rate(cfg, args.steps // 2, k % 2 == 0) for k in range(4)]  # alternated, in this process
         fresh_sps = collection(compose(overrides(args, f"{tmp}/run") + ["env.goal_pool=0"]), args.steps, False)
+        many = [collection(compose(overrides(args, f"{tmp}/run") + [f"env.num_scenes={args.many_scenes}", f"env.goal_pool={g}"]),
+                           args.many_steps, False) for g in (args.goal_pool, 0)] if args.many_scenes else None
         col_sps = collection(cfg, args.steps, with_policy=True)
         train(cfg)
         rows = [json.loads(line) for line in open(f"{tmp}/run/metrics.jsonl")]
@@ -162,6 +168,9 @@ def main() -> None:
           f"{args.threads} torch threads:")
     print(f"  env steps/s, envs alone (random actions): {env_sps:8.0f}   (goal_pool={args.goal_pool}; "
           f"{fresh_sps:.0f} with fresh goals, x{env_sps / fresh_sps:.2f})")
+    if many:
+        print(f"  env steps/s on {args.many_scenes} scenes (cold scene switches): {many[0]:8.0f}   (goal_pool={args.goal_pool}; "
+              f"{many[1]:.0f} with fresh goals, x{many[0] / many[1]:.2f})")
     both, alone = max(together[0::2]), max(together[1::2])
     print(f"  env steps/s, {args.envs} envs in this process      : {both:8.0f}   (frames rendered together; each env "
           f"rendering its own frame: {alone:.0f}, x{both / alone:.2f})")

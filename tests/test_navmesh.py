@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from conftest import box_scene, room_boxes
-from rvn_data.navmesh import NavMesh, NavMeshSettings
+from rvn_data.navmesh import GeodesicField, NavMesh, NavMeshSettings
 from rvn_data.scenes import Part, Scene, SceneError, load_scene
 
 R = 0.18
@@ -190,19 +190,40 @@ def test_stairs_to_an_upper_floor_over_the_lower_one():
     assert (np.diff(path[:, 1]) >= -0.011).all() and path[-1, 1] == pytest.approx(2.4, abs=0.011)
 
 
+def _whole_field(nm: NavMesh, goal: np.ndarray, dtype=np.float64) -> GeodesicField:
+    """The field smoothed at every node in order of Dijkstra distance (each node after its tree parent, as
+    the smoothing was done before fields were smoothed where read), as ``dtype``, with no tree to fill."""
+    from rvn_data.navmesh.geodesic import _smooth_node, run_dijkstra
+
+    graph, _, centres, cells = nm._ensure_graph()
+    tree, P = nm.distance_field(goal, keep=False).tree, nm.packed
+    dist = run_dijkstra(graph, tree.root)
+    out, parent = np.full(len(dist), np.inf), np.full(len(dist), -1, np.int64)
+    for v in np.argsort(dist)[:int(np.isfinite(dist).sum())]:
+        _smooth_node(v, tree.pred, cells, centres, P.meta, P.clearance, P.island, tree.goal, *tree.grid,
+                     nm.settings.agent_radius - 1e-6, out, parent)
+    return GeodesicField(nm, tree.goal, out.astype(dtype))
+
+
 def _field_read_at_points(nm: NavMesh, rng: np.random.Generator, sources: int = 6, n: int = 32) -> int:
-    """`distance_field(s, at=pts)` (smoothed only where the lookup of pts reads) gives the very
-    numbers of the whole field at pts: navigable samples, points pushed off them (walls, gaps,
-    off the mesh) and one beside the source. Returns how many distances were finite."""
+    """A field smoothed where it is read gives the very numbers of the whole field, whatever is read
+    first: at navigable samples, points pushed off them (walls, gaps, off the mesh) and one beside the
+    source, read one by one in reverse order or all at once; also a goal pool's float32 copy. Returns
+    how many distances were finite."""
     finite = 0
     for _ in range(sources):
         s = nm.sample(rng)
         pts = np.array([nm.sample(rng) for _ in range(n)])
         pts[::4, [0, 2]] += rng.normal(0.0, 0.3, (len(pts[::4]), 2))
         pts[1] = s + np.array([0.03, 0.0, -0.02])
-        whole = nm.distance_field(s).distance(pts)
-        nm._fields.clear()  # not from the cache: solved again, for pts only
-        assert np.array_equal(nm.distance_field(s, at=pts).distance(pts), whole)
+        whole = _whole_field(nm, s).distance(pts)
+        one_by_one = nm.distance_field(s, keep=False)
+        assert np.array_equal([one_by_one.distance(p) for p in pts[::-1]][::-1], whole)
+        assert np.array_equal(nm.distance_field(s, keep=False).distance(pts), whole)
+        assert np.array_equal(one_by_one.distance(pts), whole)  # read again: nothing changes
+        tree = nm.distance_field(s, keep=False).tree
+        pooled = GeodesicField(nm, tree.goal, np.full(len(tree.pred), np.inf, np.float32), tree)
+        assert np.array_equal(pooled.distance(pts), _whole_field(nm, s, np.float32).distance(pts))
         finite += int(np.isfinite(whole).sum())
     return finite
 
@@ -219,3 +240,10 @@ def test_field_read_at_points_equals_the_whole_field():
     boxes += [((5.0, 2.3, 0), (8.0, 2.4, 4.0))]
     nm = NavMesh.build(box_scene(boxes, "two-storey"))
     assert len(nm.layers) > 1 and _field_read_at_points(nm, rng) > 100
+    nm = NavMesh.build(box_scene(room_boxes(20.0, 1.0), "corridor"))  # a chain longer than fill_chains' first buffer
+    a, b = np.array([0.3, 0.0, 0.5]), np.array([19.7, 0.0, 0.5])
+    field = nm.distance_field(a, keep=False)
+    depth, v = 0, nm._node(b)
+    while v != field.tree.root:
+        depth, v = depth + 1, field.tree.pred[v]
+    assert depth > 256 and field.distance(b) == _whole_field(nm, a).distance(b) == pytest.approx(19.4, abs=0.05)

@@ -1,7 +1,6 @@
 """Train-mode goals from a fixed per-scene pool whose geodesic distance fields are computed
 once per process, so an RL reset costs a start draw and a few look-ups instead of two
-Dijkstra solves (~17 ms each on a procedural apartment, ~40% of env time with collisions
-ending episodes).
+Dijkstra solves (~3 ms each on a procedural apartment).
 
 `RVNEnv(goal_pool=G)` with G > 0: each scene gets G goal points drawn uniformly over its
 main island by a generator that is a pure function of (split, scene index, G), so every env
@@ -10,8 +9,11 @@ pool points whose geodesic distance from it lies in [d_min, d_max] (the benchmar
 none in range → the caller draws another start. G = 0 (the default) keeps the benchmark's
 sampler: a fresh uniform goal every time. Evaluation never uses a pool: its episodes are fixed.
 
-Pools live in one least-recently-used cache per process (``MAX_SCENES`` scenes); a field is
-one float32 per navmesh graph node (~40k nodes, 160 kB, on a procedural apartment)."""
+A pool's fields are smoothed where they are read (`rvn_data.navmesh.geodesic.FieldTree`): building one costs
+its Dijkstra solves (0.2 s for 64 on a procedural apartment, where smoothing every node had added 0.8 s, most
+of an RL env's time when its scenes change often and are many). Pools live in one least-recently-used cache
+per process of at most ``MAX_BYTES`` (20 bytes per graph node and goal: 17 MB for 64 goals on a procedural
+apartment's ~13k nodes); values read are float32, as when pools held whole fields."""
 from __future__ import annotations
 
 from collections import OrderedDict
@@ -20,26 +22,28 @@ import numpy as np
 
 from rvn_data.navmesh.geodesic import GeodesicField
 
-MAX_SCENES = 64
+MAX_BYTES = 512 << 20
 _POOLS: OrderedDict[tuple, "GoalPool"] = OrderedDict()
 
 
 class GoalPool:
-    """``size`` goals of one scene with their distance-field values (per navmesh node)."""
+    """``size`` goals of one scene with their fields' trees and float32 values (per navmesh node)."""
 
-    def __init__(self, goals: np.ndarray, values: list[np.ndarray]):
-        self.goals = goals
-        self.values = values
+    def __init__(self, goals: np.ndarray, trees: list, values: list[np.ndarray]):
+        self.goals, self.trees, self.values = goals, trees, values
+        self.nbytes = sum(v.nbytes + (0 if t is None else t.pred.nbytes + t.out.nbytes + t.parent.nbytes)
+                          for t, v in zip(trees, values))
 
     @classmethod
     def build(cls, navmesh, size: int, split_code: int, scene_index: int) -> "GoalPool":
         rng = np.random.default_rng([0x600A1, int(split_code), int(scene_index), int(size)])
-        fields = [navmesh.distance_field(navmesh.sample(rng, island=0)) for _ in range(size)]
-        return cls(np.stack([f.goal for f in fields]), [np.asarray(f.values, dtype=np.float32) for f in fields])
+        fields = [navmesh.distance_field(navmesh.sample(rng, island=0), keep=False) for _ in range(size)]
+        return cls(np.stack([f.goal for f in fields]), [f.tree for f in fields],
+                   [np.asarray(f.values, dtype=np.float32) for f in fields])
 
     def fields(self, navmesh) -> list[GeodesicField]:
         """The pool's fields bound to ``navmesh`` (an env's own build of the same scene)."""
-        return [GeodesicField(navmesh, g, v) for g, v in zip(self.goals, self.values)]
+        return [GeodesicField(navmesh, g, v, t) for g, v, t in zip(self.goals, self.values, self.trees)]
 
 
 def pool_for(navmesh, scene_key: tuple, size: int, split_code: int, scene_index: int) -> GoalPool:
@@ -49,7 +53,7 @@ def pool_for(navmesh, scene_key: tuple, size: int, split_code: int, scene_index:
     if pool is None:
         pool = GoalPool.build(navmesh, size, split_code, scene_index)
     _POOLS[key] = pool
-    while len(_POOLS) > MAX_SCENES:
+    while len(_POOLS) > 1 and sum(p.nbytes for p in _POOLS.values()) > MAX_BYTES:
         _POOLS.popitem(last=False)
     return pool
 

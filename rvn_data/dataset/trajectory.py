@@ -98,7 +98,7 @@ def attempt(ctx: SceneContext, rng: np.random.Generator) -> Rollout | str:
     if entry is None:
         return "start_blocked"
     candidates = np.array([ctx.navmesh.sample(rng) for _ in range(s.goal_candidates)], dtype=np.float64)
-    dists = np.asarray(ctx.navmesh.distance_field(start, at=candidates).distance(candidates),
+    dists = np.asarray(ctx.navmesh.distance_field(start, keep=False).distance(candidates),
                        dtype=np.float64).reshape(-1)
     finite = dists[np.isfinite(dists)]
     if finite.size:

@@ -6,7 +6,8 @@ crosses is navigable (line of sight), weighted by their 3-D length; plus seam li
 layers. Its worst-case error against the Euclidean length of a free straight line is 1.3 %
 (largest angular gap 18.4°), versus 8 % for 8-connectivity. Fields come from
 `scipy.sparse.csgraph.dijkstra`, then Theta*-style any-angle smoothing of its tree
-(`any_angle`, compiled) brings them close to true Euclidean detours; point-to-point distances use the string-pulled path
+(`fill_chains`, compiled, done only at the nodes a lookup reads: `FieldTree`) brings them close to true Euclidean
+detours; point-to-point distances use the string-pulled path
 (greedy line-of-sight shortcutting), which is exact for polygonal detours up to the cell
 discretisation of the corners.
 """
@@ -128,7 +129,7 @@ def _visible(meta, clearance, island, k, i0, j0, i1, j1, r):
 
 @njit(cache=True)
 def _smooth_node(v, pred, cells, centres, meta, clearance, island, goal, gk, gi, gj, r, out, parent):
-    """`any_angle`'s step at node v, once its tree ancestors are done: the goal point itself
+    """`fill_chains`' step at node v, once its tree ancestors are done: the goal point itself
     when in line of sight, else its tree parent p, or p's any-angle parent when in line of
     sight and no longer."""
     k = cells[v, 0]
@@ -155,47 +156,48 @@ def _smooth_node(v, pred, cells, centres, meta, clearance, island, goal, gk, gi,
 
 
 @njit(cache=True)
-def any_angle(dist, pred, source, cells, centres, meta, clearance, island, goal, gk, gi, gj, r):
-    """Theta*-style smoothing of a Dijkstra tree rooted at the goal point: visiting nodes by
-    increasing distance, a node takes its tree parent's any-angle parent (or the goal point
-    itself) when that one is in line of sight, so distances follow straight lines at any
-    angle instead of the 32 grid directions. (gk, gi, gj): goal layer and grid coordinates."""
-    n = dist.shape[0]
-    out = np.full(n, np.inf)
-    parent = np.full(n, -1, np.int64)  # -2: the goal point
-    if source < 0:
-        return out
-    order = np.argsort(dist)
-    for m in range(n):
-        v = order[m]
-        if not np.isfinite(dist[v]):
-            break
-        _smooth_node(v, pred, cells, centres, meta, clearance, island, goal, gk, gi, gj, r, out, parent)
-    return out
-
-
-@njit(cache=True)
-def any_angle_at(dist, pred, cells, centres, meta, clearance, island, goal, gk, gi, gj, r, wanted):
-    """`any_angle`'s values at the nodes ``wanted`` (int64 array, -1 entries ignored), inf at the
-    nodes neither wanted nor a tree ancestor of one. A node's value depends only on its tree
-    ancestors' (each has a smaller Dijkstra distance), so each chain is smoothed from its root
-    down, once: the same numbers as the whole field, for a lookup of a few points."""
-    n = dist.shape[0]
-    out = np.full(n, np.inf)
-    parent = np.full(n, -1, np.int64)
-    done = np.zeros(n, np.bool_)
-    chain = np.empty(n, np.int64)
+def fill_chains(pred, root, cells, centres, meta, clearance, island, goal, gk, gi, gj, r, wanted, out, parent, values):
+    """Theta*-style smoothing of a Dijkstra tree rooted at the goal point, done where it is read: each
+    node of ``wanted`` (int array, -1 entries ignored) not smoothed yet, with its tree ancestors not
+    smoothed yet, from the highest one down; ``out`` (float64, inf where not smoothed), ``parent`` and
+    ``values`` (``out`` in the field's own dtype) keep what earlier calls did. A node takes its tree
+    parent's any-angle parent (or the goal point itself) when that one is in line of sight, so
+    distances follow straight lines at any angle instead of the 32 grid directions; its value
+    depends only on its tree ancestors', so the values are those of smoothing the whole tree in
+    order of distance, whichever nodes are read first. (gk, gi, gj): goal layer and grid coordinates."""
+    chain = np.empty(256, np.int64)  # grown as needed: a tree's depth, not its size
     for w in wanted.ravel():
         m = 0
         v = w
-        while v >= 0 and not done[v] and np.isfinite(dist[v]):
-            done[v] = True
+        while v >= 0 and out[v] == np.inf and (pred[v] >= 0 or v == root):  # pred < 0: the root or unreached
+            if m == len(chain):
+                chain = np.concatenate((chain, np.empty(m, np.int64)))
             chain[m] = v
             m += 1
             v = pred[v]
         for t in range(m - 1, -1, -1):
-            _smooth_node(chain[t], pred, cells, centres, meta, clearance, island, goal, gk, gi, gj, r, out, parent)
-    return out
+            u = chain[t]
+            _smooth_node(u, pred, cells, centres, meta, clearance, island, goal, gk, gi, gj, r, out, parent)
+            values[u] = out[u]
+
+
+class FieldTree:
+    """The Dijkstra tree of a geodesic field (predecessor per graph node, rooted at the goal's node)
+    with its smoothing state: `fill_chains` smooths it where lookups read it. 16 bytes per node."""
+
+    def __init__(self, pred: np.ndarray, root: int, goal: np.ndarray, grid: tuple):
+        self.pred, self.root, self.goal, self.grid = pred, int(root), goal, grid  # goal's (layer, row, col), grid units
+        self.out = np.full(len(pred), np.inf)
+        self.parent = np.full(len(pred), -1, np.int32)
+
+    def reaches(self, node: int) -> bool:
+        """A path leads from ``node`` to the root."""
+        return node >= 0 and (node == self.root or self.pred[node] >= 0)
+
+    def fill(self, wanted: np.ndarray, values: np.ndarray, cells, centres, packed, radius: float) -> None:
+        """Smooth the chains of ``wanted`` (node ids; -1 ignored) into ``out`` and ``values``."""
+        fill_chains(self.pred, self.root, cells, centres, packed.meta, packed.clearance, packed.island, self.goal,
+                    *self.grid, radius, wanted, self.out, self.parent, values)
 
 
 def run_dijkstra(graph, source: int, predecessors: bool = False):
@@ -208,10 +210,11 @@ class GeodesicField:
     `distance(p)` takes a world point [3] (→ float) or points [N, 3] (→ float [N]) and
     returns inf off the navmesh or on another island."""
 
-    def __init__(self, navmesh, goal: np.ndarray, values: np.ndarray):
+    def __init__(self, navmesh, goal: np.ndarray, values: np.ndarray, tree: FieldTree | None = None):
         self.navmesh = navmesh
         self.goal = np.asarray(goal, dtype=np.float64)
-        self.values = values  # per graph node
+        self.values = values  # per graph node; with a tree, inf where it was not read yet
+        self.tree = tree  # fills values where a lookup reads them (None: values are final)
 
     def distance(self, p: np.ndarray) -> float | np.ndarray:
         return self.navmesh._field_distance(self, p)

@@ -14,7 +14,7 @@ from scipy import ndimage
 
 from rvn_data.navmesh import kernels as K
 from rvn_data.navmesh.build import build_layers
-from rvn_data.navmesh.geodesic import (GeodesicField, any_angle, any_angle_at, build_graph, node_cells, node_centres,
+from rvn_data.navmesh.geodesic import (FieldTree, GeodesicField, build_graph, node_cells, node_centres,
                                       run_dijkstra)
 from rvn_data.navmesh.grid import NavGrid, pack
 from rvn_data.navmesh.settings import NavMeshSettings
@@ -217,45 +217,44 @@ class NavMesh:
         i, j = divmod(f - int(self.offsets[k]), g.shape[1])
         return int(node_of[self.offsets[k] + ii[i, j] * g.shape[1] + jj[i, j]])
 
-    def _solve(self, node: int, goal: np.ndarray | None = None, wanted: np.ndarray | None = None):
-        """(distances per node to the goal point (default: the node's centre), predecessors). With
-        ``wanted`` (node ids), a field not cached is smoothed only there (`any_angle_at`) and not kept."""
+    def _solve(self, node: int, goal: np.ndarray | None = None, keep: bool = True) -> FieldTree:
+        """The Dijkstra tree to the goal point (default: the node's centre) from every node, smoothed only
+        where fields read it; the last 8 are kept and given again. ``keep=False``: a tree of its own, not kept
+        (a tree fills one values array: a goal pool's float32 copy cannot share one)."""
         graph, _, centres, cells = self._ensure_graph()
         goal = centres[node] if goal is None else goal
         key = (node, *np.round(goal, 9).tolist())
-        if key not in self._fields:
-            dist, pred = run_dijkstra(graph, node, predecessors=True)
-            k, gi, gj = cells[node]
-            g = self.layers[k]
-            fi, fj = (goal[2] - g.z0) / g.cs - 0.5, (goal[0] - g.x0) / g.cs - 0.5
-            P = self.packed
-            args = (cells, centres, P.meta, P.clearance, P.island, goal, k, fi, fj, self.settings.agent_radius - 1e-6)
-            if wanted is not None:
-                return any_angle_at(dist, pred, *args, wanted), pred
+        if keep and key in self._fields:
+            return self._fields[key]
+        pred = run_dijkstra(graph, node, predecessors=True)[1]
+        g = self.layers[cells[node, 0]]
+        tree = FieldTree(pred, node, goal, (cells[node, 0], (goal[2] - g.z0) / g.cs - 0.5, (goal[0] - g.x0) / g.cs - 0.5))
+        if keep:
             if len(self._fields) >= 8:
                 self._fields.pop(next(iter(self._fields)))
-            self._fields[key] = (any_angle(dist, pred, node, *args), pred)
-        return self._fields[key]
+            self._fields[key] = tree
+        return tree
 
-    def distance_field(self, goal: np.ndarray, at: np.ndarray | None = None) -> GeodesicField:
-        """Geodesic distance field to `goal` (one Dijkstra over the goal's island). ``at``: the only
-        points [N, 3] it will be read at; then it is smoothed only at the nodes their lookup reads."""
+    def distance_field(self, goal: np.ndarray, keep: bool = True) -> GeodesicField:
+        """Geodesic distance field to `goal` (one Dijkstra over the goal's island; the any-angle smoothing
+        is done where lookups read it). ``keep``: from and into the navmesh's cache of the last 8 fields."""
         goal = np.asarray(goal, dtype=np.float64).reshape(3)
         node = self._node(goal)
-        graph, node_of = self._ensure_graph()[:2]
-        if node >= 0 and not self.is_navigable(goal):
+        n = self._ensure_graph()[0].shape[0]
+        if node < 0:
+            return GeodesicField(self, goal, np.full(n, np.inf))
+        if not self.is_navigable(goal):
             goal = self.snap(goal)
-        wanted = None
-        if at is not None:
-            P, pts = self.packed, np.ascontiguousarray(np.asarray(at, dtype=np.float64).reshape(-1, 3))
-            wanted = K.field_support(P.meta, P.height, P.x0, P.z0, P.cs, node_of, pts, MAX_Y_DELTA)
-        values = self._solve(node, goal, wanted)[0] if node >= 0 else np.full(graph.shape[0], np.inf)
-        return GeodesicField(self, goal, values)
+        tree = self._solve(node, goal, keep)
+        return GeodesicField(self, goal, tree.out, tree)
 
     def _field_distance(self, field: GeodesicField, p: np.ndarray):
-        node_of = self._ensure_graph()[1]
+        _, node_of, centres, cells = self._ensure_graph()
         P = self.packed
         pts = np.ascontiguousarray(np.asarray(p, dtype=np.float64).reshape(-1, 3))
+        if field.tree is not None:
+            wanted = K.field_support(P.meta, P.height, P.x0, P.z0, P.cs, node_of, pts, MAX_Y_DELTA)
+            field.tree.fill(wanted, field.values, cells, centres, P, self.settings.agent_radius - 1e-6)
         out = K.field_lookup(P.meta, P.height, P.x0, P.z0, P.cs, node_of, field.values, pts, MAX_Y_DELTA)
         near = np.linalg.norm(pts - field.goal, axis=1)  # next to the goal: straight line
         close = (near < 2 * P.cs) & np.isfinite(out)
@@ -274,13 +273,13 @@ class NavMesh:
         if length < 1e-9 or self._segment_clear(a, b):
             return np.stack([a, b])
         na, nb = self._node(a), self._node(b)
-        dist, pred = self._solve(nb)
-        if na < 0 or not np.isfinite(dist[na]):
+        tree = self._solve(nb)
+        if not tree.reaches(na):
             return np.zeros((0, 3))
         centres = self._ensure_graph()[2]
         chain = [na]
         while chain[-1] != nb:
-            chain.append(int(pred[chain[-1]]))
+            chain.append(int(tree.pred[chain[-1]]))
         pts = np.concatenate([a[None], centres[chain], b[None]])
         P, st = self.packed, self.settings
         args = (P.meta, P.height, P.clearance, P.island, P.x0, P.z0, P.cs)
