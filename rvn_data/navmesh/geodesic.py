@@ -6,7 +6,7 @@ crosses is navigable (line of sight), weighted by their 3-D length; plus seam li
 layers. Its worst-case error against the Euclidean length of a free straight line is 1.3 %
 (largest angular gap 18.4°), versus 8 % for 8-connectivity. Fields come from
 `scipy.sparse.csgraph.dijkstra`, then Theta*-style any-angle smoothing of its tree
-(`fill_chains`, compiled, done only at the nodes a lookup reads: `FieldTree`) brings them close to true Euclidean
+(`tree_lookup`, compiled, done only at the nodes a lookup reads: `FieldTree`) brings them close to true Euclidean
 detours; point-to-point distances use the string-pulled path
 (greedy line-of-sight shortcutting), which is exact for polygonal detours up to the cell
 discretisation of the corners.
@@ -21,6 +21,7 @@ from numba import njit
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
+from rvn_data.navmesh import kernels as K
 from rvn_data.navmesh.grid import NavGrid
 
 _MOVES = [(0, 1), (1, 0), (1, 1), (1, -1), (1, 2), (2, 1), (1, -2), (2, -1),
@@ -129,7 +130,7 @@ def _visible(meta, clearance, island, k, i0, j0, i1, j1, r):
 
 @njit(cache=True)
 def _smooth_node(v, pred, cells, centres, meta, clearance, island, goal, gk, gi, gj, r, out, parent):
-    """`fill_chains`' step at node v, once its tree ancestors are done: the goal point itself
+    """The smoothing's step at node v, once its tree ancestors are done: the goal point itself
     when in line of sight, else its tree parent p, or p's any-angle parent when in line of
     sight and no longer."""
     k = cells[v, 0]
@@ -156,34 +157,63 @@ def _smooth_node(v, pred, cells, centres, meta, clearance, island, goal, gk, gi,
 
 
 @njit(cache=True)
-def fill_chains(pred, root, cells, centres, meta, clearance, island, goal, gk, gi, gj, r, wanted, out, parent, values):
-    """Theta*-style smoothing of a Dijkstra tree rooted at the goal point, done where it is read: each
-    node of ``wanted`` (int array, -1 entries ignored) not smoothed yet, with its tree ancestors not
-    smoothed yet, from the highest one down; ``out`` (float64, inf where not smoothed), ``parent`` and
-    ``values`` (``out`` in the field's own dtype) keep what earlier calls did. A node takes its tree
-    parent's any-angle parent (or the goal point itself) when that one is in line of sight, so
-    distances follow straight lines at any angle instead of the 32 grid directions; its value
-    depends only on its tree ancestors', so the values are those of smoothing the whole tree in
-    order of distance, whichever nodes are read first. (gk, gi, gj): goal layer and grid coordinates."""
-    chain = np.empty(256, np.int64)  # grown as needed: a tree's depth, not its size
+def _fill_chain(w, chain, pred, root, cells, centres, meta, clearance, island, goal, gk, gi, gj, r, out, parent, values):
+    """Smooth node w (if not yet, nor -1) and its tree ancestors not smoothed yet, from the highest one
+    down, into ``out`` (float64, inf where not smoothed), ``parent`` and ``values`` (``out`` in the field's
+    own dtype); returns the chain buffer (grown when a chain is longer)."""
+    m = 0
+    v = w
+    while v >= 0 and out[v] == np.inf and (pred[v] >= 0 or v == root):  # pred < 0: the root or unreached
+        if m == len(chain):
+            chain = np.concatenate((chain, np.empty(m, np.int64)))
+        chain[m] = v
+        m += 1
+        v = pred[v]
+    for t in range(m - 1, -1, -1):
+        u = chain[t]
+        _smooth_node(u, pred, cells, centres, meta, clearance, island, goal, gk, gi, gj, r, out, parent)
+        values[u] = out[u]
+    return chain
+
+
+@njit(cache=True)
+def tree_lookup(meta, height, x0, z0, cs, node_of, pts, tol, pred, root, cells, centres, clearance, island, goal,
+                gk, gi, gj, r, out, parent, values):
+    """`kernels.field_lookup` at points [N, 3] of a field whose Theta*-style smoothing is done where it is
+    read: first the nodes the lookup of a point may read (the bilinear 2x2 and the 3x3 around its cell)
+    with their tree ancestors (`_fill_chain`). A node takes its tree parent's any-angle parent (or the goal
+    point itself) when that one is in line of sight, so distances follow straight lines at any angle instead
+    of the 32 grid directions; its value depends only on its tree ancestors', so the values are those of
+    smoothing the whole tree in order of distance, whichever points are read first. (gk, gi, gj): the
+    goal's layer and grid coordinates."""
+    wanted = np.full((pts.shape[0], 13), -1, np.int64)
+    for n in range(pts.shape[0]):  # three passes: the smoothing's code kept out of the lookups' loops
+        k, _, _, _, i0, j0, i, j = K.lookup_cells(meta, height, x0, z0, cs, pts[n, 0], pts[n, 1], pts[n, 2], tol)
+        if k < 0:
+            continue
+        rows, cols, off = meta[k, 2], meta[k, 3], meta[k, 4]
+        c = 0
+        for a, b, size in ((i0, j0, 2), (i - 1, j - 1, 3)):  # the bilinear 2x2 from (i0, j0), the 3x3 around (i, j)
+            for ii in range(a, a + size):
+                for jj in range(b, b + size):
+                    if 0 <= ii < rows and 0 <= jj < cols:
+                        wanted[n, c] = node_of[off + ii * cols + jj]
+                    c += 1
+    todo = 0
     for w in wanted.ravel():
-        m = 0
-        v = w
-        while v >= 0 and out[v] == np.inf and (pred[v] >= 0 or v == root):  # pred < 0: the root or unreached
-            if m == len(chain):
-                chain = np.concatenate((chain, np.empty(m, np.int64)))
-            chain[m] = v
-            m += 1
-            v = pred[v]
-        for t in range(m - 1, -1, -1):
-            u = chain[t]
-            _smooth_node(u, pred, cells, centres, meta, clearance, island, goal, gk, gi, gj, r, out, parent)
-            values[u] = out[u]
+        todo += w >= 0 and out[w] == np.inf  # not smoothed yet (or unreached)
+    if todo:  # (a loop with the call in it costs ~12 ns a node read even when it calls nothing)
+        chain = np.empty(256, np.int64)  # grown as needed: a tree's depth, not its size
+        for w in wanted.ravel():
+            if w >= 0 and out[w] == np.inf:
+                chain = _fill_chain(w, chain, pred, root, cells, centres, meta, clearance, island, goal, gk, gi, gj, r,
+                                    out, parent, values)
+    return K.field_lookup(meta, height, x0, z0, cs, node_of, values, pts, tol)
 
 
 class FieldTree:
     """The Dijkstra tree of a geodesic field (predecessor per graph node, rooted at the goal's node)
-    with its smoothing state: `fill_chains` smooths it where lookups read it. 16 bytes per node."""
+    with its smoothing state, done where lookups read it (`tree_lookup`). 16 bytes per node."""
 
     def __init__(self, pred: np.ndarray, root: int, goal: np.ndarray, grid: tuple):
         self.pred, self.root, self.goal, self.grid = pred, int(root), goal, grid  # goal's (layer, row, col), grid units
@@ -194,10 +224,12 @@ class FieldTree:
         """A path leads from ``node`` to the root."""
         return node >= 0 and (node == self.root or self.pred[node] >= 0)
 
-    def fill(self, wanted: np.ndarray, values: np.ndarray, cells, centres, packed, radius: float) -> None:
-        """Smooth the chains of ``wanted`` (node ids; -1 ignored) into ``out`` and ``values``."""
-        fill_chains(self.pred, self.root, cells, centres, packed.meta, packed.clearance, packed.island, self.goal,
-                    *self.grid, radius, wanted, self.out, self.parent, values)
+    def lookup(self, pts: np.ndarray, values: np.ndarray, node_of, cells, centres, packed, tol: float,
+               radius: float) -> np.ndarray:
+        """Distances at points [N, 3], smoothing into ``out`` and ``values`` what they read."""
+        P = packed
+        return tree_lookup(P.meta, P.height, P.x0, P.z0, P.cs, node_of, pts, tol, self.pred, self.root, cells, centres,
+                           P.clearance, P.island, self.goal, *self.grid, radius, self.out, self.parent, values)
 
 
 def run_dijkstra(graph, source: int, predecessors: bool = False):

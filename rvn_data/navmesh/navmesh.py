@@ -253,9 +253,9 @@ class NavMesh:
         P = self.packed
         pts = np.ascontiguousarray(np.asarray(p, dtype=np.float64).reshape(-1, 3))
         if field.tree is not None:
-            wanted = K.field_support(P.meta, P.height, P.x0, P.z0, P.cs, node_of, pts, MAX_Y_DELTA)
-            field.tree.fill(wanted, field.values, cells, centres, P, self.settings.agent_radius - 1e-6)
-        out = K.field_lookup(P.meta, P.height, P.x0, P.z0, P.cs, node_of, field.values, pts, MAX_Y_DELTA)
+            out = field.tree.lookup(pts, field.values, node_of, cells, centres, P, MAX_Y_DELTA, self.settings.agent_radius - 1e-6)
+        else:
+            out = K.field_lookup(P.meta, P.height, P.x0, P.z0, P.cs, node_of, field.values, pts, MAX_Y_DELTA)
         near = np.linalg.norm(pts - field.goal, axis=1)  # next to the goal: straight line
         close = (near < 2 * P.cs) & np.isfinite(out)
         out[close] = np.minimum(out[close], near[close])
