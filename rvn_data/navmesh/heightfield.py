@@ -23,9 +23,23 @@ from rvn_data.navmesh.recast_profile import piece_bounds, rasterize_recast
 
 
 @njit(cache=True)
-def _rasterize(verts, faces, walk, x0, z0, cs, nx, nz, y0, ch, emit,
-               o_cell, o_smin, o_smax, o_walk, o_box, o_ytop):
-    """Clip every triangle to the cells it overlaps; count (emit=False) or write records."""
+def _grown(a):
+    """``a`` copied into an array of twice its rows."""
+    out = np.empty((2 * a.shape[0],) + a.shape[1:], a.dtype)
+    out[:a.shape[0]] = a
+    return out
+
+
+@njit(cache=True)
+def _rasterize(verts, faces, walk, x0, z0, cs, nx, nz, y0, ch, capacity):
+    """Clip every triangle to the cells it overlaps: its records (cell, smin, smax, walk, x/z box, top y) in one
+    pass, into arrays of ``capacity`` rows grown as needed."""
+    o_cell = np.empty(capacity, np.int64)
+    o_smin = np.empty(capacity, np.int32)
+    o_smax = np.empty(capacity, np.int32)
+    o_walk = np.empty(capacity, np.bool_)
+    o_box = np.empty((capacity, 4), np.float32)
+    o_ytop = np.empty(capacity, np.float32)
     rest = np.empty((12, 3))
     rest2 = np.empty((12, 3))
     row = np.empty((12, 3))
@@ -70,21 +84,23 @@ def _rasterize(verts, faces, walk, x0, z0, cs, nx, nz, y0, ch, emit,
                     if nrr < 3:
                         break
                     continue
-                if emit:
-                    ylo, yhi, bx0, bx1, bz0, bz1 = piece_bounds(cell, ncell)
-                    smin = int(math.floor((ylo - y0) / ch + 1e-4))
-                    smax = max(int(math.ceil((yhi - y0) / ch - 1e-4)), smin)
-                    o_cell[count] = r * nx + col
-                    o_smin[count] = smin
-                    o_smax[count] = smax
-                    o_ytop[count] = yhi
-                    o_walk[count] = walk[t]
-                    o_box[count, 0] = bx0
-                    o_box[count, 1] = bx1
-                    o_box[count, 2] = bz0
-                    o_box[count, 3] = bz1
+                if count == o_cell.shape[0]:
+                    o_cell, o_smin, o_smax = _grown(o_cell), _grown(o_smin), _grown(o_smax)
+                    o_walk, o_box, o_ytop = _grown(o_walk), _grown(o_box), _grown(o_ytop)
+                ylo, yhi, bx0, bx1, bz0, bz1 = piece_bounds(cell, ncell)
+                smin = int(math.floor((ylo - y0) / ch + 1e-4))
+                smax = max(int(math.ceil((yhi - y0) / ch - 1e-4)), smin)
+                o_cell[count] = r * nx + col
+                o_smin[count] = smin
+                o_smax[count] = smax
+                o_ytop[count] = yhi
+                o_walk[count] = walk[t]
+                o_box[count, 0] = bx0
+                o_box[count, 1] = bx1
+                o_box[count, 2] = bz0
+                o_box[count, 3] = bz1
                 count += 1
-    return count
+    return o_cell[:count], o_smin[:count], o_smax[:count], o_walk[:count], o_box[:count], o_ytop[:count]
 
 
 @njit(cache=True)
@@ -171,7 +187,10 @@ def rasterize(vertices: np.ndarray, faces: np.ndarray, cs: float, ch: float,
         x0, z0, y0 = float(lo32[0]) - cs, float(lo32[2]) - cs, float(lo32[1])
         nx = int((hi32[0] - lo32[0]) / np.float32(cs) + np.float32(0.5)) + 2
         nz = int((hi32[2] - lo32[2]) / np.float32(cs) + np.float32(0.5)) + 2
-        raster = lambda emit, *out: rasterize_recast(v32, f, walk, lo32, hi32, cs, ch, nx, nz, emit, *out)  # noqa: E731
+        arrays = lambda n: (np.empty(n, np.int64), np.empty(n, np.int32), np.empty(n, np.int32),  # noqa: E731
+                            np.empty(n, np.bool_), np.empty((n, 4), np.float32), np.empty(n, np.float32))
+        records = arrays(rasterize_recast(v32, f, walk, lo32, hi32, cs, ch, nx, nz, False, *arrays(0)))  # count,
+        rasterize_recast(v32, f, walk, lo32, hi32, cs, ch, nx, nz, True, *records)  # then write
     else:
         lo, hi = v.min(0), v.max(0)
         x0 = math.floor(lo[0] / cs) * cs - cs
@@ -179,20 +198,8 @@ def rasterize(vertices: np.ndarray, faces: np.ndarray, cs: float, ch: float,
         y0 = math.floor(lo[1] / ch) * ch - ch
         nx = int(math.ceil((hi[0] - x0) / cs)) + 2
         nz = int(math.ceil((hi[2] - z0) / cs)) + 2
-        raster = lambda emit, *out: _rasterize(v, f, walk, x0, z0, cs, nx, nz, y0, ch, emit, *out)  # noqa: E731
-    e_i = np.zeros(0, np.int64)
-    e_f = np.zeros((0, 4), np.float32)
-    e_s = np.zeros(0, np.int32)
-    e_b = np.zeros(0, np.bool_)
-    e_y = np.zeros(0, np.float32)
-    count = raster(False, e_i, e_s, e_s, e_b, e_f, e_y)
-    o_cell = np.empty(count, np.int64)
-    o_smin = np.empty(count, np.int32)
-    o_smax = np.empty(count, np.int32)
-    o_walk = np.empty(count, np.bool_)
-    o_box = np.empty((count, 4), np.float32)
-    o_ytop = np.empty(count, np.float32)
-    raster(True, o_cell, o_smin, o_smax, o_walk, o_box, o_ytop)
+        records = _rasterize(v, f, walk, x0, z0, cs, nx, nz, y0, ch, 4 * len(f) + 1024)
+    o_cell, o_smin, o_smax, o_walk, o_box, o_ytop = records
     order = np.lexsort((o_smax, o_smin, o_cell))
     o_cell, o_smin, o_smax, o_walk, o_box, o_ytop = (
         a[order] for a in (o_cell, o_smin, o_smax, o_walk, o_box, o_ytop))
