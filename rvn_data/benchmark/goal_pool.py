@@ -12,8 +12,8 @@ sampler: a fresh uniform goal every time. Evaluation never uses a pool: its epis
 A pool's fields are smoothed where they are read (`rvn_data.navmesh.geodesic.FieldTree`): building one costs
 its Dijkstra solves (0.2 s for 64 on a procedural apartment, where smoothing every node had added 0.8 s, most
 of an RL env's time when its scenes change often and are many). Pools live in one least-recently-used cache
-per process of at most ``MAX_BYTES`` (20 bytes per graph node and goal: 17 MB for 64 goals on a procedural
-apartment's ~13k nodes); values read are float32, as when pools held whole fields."""
+per process of at most ``MAX_BYTES`` (20 bytes per graph node and goal: 17-31 MB for 64 goals on a procedural
+apartment's 13-25k nodes); values read are float32, as when pools held whole fields."""
 from __future__ import annotations
 
 from collections import OrderedDict
