@@ -157,7 +157,8 @@ def _smooth_node(v, pred, cells, centres, meta, clearance, island, goal, gk, gi,
 
 
 @njit(cache=True)
-def _fill_chain(w, chain, pred, root, cells, centres, meta, clearance, island, goal, gk, gi, gj, r, out, parent, values):
+def _fill_chain(w, chain, pred, root, cells, centres, meta, clearance, island, goal, gk, gi, gj, r, out, parent,
+                values):
     """Smooth node w (if not yet, nor -1) and its tree ancestors not smoothed yet, from the highest one
     down, into ``out`` (float64, inf where not smoothed), ``parent`` and ``values`` (``out`` in the field's
     own dtype); returns the chain buffer (grown when a chain is longer)."""

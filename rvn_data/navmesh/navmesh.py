@@ -228,7 +228,8 @@ class NavMesh:
             return self._fields[key]
         pred = run_dijkstra(graph, node, predecessors=True)[1]
         g = self.layers[cells[node, 0]]
-        tree = FieldTree(pred, node, goal, (cells[node, 0], (goal[2] - g.z0) / g.cs - 0.5, (goal[0] - g.x0) / g.cs - 0.5))
+        grid = (cells[node, 0], (goal[2] - g.z0) / g.cs - 0.5, (goal[0] - g.x0) / g.cs - 0.5)  # goal's layer, row, col
+        tree = FieldTree(pred, node, goal, grid)
         if keep:
             if len(self._fields) >= 8:
                 self._fields.pop(next(iter(self._fields)))
@@ -253,7 +254,8 @@ class NavMesh:
         P = self.packed
         pts = np.ascontiguousarray(np.asarray(p, dtype=np.float64).reshape(-1, 3))
         if field.tree is not None:
-            out = field.tree.lookup(pts, field.values, node_of, cells, centres, P, MAX_Y_DELTA, self.settings.agent_radius - 1e-6)
+            out = field.tree.lookup(pts, field.values, node_of, cells, centres, P, MAX_Y_DELTA,
+                                    self.settings.agent_radius - 1e-6)
         else:
             out = K.field_lookup(P.meta, P.height, P.x0, P.z0, P.cs, node_of, field.values, pts, MAX_Y_DELTA)
         near = np.linalg.norm(pts - field.goal, axis=1)  # next to the goal: straight line
