@@ -251,7 +251,8 @@ class RVNEnv(gym.Env):
         return self._scene.renderer, self._pos, self._yaw
 
     def _observe(self) -> dict:
-        return self.observation(*self._scene.renderer.render(self._pos, self._yaw, depth=self.config.depth))
+        renderer, position, yaw = self.view()
+        return self.observation(*renderer.render(position, yaw, depth=self.config.depth))
 
     def observation(self, rgb: np.ndarray, depth: np.ndarray | None) -> dict:
         """The observation of the current state from its `view`'s frame (depth used with ``depth=True``)."""

@@ -241,9 +241,8 @@ class NavMesh:
         is done where lookups read it). ``keep``: from and into the navmesh's cache of the last 8 fields."""
         goal = np.asarray(goal, dtype=np.float64).reshape(3)
         node = self._node(goal)
-        n = self._ensure_graph()[0].shape[0]
-        if node < 0:
-            return GeodesicField(self, goal, np.full(n, np.inf))
+        if node < 0:  # no graph node at or near the goal: inf everywhere
+            return GeodesicField(self, goal, np.full(self._ensure_graph()[0].shape[0], np.inf))
         if not self.is_navigable(goal):
             goal = self.snap(goal)
         tree = self._solve(node, goal, keep)
