@@ -13,7 +13,6 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-import trimesh
 
 from rvn_data.scenes.scene import NEUTRAL_GREY, Part, Scene, SceneError
 
@@ -38,6 +37,8 @@ def _material(visual, name: str):
     if mat is None:
         return ("__none__", "default", NEUTRAL_GREY, None)
     mname = getattr(mat, "name", None) or name
+    import trimesh
+
     if isinstance(mat, trimesh.visual.material.PBRMaterial):
         factor = mat.baseColorFactor
         image = mat.baseColorTexture
@@ -52,6 +53,8 @@ def _material(visual, name: str):
 
 def _pieces(loaded: trimesh.Scene):
     """Yield (world vertices, faces, uv | None, colors | None, material tuple) per graph node."""
+    import trimesh
+
     for node in loaded.graph.nodes_geometry:
         transform, geom_name = loaded.graph[node]
         geom = loaded.geometry[geom_name]
@@ -112,6 +115,8 @@ def load_mesh_file(path: str | Path, up_axis: str = "y", unit_scale: float = 1.0
         raise ValueError(f"unit_scale={unit_scale!r} must be a positive number (0.001 for millimetres)")
     if not path.is_file():
         raise SceneError(f"mesh file {str(path)!r} not found; check the path (GLB/glTF/OBJ/PLY expected)")
+    import trimesh  # here, not at module import: procedural scenes (every CLI's default) never need it (0.3 s of start-up)
+
     try:
         loaded = trimesh.load(str(path), force="scene", process=False)
     except Exception as exc:
