@@ -90,7 +90,8 @@ class EvalConfig:
 
     def env_config(self) -> EnvConfig:
         """`RVNEnv`'s settings (eval mode) for this run: the typed groups as they are, the episode cache under
-        ``episodes.dir``, else the cache root's ``episodes/`` (`rvn_data.cache_root`)."""
+        ``episodes.dir``, else the cache root's ``episodes/`` (`rvn_data.cache_root`), built navmeshes in its
+        ``navmesh/``."""
         from rvn_data.cache_root import cache_root
 
         eps = self.episodes
@@ -100,7 +101,7 @@ class EvalConfig:
             mode="eval", split=self.split, scenes=scenes, agent=self.agent, navmesh=self.navmesh, camera=self.camera,
             renderer=asdict(self.renderer), episodes=EpisodeSettings(**draw),
             episodes_dir=str(eps.dir or cache_root(self.cache_dir, self.out_dir) / "episodes"),
-            per_scene=eps.per_scene, **asdict(self.env))
+            cache_dir=str(cache_root(self.cache_dir, self.out_dir).absolute()), per_scene=eps.per_scene, **asdict(self.env))
 
     def record(self) -> dict:
         """The run's settings as plain data (its identity: `rvn_data.benchmark.results.run_identity`)."""

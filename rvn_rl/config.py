@@ -9,6 +9,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from rvn_data.benchmark.episodes import EpisodeSettings
+from rvn_data.cache_root import cache_root
 from rvn_data.config import register, register_configs, typed
 from rvn_data.conventions import AgentConfig
 from rvn_data.navmesh.settings import NavMeshSettings
@@ -35,6 +36,7 @@ class RLConfig:
     split: str = "train"  # RL trains on the train scenes
     seed: int = 0
     out_dir: str = "runs/rl/${algo.name}"
+    cache_dir: str | None = None  # cache root (rvn_data/cache_root.py): null = $RVN_CACHE_DIR, else <out_dir>/cache
     device: str = "auto"  # auto | cpu | cuda (DD-PPO ranks use cuda:<local rank>)
     progress: bool = True
     env: EnvSettings = field(default_factory=EnvSettings)
@@ -118,12 +120,14 @@ class RLConfig:
         return {k: getattr(self.episodes, k) for k in TRAIN_EPISODE_KEYS}
 
     def env_kwargs(self) -> dict:
-        """`RVNEnv` keyword arguments of the train-mode environments (the typed groups as they are)."""
+        """`RVNEnv` keyword arguments of the train-mode environments (the typed groups as they are; the cache
+        root, for the scenes' built navmeshes)."""
         scenes = {k: v for k, v in asdict(self.scenes).items() if k != "split"}
         return {"mode": "train", "split": "train", "scenes": scenes, "agent": self.agent,
                 "navmesh": self.navmesh, "camera": self.camera, "renderer": asdict(self.renderer),
                 "episodes": self.episode_kwargs(), "t_max": self.env.t_max, "scene_switch_every": self.env.scene_switch_every,
-                "goal_pool": int(self.env.goal_pool), "depth": bool(self.env.depth) or self.uses_true_depth}
+                "goal_pool": int(self.env.goal_pool), "depth": bool(self.env.depth) or self.uses_true_depth,
+                "cache_dir": str(cache_root(self.cache_dir, self.out_dir).absolute())}
 
     def model_kwargs(self) -> dict:
         """`PointNavResNetPolicy` keyword arguments (also what a checkpoint's config.yaml records as ``policy``)."""

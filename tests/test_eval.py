@@ -33,10 +33,11 @@ def load(out):
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
-    """One oracle run with 1 worker and one with 2, sharing an episode cache."""
+    """One oracle run with 1 worker and one with 2, sharing an episode cache; the second reads the navmeshes
+    the first built (its cache root)."""
     tmp = tmp_path_factory.mktemp("eval")
     ok(rvn_eval(tmp, "policy=oracle", f"out_dir={tmp / 'oracle1'}", "workers=1"))
-    ok(rvn_eval(tmp, "policy=oracle", f"out_dir={tmp / 'oracle2'}", "workers=2"))
+    ok(rvn_eval(tmp, "policy=oracle", f"out_dir={tmp / 'oracle2'}", "workers=2", f"cache_dir={tmp / 'oracle1' / 'cache'}"))
     return tmp
 
 
@@ -56,6 +57,8 @@ def test_oracle_figures_and_files(runs):
 
 
 def test_workers_do_not_change_results(runs):
+    assert len(list((runs / "oracle1" / "cache" / "navmesh").glob("*.npz"))) == 2  # a built navmesh per scene
+    assert not (runs / "oracle2" / "cache").exists()  # read from oracle1's cache root: the same episodes
     for name in ("episodes.jsonl", "metrics.json"):
         assert (runs / "oracle1" / name).read_bytes() == (runs / "oracle2" / name).read_bytes()
 

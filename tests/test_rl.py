@@ -49,6 +49,7 @@ def test_ppo_trains_writes_a_checkpoint_and_a_curve(ppo_run):
     assert (out / "learning_curve.png").stat().st_size > 1000
     assert list((out / "tb").glob("events.out.tfevents.*"))
     assert "rvn-rl ppo: 32 env steps" in proc.stdout
+    assert list((out / "cache" / "navmesh").glob("*.npz")) and "no cache folder given" not in proc.stderr
 
 
 def test_rvn_eval_loads_the_rl_checkpoint(ppo_run, tmp_path):

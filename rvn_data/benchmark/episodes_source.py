@@ -43,8 +43,9 @@ class EnvConfig(EpisodeRules):
 
     scene_specs: explicit scene specs (overrides ``scenes``); per_scene: eval episodes per
     scene (default 2 train / 20 val, test); scene_switch_every: train-mode resets per scene;
-    episodes_dir: cache of eval episode sets (None: ``<cache root>/episodes``,
-    `rvn_data.cache_root`; one folder per settings inside).
+    episodes_dir: cache of eval episode sets (None: ``<cache root>/episodes``; one folder per settings inside);
+    cache_dir: the cache root (`rvn_data.cache_root`; None: ``$RVN_CACHE_DIR``, else a temporary folder, with a
+    warning), whose ``navmesh/`` keeps every scene's built navmesh (`rvn_data.navmesh.disk_cache`).
     """
 
     mode: str = "train"
@@ -57,6 +58,7 @@ class EnvConfig(EpisodeRules):
     renderer: dict = field(default_factory=dict)
     episodes: EpisodeSettings = field(default_factory=EpisodeSettings)
     episodes_dir: str | None = None
+    cache_dir: str | None = None
     per_scene: int | None = None
     scene_switch_every: int = 8
     goal_pool: int = 0
@@ -139,8 +141,12 @@ class EnvConfig(EpisodeRules):
 
     def store(self) -> EpisodeStore:
         settings = settings_record(self.episodes, self.agent, self.navmesh, self.scenes, self.split)
-        root = self.episodes_dir or cache_root() / "episodes"
+        root = self.episodes_dir or self.cache_folder() / "episodes"
         return EpisodeStore(root, self.split, settings, self.scenes.get("root"))
+
+    def cache_folder(self):
+        """The cache root: ``cache_dir``, else ``$RVN_CACHE_DIR``, else a temporary folder (with a warning)."""
+        return cache_root(self.cache_dir)
 
     def with_(self, **changes) -> "EnvConfig":
         return replace(self, **changes)
@@ -164,7 +170,7 @@ class SceneSlot:
         from rvn_data.sim import Simulator
 
         spec, scene_index = slot
-        scene, navmesh = open_scene(spec, config.scenes, config.navmesh)
+        scene, navmesh = open_scene(spec, config.scenes, config.navmesh, config.cache_folder())
         renderer = make_renderer(scene, config.camera, backend=config.renderer.get("backend", "auto"),
                                  device=int(config.renderer.get("device", 0)))
         return cls(pos, spec, scene_index, scene, navmesh, Simulator(navmesh, config.agent), renderer)
@@ -232,4 +238,5 @@ def ensure_scene_episodes(config: EnvConfig, slot: tuple[str, int]) -> int:
     spec, scene_index = slot
 
     return len(config.store().episodes_for(scene_index, spec, config.per_scene,
-                                           lambda: open_scene(spec, config.scenes, config.navmesh)))
+                                           lambda: open_scene(spec, config.scenes, config.navmesh,
+                                                              config.cache_folder())))

@@ -9,6 +9,7 @@ The scene's record (`.rvn/scenes/<slug>.json`, deterministic, no timings) is wri
 """
 from __future__ import annotations
 
+import os
 import time
 from collections import Counter
 from dataclasses import dataclass, field
@@ -16,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rvn_data.cache_root import ENV as CACHE_ENV
 from rvn_data.conventions import to_planar
 from rvn_data.dataset import naming, writer
 from rvn_data.dataset.gnm_writer import GNMWriter
@@ -74,7 +76,7 @@ class _Scene:
 
         t0 = time.perf_counter()
         self.scene = load_scene(spec, up_axis=scenes.up_axis, unit_scale=scenes.unit_scale, level=scenes.level)
-        navmesh = open_navmesh(self.scene, settings.navmesh)
+        navmesh = open_navmesh(self.scene, settings.navmesh, os.environ.get(CACHE_ENV) or None)  # shared builds
         self.ctx = SceneContext(navmesh=navmesh, sim=Simulator(navmesh, settings.agent), scene=self.scene,
                                 settings=settings)
         self._renderer = None

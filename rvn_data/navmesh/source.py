@@ -74,22 +74,27 @@ def load_navmesh_file(path: str | Path, settings: NavMeshSettings, scene=None):
     return navmesh_from_detour(mesh, settings, scene_id)
 
 
-def open_navmesh(scene, settings: NavMeshSettings | None = None):
-    """The scene's `NavMesh` per `settings.source`: read from a file, or `NavMesh.build`."""
+def open_navmesh(scene, settings: NavMeshSettings | None = None, cache_dir: str | Path | None = None):
+    """The scene's `NavMesh` per `settings.source`: read from a file, or `NavMesh.build`; with a cache root
+    ``cache_dir``, a build is kept in and read from its ``navmesh/`` folder (`rvn_data.navmesh.disk_cache`)."""
     from rvn_data.navmesh.navmesh import NavMesh
 
     settings = settings or NavMeshSettings()
     path = navmesh_path(scene, settings)
     if path is None:
+        if cache_dir is not None:
+            from rvn_data.navmesh.disk_cache import cached_build
+            return cached_build(scene, settings, Path(cache_dir).expanduser() / "navmesh")
         return NavMesh.build(scene, settings)
     return load_navmesh_file(path, settings, scene)
 
 
-def open_scene(spec: str, scenes: dict, settings: NavMeshSettings):
+def open_scene(spec: str, scenes: dict, settings: NavMeshSettings, cache_dir: str | Path | None = None):
     """(Scene, NavMesh) of a scene spec loaded with the ``scenes`` group's options (``up_axis``,
-    ``unit_scale``, ``level``); raises SceneError naming the scene on failure."""
+    ``unit_scale``, ``level``), the navmesh per `open_navmesh` (``cache_dir``: its cache root); raises
+    SceneError naming the scene on failure."""
     from rvn_data.scenes.loader import load_scene
 
     scene = load_scene(spec, up_axis=scenes.get("up_axis", "y"), unit_scale=float(scenes.get("unit_scale", 1.0)),
                        level=bool(scenes.get("level", False)))
-    return scene, open_navmesh(scene, settings)
+    return scene, open_navmesh(scene, settings, cache_dir)
