@@ -181,25 +181,14 @@ def _fill_chain(w, chain, pred, root, cells, centres, meta, clearance, island, g
 def tree_lookup(meta, height, x0, z0, cs, node_of, pts, tol, pred, root, cells, centres, clearance, island, goal,
                 gk, gi, gj, r, out, parent, values):
     """`kernels.field_lookup` at points [N, 3] of a field whose Theta*-style smoothing is done where it is
-    read: first the nodes the lookup of a point may read (the bilinear 2x2 and the 3x3 around its cell)
-    with their tree ancestors (`_fill_chain`). A node takes its tree parent's any-angle parent (or the goal
+    read: first the nodes the lookup of a point may read (`kernels.field_support`: the bilinear 2x2 and the 3x3
+    around its cell) with their tree ancestors (`_fill_chain`). A node takes its tree parent's any-angle parent (or the goal
     point itself) when that one is in line of sight, so distances follow straight lines at any angle instead
     of the 32 grid directions; its value depends only on its tree ancestors', so the values are those of
     smoothing the whole tree in order of distance, whichever points are read first. (gk, gi, gj): the
     goal's layer and grid coordinates."""
-    wanted = np.full((pts.shape[0], 13), -1, np.int64)
-    for n in range(pts.shape[0]):  # three passes: the smoothing's code kept out of the lookups' loops
-        k, _, _, _, i0, j0, i, j = K.lookup_cells(meta, height, x0, z0, cs, pts[n, 0], pts[n, 1], pts[n, 2], tol)
-        if k < 0:
-            continue
-        rows, cols, off = meta[k, 2], meta[k, 3], meta[k, 4]
-        c = 0
-        for a, b, size in ((i0, j0, 2), (i - 1, j - 1, 3)):  # the bilinear 2x2 from (i0, j0), the 3x3 around (i, j)
-            for ii in range(a, a + size):
-                for jj in range(b, b + size):
-                    if 0 <= ii < rows and 0 <= jj < cols:
-                        wanted[n, c] = node_of[off + ii * cols + jj]
-                    c += 1
+    # three passes, the smoothing's code kept out of the lookups' loops: the nodes read, their chains, the lookup
+    wanted = K.field_support(meta, height, x0, z0, cs, node_of, pts, tol)
     todo = 0
     for w in wanted.ravel():
         todo += w >= 0 and out[w] == np.inf  # not smoothed yet (or unreached)

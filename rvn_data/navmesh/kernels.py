@@ -192,6 +192,24 @@ def field_lookup(meta, height, x0, z0, cs, node_of, field, pts, tol):
 
 
 @njit(cache=True)
+def field_support(meta, height, x0, z0, cs, node_of, pts, tol):
+    """The graph nodes `field_lookup` may read for points [N, 3] (int64 [N, 13], -1 where none):
+    the 4 cells of its bilinear lookup and the 3x3 cells around the point's cell."""
+    out = np.full((pts.shape[0], 13), -1, np.int64)
+    for n in range(pts.shape[0]):
+        k, _, _, _, i0, j0, i, j = lookup_cells(meta, height, x0, z0, cs, pts[n, 0], pts[n, 1], pts[n, 2], tol)
+        if k < 0:
+            continue
+        rows, cols, off = meta[k, 2], meta[k, 3], meta[k, 4]
+        for c in range(13):  # c < 4: the bilinear 2x2 from (i0, j0); then the 3x3 around (i, j)
+            ii = i0 + c // 2 if c < 4 else i + (c - 4) // 3 - 1
+            jj = j0 + c % 2 if c < 4 else j + (c - 4) % 3 - 1
+            if 0 <= ii < rows and 0 <= jj < cols:
+                out[n, c] = node_of[off + ii * cols + jj]
+    return out
+
+
+@njit(cache=True)
 def string_pull(meta, height, clearance, island, x0, z0, cs, pts, r, tol, step):
     """Greedy line-of-sight shortcutting of a grid path [K, 3]; returns the kept indices."""
     K = pts.shape[0]
