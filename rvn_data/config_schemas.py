@@ -94,14 +94,14 @@ class EvalConfig:
         ``navmesh/``."""
         from rvn_data.cache_root import cache_root
 
-        eps = self.episodes
+        eps, root = self.episodes, cache_root(self.cache_dir, self.out_dir)
         draw = {f.name: getattr(eps, f.name) for f in fields(EpisodeSettings)}
         scenes = {k: v for k, v in asdict(self.scenes).items() if k != "split"}
         return EnvConfig.from_kwargs(
             mode="eval", split=self.split, scenes=scenes, agent=self.agent, navmesh=self.navmesh, camera=self.camera,
             renderer=asdict(self.renderer), episodes=EpisodeSettings(**draw),
-            episodes_dir=str(eps.dir or cache_root(self.cache_dir, self.out_dir) / "episodes"),
-            cache_dir=str(cache_root(self.cache_dir, self.out_dir).absolute()), per_scene=eps.per_scene, **asdict(self.env))
+            episodes_dir=str(eps.dir or root / "episodes"), cache_dir=str(root.absolute()), per_scene=eps.per_scene,
+            **asdict(self.env))
 
     def record(self) -> dict:
         """The run's settings as plain data (its identity: `rvn_data.benchmark.results.run_identity`)."""

@@ -11,7 +11,7 @@ from rvn_data.benchmark.episodes import (GENERATOR_VERSION, EpisodeSettings, epi
                                         sample_episodes, settings_record)
 from rvn_data.benchmark.episodes_source import EnvConfig, ensure_scene_episodes
 from rvn_data.navmesh.source import open_scene
-from rvn_data.benchmark.episodes_store import EpisodeStore, scene_fingerprint
+from rvn_data.benchmark.episodes_store import EpisodeStore
 from rvn_data.navmesh import NavMeshSettings
 from rvn_data.scenes import Part, Scene, SceneError
 
@@ -77,7 +77,7 @@ def test_store_bytes_reproducible_and_prefix(tmp_path, loaded):
     s1.write_index()
     index = json.loads(s1.index_path.read_text())
     assert index["scenes"] == [{"file": p1.name, "scene_id": SPEC, "scene_index": 0, "episodes": 3,
-                                "fingerprint": scene_fingerprint(loaded[0])}]
+                                "fingerprint": loaded[0].fingerprint()}]
     assert index["settings"]["episodes"]["n_goals"] == 6 and index["settings"]["generator_version"] == GENERATOR_VERSION
     data = json.loads(gzip.decompress(p1.read_bytes()))
     assert data["settings"]["agent"]["r_robot"] == 0.18 and data["settings"]["navmesh"]["cell_size"] == 0.05

@@ -45,7 +45,8 @@ def test_a_kept_navmesh_is_the_built_one(which, tmp_path, monkeypatch, request):
     settings = NavMeshSettings()
     built = open_navmesh(scene, settings, tmp_path)  # a miss: built, then written
     assert len(files(tmp_path)) == 1 and files(tmp_path)[0].name.endswith(".npz")
-    assert len(built.links) > 0 if which == "two-storey" else True
+    if which == "two-storey":
+        assert len(built.links) > 0
     monkeypatch.setattr(NavMesh, "build", classmethod(lambda *a: pytest.fail("built although it was kept")))
     kept = open_navmesh(scene, settings, tmp_path)
     monkeypatch.undo()

@@ -13,13 +13,10 @@ holding more episodes serves a request for fewer, and a short file is extended.
 from __future__ import annotations
 
 import gzip
-import hashlib
 import json
 import os
 import re
 from pathlib import Path
-
-import numpy as np
 
 from rvn_data.atomic import write_bytes_atomic
 from rvn_data.cache_root import absolute, settings_key
@@ -48,14 +45,6 @@ def dumps_gzip_json(obj: dict) -> bytes:
     """Reproducible bytes: sorted-key JSON, gzip with mtime 0 and no file name."""
     raw = json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=False).encode()
     return gzip.compress(raw, compresslevel=6, mtime=0)
-
-
-def scene_fingerprint(scene) -> str:
-    """Short digest of a scene's triangles: ties an episode file to the exact mesh."""
-    v, f = scene.triangles()
-    h = hashlib.sha1(np.ascontiguousarray(v, np.float32).tobytes())
-    h.update(np.ascontiguousarray(f, np.int32).tobytes())
-    return h.hexdigest()[:16]
 
 
 class EpisodeStore:
@@ -161,11 +150,11 @@ class EpisodeStore:
         stored = self.read_scene(scene_index, spec)
         have = stored["episodes"] if stored else []
         if loaded is not None and stored:
-            self.check_scene(stored, scene_index, spec, loaded[0].scene_id, scene_fingerprint(loaded[0]))
+            self.check_scene(stored, scene_index, spec, loaded[0].scene_id, loaded[0].fingerprint())
         if len(have) >= count:
             return have[:count]
         scene, navmesh = loaded if loaded is not None else open_navmesh()
-        fingerprint = scene_fingerprint(scene)
+        fingerprint = scene.fingerprint()
         if stored:
             self.check_scene(stored, scene_index, spec, scene.scene_id, fingerprint)
         settings = EpisodeSettings(**self.settings["episodes"])

@@ -4,7 +4,7 @@ resets, so nearly every visit used to rebuild (about 0.1 s a procedural scene, s
 rvn-eval rows and rvn-gen runs that share a root reuse each other's builds.
 
 A file is ``<scene>-<key>.npz``: the layers' arrays and a JSON record (`FORMAT`). The key hashes everything a
-build depends on: the scene's triangles (bytes, as `NavMesh.build` reads them), the build settings (the
+build depends on: the scene's triangles (`Scene.fingerprint`, as the episode files record it), the build settings (the
 ``source``/``file`` choice aside: only built navmeshes are kept), the source of the navmesh package and the
 numpy/scipy versions. Changing any of them makes a new file; the old one is never read again (the folder is
 safe to delete). A loaded navmesh equals the built one array for array, so every output is unchanged.
@@ -50,17 +50,10 @@ def code_digest() -> str:
 
 
 def build_key(scene, settings: NavMeshSettings) -> str:
-    """Hash of the scene's triangles, the build settings and `code_digest`."""
-    verts, faces = scene.triangles()
-    h = hashlib.sha256(FORMAT.encode())
-    h.update(code_digest().encode())
+    """Hash of the scene's triangles (`Scene.fingerprint`), the build settings and `code_digest`."""
     record = {k: v for k, v in asdict(settings).items() if k not in ("source", "file")}
-    h.update(json.dumps(record, sort_keys=True).encode())
-    for a in (verts, faces):
-        a = np.ascontiguousarray(a)
-        h.update(f"{a.dtype.str}{a.shape}".encode())
-        h.update(a.tobytes())
-    return h.hexdigest()[:32]
+    text = json.dumps([FORMAT, code_digest(), record, scene.fingerprint()], sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 
 def cache_file(folder: str | Path, scene, key: str) -> Path:

@@ -6,6 +6,7 @@ navmesh only needs `Scene.triangles()`; renderers use the parts.
 """
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -62,6 +63,14 @@ class Scene:
         if not verts:
             return np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32)
         return np.concatenate(verts), np.concatenate(faces)
+
+    def fingerprint(self) -> str:
+        """Short digest of the triangles (`triangles`): ties a file made from the scene (an episode set, a
+        built navmesh) to the exact mesh."""
+        v, f = self.triangles()
+        h = hashlib.sha1(np.ascontiguousarray(v, np.float32).tobytes())
+        h.update(np.ascontiguousarray(f, np.int32).tobytes())
+        return h.hexdigest()[:16]
 
     @property
     def num_triangles(self) -> int:
