@@ -2,7 +2,7 @@
 in one table with the device (GPU name or "CPU only"), CPU count, torch version and git commit.
 
     python benchmarks/node.py [--seconds-per-row 15] [--out DIR] [--rows render gen train decision rl]
-                              [--threads N] [--quick]
+                              [--threads N] [--backends gl raycast] [--quick]
 
 Rows (each timed for --seconds-per-row after its warm-up, so figures are steady state):
  1. renderer=gl and raycast, 256² RGB + depth, procedural:train/0: frames/s in 1, 2 and cpu_count processes
@@ -60,6 +60,8 @@ def parse(argv: list[str] | None = None) -> argparse.Namespace:
                     help="torch intra-op threads of the training rows (rvn-train, rvn-rl); default: all cores "
                          "(rvn-rl on a GPU: 4), --quick: 1 (on a busy machine threads spin-wait on each other)")
     ap.add_argument("--scene", default="procedural:train/0", help="scene of the renderer rows")
+    ap.add_argument("--backends", nargs="+", choices=("gl", "raycast"), default=["gl", "raycast"],
+                    help="renderers of the renderer rows (default both; rvn-gen and rvn-rl use renderer=auto)")
     ap.add_argument("--compile", choices=("auto", "on", "off"), default="auto",
                     help="train.compile and policy.compile in the training and decision rows (auto: on with CUDA, "
                          "not with --quick; the plain decision is timed beside the compiled one)")
@@ -89,7 +91,7 @@ def make_plan(args, cuda: bool, cpus: int) -> SimpleNamespace:
     """Sizes, batches and process counts of every row on this machine (quick: tiny)."""
     q = args.quick
     return SimpleNamespace(
-        quick=q, seconds=args.seconds_per_row, cuda=cuda, cpus=cpus, scene=args.scene,
+        quick=q, seconds=args.seconds_per_row, cuda=cuda, cpus=cpus, scene=args.scene, backends=args.backends,
         compile=args.compile == "on" or (args.compile == "auto" and cuda and not q),
         profile=args.profile == "on" or (args.profile == "auto" and cuda and not q),
         size=64 if q else 256,

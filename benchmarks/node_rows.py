@@ -63,7 +63,7 @@ def render_rows(plan) -> list[dict]:
     poses = poses_for(scene, 200)
     runs = [(1, n) for n in plan.render_processes] + [(b, n) for b, counts in plan.render_batches for n in counts]
     rows = []
-    for backend in ("gl", "raycast"):
+    for backend in plan.backends:
         goal = "render_gl" if backend == "gl" else None
         try:
             with make_renderer(scene, camera, backend) as r:
