@@ -8,24 +8,30 @@ Rows (each timed for --seconds-per-row after its warm-up, so figures are steady 
  1. renderer=gl and raycast, 256² RGB + depth, procedural:train/0: frames/s in 1, 2 and cpu_count processes
     (beside habitat-sim's published 1,042 frames/s in one process and 1,774 with five, Titan Xp), one view per
     render call, then 8 views per render_batch call in one process and 32 in 1, 2 and cpu_count processes;
- 2. rvn-gen with cpu_count workers, 256², renderer=auto: frames/s written end to end (start-up and scene
-    set-up included), and the share of time in planning / rendering / other;
+ 2. rvn-gen with cpu_count workers, 256², renderer=auto (with CUDA also renderer=raycast): frames/s after each
+    worker's set-up (start-up, scene, navmesh, renderer; the end-to-end figure beside it), and each phase's share
+    of the time and ms per frame (set-up, planning, rendering, encoding, writing);
  3. rvn-train's step (its DataLoader with cpu_count workers, forward, backward, AdamW, EMA) of NoMaD-PointGoal
     and ViNT-PointGoal on synthetic GNM data: full size, batch 256, bf16 on a GPU; model.size=small, a small batch
     on a CPU: samples/s;
  4. one decision (act) of a NoMaD-PointGoal policy, 8 samples x its diffusion steps, on the GPU and on one
     CPU thread: median ms (the GPU row says "skipped" on a machine without CUDA);
- (--compile, on by default with CUDA: rows 3 and 4 with train.compile / policy.compile, the plain decision
-    timed beside the compiled one; the first compile takes minutes, kernels are cached for the next run;
+ (--compile, on by default with CUDA: rows 3 and 4 with train.compile / policy.compile as rows of their own
+    (`<row>_compiled`), each after its plain row, so a time limit that cuts a first compile (minutes; kernels are
+    cached for the next run) leaves the plain figure;
     --profile, on by default with CUDA: torch.profiler's operator table of a few more steps of rows 3 and 4,
     written beside node.md as profile_<row>.txt, so a goal the table misses comes with what bounds it);
  5. rvn-rl PPO collection + learning at 128², ResNet-18, scale=small PPO settings, envs in worker processes:
-    env steps/s; and with the paper's network and PPO settings (ResNet-50, 256²) beside DD-PPO's ~160 per GPU.
+    env steps/s (with CUDA also with renderer=raycast); and with the paper's network and PPO settings (ResNet-50,
+    256²) beside DD-PPO's ~160 per GPU.
 With CUDA, each row shows issue 32's goal and measured/goal, and "GPU busy": GPU 0's mean utilization
-while the row ran (torch.cuda.utilization or pynvml; "n/a" without them). On a 16-core GPU node the
-default run takes about 7 minutes. --quick: about a second per figure at tiny sizes (a smoke test;
+while the row ran (torch.cuda.utilization or pynvml; "n/a" without them), set-up, warm-up and profile included,
+so it reads low for rows 3 and 4: their profiles give the kernel time of the profiled steps. On the first GPU
+run (H200, 16 cores, 5 s per figure) render with --backends gl took 86 s, gen 16 s, rl 66 s; the plain decision
+and train groups 44 and 58 s (6 s per figure); cold compiles of both ran past 150 and 190 s. --quick: about a second per figure at tiny sizes (a smoke test;
 its figures mean little). --out DIR: DIR/node.md and DIR/node.json (with the commit), e.g.
-docs/results/<date>_gpu/, rewritten after each group of rows (a run cut short keeps the rows it measured;
+docs/results/<date>_gpu/, rewritten after each row (a run cut short keeps the rows it measured; groups run in
+the order --rows names them;
 benchmarks/node_gpu.sh runs it on an offline GPU node). Exit status 1 when a row failed (its error is in the table), 2 for bad options.
 """
 from __future__ import annotations
@@ -55,7 +61,8 @@ def parse(argv: list[str] | None = None) -> argparse.Namespace:
                     help="seconds each figure is timed after warm-up (default 15; --quick: 1)")
     ap.add_argument("--quick", action="store_true", help="about a second per figure at tiny sizes (tests)")
     ap.add_argument("--out", type=Path, default=None, help="write node.md and node.json to this folder")
-    ap.add_argument("--rows", nargs="+", choices=list(GROUPS), default=list(GROUPS), help="row groups to run")
+    ap.add_argument("--rows", nargs="+", choices=list(GROUPS), default=list(GROUPS),
+                    help="row groups to run, in this order")
     ap.add_argument("--threads", type=int, default=None,
                     help="torch intra-op threads of the training rows (rvn-train, rvn-rl); default: all cores "
                          "(rvn-rl on a GPU: 4), --quick: 1 (on a busy machine threads spin-wait on each other)")
@@ -122,24 +129,26 @@ def main(argv: list[str] | None = None) -> int:
     print(f"[node] {info['device']}, {info['cpu_count']} CPUs, torch {info['torch']}: rows {' '.join(args.rows)}, "
           f"{plan.seconds:g} s per figure", file=sys.stderr, flush=True)
     rows, plan_dict, paths = [], dict(vars(plan)), []
-    for group, name in enumerate(GROUPS, 1):
-        if name not in args.rows:
-            continue
-        t = time.perf_counter()
+    numbers = {name: k for k, name in enumerate(GROUPS, 1)}
+    for name in dict.fromkeys(args.rows):  # in the order given: a GPU node's time limit cuts the last ones
+        t, got = time.perf_counter(), 0
         try:
-            got = GROUPS[name](plan)
-        except Exception as e:  # the other rows still run; the table says what failed
+            for r in GROUPS[name](plan):
+                r["wall_s"] = round(time.perf_counter() - t, 1)  # since the group began
+                node_report.compare(r, info["cuda"])
+                rows.append(r)
+                got += 1
+                if args.out is not None:  # the rows so far: a run stopped by a time limit keeps what it measured
+                    paths = node_report.write(args.out, info, rows, plan_dict,
+                                              node_report.markdown(info, rows, plan_dict))
+        except Exception as e:  # the other groups still run; the table says what failed
             traceback.print_exc()
-            got = [row(group, name, name, "", None)]
-            got[0]["error"] = f"{type(e).__name__}: {str(e).strip().splitlines()[0] if str(e).strip() else ''}"
-        wall = time.perf_counter() - t
-        for r in got:
-            r["group_wall_s"] = round(wall, 1)
-            node_report.compare(r, info["cuda"])
-        rows += got
-        print(f"[node] {name}: {len(got)} row(s) in {wall:.0f} s", file=sys.stderr, flush=True)
-        if args.out is not None:  # the rows so far: a run stopped by a time limit keeps what it measured
-            paths = node_report.write(args.out, info, rows, plan_dict, node_report.markdown(info, rows, plan_dict))
+            rows.append(row(numbers[name], name, name, "", None))
+            rows[-1]["error"] = f"{type(e).__name__}: {str(e).strip().splitlines()[0] if str(e).strip() else ''}"
+            node_report.compare(rows[-1], info["cuda"])
+            if args.out is not None:
+                paths = node_report.write(args.out, info, rows, plan_dict, node_report.markdown(info, rows, plan_dict))
+        print(f"[node] {name}: {got} row(s) in {time.perf_counter() - t:.0f} s", file=sys.stderr, flush=True)
     print(node_report.markdown(info, rows, plan_dict), end="")
     if paths:
         print(f"\nwritten: {', '.join(str(p) for p in paths)}")

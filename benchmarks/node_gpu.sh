@@ -3,9 +3,12 @@
 # `bash ../shared/gpu/prepare.sh .gpu` on a machine with package access (wheels for the node's Python 3.12 and
 # the EGL/GL libraries; .gpu/ is git-ignored, so carry it to the node with the checkout). Installs them (as
 # ../shared/gpu/README.md says), checks that EGL renders on the GPU, then runs node.py into OUT (default
-# docs/results/<date>_gpu), which node.py rewrites after each group of rows: a run cut short by NODE_TIMEOUT
+# docs/results/<date>_gpu), which node.py rewrites after each row: a run cut short by NODE_TIMEOUT
 # (seconds, default 540) keeps what it measured. Every step has a time limit; the first failing one stops it.
 #   bash benchmarks/node_gpu.sh [OUT] [node.py options, e.g. --rows render gen decision --seconds-per-row 10]
+# Inside a 15-minute device lease, whose $OUT returns at most 8 files (node.md, node.json and up to 9 profiles):
+#   NODE_TIMEOUT=500 bash benchmarks/node_gpu.sh /tmp/node --rows rl gen train decision render --backends gl \
+#     --seconds-per-row 6; tar czf "$OUT/node.tgz" -C /tmp node
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-docs/results/$(date -u +%F)_gpu}

@@ -1,5 +1,6 @@
-"""The rows of benchmarks/node.py, one function per row group of issue 32, each built on the other
-benchmarks' functions (render.py, gen.py, train.py, rl.py) and returning row dicts. ``plan`` holds
+"""The rows of benchmarks/node.py, one generator per row group of issue 32, each built on the other
+benchmarks' functions (render.py, gen.py, train.py, rl.py) and yielding row dicts as they are measured
+(node.py writes the table after each, so a run cut short keeps every row it finished). ``plan`` holds
 the sizes and time budget (node.py's `make_plan`): every figure is timed for ``plan.seconds`` after
 its warm-up."""
 from __future__ import annotations
@@ -10,6 +11,7 @@ import math
 import tempfile
 import traceback
 from pathlib import Path
+from collections.abc import Iterator
 from types import SimpleNamespace
 
 from node_report import HABITAT, GpuBusy
@@ -38,19 +40,23 @@ def shared_cores(processes: int):
         yield
 
 
-def compiled_or_plain(measure, compiled: bool):
-    """(``measure(compiled)``, None); when the compiled path fails, (``measure(False)``, what failed): the row keeps
-    the plain figure and says why (the traceback goes to stderr)."""
+def plain_then_compiled(measure, compile: bool) -> Iterator[tuple[str, object]]:
+    """("plain", ``measure(False)``), then with ``compile`` ("compiled", ``measure(True)``), or ("failed", what
+    failed) when the compiled path fails (the traceback goes to stderr): the plain figure is in the table before
+    the minutes a first compile takes (a GPU node's time limit cut both compiled groups of the first run)."""
+    yield "plain", measure(False)
+    if not compile:
+        return
     try:
-        return measure(compiled), None
+        got = measure(True)
     except Exception as e:
-        if not compiled:
-            raise
         traceback.print_exc()
-        return measure(False), f"{type(e).__name__}: {(str(e).strip().splitlines() or [''])[0][:200]}"
+        yield "failed", f"{type(e).__name__}: {(str(e).strip().splitlines() or [''])[0][:200]}"
+        return
+    yield "compiled", got
 
 
-def render_rows(plan) -> list[dict]:
+def render_rows(plan) -> Iterator[dict]:
     """1. renderer=gl and raycast, RGB + depth: frames/s with 1, 2 and cpu_count processes, one view per
     render call, then with ``plan.render_batches`` [(views per render_batch call, process counts), ...]."""
     from render import poses_for
@@ -62,15 +68,13 @@ def render_rows(plan) -> list[dict]:
     camera = CameraConfig(width=plan.size, height=plan.size)
     poses = poses_for(scene, 200)
     runs = [(1, n) for n in plan.render_processes] + [(b, n) for b, counts in plan.render_batches for n in counts]
-    rows = []
     for backend in plan.backends:
         goal = "render_gl" if backend == "gl" else None
         try:
             with make_renderer(scene, camera, backend) as r:
                 info = r.info
         except RuntimeError as e:
-            rows.append(row(1, f"render_{backend}", f"renderer={backend}", "frames/s", goal,
-                            skipped=f"unavailable ({e})"))
+            yield row(1, f"render_{backend}", f"renderer={backend}", "frames/s", goal, skipped=f"unavailable ({e})")
             continue
         for batch, n in runs:
             with shared_cores(n), GpuBusy() as busy:
@@ -78,13 +82,12 @@ def render_rows(plan) -> list[dict]:
                                       seconds=plan.seconds, batch=batch)
             key = f"render_{backend}_{n}p" if batch == 1 else f"render_{backend}_b{batch}_{n}p"
             label = f"renderer={backend}, {n} process{'es' if n > 1 else ''}"
-            rows.append(row(1, key, label + (f", {batch} views per call" if batch > 1 else ""),
-                            "frames/s", goal, res.frames_per_second,
-                            f"{plan.size}² RGB+depth, {plan.scene} ({scene.num_triangles:,} triangles), {info}, "
-                            f"cpu share {res.cpu_share:.2f}", HABITAT[1 if n == 1 else 5], busy.share))
+            yield row(1, key, label + (f", {batch} views per call" if batch > 1 else ""),
+                      "frames/s", goal, res.frames_per_second,
+                      f"{plan.size}² RGB+depth, {plan.scene} ({scene.num_triangles:,} triangles), {info}, "
+                      f"cpu share {res.cpu_share:.2f}", HABITAT[1 if n == 1 else 5], busy.share)
         if backend == "gl":
-            rows.append(_scenes_row(plan, camera))
-    return rows
+            yield _scenes_row(plan, camera)
 
 
 def _scenes_row(plan, camera, scenes: int = 4) -> dict:
@@ -126,118 +129,155 @@ def _scenes_row(plan, camera, scenes: int = 4) -> dict:
                gpu_busy=busy.share)
 
 
-def gen_rows(plan) -> list[dict]:
-    """2. rvn-gen with cpu_count workers, default renderer: frames/s written end to end and its time shares."""
+def gen_rows(plan) -> Iterator[dict]:
+    """2. rvn-gen with cpu_count workers, renderer=auto: frames/s after set-up (end to end beside it), its time
+    shares and each phase's ms per frame; with CUDA again with renderer=raycast (row ``gen_raycast``): on the first GPU
+    run planning took ~12 ms a frame in 16 gl workers, against 0.8 ms on a development CPU."""
+    yield _gen_row(plan, "gen", "auto")
+    if plan.cuda:
+        yield _gen_row(plan, "gen_raycast", "raycast")
+
+
+def _gen_row(plan, key: str, renderer: str) -> dict:
     import gen as gen_bench
 
-    common = [f"camera.width={plan.size}", f"camera.height={plan.size}", "renderer=auto"]
+    common = [f"camera.width={plan.size}", f"camera.height={plan.size}", f"renderer={renderer}"]
     with tempfile.TemporaryDirectory() as tmp:
         warm = gen_bench.run(Path(tmp) / "warmup", ["scenes.num_scenes=1", "trajectories_per_scene=1", *common])
         t = gen_bench.timing(warm)  # per-frame cost without set-up sizes the run to plan.seconds
         per_frame = (sum(t.values()) - t["setup"]) / max(1, warm.frames)
         per_traj = warm.frames / max(1, sum(r.written for r in warm.results))
-        per_scene = max(1, min(1000, math.ceil(plan.seconds / max(per_frame * per_traj, 1e-6))))
+        # twice plan.seconds of frames per worker: the first trajectories' one-off costs (kernels, shaders) weigh less
+        per_scene = max(1, min(1000, math.ceil(2 * plan.seconds / max(per_frame * per_traj, 1e-6))))
         w = plan.gen_workers
         with GpuBusy() as busy:
             rep = gen_bench.run(Path(tmp) / "run", [*common, f"workers={w}", f"scenes.num_scenes={w}",
                                                     f"trajectories_per_scene={per_scene}"])
     phases = gen_bench.timing(rep)
     total = sum(phases.values()) or 1.0
-    other = {k: v for k, v in phases.items() if k not in ("planning", "rendering")}
-    shares = (f"time: planning {100 * phases['planning'] / total:.0f}%, "
-              f"rendering {100 * phases['rendering'] / total:.0f}%, other {100 * sum(other.values()) / total:.0f}% ("
-              + ", ".join(f"{k} {100 * v / total:.0f}%" for k, v in other.items()) + ")")
-    return [row(2, "gen", f"rvn-gen, {w} workers", "frames/s", "gen", rep.frames / rep.seconds,
-                f"{plan.size}² JPEG, renderer {', '.join(gen_bench.backends(rep))}, {rep.frames} frames of {w} scenes "
-                f"in {rep.seconds:.1f} s (start-up and set-up included); {shares}", gpu_busy=busy.share)]
+    # steady state: the frames over a worker's time after its set-up (start-up, scene, navmesh, renderer), which a
+    # dataset of hundreds of trajectories per scene spreads thin; end to end (set-up included) beside it
+    steady = rep.frames / max((total - phases["setup"]) / w, 1e-9)
+    shares = ", ".join(f"{k} {100 * v / total:.0f}% ({1e3 * v / max(1, rep.frames):.2f} ms/frame)"
+                       for k, v in phases.items())
+    return row(2, key, f"rvn-gen, {w} workers, renderer={renderer}, after set-up", "frames/s", "gen", steady,
+               f"{plan.size}² JPEG, renderer {', '.join(gen_bench.backends(rep))}, {rep.frames} frames of {w} scenes "
+               f"in {rep.seconds:.1f} s: {rep.frames / rep.seconds:.0f} frames/s end to end (start-up and set-up "
+               f"included); time summed over workers: {shares}", gpu_busy=busy.share)
 
 
-def train_rows(plan) -> list[dict]:
-    """3. rvn-train's step (loader + forward + backward + AdamW [+ EMA]) of NoMaD and ViNT: samples/s."""
+def train_rows(plan) -> Iterator[dict]:
+    """3. rvn-train's step (loader + forward + backward + AdamW [+ EMA]) of NoMaD and ViNT: samples/s, the plain
+    step first, then with ``plan.compile`` the compiled one (row ``train_<model>_compiled``)."""
     import train as train_bench
     from rvn_il.data.synthetic import write_synthetic_gnm
     from rvn_il.models import load_model_config
     from rvn_il.policies.policy import intra_op_threads
 
     device, size, precision = ("cuda", "full", "bf16") if plan.cuda else ("cpu", plan.cpu_model_size, "fp32")
-    rows = []
     with tempfile.TemporaryDirectory() as tmp:
         trajectories, length = plan.train_data
         root = write_synthetic_gnm(Path(tmp) / "expert", trajectories, length, image_size=plan.train_image)
         for name in ("nomad_pointgoal", "vint_pointgoal"):
             cfg = load_model_config(name, size)
 
-            profiles = {} if plan.profile else None
-
-            def measure(compiled: bool):
+            def measure(compiled: bool, channels_last: bool = True):
+                profiles = {} if plan.profile else None
                 with intra_op_threads(plan.train_threads), GpuBusy() as busy:
-                    return *train_bench.steady_train_rate(root, cfg, plan.train_batch, plan.seconds, device, precision,
-                                                          plan.loader_workers, str(Path(tmp) / "cache"), compiled,
-                                                          profiles), busy
+                    rate, steps, waiting = train_bench.steady_train_rate(
+                        root, cfg, plan.train_batch, plan.seconds, device, precision, plan.loader_workers,
+                        str(Path(tmp) / "cache"), compiled, profiles, channels_last)
+                return rate, steps, waiting, busy.share, (profiles or {}).get("train")
 
-            (rate, steps, waiting, busy), failed = compiled_or_plain(measure, plan.compile)
-            compiled = f"true FAILED ({failed}), plain step" if failed else str(plan.compile).lower()
             w, h = cfg["image_size"]
-            rows.append(row(3, f"train_{name}", f"rvn-train {name} ({device})", "samples/s", f"train_{name}", rate,
-                            f"model.size={size}, {w}x{h}, batch {plan.train_batch}, train.precision={precision}, "
-                            f"train.compile={compiled}, "
-                            f"{plan.loader_workers} loader workers, {plan.train_threads or 'all'} torch threads, "
-                            f"{steps} steps timed, waiting for the loader {100 * waiting:.0f}% of the time, "
-                            "synthetic GNM data",
-                            gpu_busy=busy.share, profile=(profiles or {}).get("train")))
-    return rows
+
+            def train_row(key: str, label: str, got, note: str) -> dict:
+                rate, steps, waiting, busy, profile = got
+                return row(3, key, f"rvn-train {name} ({device}){label}", "samples/s", f"train_{name}", rate,
+                           f"model.size={size}, {w}x{h}, batch {plan.train_batch}, train.precision={precision}, "
+                           f"{note}, {plan.loader_workers} loader workers, {plan.train_threads or 'all'} torch threads, "
+                           f"{steps} steps timed, waiting for the loader {100 * waiting:.0f}% of the time, "
+                           "synthetic GNM data", gpu_busy=busy, profile=profile)
+
+            paths = plain_then_compiled(measure, plan.compile)  # lazy: the compiled step is measured last
+            _, plain = next(paths)
+            yield train_row(f"train_{name}", "", plain, "train.compile=false")
+            if name == "nomad_pointgoal" and (plan.cuda or plan.quick):
+                # on CUDA torch's group_norm copies a channels-last input to NCHW (NoMaD's GroupNorm EfficientNet)
+                nchw = measure(False, channels_last=False)
+                yield train_row(f"train_{name}_nchw", ", NCHW encoder", nchw,
+                                f"train.compile=false, the encoder NCHW, not channels-last (x{nchw[0] / plain[0]:.2f})")
+            for kind, got in paths:
+                if kind == "failed":
+                    yield row(3, f"train_{name}_compiled", f"rvn-train {name} ({device}), train.compile=true",
+                              "samples/s", f"train_{name}", skipped=f"the compiled step FAILED ({got})")
+                else:
+                    yield train_row(f"train_{name}_compiled", ", train.compile=true", got,
+                                    f"train.compile=true (x{got[0] / plain[0]:.2f} the plain step)")
 
 
-def decision_rows(plan) -> list[dict]:
-    """4. one act() of a NoMaD-PointGoal policy (8 samples x its diffusion steps): median ms, GPU and one CPU thread."""
+def decision_rows(plan) -> Iterator[dict]:
+    """4. one act() of a NoMaD-PointGoal policy (8 samples x its diffusion steps): median ms, GPU and one CPU
+    thread; the plain path first, then with ``plan.compile`` policy.compile (row ``decision_<where>_compiled``)."""
     import train as train_bench
     from rvn_il.models import load_model_config
 
-    rows = []
     for where, size in (("gpu", "full"), ("cpu", plan.decision_cpu_size)):
         steps = load_model_config("nomad_pointgoal", size)["num_diffusion_iters"]
         label = "NoMaD decision, GPU" if where == "gpu" else "NoMaD decision, one CPU thread"
         if where == "gpu" and not plan.cuda:
-            rows.append(row(4, "decision_gpu", label, "ms", "decision_gpu", skipped=NO_CUDA))
+            yield row(4, "decision_gpu", label, "ms", "decision_gpu", skipped=NO_CUDA)
             continue
 
-        profiles = {} if plan.profile else None
-
-        def measure(compiled: bool):  # compiled: the plain path timed beside it, in turns
+        def measure(compiled: bool):  # each path alone, as in a process of its own
+            profiles = {} if plan.profile else None
             with GpuBusy() as busy:
-                ms, plain = train_bench.decision_ms("nomad_pointgoal", size, 5, threads=1, reference=compiled,
-                                                    seconds=plan.seconds, device="cuda" if where == "gpu" else "cpu",
-                                                    compile=compiled, profiles=profiles)
-            return ms, plain, busy
+                ms, _ = train_bench.decision_ms("nomad_pointgoal", size, 5, threads=1, reference=False,
+                                                seconds=plan.seconds, device="cuda" if where == "gpu" else "cpu",
+                                                compile=compiled, profiles=profiles)
+            return ms, busy.share if where == "gpu" else None, (profiles or {}).get("decision")
 
-        (ms, plain, busy), failed = compiled_or_plain(measure, plan.compile)
-        compiled = f"policy.compile=true FAILED ({failed}), plain path" if failed else \
-            f"policy.compile=true (plain path {plain:.1f} ms, x{plain / ms:.2f})" if plan.compile else "policy.compile=false"
-        rows.append(row(4, f"decision_{where}", label, "ms", f"decision_{where}", ms,
-                        f"model.size={size}, 8 samples x {steps} steps, 256x256 frame -> action, {compiled}, "
-                        "median after warm-up", gpu_busy=busy.share if where == "gpu" else None,
-                        profile=(profiles or {}).get("decision")))
-    return rows
+        plain = None
+        for kind, got in plain_then_compiled(measure, plan.compile):
+            if kind == "failed":
+                yield row(4, f"decision_{where}_compiled", label + ", policy.compile=true", "ms", f"decision_{where}",
+                          skipped=f"the compiled path FAILED ({got})")
+                continue
+            ms, busy, profile = got
+            plain = plain or ms
+            compiled = kind == "compiled"
+            yield row(4, f"decision_{where}" + ("_compiled" if compiled else ""),
+                      label + (", policy.compile=true" if compiled else ""), "ms", f"decision_{where}", ms,
+                      f"model.size={size}, 8 samples x {steps} steps, 256x256 frame -> action, "
+                      f"policy.compile={str(compiled).lower()}" + (f" (x{plain / ms:.2f} faster than plain)" if compiled
+                                                                   else "") + ", median after warm-up",
+                      gpu_busy=busy, profile=profile)
 
 
-def rl_rows(plan) -> list[dict]:
+def rl_rows(plan) -> Iterator[dict]:
     """5. rvn-rl PPO collection + learning with envs in worker processes: env steps/s at scale=small (ResNet-18,
     128², 4 PPO epochs x 4 mini-batches of 64-step rollouts) and at the paper's network and PPO settings
     (half-width ResNet-50, 256² pooled to 128, 2 epochs x 2 mini-batches of 128-step rollouts; beside DD-PPO's
     ~160 frames/s per GPU), both with the same envs on ``plan.rl_scenes`` train scenes (200: envs keep loading
     scenes they have not seen, as a run over all 800 does). A first run of two updates (the first one loads scenes:
     not counted) times an update; when that left part of ``plan.seconds``, the run resumes for as many more updates as
-    fit (the first again not counted)."""
+    fit (the first again not counted). With CUDA, scale=small once more with renderer=raycast (ray casting on the
+    workers' cores): on the first GPU run (2026-11-27) envs stepping took ~80% of an update at renderer=auto (gl),
+    with 15 worker processes sharing the GPU, and the renderer rows showed processes that render one view per call
+    contend rather than add up on one GPU."""
     small = dict(size=plan.rl_size, backbone="resnet18", num_steps=plan.rl_num_steps, ppo_epoch=4,
                  mini_batches=min(4, plan.rl_envs))
     paper = dict(size=plan.rl_paper_size, backbone="resnet50", num_steps=2 * plan.rl_num_steps, ppo_epoch=2,
                  mini_batches=min(2, plan.rl_envs))
     what, ddppo = "scale=paper network and PPO", "DD-PPO (Wijmans et al. 2020): ~160 frames/s per GPU (2.5B frames, 180 GPU-days)"
+    yield _rl_row(plan, "rl", "scale=small", small, "rl", "")
+    if plan.cuda:
+        yield _rl_row(plan, "rl_raycast", "scale=small, renderer=raycast", {**small, "renderer": "raycast"}, "rl", "")
     if not (plan.cuda or plan.quick):  # minutes per update on a few cores; --quick runs it small
-        return [_rl_row(plan, "rl", "scale=small", small, "rl", ""),
-                row(5, "rl_paper", f"rvn-rl PPO collection + learning, {what}", "env steps/s",
-                    skipped="ResNet-50 at 256² is sized for a GPU (--quick runs it at 64²)")]
-    return [_rl_row(plan, "rl", "scale=small", small, "rl", ""), _rl_row(plan, "rl_paper", what, paper, None, ddppo)]
+        yield row(5, "rl_paper", f"rvn-rl PPO collection + learning, {what}", "env steps/s",
+                  skipped="ResNet-50 at 256² is sized for a GPU (--quick runs it at 64²)")
+        return
+    yield _rl_row(plan, "rl_paper", what, paper, None, ddppo)
 
 
 def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, baseline: str) -> dict:
@@ -247,7 +287,7 @@ def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, bas
 
     envs, workers = plan.rl_envs, plan.rl_workers
     args = SimpleNamespace(envs=envs, workers=workers, scenes=plan.rl_scenes, base_planes=32, threads=plan.rl_threads,
-                           renderer="auto", updates=2, goal_pool=64, **settings)
+                           updates=2, goal_pool=64, **{"renderer": "auto", **settings})
     counted = []  # (env steps, seconds, update's metrics) of the updates that count
     with tempfile.TemporaryDirectory() as tmp, GpuBusy() as busy:
         out = f"{tmp}/run"
@@ -266,7 +306,7 @@ def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, bas
 
     return row(5, key, f"rvn-rl PPO collection + learning, {what} ({'cuda' if plan.cuda else 'cpu'})", "env steps/s",
                goal_key, steps / seconds,
-               f"{args.size}² RGB, {args.backbone} (base planes 32), PPO rollouts of {args.num_steps} x {envs} envs, "
+               f"{args.size}² RGB, renderer={args.renderer}, {args.backbone} (base planes 32), PPO rollouts of {args.num_steps} x {envs} envs, "
                f"{args.ppo_epoch} epochs x {args.mini_batches} mini-batches, {workers} env worker processes, "
                f"{plan.rl_scenes} train scenes, goal pool {args.goal_pool}, "
                f"{len(counted)} updates timed ({seconds:.1f} s); time: envs stepping {100 * share('time_envs'):.0f}%, "

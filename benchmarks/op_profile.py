@@ -15,10 +15,17 @@ def op_table(run: Callable[[], None], cuda: bool, rows: int = ROWS) -> str:
     the profile ends), sorted by self GPU time with ``cuda``, else by self CPU time."""
     from torch.profiler import ProfilerActivity, profile
 
+    import time
+
     activities = [ProfilerActivity.CPU] + ([ProfilerActivity.CUDA] if cuda else [])
+    sync = torch.cuda.synchronize if cuda else (lambda: None)
+    sync()
     with profile(activities=activities) as prof:
+        t = time.perf_counter()
         run()
-        if cuda:
-            torch.cuda.synchronize()
-    return prof.key_averages().table(sort_by="self_cuda_time_total" if cuda else "self_cpu_time_total",
-                                     row_limit=rows, max_name_column_width=60)
+        sync()
+        wall = time.perf_counter() - t
+    table = prof.key_averages().table(sort_by="self_cuda_time_total" if cuda else "self_cpu_time_total",
+                                      row_limit=rows, max_name_column_width=60)
+    # the GPU's busy share of these steps: the table's "Self CUDA time total" over this wall time
+    return f"wall time of the profiled run, under the profiler: {1e3 * wall:.1f} ms\n{table}"

@@ -73,7 +73,8 @@ def train_rate(root: Path, cfg: dict, batch: int, steps: int, channels_last: boo
 
 def steady_train_rate(root: Path, cfg: dict, batch: int, seconds: float, device: str = "cpu",
                       precision: str = "fp32", workers: int = 0, cache_dir: str | None = None,
-                      compile: bool = False, profiles: dict | None = None) -> tuple[float, int, float]:
+                      compile: bool = False, profiles: dict | None = None,
+                      channels_last: bool = True) -> tuple[float, int, float]:
     """(samples/s, steps timed, share of the timed wall time spent waiting for the loader's next batch) of
     rvn-train's step in steady state: its DataLoader (``workers`` processes,
     pinned memory on a GPU, uint8 frames), channels-last model on ``device`` (compiled with ``compile``, as
@@ -81,7 +82,9 @@ def steady_train_rate(root: Path, cfg: dict, batch: int, seconds: float, device:
     one (NoMaD), the EMA; no host sync inside a step; timed for ``seconds`` after a warm-up
     (at least 3 steps and a fifth of ``seconds``, until a step takes at most 1.5 x the fastest one
     so far, or ``seconds`` have passed). With ``profiles`` (a dict), 3 more steps are profiled after the timing
-    into ``profiles["train"]`` (`op_profile.op_table`)."""
+    into ``profiles["train"]`` (`op_profile.op_table`). ``channels_last=False`` keeps the encoder NCHW (rvn-train
+    makes it NHWC): on CUDA torch's group_norm copies a channels-last input to NCHW (NoMaD's GroupNorm
+    EfficientNet; aten::copy_ was 36% of its step's GPU time on the first GPU run)."""
     from op_profile import op_table
     from rvn_il.train.ema import EMA
     from rvn_il.train.optimisation import fused_on
@@ -89,7 +92,10 @@ def steady_train_rate(root: Path, cfg: dict, batch: int, seconds: float, device:
     dev = torch.device(device)
     ds = make_dataset(root, cfg, {"progress": False, "cache_dir": cache_dir})
     torch.manual_seed(0)
-    model = build_model(cfg).to(dev).use_channels_last().train()
+    model = build_model(cfg).to(dev)
+    if channels_last:
+        model.use_channels_last()
+    model.train()
     opt = torch.optim.AdamW(model.parameters(), lr=1e-4, fused=fused_on(dev))
     if compile:
         compile_for_training(model)
