@@ -10,8 +10,8 @@ import json
 import math
 import tempfile
 import traceback
-from pathlib import Path
 from collections.abc import Iterator
+from pathlib import Path
 from types import SimpleNamespace
 
 from node_report import HABITAT, GpuBusy
