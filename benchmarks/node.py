@@ -8,7 +8,8 @@ Rows (each timed for --seconds-per-row after its warm-up, so figures are steady 
  1. renderer=gl and raycast, 256² RGB + depth, procedural:train/0: frames/s in 1, 2 and cpu_count processes
     (beside habitat-sim's published 1,042 frames/s in one process and 1,774 with five, Titan Xp), one view per
     render call, then 8 views per render_batch call in one process and 32 in 1, 2 and cpu_count processes;
- 2. rvn-gen with cpu_count workers, 256², renderer=auto (with CUDA also renderer=raycast): frames/s after each
+ 2. rvn-gen with cpu_count workers, 256², renderer=auto (with CUDA also renderer=raycast, and gl with
+    __GL_YIELD=USLEEP, NVIDIA's GL waiting without spinning): frames/s after each
     worker's set-up (start-up, scene, navmesh, renderer; the end-to-end figure beside it), and each phase's share
     of the time and ms per frame (set-up, planning, rendering, encoding, writing);
  3. rvn-train's step (its DataLoader with cpu_count workers, forward, backward, AdamW, EMA) of NoMaD-PointGoal
@@ -22,7 +23,7 @@ Rows (each timed for --seconds-per-row after its warm-up, so figures are steady 
     --profile, on by default with CUDA: torch.profiler's operator table of a few more steps of rows 3 and 4,
     written beside node.md as profile_<row>.txt, so a goal the table misses comes with what bounds it);
  5. rvn-rl PPO collection + learning at 128², ResNet-18, scale=small PPO settings, envs in worker processes:
-    env steps/s (with CUDA also with renderer=raycast); and with the paper's network and PPO settings (ResNet-50,
+    env steps/s (with CUDA also with renderer=raycast and gl with __GL_YIELD=USLEEP); and with the paper's network and PPO settings (ResNet-50,
     256²) beside DD-PPO's ~160 per GPU.
 With CUDA, each row shows issue 32's goal and measured/goal, and "GPU busy": GPU 0's mean utilization
 while the row ran (torch.cuda.utilization or pynvml; "n/a" without them), set-up, warm-up and profile included,

@@ -8,6 +8,7 @@ from __future__ import annotations
 import contextlib
 import json
 import math
+import os
 import tempfile
 import traceback
 from collections.abc import Iterator
@@ -38,6 +39,26 @@ def shared_cores(processes: int):
 
     with worker_threads(threads_per_worker(processes)):
         yield
+
+
+@contextlib.contextmanager
+def environ(env: dict | None):
+    """``env`` set in this process's environment (and so in the workers it starts) while the block runs."""
+    old = {k: os.environ.get(k) for k in env or {}}
+    os.environ.update(env or {})
+    try:
+        yield
+    finally:
+        for k, v in old.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
+# NVIDIA's GL driver waits for the GPU with sched_yield() by default, a spin that keeps a core busy; usleep(0) frees it
+# for the other workers (the driver's README, "OpenGL environment variable settings")
+GL_USLEEP = {"__GL_YIELD": "USLEEP"}
 
 
 def plain_then_compiled(measure, compile: bool) -> Iterator[tuple[str, object]]:
@@ -131,18 +152,20 @@ def _scenes_row(plan, camera, scenes: int = 4) -> dict:
 
 def gen_rows(plan) -> Iterator[dict]:
     """2. rvn-gen with cpu_count workers, renderer=auto: frames/s after set-up (end to end beside it), its time
-    shares and each phase's ms per frame; with CUDA again with renderer=raycast (row ``gen_raycast``): on the first GPU
-    run planning took ~12 ms a frame in 16 gl workers, against 0.8 ms on a development CPU."""
+    shares and each phase's ms per frame; with CUDA again with renderer=raycast (row ``gen_raycast``) and with gl whose
+    driver waits without spinning (``gen_gl_usleep``): on the first GPU run planning took ~12 ms a frame in 16 gl
+    workers, against 0.8 ms on a development CPU."""
     yield _gen_row(plan, "gen", "auto")
     if plan.cuda:
         yield _gen_row(plan, "gen_raycast", "raycast")
+        yield _gen_row(plan, "gen_gl_usleep", "gl", GL_USLEEP)
 
 
-def _gen_row(plan, key: str, renderer: str) -> dict:
+def _gen_row(plan, key: str, renderer: str, env: dict | None = None) -> dict:
     import gen as gen_bench
 
     common = [f"camera.width={plan.size}", f"camera.height={plan.size}", f"renderer={renderer}"]
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as tmp, environ(env):
         warm = gen_bench.run(Path(tmp) / "warmup", ["scenes.num_scenes=1", "trajectories_per_scene=1", *common])
         t = gen_bench.timing(warm)  # per-frame cost without set-up sizes the run to plan.seconds
         per_frame = (sum(t.values()) - t["setup"]) / max(1, warm.frames)
@@ -160,7 +183,8 @@ def _gen_row(plan, key: str, renderer: str) -> dict:
     steady = rep.frames / max((total - phases["setup"]) / w, 1e-9)
     shares = ", ".join(f"{k} {100 * v / total:.0f}% ({1e3 * v / max(1, rep.frames):.2f} ms/frame)"
                        for k, v in phases.items())
-    return row(2, key, f"rvn-gen, {w} workers, renderer={renderer}, after set-up", "frames/s", "gen", steady,
+    with_env = "".join(f", {k}={v}" for k, v in (env or {}).items())
+    return row(2, key, f"rvn-gen, {w} workers, renderer={renderer}{with_env}, after set-up", "frames/s", "gen", steady,
                f"{plan.size}² JPEG, renderer {', '.join(gen_bench.backends(rep))}, {rep.frames} frames of {w} scenes "
                f"in {rep.seconds:.1f} s: {rep.frames / rep.seconds:.0f} frames/s end to end (start-up and set-up "
                f"included); time summed over workers: {shares}", gpu_busy=busy.share)
@@ -262,7 +286,7 @@ def rl_rows(plan) -> Iterator[dict]:
     scenes they have not seen, as a run over all 800 does). A first run of two updates (the first one loads scenes:
     not counted) times an update; when that left part of ``plan.seconds``, the run resumes for as many more updates as
     fit (the first again not counted). With CUDA, scale=small once more with renderer=raycast (ray casting on the
-    workers' cores): on the first GPU run (2026-11-27) envs stepping took ~80% of an update at renderer=auto (gl),
+    workers' cores) and with gl under __GL_YIELD=USLEEP (NVIDIA's GL waits without spinning): on the first GPU run (2026-11-27) envs stepping took ~80% of an update at renderer=auto (gl),
     with 15 worker processes sharing the GPU, and the renderer rows showed processes that render one view per call
     contend rather than add up on one GPU."""
     small = dict(size=plan.rl_size, backbone="resnet18", num_steps=plan.rl_num_steps, ppo_epoch=4,
@@ -273,6 +297,8 @@ def rl_rows(plan) -> Iterator[dict]:
     yield _rl_row(plan, "rl", "scale=small", small, "rl", "")
     if plan.cuda:
         yield _rl_row(plan, "rl_raycast", "scale=small, renderer=raycast", {**small, "renderer": "raycast"}, "rl", "")
+        yield _rl_row(plan, "rl_gl_usleep", "scale=small, renderer=gl, __GL_YIELD=USLEEP", {**small, "renderer": "gl"},
+                      "rl", "", GL_USLEEP)
     if not (plan.cuda or plan.quick):  # minutes per update on a few cores; --quick runs it small
         yield row(5, "rl_paper", f"rvn-rl PPO collection + learning, {what}", "env steps/s",
                   skipped="ResNet-50 at 256² is sized for a GPU (--quick runs it at 64²)")
@@ -280,7 +306,8 @@ def rl_rows(plan) -> Iterator[dict]:
     yield _rl_row(plan, "rl_paper", what, paper, None, ddppo)
 
 
-def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, baseline: str) -> dict:
+def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, baseline: str,
+            env: dict | None = None) -> dict:
     import rl as rl_bench
     from rvn_rl.cli import compose
     from rvn_rl.trainer import train
@@ -289,7 +316,7 @@ def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, bas
     args = SimpleNamespace(envs=envs, workers=workers, scenes=plan.rl_scenes, base_planes=32, threads=plan.rl_threads,
                            updates=2, goal_pool=64, **{"renderer": "auto", **settings})
     counted = []  # (env steps, seconds, update's metrics) of the updates that count
-    with tempfile.TemporaryDirectory() as tmp, GpuBusy() as busy:
+    with tempfile.TemporaryDirectory() as tmp, environ(env), GpuBusy() as busy:
         out = f"{tmp}/run"
         train(compose(rl_bench.overrides(args, out)))
         counted += [_steps_seconds(r, envs) for r in _metrics(out)[1:]]

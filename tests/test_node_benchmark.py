@@ -161,3 +161,19 @@ def test_profile_writes_an_operator_table_per_row(tmp_path):
     table = (tmp_path / "profile_decision_cpu.txt").read_text()
     assert table.startswith("NoMaD decision, one CPU thread: ") and "policy.act" in table and "aten::" in table
     assert "profile_decision_cpu.txt" in (tmp_path / "node.md").read_text()
+
+
+def test_environ_sets_and_restores(monkeypatch):
+    """node_rows.environ (the __GL_YIELD=USLEEP rows): set while the block runs, as before afterwards."""
+    sys.path.append(str(ROOT / "benchmarks"))
+    import os
+
+    from node_rows import environ
+
+    monkeypatch.setenv("RVN_T_KEPT", "a")
+    monkeypatch.delenv("RVN_T_NEW", raising=False)
+    with environ({"RVN_T_KEPT": "b", "RVN_T_NEW": "c"}):
+        assert (os.environ["RVN_T_KEPT"], os.environ["RVN_T_NEW"]) == ("b", "c")
+    assert os.environ["RVN_T_KEPT"] == "a" and "RVN_T_NEW" not in os.environ
+    with environ(None):
+        assert os.environ["RVN_T_KEPT"] == "a"
