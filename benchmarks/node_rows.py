@@ -286,7 +286,8 @@ def rl_rows(plan) -> Iterator[dict]:
     scenes they have not seen, as a run over all 800 does). A first run of two updates (the first one loads scenes:
     not counted) times an update; when that left part of ``plan.seconds``, the run resumes for as many more updates as
     fit (the first again not counted). With CUDA, scale=small once more with renderer=raycast (ray casting on the
-    workers' cores) and with gl under __GL_YIELD=USLEEP (NVIDIA's GL waits without spinning): on the first GPU run (2026-11-27) envs stepping took ~80% of an update at renderer=auto (gl),
+    workers' cores) and with gl under __GL_YIELD=USLEEP (NVIDIA's GL waits without spinning), and the envs alone
+    (``rl_envs``, also with --quick): on the first GPU run (2026-11-27) envs stepping took ~80% of an update at renderer=auto (gl),
     with 15 worker processes sharing the GPU, and the renderer rows showed processes that render one view per call
     contend rather than add up on one GPU."""
     small = dict(size=plan.rl_size, backbone="resnet18", num_steps=plan.rl_num_steps, ppo_epoch=4,
@@ -295,6 +296,8 @@ def rl_rows(plan) -> Iterator[dict]:
                  mini_batches=min(2, plan.rl_envs))
     what, ddppo = "scale=paper network and PPO", "DD-PPO (Wijmans et al. 2020): ~160 frames/s per GPU (2.5B frames, 180 GPU-days)"
     yield _rl_row(plan, "rl", "scale=small", small, "rl", "")
+    if plan.cuda or plan.quick:
+        yield _rl_envs_row(plan, small)
     if plan.cuda:
         yield _rl_row(plan, "rl_raycast", "scale=small, renderer=raycast", {**small, "renderer": "raycast"}, "rl", "")
         yield _rl_row(plan, "rl_gl_usleep", "scale=small, renderer=gl, __GL_YIELD=USLEEP", {**small, "renderer": "gl"},
@@ -339,6 +342,23 @@ def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, bas
                f"{len(counted)} updates timed ({seconds:.1f} s); time: envs stepping {100 * share('time_envs'):.0f}%, "
                f"policy and storage {100 * (1 - share('time_envs') - share('time_learn')):.0f}%, "
                f"PPO update {100 * share('time_learn'):.0f}%", baseline, busy.share)
+
+
+def _rl_envs_row(plan, settings: dict) -> dict:
+    """The rl row's envs alone (`rl.collection`: the same vec env and worker processes, random actions, no policy, no
+    learner), so a slow rl row shows whether the envs or their sharing the node with the learner bound it."""
+    import rl as rl_bench
+    from rvn_rl.cli import compose
+
+    args = SimpleNamespace(envs=plan.rl_envs, workers=plan.rl_workers, scenes=plan.rl_scenes, base_planes=32,
+                           threads=plan.rl_threads, updates=1, goal_pool=64, **{"renderer": "auto", **settings})
+    with tempfile.TemporaryDirectory() as tmp, GpuBusy() as busy:
+        rate = rl_bench.collection(compose(rl_bench.overrides(args, f"{tmp}/run")), 2 * args.num_steps, False)
+    return row(5, "rl_envs", f"rvn-rl envs alone, scale=small's envs ({'cuda' if plan.cuda else 'cpu'})",
+               "env steps/s", None, rate,
+               f"{args.size}² RGB, renderer={args.renderer}, {plan.rl_envs} envs in {plan.rl_workers} worker processes, "
+               f"{plan.rl_scenes} train scenes, goal pool 64, random actions, no policy or learner, "
+               f"{2 * args.num_steps} batched steps after 10 of warm-up", gpu_busy=busy.share)
 
 
 def _steps_seconds(update: dict, envs: int) -> tuple[float, float, dict]:
