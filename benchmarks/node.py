@@ -49,7 +49,10 @@ from types import SimpleNamespace
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # the other benchmarks' modules
 
 import node_report  # noqa: E402
-from node_rows import GROUPS, row  # noqa: E402
+from node_rl import rl_rows  # noqa: E402
+from node_rows import decision_rows, gen_rows, render_rows, row, train_rows  # noqa: E402
+
+GROUPS = {"render": render_rows, "gen": gen_rows, "train": train_rows, "decision": decision_rows, "rl": rl_rows}
 
 
 class _Parser(argparse.ArgumentParser):

@@ -1,19 +1,17 @@
-"""The rows of benchmarks/node.py, one generator per row group of issue 32, each built on the other
-benchmarks' functions (render.py, gen.py, train.py, rl.py) and yielding row dicts as they are measured
+"""The rows of benchmarks/node.py, one generator per row group of issue 32 (RL's in node_rl.py), each built on the
+other benchmarks' functions (render.py, gen.py, train.py, rl.py) and yielding row dicts as they are measured
 (node.py writes the table after each, so a run cut short keeps every row it finished). ``plan`` holds
 the sizes and time budget (node.py's `make_plan`): every figure is timed for ``plan.seconds`` after
 its warm-up."""
 from __future__ import annotations
 
 import contextlib
-import json
 import math
 import os
 import tempfile
 import traceback
 from collections.abc import Iterator
 from pathlib import Path
-from types import SimpleNamespace
 
 from node_report import HABITAT, GpuBusy
 
@@ -276,100 +274,3 @@ def decision_rows(plan) -> Iterator[dict]:
                       f"policy.compile={str(compiled).lower()}" + (f" (x{plain / ms:.2f} faster than plain)" if compiled
                                                                    else "") + ", median after warm-up",
                       gpu_busy=busy, profile=profile)
-
-
-def rl_rows(plan) -> Iterator[dict]:
-    """5. rvn-rl PPO collection + learning with envs in worker processes: env steps/s at scale=small (ResNet-18,
-    128², 4 PPO epochs x 4 mini-batches of 64-step rollouts) and at the paper's network and PPO settings
-    (half-width ResNet-50, 256² pooled to 128, 2 epochs x 2 mini-batches of 128-step rollouts; beside DD-PPO's
-    ~160 frames/s per GPU), both with the same envs on ``plan.rl_scenes`` train scenes (200: envs keep loading
-    scenes they have not seen, as a run over all 800 does). A first run of two updates (the first one loads scenes:
-    not counted) times an update; when that left part of ``plan.seconds``, the run resumes for as many more updates as
-    fit (the first again not counted). With CUDA, scale=small once more with renderer=raycast (ray casting on the
-    workers' cores) and with gl under __GL_YIELD=USLEEP (NVIDIA's GL waits without spinning), and the envs alone
-    (``rl_envs``, also with --quick): on the first GPU run (2026-11-27) envs stepping took ~80% of an update at renderer=auto (gl),
-    with 15 worker processes sharing the GPU, and the renderer rows showed processes that render one view per call
-    contend rather than add up on one GPU."""
-    small = dict(size=plan.rl_size, backbone="resnet18", num_steps=plan.rl_num_steps, ppo_epoch=4,
-                 mini_batches=min(4, plan.rl_envs))
-    paper = dict(size=plan.rl_paper_size, backbone="resnet50", num_steps=2 * plan.rl_num_steps, ppo_epoch=2,
-                 mini_batches=min(2, plan.rl_envs))
-    what, ddppo = "scale=paper network and PPO", "DD-PPO (Wijmans et al. 2020): ~160 frames/s per GPU (2.5B frames, 180 GPU-days)"
-    yield _rl_row(plan, "rl", "scale=small", small, "rl", "")
-    if plan.cuda or plan.quick:
-        yield _rl_envs_row(plan, small)
-    if plan.cuda:
-        yield _rl_row(plan, "rl_raycast", "scale=small, renderer=raycast", {**small, "renderer": "raycast"}, "rl", "")
-        yield _rl_row(plan, "rl_gl_usleep", "scale=small, renderer=gl, __GL_YIELD=USLEEP", {**small, "renderer": "gl"},
-                      "rl", "", GL_USLEEP)
-    if not (plan.cuda or plan.quick):  # minutes per update on a few cores; --quick runs it small
-        yield row(5, "rl_paper", f"rvn-rl PPO collection + learning, {what}", "env steps/s",
-                  skipped="ResNet-50 at 256² is sized for a GPU (--quick runs it at 64²)")
-        return
-    yield _rl_row(plan, "rl_paper", what, paper, None, ddppo)
-
-
-def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, baseline: str,
-            env: dict | None = None) -> dict:
-    import rl as rl_bench
-    from rvn_rl.cli import compose
-    from rvn_rl.trainer import train
-
-    envs, workers = plan.rl_envs, plan.rl_workers
-    args = SimpleNamespace(envs=envs, workers=workers, scenes=plan.rl_scenes, base_planes=32, threads=plan.rl_threads,
-                           updates=2, goal_pool=64, **{"renderer": "auto", **settings})
-    counted = []  # (env steps, seconds, update's metrics) of the updates that count
-    with tempfile.TemporaryDirectory() as tmp, environ(env), GpuBusy() as busy:
-        out = f"{tmp}/run"
-        train(compose(rl_bench.overrides(args, out)))
-        counted += [_steps_seconds(r, envs) for r in _metrics(out)[1:]]
-        left = plan.seconds - sum(s for _, s, _ in counted)
-        if left > 0 and not plan.quick:
-            args.updates += 1 + math.ceil(left / (counted[-1][1] or 1e-3))
-            seen = len(_metrics(out))
-            train(compose(rl_bench.overrides(args, out)))
-            counted += [_steps_seconds(r, envs) for r in _metrics(out)[seen + 1:]]
-    steps, seconds = sum(n for n, _, _ in counted), sum(s for _, s, _ in counted)
-
-    def share(k: str) -> float:  # time-weighted share of the counted updates' time
-        return sum(s * r.get(k, float("nan")) for _, s, r in counted) / seconds
-
-    return row(5, key, f"rvn-rl PPO collection + learning, {what} ({'cuda' if plan.cuda else 'cpu'})", "env steps/s",
-               goal_key, steps / seconds,
-               f"{args.size}² RGB, renderer={args.renderer}, {args.backbone} (base planes 32), PPO rollouts of {args.num_steps} x {envs} envs, "
-               f"{args.ppo_epoch} epochs x {args.mini_batches} mini-batches, {workers} env worker processes, "
-               f"{plan.rl_scenes} train scenes, goal pool {args.goal_pool}, "
-               f"{len(counted)} updates timed ({seconds:.1f} s); time: envs stepping {100 * share('time_envs'):.0f}%, "
-               f"policy and storage {100 * (1 - share('time_envs') - share('time_learn')):.0f}%, "
-               f"PPO update {100 * share('time_learn'):.0f}%", baseline, busy.share)
-
-
-def _rl_envs_row(plan, settings: dict) -> dict:
-    """The rl row's envs alone (`rl.collection`: the same vec env and worker processes, random actions, no policy, no
-    learner), so a slow rl row shows whether the envs or their sharing the node with the learner bound it."""
-    import rl as rl_bench
-    from rvn_rl.cli import compose
-
-    args = SimpleNamespace(envs=plan.rl_envs, workers=plan.rl_workers, scenes=plan.rl_scenes, base_planes=32,
-                           threads=plan.rl_threads, updates=1, goal_pool=64, **{"renderer": "auto", **settings})
-    with tempfile.TemporaryDirectory() as tmp, GpuBusy() as busy:
-        rate = rl_bench.collection(compose(rl_bench.overrides(args, f"{tmp}/run")), 2 * args.num_steps, False)
-    return row(5, "rl_envs", f"rvn-rl envs alone, scale=small's envs ({'cuda' if plan.cuda else 'cpu'})",
-               "env steps/s", None, rate,
-               f"{args.size}² RGB, renderer={args.renderer}, {plan.rl_envs} envs in {plan.rl_workers} worker processes, "
-               f"{plan.rl_scenes} train scenes, goal pool 64, random actions, no policy or learner, "
-               f"{2 * args.num_steps} batched steps after 10 of warm-up", gpu_busy=busy.share)
-
-
-def _steps_seconds(update: dict, envs: int) -> tuple[float, float, dict]:
-    """Env steps and seconds of one update of rvn-rl's metrics.jsonl, and the update's row."""
-    steps = update["rollout_steps"] * envs
-    return steps, steps / update["fps"], update
-
-
-def _metrics(out: str) -> list[dict]:
-    with open(f"{out}/metrics.jsonl") as f:
-        return [json.loads(line) for line in f]
-
-
-GROUPS = {"render": render_rows, "gen": gen_rows, "train": train_rows, "decision": decision_rows, "rl": rl_rows}

@@ -3,6 +3,7 @@ step's or a decision's time goes, by operator, on the CPU and, with CUDA, on the
 decides"). ``loader wait`` and ``policy.act`` mark the parts that are not one operator."""
 from __future__ import annotations
 
+import time
 from typing import Callable
 
 import torch
@@ -14,8 +15,6 @@ def op_table(run: Callable[[], None], cuda: bool, rows: int = ROWS) -> str:
     """The operator table of ``run()`` (CPU time, and GPU time with ``cuda``; the GPU is synchronised before
     the profile ends), sorted by self GPU time with ``cuda``, else by self CPU time."""
     from torch.profiler import ProfilerActivity, profile
-
-    import time
 
     activities = [ProfilerActivity.CPU] + ([ProfilerActivity.CUDA] if cuda else [])
     sync = torch.cuda.synchronize if cuda else (lambda: None)
