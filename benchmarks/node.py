@@ -135,24 +135,26 @@ def main(argv: list[str] | None = None) -> int:
           f"{plan.seconds:g} s per figure", file=sys.stderr, flush=True)
     rows, plan_dict, paths = [], dict(vars(plan)), []
     numbers = {name: k for k, name in enumerate(GROUPS, 1)}
+
+    def add(r: dict) -> None:  # the row, then the table so far: a run stopped by a time limit keeps what it measured
+        nonlocal paths
+        node_report.compare(r, info["cuda"])
+        rows.append(r)
+        if args.out is not None:
+            paths = node_report.write(args.out, info, rows, plan_dict, node_report.markdown(info, rows, plan_dict))
+
     for name in dict.fromkeys(args.rows):  # in the order given: a GPU node's time limit cuts the last ones
         t, got = time.perf_counter(), 0
         try:
             for r in GROUPS[name](plan):
                 r["wall_s"] = round(time.perf_counter() - t, 1)  # since the group began
-                node_report.compare(r, info["cuda"])
-                rows.append(r)
+                add(r)
                 got += 1
-                if args.out is not None:  # the rows so far: a run stopped by a time limit keeps what it measured
-                    paths = node_report.write(args.out, info, rows, plan_dict,
-                                              node_report.markdown(info, rows, plan_dict))
         except Exception as e:  # the other groups still run; the table says what failed
             traceback.print_exc()
-            rows.append(row(numbers[name], name, name, "", None))
-            rows[-1]["error"] = f"{type(e).__name__}: {str(e).strip().splitlines()[0] if str(e).strip() else ''}"
-            node_report.compare(rows[-1], info["cuda"])
-            if args.out is not None:
-                paths = node_report.write(args.out, info, rows, plan_dict, node_report.markdown(info, rows, plan_dict))
+            failed = row(numbers[name], name, name, "", None)
+            failed["error"] = f"{type(e).__name__}: {str(e).strip().splitlines()[0] if str(e).strip() else ''}"
+            add(failed)
         print(f"[node] {name}: {got} row(s) in {time.perf_counter() - t:.0f} s", file=sys.stderr, flush=True)
     print(node_report.markdown(info, rows, plan_dict), end="")
     if paths:

@@ -43,6 +43,13 @@ def rl_rows(plan) -> Iterator[dict]:
     yield _rl_row(plan, "rl_paper", what, paper, None, ddppo)
 
 
+def _rl_args(plan, settings: dict, updates: int) -> SimpleNamespace:
+    """benchmarks/rl.py's arguments (`rl.overrides`) for the RL rows: the plan's envs, workers and scenes, a goal pool
+    of 64, ``settings`` (size, backbone, PPO; renderer, else auto)."""
+    return SimpleNamespace(envs=plan.rl_envs, workers=plan.rl_workers, scenes=plan.rl_scenes, base_planes=32,
+                           threads=plan.rl_threads, updates=updates, goal_pool=64, **{"renderer": "auto", **settings})
+
+
 def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, baseline: str,
             env: dict | None = None) -> dict:
     import rl as rl_bench
@@ -50,8 +57,7 @@ def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, bas
     from rvn_rl.trainer import train
 
     envs, workers = plan.rl_envs, plan.rl_workers
-    args = SimpleNamespace(envs=envs, workers=workers, scenes=plan.rl_scenes, base_planes=32, threads=plan.rl_threads,
-                           updates=2, goal_pool=64, **{"renderer": "auto", **settings})
+    args = _rl_args(plan, settings, updates=2)
     counted = []  # (env steps, seconds, update's metrics) of the updates that count
     with tempfile.TemporaryDirectory() as tmp, environ(env), GpuBusy() as busy:
         out = f"{tmp}/run"
@@ -84,14 +90,13 @@ def _rl_envs_row(plan, settings: dict) -> dict:
     import rl as rl_bench
     from rvn_rl.cli import compose
 
-    args = SimpleNamespace(envs=plan.rl_envs, workers=plan.rl_workers, scenes=plan.rl_scenes, base_planes=32,
-                           threads=plan.rl_threads, updates=1, goal_pool=64, **{"renderer": "auto", **settings})
+    args = _rl_args(plan, settings, updates=1)
     with tempfile.TemporaryDirectory() as tmp, GpuBusy() as busy:
         rate = rl_bench.collection(compose(rl_bench.overrides(args, f"{tmp}/run")), 2 * args.num_steps, False)
     return row(5, "rl_envs", f"rvn-rl envs alone, scale=small's envs ({'cuda' if plan.cuda else 'cpu'})",
                "env steps/s", None, rate,
                f"{args.size}² RGB, renderer={args.renderer}, {plan.rl_envs} envs in {plan.rl_workers} worker processes, "
-               f"{plan.rl_scenes} train scenes, goal pool 64, random actions, no policy or learner, "
+               f"{plan.rl_scenes} train scenes, goal pool {args.goal_pool}, random actions, no policy or learner, "
                f"{2 * args.num_steps} batched steps after 10 of warm-up", gpu_busy=busy.share)
 
 
