@@ -30,11 +30,13 @@ def losses(out_dir) -> dict[str, list[float]]:
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
-    """NoMaD-PointGoal (small, 3 steps) trained by rvn-train plainly and with train.compile=true."""
+    """NoMaD-PointGoal (small, 3 training steps, 4 denoising steps: the compiled sampling graph unrolls them, and
+    10 would double its compile time) trained by rvn-train plainly and with train.compile=true."""
     base = tmp_path_factory.mktemp("compiled")
     write_synthetic_gnm(base / "expert", 3, 24, image_size=64, seed=0)
     common = ["model=nomad_pointgoal", f"data.root={base / 'expert'}", "model.size=small", "train.max_steps=3",
-              "train.batch_size=4", "train.log_every=1", "data.num_workers=0", f"cache_dir={base / 'cache'}"]
+              "train.batch_size=4", "train.log_every=1", "model.num_diffusion_iters=4", "data.num_workers=0",
+              f"cache_dir={base / 'cache'}"]
     for name, extra in (("plain", []), ("compiled", ["train.compile=true"])):
         r = subprocess.run([sys.executable, "-m", "rvn_il.train.cli", f"out_dir={base / name}", *common, *extra],
                            capture_output=True, text=True, env=ENV, timeout=900)
@@ -59,7 +61,7 @@ def test_compiled_policy_acts_as_the_plain_one(runs, tmp_path, monkeypatch):
     monkeypatch.setenv("TORCHINDUCTOR_CACHE_DIR", str(tmp_path / "kernels"))
     plain = load_policy(runs / "plain")
     compiled = load_policy(runs / "plain", compile=True)
-    assert compiled.members[0].model.denoise_step is not None and plain.members[0].model.denoise_step is None
+    assert compiled.members[0].model.sampling_graph is not None and plain.members[0].model.sampling_graph is None
     for p in (plain, compiled):
         p.reset()
     for t in range(12):

@@ -10,7 +10,8 @@ import torch
 
 from rvn_data.conventions import AgentConfig
 from rvn_il.models import build_model, load_model_config
-from rvn_il.models.nomad import PREDICTION_TYPES, SAMPLERS, ddim_plan, ddpm_plan
+from rvn_il.models.nomad import PREDICTION_TYPES, SAMPLERS
+from rvn_il.models.sampling_plan import ddim_plan, ddpm_plan
 from rvn_il.policies import ControlConfig, Member, PointGoalPolicy
 
 torch.set_num_threads(1)

@@ -2,13 +2,16 @@
 ``train.compile`` for rvn-train's step, both off by default.
 
 Inference (:func:`compile_for_inference`): torch.compile (inductor) of the per-frame image encoder
-and of one denoising step of NoMaD's U-Net (:meth:`ConditionalUnet1D.forward_packed`), each with
-fixed shapes. On a CPU inductor fuses the many small operations of a one-frame / eight-sample
-decision into C++ kernels; on CUDA the mode is ``reduce-overhead``, which replays each compiled
-call as one CUDA graph, so a decision is no longer bound by launching a few thousand small
-kernels. The sampling loop, its noise draws and the action adapter stay as they are, so a compiled
-policy draws the same noise and its trajectories agree with the plain path to float rounding
-(tests/test_compiled.py checks the actions over a sequence of frames).
+and, for NoMaD, of the whole sampling after it (:meth:`NoMaDPointGoal.sample_packed`: the context
+Transformer's condition, the FiLM biases and all denoising steps with their updates, unrolled: see
+:class:`PackedSampler`), each with fixed shapes, so a decision is three compiled calls on a CPU and
+two CUDA graphs on a GPU. On a CPU inductor fuses the many small
+operations of a one-frame / eight-sample decision into C++ kernels; on CUDA the mode is
+``reduce-overhead``, which replays each compiled call as one CUDA graph, so a decision is no longer
+bound by launching a few thousand small kernels. The noise is drawn before the sampling call
+(:func:`rvn_il.models.sampling_plan.draw_noise`, in the plain loop's order) and the action adapter stays as it
+is, so a compiled policy draws the same noise and its trajectories agree with the plain path to float
+rounding (tests/test_compiled.py checks the actions over a sequence of frames).
 
 Training (:func:`compile_for_training`): ``nn.Module.compile`` of the encoder, the Transformer and
 the decoder (U-Net or ViNT's MLP) in place, so parameter names, checkpoints and the EMA are those
@@ -16,13 +19,14 @@ of the plain model; random draws are torch's, so losses agree with the plain fp3
 rounding (same test file).
 
 Compiled kernels are cached under the cache root (`rvn_data.cache_root.keep_compiled_kernels`):
-the first run compiles (about a minute on a laptop's core), later runs load.
+the first run compiles (NoMaD full: about two minutes on a laptop's core), later runs load.
 """
 from __future__ import annotations
 
 from typing import Callable
 
 import torch
+from torch import nn
 
 from rvn_data.cache_root import cache_root, keep_compiled_kernels, kernels_placed
 
@@ -63,27 +67,108 @@ def _kernel_cache() -> None:
 
 
 def compile_for_inference(model: torch.nn.Module, device: torch.device | str) -> torch.nn.Module:
-    """``model`` (eval mode, already on ``device``) with its frame encoder and, for NoMaD, its
-    denoising step compiled for decisions (``model.frame_encoder``, ``model.denoise_step``)."""
+    """``model`` (eval mode, with its final weights, already on ``device``) with its frame encoder and,
+    for NoMaD, its whole sampling (:meth:`NoMaDPointGoal.sample_packed`: condition, FiLM biases and
+    every denoising step with its update) compiled for decisions (``model.frame_encoder``,
+    ``model.sampling_graph``)."""
     device = torch.device(device)
     model.frame_encoder = CompiledCall(model.obs_encoder, device)
     if hasattr(model, "noise_pred_net"):
-        net = model.noise_pred_net
-        if device.type == "cuda":  # the repacked weights stay where they are: CUDA graphs need not copy them in
-            from torch._dynamo import mark_static_address
-
-            for t in _tensors(net.packed_weights()):
-                mark_static_address(t)
-        model.denoise_step = CompiledCall(net.forward_packed, device)
+        model.sampling_graph = PackedSampler(model, device)
     return model
 
 
-def _tensors(tree) -> list[torch.Tensor]:
-    """Every tensor in nested dicts, lists and tuples."""
+class PackedSampler:
+    """:meth:`NoMaDPointGoal.sample_packed` compiled: :meth:`NoMaDPointGoal.step_biases` (the condition
+    and every step's FiLM biases), then :meth:`NoMaDPointGoal.denoise_packed` (every step and its
+    update, unrolled).
+
+    - The U-Net's repacked weights and the plan's FiLM timestep part are held as buffers, so that
+      torch.compile sees them as a module's constants (guards and CUDA graphs treat them as fixed
+      addresses) rather than as a nested dict of inputs to check at every call.
+    - On a CPU the two parts are two compiled calls, and the biases enter the denoising graph as
+      inputs, one tensor per step and block, so that every step's U-Net compiles to the same C++
+      kernels. In one graph each step got kernels of its own, indexed into one tensor of all steps:
+      157 kernels instead of 52 and 236 s of compiling instead of 172 (NoMaD small, one core).
+    - On CUDA they are one call, one CUDA graph a decision, with four inputs to copy in: as two
+      graphs, each of the 150 bias tensors would be copied into the second graph's inputs.
+    - All steps in one graph against one graph per step called ten times (its step's numbers given as a
+      tensor), NoMaD full on one CPU core, same process: 36.7 ms against 40.3 ms a decision (plain
+      55.9), for about two minutes more compiling, once per cache root.
+
+    Built from the model's current weights: compile after loading them. Not a module itself, so that
+    the model can hold it (as ``sampling_graph``) without becoming its own child."""
+
+    def __init__(self, model: torch.nn.Module, device: torch.device):
+        self.model, self.weights = model, nn.Module()
+        with torch.no_grad():
+            packed = model.noise_pred_net.packed_weights()
+            flat: list[torch.Tensor] = []
+            self.layout = _flatten({k: v for k, v in packed.items() if isinstance(k, str)}, flat)
+            part_t = model.plan_film_part(packed)
+        for i, t in enumerate(flat):
+            self.weights.register_buffer(f"packed_{i}", t, persistent=False)
+        self.weights.register_buffer("part_t", part_t, persistent=False)
+        if device.type == "cuda":  # the weights stay where they are: CUDA graphs need not copy them in
+            from torch._dynamo import mark_static_address
+
+            for t in self.weights.buffers():
+                mark_static_address(t)
+        if device.type == "cuda":
+            self.whole = CompiledCall(self._whole, device)
+        else:
+            self.biases, self.denoise, self.whole = CompiledCall(self._biases, device), CompiledCall(self._denoise, device), None
+
+    def _packed(self) -> dict:
+        return _unflatten(self.layout, lambda i: getattr(self.weights, f"packed_{i}"))
+
+    def _biases(self, tokens: torch.Tensor, goal: torch.Tensor, goal_mask: torch.Tensor | None, rows: int):
+        return self.model.step_biases(tokens, goal, goal_mask, rows, self._packed(), self.weights.part_t)
+
+    def _denoise(self, x: torch.Tensor, noise: torch.Tensor, biases: list[list[torch.Tensor]]) -> torch.Tensor:
+        return self.model.denoise_packed(x, noise, biases, self._packed())
+
+    def _whole(self, tokens: torch.Tensor, goal: torch.Tensor, goal_mask: torch.Tensor | None,
+               x: torch.Tensor, noise: torch.Tensor) -> torch.Tensor:
+        return self._denoise(x, noise, self._biases(tokens, goal, goal_mask, x.shape[0]))
+
+    def __call__(self, tokens: torch.Tensor, goal: torch.Tensor, goal_mask: torch.Tensor | None,
+                 x: torch.Tensor, noise: torch.Tensor) -> torch.Tensor:
+        """:meth:`NoMaDPointGoal.sample_packed`'s result for the same inputs, to float rounding."""
+        if self.whole is not None:
+            return self.whole(tokens, goal, goal_mask, x, noise)
+        return self.denoise(x, noise, self.biases(tokens, goal, goal_mask, x.shape[0]))
+
+
+def _flatten(tree, flat: list[torch.Tensor]):
+    """``tree`` (dicts, lists, tuples of tensors and plain values) with each tensor replaced by its
+    index in ``flat``, where it is appended."""
     if isinstance(tree, torch.Tensor):
-        return [tree]
-    items = tree.values() if isinstance(tree, dict) else tree if isinstance(tree, (list, tuple)) else ()
-    return [t for item in items for t in _tensors(item)]
+        flat.append(tree)
+        return _Slot(len(flat) - 1)
+    if isinstance(tree, dict):
+        return {k: _flatten(v, flat) for k, v in tree.items()}
+    if isinstance(tree, (list, tuple)):
+        return type(tree)(_flatten(v, flat) for v in tree)
+    return tree
+
+
+def _unflatten(tree, tensor: Callable[[int], torch.Tensor]):
+    """The inverse of :func:`_flatten`: each slot replaced by ``tensor(index)``."""
+    if isinstance(tree, _Slot):
+        return tensor(tree.index)
+    if isinstance(tree, dict):
+        return {k: _unflatten(v, tensor) for k, v in tree.items()}
+    if isinstance(tree, (list, tuple)):
+        return type(tree)(_unflatten(v, tensor) for v in tree)
+    return tree
+
+
+class _Slot:
+    """A tensor's place in a flattened tree."""
+
+    def __init__(self, index: int):
+        self.index = index
 
 
 def compile_for_training(model: torch.nn.Module) -> torch.nn.Module:

@@ -19,16 +19,16 @@ the last) or ``ddim`` (Song et al. 2021, η = 0: deterministic given the initial
 DDIMScheduler over the same timesteps), so the samples differ only by where they start."""
 from __future__ import annotations
 
-from typing import Mapping, NamedTuple
+from typing import Mapping
 
 import torch
 import torch.nn.functional as F
 from torch import nn
 
 from .base import PointGoalModel, masked_mean
+from .sampling_plan import PREDICTION_TYPES, DDIMStep, DDPMStep, ddim_plan, ddpm_plan, draw_noise
 from .unet1d import ConditionalUnet1D
 
-PREDICTION_TYPES = ("epsilon", "sample", "v_prediction")
 SAMPLERS = ("ddpm", "ddim")
 
 
@@ -119,7 +119,7 @@ class NoMaDPointGoal(PointGoalModel):
         return self.scheduler.get_velocity(naction, noise, t)
 
     fast_sampling = True  # predict's default path; False: module forward + diffusers' scheduler.step
-    denoise_step = None  # the fast path's compiled forward_packed (policy.compile: rvn_il.models.compiled)
+    sampling_graph = None  # the fast path's compiled sample_packed (policy.compile: rvn_il.models.compiled)
     sampler = "ddpm"  # the reverse process of predict (module docstring); set by the policy loader
 
     @torch.inference_mode()
@@ -130,37 +130,71 @@ class NoMaDPointGoal(PointGoalModel):
         computed once and reused by every denoising step; all samples denoise as one batch; the
         FiLM biases of every step come from one call before the loop.
 
-        ``fast`` (default ``self.fast_sampling``) runs the denoiser's packed inference form
-        (:meth:`ConditionalUnet1D.forward_packed`, with the FiLM biases of all steps from
-        :meth:`~ConditionalUnet1D.packed_film_biases`) and the precomputed update of
-        :func:`ddpm_plan` or :func:`ddim_plan` (``self.sampler``); ``fast=False`` (the reference
-        path) runs the module's ``forward`` and diffusers' ``DDPMScheduler.step`` or
-        ``DDIMScheduler.step``. Both draw the same noise from ``generator`` in the same order, so
-        for a given seed they give the same trajectories up to float rounding."""
+        ``fast`` (default ``self.fast_sampling``) runs :meth:`sample_packed`: the denoiser's packed
+        inference form (:meth:`ConditionalUnet1D.forward_packed`) and the precomputed update of
+        :func:`ddpm_plan` or :func:`ddim_plan` (``self.sampler``), with every step's noise drawn
+        before the loop (:func:`~.sampling_plan.draw_noise`), in the order the loop would draw it; ``fast=False``
+        (the reference path) runs the module's ``forward`` and diffusers' ``DDPMScheduler.step`` or
+        ``DDIMScheduler.step``, which draw noise as they go. Both draw the same noise from
+        ``generator`` in the same order, so for a given seed they give the same trajectories up to
+        float rounding."""
         fast = self.fast_sampling if fast is None else bool(fast)
         plan = self._plan() if fast else None  # None: a scheduler setting it does not reproduce
         b = tokens.shape[0]
+        shape = (b * num_samples, self.len_traj_pred, 2)
+        if plan is not None:
+            x, noise = draw_noise(plan, shape, generator, tokens.device)
+            x = (self.sampling_graph or self.sample_packed)(tokens, goal, goal_mask, x, noise)
+            return self.unnormalize_actions(x).view(b, num_samples, self.len_traj_pred, 2)
         cond = self.condition(tokens, goal, goal_mask)
         if b > 1:
             cond = cond.repeat_interleave(num_samples, dim=0)
-        x = torch.randn((b * num_samples, self.len_traj_pred, 2), generator=generator, device=tokens.device)
+        x = torch.randn(shape, generator=generator, device=tokens.device)
         net = self.noise_pred_net
-        if plan is None:
-            scheduler = self._inference_scheduler()
-            scheduler.set_timesteps(self.num_diffusion_iters)
-            timesteps, bc = scheduler.timesteps, cond.shape[0]
-            biases = net.film_biases(timesteps.to(x.device).repeat_interleave(bc),
-                                     cond.repeat(len(timesteps), 1))  # [steps*Bc, C, 1] per block
-            for k, t in enumerate(timesteps):
-                out = net(x, biases=[bias[k * bc:(k + 1) * bc] for bias in biases])
-                x = scheduler.step(out, int(t), x, generator=generator).prev_sample
-        else:
-            packed = net.packed_weights()
-            biases = net.packed_film_biases(torch.tensor([s.t for s in plan]), cond, packed)
-            denoise = self.denoise_step or net.forward_packed
-            for step, step_biases in zip(plan, biases):
-                x = step.update(denoise(x, step_biases, packed), x, generator)
+        scheduler = self._inference_scheduler()
+        scheduler.set_timesteps(self.num_diffusion_iters)
+        timesteps, bc = scheduler.timesteps, cond.shape[0]
+        biases = net.film_biases(timesteps.to(x.device).repeat_interleave(bc),
+                                 cond.repeat(len(timesteps), 1))  # [steps*Bc, C, 1] per block
+        for k, t in enumerate(timesteps):
+            out = net(x, biases=[bias[k * bc:(k + 1) * bc] for bias in biases])
+            x = scheduler.step(out, int(t), x, generator=generator).prev_sample
         return self.unnormalize_actions(x).view(b, num_samples, self.len_traj_pred, 2)
+
+    def sample_packed(self, tokens: torch.Tensor, goal: torch.Tensor, goal_mask: torch.Tensor | None,
+                      x: torch.Tensor, noise: torch.Tensor) -> torch.Tensor:
+        """The fast path of :meth:`predict` from the condition to the last denoising step, all
+        samples of a batch item in one batch: x_T [B·S, len, 2] and the steps' noise ``noise``
+        [steps that draw, B·S, len, 2] (:func:`~.sampling_plan.draw_noise`) → x_0, normalised. Two parts, each
+        free of random draws and Python-side caches so that torch.compile can take it whole
+        (rvn_il.models.compiled): :meth:`step_biases`, then :meth:`denoise_packed`."""
+        packed = self.noise_pred_net.packed_weights()
+        biases = self.step_biases(tokens, goal, goal_mask, x.shape[0], packed, self.plan_film_part(packed))
+        return self.denoise_packed(x, noise, biases, packed)
+
+    def plan_film_part(self, packed: dict) -> torch.Tensor:
+        """The FiLM timestep part of the sampling plan's steps (:meth:`ConditionalUnet1D.film_timestep_part`)."""
+        return self.noise_pred_net.film_timestep_part(torch.tensor([s.t for s in self._plan()]), packed)
+
+    def step_biases(self, tokens: torch.Tensor, goal: torch.Tensor, goal_mask: torch.Tensor | None, rows: int,
+                    packed: dict, part_t: torch.Tensor) -> list[list[torch.Tensor]]:
+        """Every denoising step's FiLM biases [rows, C, 1] per block for the condition of ``tokens`` and
+        ``goal`` (each batch item's condition repeated for its ``rows // B`` samples)."""
+        cond = self.condition(tokens, goal, goal_mask)
+        if rows > cond.shape[0] > 1:
+            cond = cond.repeat_interleave(rows // cond.shape[0], dim=0)
+        return self.noise_pred_net.packed_film_biases(None, cond, packed, part_t)
+
+    def denoise_packed(self, x: torch.Tensor, noise: torch.Tensor, biases: list[list[torch.Tensor]],
+                       packed: dict) -> torch.Tensor:
+        """Every step of the sampling plan from x_T: the packed U-Net (:meth:`ConditionalUnet1D.forward_packed`)
+        with that step's ``biases``, then the step's update with its ``noise`` (in plan order, one per step that draws)."""
+        net, k = self.noise_pred_net, 0
+        for step, step_biases in zip(self._plan(), biases):
+            out = net.forward_packed(x, step_biases, packed)
+            x = step.update(out, x, noise=noise[k] if step.std else None)
+            k += bool(step.std)
+        return x
 
     def _plan(self) -> list[DDPMStep] | list[DDIMStep] | None:
         """:func:`ddpm_plan` or :func:`ddim_plan` of this model's scheduler for ``self.sampler``,
@@ -179,112 +213,3 @@ class NoMaDPointGoal(PointGoalModel):
             return self.scheduler
         from diffusers import DDIMScheduler
         return DDIMScheduler.from_config(self.scheduler.config)
-
-
-class DDPMStep(NamedTuple):
-    """One reverse step of diffusers' DDPMScheduler as plain numbers: the predicted x0 from the
-    model output, clipped, then the posterior mean ``c_x0·x0 + c_xt·x_t`` plus ``std`` times
-    fresh noise (none on the last step)."""
-
-    t: int
-    kind: str  # prediction_type
-    sqrt_a: float  # √ᾱ_t
-    sqrt_b: float  # √(1-ᾱ_t)
-    clip: float | None  # clip_sample_range, or None without clipping
-    c_x0: float
-    c_xt: float
-    std: float  # 0 on the last step
-
-    def update(self, out: torch.Tensor, x: torch.Tensor, generator: torch.Generator | None) -> torch.Tensor:
-        """x_{t-1} from the model output ``out`` and x_t, in the operation order of
-        ``DDPMScheduler.step`` (so the floats match it)."""
-        if self.kind == "epsilon":
-            x0 = (x - self.sqrt_b * out) / self.sqrt_a
-        elif self.kind == "sample":
-            x0 = out
-        else:  # v_prediction
-            x0 = self.sqrt_a * x - self.sqrt_b * out
-        if self.clip is not None:
-            x0 = x0.clamp(-self.clip, self.clip)
-        prev = self.c_x0 * x0 + self.c_xt * x
-        if self.std:
-            gen_device = generator.device if generator is not None else out.device
-            noise = torch.randn(out.shape, generator=generator, device=gen_device, dtype=out.dtype).to(out.device)
-            prev = prev + self.std * noise
-        return prev
-
-
-def ddpm_plan(scheduler, num_steps: int) -> list[DDPMStep] | None:
-    """The reverse steps of ``scheduler`` (a diffusers DDPMScheduler) over ``num_steps`` inference
-    steps, with every coefficient computed once, as ``DDPMScheduler.step`` computes it (float32
-    tensors, then Python floats). None when the scheduler uses a feature this update does not
-    reproduce (thresholding, a variance type other than fixed_small): predict then calls
-    ``scheduler.step``."""
-    cfg = scheduler.config
-    if cfg.thresholding or cfg.variance_type != "fixed_small" or cfg.prediction_type not in PREDICTION_TYPES:
-        return None
-    scheduler.set_timesteps(num_steps)
-    ts = [int(t) for t in scheduler.timesteps]
-    acp, one = scheduler.alphas_cumprod.cpu(), scheduler.one.cpu()
-    plan = []
-    for i, t in enumerate(ts):
-        prev_t = ts[i + 1] if i + 1 < len(ts) else -1
-        a_t, a_prev = acp[t], acp[prev_t] if prev_t >= 0 else one
-        b_t, b_prev = 1 - a_t, 1 - a_prev
-        cur_a = a_t / a_prev
-        cur_b = 1 - cur_a
-        var = torch.clamp(b_prev / b_t * cur_b, min=1e-20)
-        plan.append(DDPMStep(t, cfg.prediction_type, float(a_t ** 0.5), float(b_t ** 0.5),
-                             float(cfg.clip_sample_range) if cfg.clip_sample else None,
-                             float(a_prev ** 0.5 * cur_b / b_t), float(cur_a ** 0.5 * b_prev / b_t),
-                             float(var ** 0.5) if t > 0 else 0.0))
-    return plan
-
-
-class DDIMStep(NamedTuple):
-    """One reverse step of diffusers' DDIMScheduler with η = 0 as plain numbers: the predicted x0
-    (clipped) and noise from the model output, then ``√ᾱ_prev·x0 + √(1-ᾱ_prev)·ε``; no noise drawn."""
-
-    t: int
-    kind: str  # prediction_type
-    sqrt_a: float  # √ᾱ_t
-    sqrt_b: float  # √(1-ᾱ_t)
-    clip: float | None  # clip_sample_range, or None without clipping
-    c_x0: float  # √ᾱ_prev
-    c_eps: float  # √(1-ᾱ_prev)
-
-    def update(self, out: torch.Tensor, x: torch.Tensor, generator: torch.Generator | None = None) -> torch.Tensor:
-        """x_{t-1} from the model output ``out`` and x_t, in the operation order of
-        ``DDIMScheduler.step`` (ε from the unclipped x0, as its default ``use_clipped_model_output=False``)."""
-        if self.kind == "epsilon":
-            x0, eps = (x - self.sqrt_b * out) / self.sqrt_a, out
-        elif self.kind == "sample":
-            x0 = out
-            eps = (x - self.sqrt_a * x0) / self.sqrt_b
-        else:  # v_prediction
-            x0 = self.sqrt_a * x - self.sqrt_b * out
-            eps = self.sqrt_a * out + self.sqrt_b * x
-        if self.clip is not None:
-            x0 = x0.clamp(-self.clip, self.clip)
-        return self.c_x0 * x0 + self.c_eps * eps
-
-
-def ddim_plan(scheduler, num_steps: int) -> list[DDIMStep] | None:
-    """The η = 0 DDIM reverse steps over ``num_steps`` inference steps for the betas of
-    ``scheduler`` (the model's DDPMScheduler), with the timesteps and coefficients diffusers'
-    DDIMScheduler uses (ᾱ_prev = 1 after the last step); None where the config has thresholding."""
-    from diffusers import DDIMScheduler
-    ddim = DDIMScheduler.from_config(scheduler.config)
-    cfg = ddim.config
-    if cfg.thresholding or cfg.prediction_type not in PREDICTION_TYPES:
-        return None
-    ddim.set_timesteps(num_steps)
-    ratio = cfg.num_train_timesteps // ddim.num_inference_steps
-    plan = []
-    for t in (int(t) for t in ddim.timesteps):
-        a_t = ddim.alphas_cumprod[t]
-        a_prev = ddim.alphas_cumprod[t - ratio] if t - ratio >= 0 else ddim.final_alpha_cumprod
-        plan.append(DDIMStep(t, cfg.prediction_type, float(a_t ** 0.5), float((1 - a_t) ** 0.5),
-                             float(cfg.clip_sample_range) if cfg.clip_sample else None,
-                             float(a_prev ** 0.5), float((1 - a_prev) ** 0.5)))
-    return plan

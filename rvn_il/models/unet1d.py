@@ -201,22 +201,29 @@ class ConditionalUnet1D(nn.Module):
         self._packed_cache = (key, packed)
         return packed
 
-    def packed_film_biases(self, timesteps: torch.Tensor, global_cond: torch.Tensor,
-                           packed: dict) -> list[list[torch.Tensor]]:
-        """:meth:`film_biases` of every timestep [S] with every condition [N, G]: per step, every
-        block's [N, C, 1]. The blocks' FiLM layers act on [Mish(t_emb), Mish(cond)], so the
-        timestep half (kept in ``packed``) and the condition half are two products, one each for
-        all blocks."""
-        w_t, w_c, b, sizes = packed["film"]
+    def film_timestep_part(self, timesteps: torch.Tensor, packed: dict) -> torch.Tensor:
+        """The timestep half of every block's FiLM bias for timesteps [S]: [S, ΣC] (the bias
+        included), computed once per timestep list and kept in ``packed``."""
+        w_t, _, b, _ = packed["film"]
         key = ("film_t", tuple(timesteps.tolist()))
         part_t = packed.get(key)
         if part_t is None:
             with torch.no_grad():
-                temb = self.diffusion_step_encoder(timesteps.to(global_cond.device))
-                part_t = packed[key] = torch.addmm(b, F.mish(temb), w_t)  # [S, ΣC]
+                temb = self.diffusion_step_encoder(timesteps.to(w_t.device))
+                part_t = packed[key] = torch.addmm(b, F.mish(temb), w_t)
+        return part_t
+
+    def packed_film_biases(self, timesteps: torch.Tensor | None, global_cond: torch.Tensor,
+                           packed: dict, part_t: torch.Tensor | None = None) -> list[list[torch.Tensor]]:
+        """:meth:`film_biases` of every timestep [S] with every condition [N, G]: per step, every
+        block's [N, C, 1]. The blocks' FiLM layers act on [Mish(t_emb), Mish(cond)], so the
+        timestep half (:meth:`film_timestep_part`, or ``part_t`` when given) and the condition half
+        are two products, one each for all blocks."""
+        _, w_c, _, sizes = packed["film"]
+        part_t = self.film_timestep_part(timesteps, packed) if part_t is None else part_t
         total = part_t[:, None] + torch.mm(F.mish(global_cond), w_c)  # [S, N, ΣC]
         chunks = [c.unsqueeze(-1) for c in total.split(sizes, dim=-1)]  # [S, N, C, 1] per block
-        return [[c[k] for c in chunks] for k in range(len(timesteps))]
+        return [[c[k] for c in chunks] for k in range(part_t.shape[0])]
 
     def forward_packed(self, sample: torch.Tensor, biases: list[torch.Tensor],
                        packed: dict | None = None) -> torch.Tensor:

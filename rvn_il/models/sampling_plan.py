@@ -1,0 +1,144 @@
+"""NoMaD's reverse process as plain numbers: every step of diffusers' DDPMScheduler
+(:func:`ddpm_plan`) or of its η = 0 DDIMScheduler (:func:`ddim_plan`) over the model's inference
+timesteps, with its coefficients computed once, so that the fast sampling path of
+:meth:`rvn_il.models.nomad.NoMaDPointGoal.predict` updates x_t with a few tensor operations per step
+(and torch.compile can take them into its graph), in the operation order of ``scheduler.step`` so
+the floats match it. :func:`draw_noise` draws a decision's noise before its loop, in the order the
+reference loop draws it."""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import torch
+
+PREDICTION_TYPES = ("epsilon", "sample", "v_prediction")
+
+
+class DDPMStep(NamedTuple):
+    """One reverse step of diffusers' DDPMScheduler as plain numbers: the predicted x0 from the
+    model output, clipped, then the posterior mean ``c_x0·x0 + c_xt·x_t`` plus ``std`` times
+    fresh noise (none on the last step)."""
+
+    t: int
+    kind: str  # prediction_type
+    sqrt_a: float  # √ᾱ_t
+    sqrt_b: float  # √(1-ᾱ_t)
+    clip: float | None  # clip_sample_range, or None without clipping
+    c_x0: float
+    c_xt: float
+    std: float  # 0 on the last step
+
+    def update(self, out: torch.Tensor, x: torch.Tensor, generator: torch.Generator | None = None,
+               noise: torch.Tensor | None = None) -> torch.Tensor:
+        """x_{t-1} from the model output ``out`` and x_t, in the operation order of
+        ``DDPMScheduler.step`` (so the floats match it); the step's ``noise`` is drawn from
+        ``generator`` as that draws it unless given (:func:`draw_noise` drew it before the loop)."""
+        if self.kind == "epsilon":
+            x0 = (x - self.sqrt_b * out) / self.sqrt_a
+        elif self.kind == "sample":
+            x0 = out
+        else:  # v_prediction
+            x0 = self.sqrt_a * x - self.sqrt_b * out
+        if self.clip is not None:
+            x0 = x0.clamp(-self.clip, self.clip)
+        prev = self.c_x0 * x0 + self.c_xt * x
+        if self.std:
+            if noise is None:
+                noise = step_noise(out.shape, generator, out.device, out.dtype)
+            prev = prev + self.std * noise
+        return prev
+
+
+def step_noise(shape: tuple, generator: torch.Generator | None, device: torch.device,
+               dtype: torch.dtype = torch.float32) -> torch.Tensor:
+    """One DDPM step's noise as ``DDPMScheduler.step`` draws it: on the generator's device, then moved."""
+    gen_device = generator.device if generator is not None else device
+    return torch.randn(shape, generator=generator, device=gen_device, dtype=dtype).to(device)
+
+
+def draw_noise(plan: list, shape: tuple, generator: torch.Generator | None,
+               device: torch.device) -> tuple[torch.Tensor, torch.Tensor]:
+    """x_T and the noise of every step of ``plan`` that draws some ([n, *shape]; n = 0 for DDIM), drawn
+    from ``generator`` in the order the sampling loop of the reference path draws them, so both paths see
+    the same numbers."""
+    x = torch.randn(shape, generator=generator, device=device)
+    draws = [step_noise(shape, generator, device) for step in plan if step.std]
+    return x, torch.stack(draws) if draws else x.new_zeros((0, *shape))
+
+
+def ddpm_plan(scheduler, num_steps: int) -> list[DDPMStep] | None:
+    """The reverse steps of ``scheduler`` (a diffusers DDPMScheduler) over ``num_steps`` inference
+    steps, with every coefficient computed once, as ``DDPMScheduler.step`` computes it (float32
+    tensors, then Python floats). None when the scheduler uses a feature this update does not
+    reproduce (thresholding, a variance type other than fixed_small): predict then calls
+    ``scheduler.step``."""
+    cfg = scheduler.config
+    if cfg.thresholding or cfg.variance_type != "fixed_small" or cfg.prediction_type not in PREDICTION_TYPES:
+        return None
+    scheduler.set_timesteps(num_steps)
+    ts = [int(t) for t in scheduler.timesteps]
+    acp, one = scheduler.alphas_cumprod.cpu(), scheduler.one.cpu()
+    plan = []
+    for i, t in enumerate(ts):
+        prev_t = ts[i + 1] if i + 1 < len(ts) else -1
+        a_t, a_prev = acp[t], acp[prev_t] if prev_t >= 0 else one
+        b_t, b_prev = 1 - a_t, 1 - a_prev
+        cur_a = a_t / a_prev
+        cur_b = 1 - cur_a
+        var = torch.clamp(b_prev / b_t * cur_b, min=1e-20)
+        plan.append(DDPMStep(t, cfg.prediction_type, float(a_t ** 0.5), float(b_t ** 0.5),
+                             float(cfg.clip_sample_range) if cfg.clip_sample else None,
+                             float(a_prev ** 0.5 * cur_b / b_t), float(cur_a ** 0.5 * b_prev / b_t),
+                             float(var ** 0.5) if t > 0 else 0.0))
+    return plan
+
+
+class DDIMStep(NamedTuple):
+    """One reverse step of diffusers' DDIMScheduler with η = 0 as plain numbers: the predicted x0
+    (clipped) and noise from the model output, then ``√ᾱ_prev·x0 + √(1-ᾱ_prev)·ε``; no noise drawn."""
+
+    t: int
+    kind: str  # prediction_type
+    sqrt_a: float  # √ᾱ_t
+    sqrt_b: float  # √(1-ᾱ_t)
+    clip: float | None  # clip_sample_range, or None without clipping
+    c_x0: float  # √ᾱ_prev
+    c_eps: float  # √(1-ᾱ_prev)
+    std = 0.0  # no noise drawn (a class attribute, not a field)
+
+    def update(self, out: torch.Tensor, x: torch.Tensor, generator: torch.Generator | None = None,
+               noise: torch.Tensor | None = None) -> torch.Tensor:
+        """x_{t-1} from the model output ``out`` and x_t, in the operation order of
+        ``DDIMScheduler.step`` (ε from the unclipped x0, as its default ``use_clipped_model_output=False``)."""
+        if self.kind == "epsilon":
+            x0, eps = (x - self.sqrt_b * out) / self.sqrt_a, out
+        elif self.kind == "sample":
+            x0 = out
+            eps = (x - self.sqrt_a * x0) / self.sqrt_b
+        else:  # v_prediction
+            x0 = self.sqrt_a * x - self.sqrt_b * out
+            eps = self.sqrt_a * out + self.sqrt_b * x
+        if self.clip is not None:
+            x0 = x0.clamp(-self.clip, self.clip)
+        return self.c_x0 * x0 + self.c_eps * eps
+
+
+def ddim_plan(scheduler, num_steps: int) -> list[DDIMStep] | None:
+    """The η = 0 DDIM reverse steps over ``num_steps`` inference steps for the betas of
+    ``scheduler`` (the model's DDPMScheduler), with the timesteps and coefficients diffusers'
+    DDIMScheduler uses (ᾱ_prev = 1 after the last step); None where the config has thresholding."""
+    from diffusers import DDIMScheduler
+    ddim = DDIMScheduler.from_config(scheduler.config)
+    cfg = ddim.config
+    if cfg.thresholding or cfg.prediction_type not in PREDICTION_TYPES:
+        return None
+    ddim.set_timesteps(num_steps)
+    ratio = cfg.num_train_timesteps // ddim.num_inference_steps
+    plan = []
+    for t in (int(t) for t in ddim.timesteps):
+        a_t = ddim.alphas_cumprod[t]
+        a_prev = ddim.alphas_cumprod[t - ratio] if t - ratio >= 0 else ddim.final_alpha_cumprod
+        plan.append(DDIMStep(t, cfg.prediction_type, float(a_t ** 0.5), float((1 - a_t) ** 0.5),
+                             float(cfg.clip_sample_range) if cfg.clip_sample else None,
+                             float(a_prev ** 0.5), float((1 - a_prev) ** 0.5)))
+    return plan
