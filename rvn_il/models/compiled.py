@@ -89,9 +89,10 @@ class PackedSampler:
     - On a CPU the two parts are two compiled calls, and the biases enter the denoising graph as
       inputs, one tensor per step and block, so that every step's U-Net compiles to the same C++
       kernels. In one graph each step got kernels of its own, indexed into one tensor of all steps:
-      157 kernels instead of 52 and 236 s of compiling instead of 172 (NoMaD small, one core).
-    - On CUDA they are one call, one CUDA graph a decision, with four inputs to copy in: as two
-      graphs, each of the 150 bias tensors would be copied into the second graph's inputs.
+      157 kernels instead of 52 and 236 s of compiling instead of 172 (NoMaD small, 2-core development CPU).
+    - On CUDA they are one call, one CUDA graph a decision, with four inputs to copy in (and more
+      kernels to compile): as two graphs, each of the 150 bias tensors would be copied into the
+      second graph's inputs.
     - All steps in one graph against one graph per step called ten times (its step's numbers given as a
       tensor), NoMaD full on one CPU core, same process: 36.7 ms against 40.3 ms a decision (plain
       55.9), for about two minutes more compiling, once per cache root.
@@ -114,7 +115,6 @@ class PackedSampler:
 
             for t in self.weights.buffers():
                 mark_static_address(t)
-        if device.type == "cuda":
             self.whole = CompiledCall(self._whole, device)
         else:
             self.biases, self.denoise, self.whole = CompiledCall(self._biases, device), CompiledCall(self._denoise, device), None
