@@ -105,7 +105,8 @@ class PackedSampler:
         with torch.no_grad():
             packed = model.noise_pred_net.packed_weights()
             flat: list[torch.Tensor] = []
-            self.layout = _flatten({k: v for k, v in packed.items() if isinstance(k, str)}, flat)
+            weights = {k: v for k, v in packed.items() if isinstance(k, str)}  # not film_timestep_part's cache (tuple keys)
+            self.layout = _flatten(weights, flat)
             part_t = model.plan_film_part(packed)
         for i, t in enumerate(flat):
             self.weights.register_buffer(f"packed_{i}", t, persistent=False)
