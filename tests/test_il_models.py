@@ -134,3 +134,30 @@ def test_encoder_width_whose_channels_16_does_not_divide(root):
     out = model(batch, torch.Generator().manual_seed(0))
     out["loss"].backward()
     assert torch.isfinite(out["loss"])
+
+
+@pytest.mark.parametrize("name", ["vint_pointgoal", "nomad_pointgoal"])
+def test_train_compile_traces_every_part_it_compiles(root, name, monkeypatch, tmp_path):
+    """train.compile (compile_for_training) compiles the encoder, the Transformer and the decoder: a training step
+    traces one graph for each. torch.compile does not trace a module whose forward is in torch.nn's own files, so a
+    plain nn.TransformerEncoder or nn.Sequential ran eagerly. Traced here with dynamo's ``eager`` backend: the same
+    capture as rvn-train's, without inductor's minutes of kernel compiling."""
+    from torch._dynamo.utils import counters
+    from torch._inductor import config
+
+    from rvn_il.models.compiled import compile_for_training
+
+    compile_module = torch.nn.Module.compile
+    monkeypatch.setattr(torch.nn.Module, "compile", lambda self: compile_module(self, backend="eager"))
+    monkeypatch.setenv("TORCHINDUCTOR_CACHE_DIR", str(tmp_path / "kernels"))
+    cfg = load_model_config(name, "small")
+    batch = make_dataset(root, cfg, {"progress": False}).get_batch(range(4))
+    torch.manual_seed(0)
+    parts = {"obs_encoder", "transformer", "noise_pred_net" if name == "nomad_pointgoal" else "decoder"}
+    torch._dynamo.reset()
+    counters.clear()
+    with config.patch(fallback_random=config.fallback_random):  # compile_for_training sets it
+        model = compile_for_training(build_model(cfg).train())
+        model(batch, torch.Generator().manual_seed(0))["loss"].backward()
+    assert counters["stats"]["unique_graphs"] == len(parts), dict(counters["stats"])
+    assert not counters["graph_break"], dict(counters["graph_break"])

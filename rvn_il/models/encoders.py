@@ -96,8 +96,25 @@ class PositionalEncoding(nn.Module):
         return x + self.pe[:, : x.shape[1]]
 
 
-def make_transformer(d_model: int, num_heads: int, num_layers: int, ff_factor: int, dropout: float) -> nn.TransformerEncoder:
+class ContextTransformer(nn.TransformerEncoder):
+    """``nn.TransformerEncoder`` (same weights and state_dict keys) whose call starts in this file. torch.compile
+    does not trace a frame that starts in torch.nn's own files (dynamo's skipfiles), so a compiled
+    ``nn.TransformerEncoder`` (``train.compile``) ran eagerly; from this forward it traces torch's code as one graph."""
+
+    def forward(self, src: torch.Tensor, mask: torch.Tensor | None = None,
+                src_key_padding_mask: torch.Tensor | None = None) -> torch.Tensor:
+        return super().forward(src, mask=mask, src_key_padding_mask=src_key_padding_mask)
+
+
+class MLP(nn.Sequential):
+    """``nn.Sequential`` whose call starts in this file, so torch.compile traces it (see `ContextTransformer`)."""
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return super().forward(x)
+
+
+def make_transformer(d_model: int, num_heads: int, num_layers: int, ff_factor: int, dropout: float) -> ContextTransformer:
     """4-layer, 4-head, pre-norm, GELU, batch-first encoder as ViNT/NoMaD."""
     layer = nn.TransformerEncoderLayer(d_model, num_heads, dim_feedforward=ff_factor * d_model, dropout=dropout,
                                        activation="gelu", batch_first=True, norm_first=True)
-    return nn.TransformerEncoder(layer, num_layers, enable_nested_tensor=False)
+    return ContextTransformer(layer, num_layers, enable_nested_tensor=False)

@@ -11,6 +11,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from .base import PointGoalModel, masked_mean
+from .encoders import MLP
 
 
 class ViNTPointGoal(PointGoalModel):
@@ -22,7 +23,7 @@ class ViNTPointGoal(PointGoalModel):
         dims = [(self.context_size + 2) * d, *[int(v) for v in cfg.get("decoder_dims", (256, 128, 64, 32))]]
         for a, b in zip(dims[:-1], dims[1:]):
             layers += [nn.Linear(a, b), nn.ReLU()]
-        self.decoder = nn.Sequential(*layers)
+        self.decoder = MLP(*layers)
         self.action_head = nn.Linear(dims[-1], self.len_traj_pred * 2)
         self.dist_head = nn.Linear(dims[-1], 1) if cfg.get("distance_head", True) else None
         self.alpha = float(cfg.get("alpha", 0.5))
