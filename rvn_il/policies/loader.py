@@ -12,10 +12,10 @@ on CPU, default 1, null: torch's setting; see :mod:`.policy`) or an agent settin
 the first checkpoint's in ``aggregate=vote`` (every member draws ``num_samples``; ties go to the
 earliest sample, the first checkpoint's first). Control and agent settings are the first checkpoint's.
 
-``compile``: true runs each network's frame encoder and NoMaD's denoising step through torch.compile
-(on CUDA as CUDA graphs; :mod:`rvn_il.models.compiled`): same noise, same actions up to float
-rounding, a faster decision after a first one that compiles (about a minute per network on a CPU
-core; kernels cached under the cache root).
+``compile``: true runs each network's frame encoder and NoMaD's whole sampling (condition, FiLM biases, every
+denoising step) through torch.compile (on CUDA as CUDA graphs; :mod:`rvn_il.models.compiled`): same noise, same
+actions up to float rounding, a faster decision after a first one that compiles (NoMaD full: about 3.5 minutes on
+a CPU core; kernels cached under the cache root).
 
 ``sampler``: NoMaD's reverse process, ``ddpm`` (default, the paper's) or ``ddim`` (η = 0), for every
 network of the policy (:mod:`rvn_il.models.nomad`); ViNT has none, so anything but ddpm is an error.
