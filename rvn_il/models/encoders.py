@@ -102,8 +102,8 @@ class ContextTransformer(nn.TransformerEncoder):
     ``nn.TransformerEncoder`` (``train.compile``) ran eagerly; from this forward it traces torch's code as one graph."""
 
     def forward(self, src: torch.Tensor, mask: torch.Tensor | None = None,
-                src_key_padding_mask: torch.Tensor | None = None) -> torch.Tensor:
-        return super().forward(src, mask=mask, src_key_padding_mask=src_key_padding_mask)
+                src_key_padding_mask: torch.Tensor | None = None, is_causal: bool | None = None) -> torch.Tensor:
+        return super().forward(src, mask=mask, src_key_padding_mask=src_key_padding_mask, is_causal=is_causal)
 
 
 class MLP(nn.Sequential):
