@@ -49,6 +49,7 @@ from types import SimpleNamespace
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # the other benchmarks' modules
 
 import node_report  # noqa: E402
+import node_warm  # noqa: E402
 from node_rl import rl_rows  # noqa: E402
 from node_rows import decision_rows, gen_rows, render_rows, row, train_rows  # noqa: E402
 
@@ -80,11 +81,16 @@ def parse(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument("--profile", choices=("auto", "on", "off"), default="auto",
                     help="torch.profiler's operator table of a few steps of the training and decision rows, written "
                          "beside node.md as profile_<row>.txt (auto: on with CUDA, not with --quick)")
+    ap.add_argument("--warm", type=float, default=0, metavar="SECONDS",
+                    help="first compile the compiled rows' models side by side in processes of their own, at most "
+                         "SECONDS (node_warm.py): their rows then load the kernels (default 0: each row compiles cold)")
     args = ap.parse_args(argv)
     if args.seconds_per_row is None:
         args.seconds_per_row = 1.0 if args.quick else 15.0
     if not 0 < args.seconds_per_row <= 120:
         ap.error(f"--seconds-per-row={args.seconds_per_row:g} must be in (0, 120]")
+    if args.warm < 0:
+        ap.error(f"--warm={args.warm:g} must be >= 0")
     if args.threads is not None and args.threads < 1:
         ap.error(f"--threads={args.threads} must be >= 1")
     if args.out is not None:  # checked before minutes of measuring
@@ -134,6 +140,11 @@ def main(argv: list[str] | None = None) -> int:
     print(f"[node] {info['device']}, {info['cpu_count']} CPUs, torch {info['torch']}: rows {' '.join(args.rows)}, "
           f"{plan.seconds:g} s per figure", file=sys.stderr, flush=True)
     rows, plan_dict, paths = [], dict(vars(plan)), []
+    if args.warm:
+        t = time.perf_counter()
+        plan_dict["warm"] = node_warm.warm(plan, args.rows, args.warm)
+        print(f"[node] --warm: {'; '.join(plan_dict['warm']) or 'nothing to compile'} "
+              f"({time.perf_counter() - t:.0f} s)", file=sys.stderr, flush=True)
     numbers = {name: k for k, name in enumerate(GROUPS, 1)}
 
     def add(r: dict) -> None:  # the row, then the table so far: a run stopped by a time limit keeps what it measured

@@ -6,9 +6,9 @@
 # docs/results/<date>_gpu), which node.py rewrites after each row: a run cut short by NODE_TIMEOUT
 # (seconds, default 540) keeps what it measured. Every step has a time limit; the first failing one stops it.
 #   bash benchmarks/node_gpu.sh [OUT] [node.py options, e.g. --rows render gen decision --seconds-per-row 10]
-# Inside a 15-minute device lease, whose $OUT returns at most 8 files (node.md, node.json and up to 9 profiles): the plain
-# rows first, then the compiled ones on the warm machine (docs/results/2026-11-27_gpu/README.md, "Next run"), e.g.
-#   NODE_TIMEOUT=420 bash benchmarks/node_gpu.sh /tmp/node --rows rl gen train decision --compile off \
+# Inside a 15-minute device lease, whose $OUT returns at most 8 files (node.md, node.json and up to 9 profiles): the
+# compiled rows first, their cold compiles side by side (--warm), then the other rows on the warm machine, e.g.
+#   NODE_TIMEOUT=520 bash benchmarks/node_gpu.sh /tmp/node --rows train decision --compile on --warm 280 \
 #     --seconds-per-row 5; tar czf "$OUT/node.tgz" -C /tmp node
 set -euo pipefail
 cd "$(dirname "$0")/.."

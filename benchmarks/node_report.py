@@ -112,6 +112,8 @@ def markdown(info: dict, rows: list[dict], plan: dict) -> str:
              f"mode: {'quick' if plan['quick'] else 'normal'}, {plan['seconds']:g} s measured per figure after "
              "warm-up (steady state); GPU busy = mean utilization of GPU 0 while the row ran",
              *([] if info["cuda"] else ["goals of issue 32 are a GPU node's: not compared on a machine without CUDA"]),
+             *([f"--warm (the compiled rows' cold compiles side by side first): {'; '.join(plan['warm'])}"]
+               if plan.get("warm") else []),
              "",
              "| # | row | measured | goal (issue 32) | measured/goal | GPU busy | settings, baseline |",
              "|---|-----|---------:|-----------------|--------------:|---------:|--------------------|"]

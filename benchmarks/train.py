@@ -98,6 +98,7 @@ def steady_train_rate(root: Path, cfg: dict, batch: int, seconds: float, device:
     model.train()
     opt = torch.optim.AdamW(model.parameters(), lr=1e-4, fused=fused_on(dev))
     if compile:
+        compile_alone()
         compile_for_training(model)
     ema = EMA(model, float(cfg.get("ema_power", 0.75))) if cfg.get("ema", False) else None
     sampler = BatchSampler(EpochSampler(len(ds)), batch, drop_last=True)
@@ -147,6 +148,15 @@ def steady_train_rate(root: Path, cfg: dict, batch: int, seconds: float, device:
     return steps * batch / wall, steps, waited / wall
 
 
+def compile_alone() -> None:
+    """Forgets what torch.compile saw earlier in this process, so the next model compiles as in a process of its own
+    (as rvn-train and rvn-eval compile it). Otherwise parts whose code another model shares (``ObsEncoder.forward``,
+    ``ContextTransformer.forward``) recompile with dynamic sizes (dynamo's automatic dynamic shapes): node.py's
+    compiled ViNT step after NoMaD's saw 'images' of 24 frames where NoMaD's had 16, and got a dynamic graph that
+    neither rvn-train runs nor a kernel cache filled by rvn-train holds."""
+    torch._dynamo.reset()
+
+
 DECISION_BLOCK = 8  # decisions of one policy in a row when decision_ms times two
 
 
@@ -175,6 +185,8 @@ def decision_ms(name: str, size: str, decisions: int, threads: int | None = 1,
         paths = ((True, True), (True, False)) if reference else ((True, True),)
     else:
         paths = ((True, False), (False, False)) if name != "vint_pointgoal" and reference else ((True, False),)
+    if compile:
+        compile_alone()
     policies = []
     for fast, compiled in paths:
         torch.manual_seed(0)

@@ -1,0 +1,87 @@
+"""node.py --warm: the compiled rows' cold compiles, done together in parallel processes before any row is timed.
+
+A cold ``torch.compile`` of NoMaD full's training step, ViNT's, NoMaD's whole sampling on the GPU and on the CPU
+each take minutes (the first GPU run's time limits cut two of them). Each job here runs in a process of its own, at
+the sizes node.py's rows use (`node.make_plan`), until its first compiled steps are done, which fills inductor's
+kernel cache (the cache root's ``compiled`` folder, or ``TORCHINDUCTOR_CACHE_DIR``). The rows that follow, timed
+one at a time as before, then load the kernels instead of generating them: each still traces its model (dynamo
+and AOT autograd), but the code generation and kernel compiles, most of a cold compile, run once and side by side.
+No figure is taken here; the rows' figures are after their own warm-up, as without --warm.
+
+    python benchmarks/node_warm.py JOB PLAN_JSON   (one job, as node.py starts it)
+"""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from types import SimpleNamespace
+
+HERE = Path(__file__).resolve().parent
+
+
+def jobs(plan, groups: list[str]) -> list[str]:
+    """The compiled rows' jobs of the row ``groups`` (none without ``plan.compile``)."""
+    if not plan.compile:
+        return []
+    out = []
+    if "train" in groups:
+        out += ["train_nomad_pointgoal", "train_vint_pointgoal"]
+    if "decision" in groups:
+        out += (["decision_gpu"] if plan.cuda else []) + ["decision_cpu"]
+    return out
+
+
+def warm(plan, groups: list[str], timeout: float) -> list[str]:
+    """Runs the jobs of ``groups`` side by side, each at most ``timeout`` seconds; one line per job (its time, or
+    why it stopped). A job that fails or runs out of time only leaves its row a cold compile."""
+    todo = jobs(plan, groups)
+    if not todo:
+        return []
+    spec = json.dumps(vars(plan))
+    t0 = time.perf_counter()
+    procs = {j: subprocess.Popen([sys.executable, str(Path(__file__).resolve()), j, spec], stdout=subprocess.DEVNULL,
+                                 stderr=subprocess.PIPE, text=True) for j in todo}
+    lines = []
+    for j, p in procs.items():
+        try:
+            _, err = p.communicate(timeout=max(1.0, timeout - (time.perf_counter() - t0)))
+            last = (err or "").strip().splitlines()[-1:] or [""]
+            lines.append(f"{j}: {time.perf_counter() - t0:.0f} s" + ("" if p.returncode == 0 else
+                                                                     f", FAILED ({last[0][:200]})"))
+        except subprocess.TimeoutExpired:
+            p.kill()
+            p.communicate()
+            lines.append(f"{j}: stopped after {timeout:.0f} s (its row compiles the rest)")
+    return lines
+
+
+def run_job(job: str, plan) -> None:
+    """One job: the compiled path of one row, at its sizes, through its first steps."""
+    sys.path.insert(0, str(HERE))
+    import train as train_bench
+    from rvn_il.models import load_model_config
+
+    if job.startswith("decision_"):
+        gpu = job == "decision_gpu"
+        train_bench.decision_ms("nomad_pointgoal", "full" if gpu else plan.decision_cpu_size, 1, threads=1,
+                                reference=False, device="cuda" if gpu else "cpu", compile=True)
+        return
+    from rvn_il.data.synthetic import write_synthetic_gnm
+    from rvn_il.policies.policy import intra_op_threads
+
+    name = job.removeprefix("train_")
+    device, size, precision = ("cuda", "full", "bf16") if plan.cuda else ("cpu", plan.cpu_model_size, "fp32")
+    with tempfile.TemporaryDirectory() as tmp:
+        trajectories, length = plan.train_data
+        root = write_synthetic_gnm(Path(tmp) / "expert", trajectories, length, image_size=plan.train_image)
+        with intra_op_threads(plan.train_threads):  # as the row: inductor's CPU kernels are made for a thread count
+            train_bench.steady_train_rate(root, load_model_config(name, size), plan.train_batch, 0.1, device,
+                                          precision, min(2, plan.loader_workers), str(Path(tmp) / "cache"), True)
+
+
+if __name__ == "__main__":
+    run_job(sys.argv[1], SimpleNamespace(**json.loads(sys.argv[2])))
