@@ -11,7 +11,7 @@ Rows (each timed for --seconds-per-row after its warm-up, so figures are steady 
  2. rvn-gen with cpu_count workers, 256², renderer=auto (with CUDA also renderer=raycast, and gl with
     __GL_YIELD=USLEEP, NVIDIA's GL waiting without spinning): frames/s after each
     worker's set-up (start-up, scene, navmesh, renderer; the end-to-end figure beside it), and each phase's share
-    of the time and ms per frame (set-up, planning, rendering, encoding, writing);
+    of the time and ms per frame (set-up, planning, rendering, encoding, writing), beside one worker's alone;
  3. rvn-train's step (its DataLoader with cpu_count workers, forward, backward, AdamW, EMA) of NoMaD-PointGoal
     and ViNT-PointGoal on synthetic GNM data: full size, batch 256, bf16 on a GPU; model.size=small, a small batch
     on a CPU: samples/s;
@@ -24,7 +24,7 @@ Rows (each timed for --seconds-per-row after its warm-up, so figures are steady 
     written beside node.md as profile_<row>.txt, so a goal the table misses comes with what bounds it);
  5. rvn-rl PPO collection + learning at 128², ResNet-18, scale=small PPO settings, envs in worker processes:
     env steps/s (with CUDA also with renderer=raycast and gl with __GL_YIELD=USLEEP, and the envs alone: random
-    actions, no policy or learner); and with the paper's network and PPO settings (ResNet-50,
+    actions, no policy or learner, in the rl row's workers and in one worker); and with the paper's network and PPO settings (ResNet-50,
     256²) beside DD-PPO's ~160 per GPU.
 With CUDA, each row shows issue 32's goal and measured/goal, and "GPU busy": GPU 0's mean utilization
 while the row ran (torch.cuda.utilization or pynvml; "n/a" without them), set-up, warm-up and profile included,

@@ -32,6 +32,8 @@ def rl_rows(plan) -> Iterator[dict]:
     yield _rl_row(plan, "rl", "scale=small", small, "rl", "")
     if plan.cuda or plan.quick:
         yield _rl_envs_row(plan, small)
+        if plan.rl_workers > 1 or plan.quick:  # one worker alone: a per-worker rate that drops with more workers is contention
+            yield _rl_envs_row(plan, small, workers=1)
     if plan.cuda:
         yield _rl_row(plan, "rl_raycast", "scale=small, renderer=raycast", {**small, "renderer": "raycast"}, "rl", "")
         yield _rl_row(plan, "rl_gl_usleep", "scale=small, renderer=gl, __GL_YIELD=USLEEP", {**small, "renderer": "gl"},
@@ -84,20 +86,26 @@ def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, bas
                f"PPO update {100 * share('time_learn'):.0f}%", baseline, busy.share)
 
 
-def _rl_envs_row(plan, settings: dict) -> dict:
+def _rl_envs_row(plan, settings: dict, workers: int | None = None) -> dict:
     """The rl row's envs alone (`rl.collection`: the same vec env and worker processes, random actions, no policy, no
-    learner), so a slow rl row shows whether the envs or their sharing the node with the learner bound it."""
+    learner), so a slow rl row shows whether the envs or their sharing the node with the learner bound it. With
+    ``workers`` (row ``rl_envs_<workers>``), that many worker processes with as many envs each as the rl row's: on the
+    first GPU run an env step took ~30 ms in 15 workers against ~9 ms in 2 workers of the 2-core development CPU."""
     import rl as rl_bench
     from rvn_rl.cli import compose
 
     args = _rl_args(plan, settings, updates=1)
+    if workers is not None:
+        args.envs, args.workers = max(1, plan.rl_envs // plan.rl_workers) * workers, workers
     with tempfile.TemporaryDirectory() as tmp, GpuBusy() as busy:
         rate = rl_bench.collection(compose(rl_bench.overrides(args, f"{tmp}/run")), 2 * args.num_steps, False)
-    return row(5, "rl_envs", f"rvn-rl envs alone, scale=small's envs ({'cuda' if plan.cuda else 'cpu'})",
-               "env steps/s", None, rate,
-               f"{args.size}² RGB, renderer={args.renderer}, {plan.rl_envs} envs in {plan.rl_workers} worker processes, "
+    return row(5, "rl_envs" + ("" if workers is None else f"_{workers}"),
+               f"rvn-rl envs alone, scale=small's envs ({'cuda' if plan.cuda else 'cpu'})"
+               + ("" if workers is None else f", {workers} worker(s)"), "env steps/s", None, rate,
+               f"{args.size}² RGB, renderer={args.renderer}, {args.envs} envs in {args.workers} worker processes, "
                f"{plan.rl_scenes} train scenes, goal pool {args.goal_pool}, random actions, no policy or learner, "
-               f"{2 * args.num_steps} batched steps after 10 of warm-up", gpu_busy=busy.share)
+               f"{2 * args.num_steps} batched steps after 10 of warm-up: {rate / args.workers:.0f} env steps/s "
+               "per worker", gpu_busy=busy.share)
 
 
 def _steps_seconds(update: dict, envs: int) -> tuple[float, float, dict]:

@@ -181,11 +181,15 @@ def _gen_row(plan, key: str, renderer: str, env: dict | None = None) -> dict:
     steady = rep.frames / max((total - phases["setup"]) / w, 1e-9)
     shares = ", ".join(f"{k} {100 * v / total:.0f}% ({1e3 * v / max(1, rep.frames):.2f} ms/frame)"
                        for k, v in phases.items())
+    # the sizing run's worker had the machine to itself (its first trajectory's one-off costs included: an upper
+    # bound): a phase slower per frame in w workers than there is slowed by their sharing the node
+    alone = ", ".join(f"{k} {1e3 * v / max(1, warm.frames):.2f}" for k, v in t.items() if k != "setup")
     with_env = "".join(f", {k}={v}" for k, v in (env or {}).items())
     return row(2, key, f"rvn-gen, {w} workers, renderer={renderer}{with_env}, after set-up", "frames/s", "gen", steady,
                f"{plan.size}² JPEG, renderer {', '.join(gen_bench.backends(rep))}, {rep.frames} frames of {w} scenes "
                f"in {rep.seconds:.1f} s: {rep.frames / rep.seconds:.0f} frames/s end to end (start-up and set-up "
-               f"included); time summed over workers: {shares}", gpu_busy=busy.share)
+               f"included); time summed over workers: {shares}; one worker alone (the sizing run, {warm.frames} frames, "
+               f"one-off costs included, ms/frame): {alone}", gpu_busy=busy.share)
 
 
 def train_rows(plan) -> Iterator[dict]:

@@ -27,7 +27,8 @@ def test_quick_run_lists_every_row(tmp_path):
     assert table in proc.stdout
     rows = {r["key"]: r for r in doc["rows"]}
     cpus = doc["cpu_count"]
-    expected = {"gen", "train_nomad_pointgoal", "train_vint_pointgoal", "decision_gpu", "decision_cpu", "rl", "render_gl_4scenes"}
+    expected = {"gen", "train_nomad_pointgoal", "train_vint_pointgoal", "decision_gpu", "decision_cpu", "rl", "rl_envs",
+                "rl_envs_1", "render_gl_4scenes"}
     expected |= {f"render_{b}_{n}p" for b in ("gl", "raycast") for n in {1, 2, cpus}}
     assert expected <= set(rows), sorted(expected - set(rows))
     assert {r["group"] for r in doc["rows"]} == set(GROUPS.values())
