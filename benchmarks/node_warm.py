@@ -13,6 +13,8 @@ No figure is taken here; the rows' figures are after their own warm-up, as witho
 from __future__ import annotations
 
 import json
+import os
+import signal
 import subprocess
 import sys
 import tempfile
@@ -43,8 +45,9 @@ def warm(plan, groups: list[str], timeout: float) -> list[str]:
         return []
     spec = json.dumps(vars(plan))
     t0 = time.perf_counter()
+    # each job in a session of its own: a stopped job takes its compile workers (and their compilers) with it
     procs = {j: subprocess.Popen([sys.executable, str(Path(__file__).resolve()), j, spec], stdout=subprocess.DEVNULL,
-                                 stderr=subprocess.PIPE, text=True) for j in todo}
+                                 stderr=subprocess.PIPE, text=True, start_new_session=True) for j in todo}
     lines = []
     for j, p in procs.items():
         try:
@@ -53,7 +56,7 @@ def warm(plan, groups: list[str], timeout: float) -> list[str]:
             lines.append(f"{j}: {time.perf_counter() - t0:.0f} s" + ("" if p.returncode == 0 else
                                                                      f", FAILED ({last[0][:200]})"))
         except subprocess.TimeoutExpired:
-            p.kill()
+            os.killpg(p.pid, signal.SIGKILL)
             p.communicate()
             lines.append(f"{j}: stopped after {timeout:.0f} s (its row compiles the rest)")
     return lines

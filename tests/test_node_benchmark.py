@@ -178,3 +178,22 @@ def test_environ_sets_and_restores(monkeypatch):
     assert os.environ["RVN_T_KEPT"] == "a" and "RVN_T_NEW" not in os.environ
     with environ(None):
         assert os.environ["RVN_T_KEPT"] == "a"
+
+
+def test_warm_compiles_each_row_in_a_process_of_its_own(monkeypatch):
+    """node.py --warm (node_warm.warm): one process per compiled row, each with its time limit; a job that fails or
+    runs out of time is reported in one line (its row then compiles cold), and nothing is left running."""
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
+    import node
+    import node_warm
+
+    plan = node.make_plan(node.parse(["--quick", "--compile", "on"]), False, 2)
+    assert node_warm.jobs(plan, ["train", "decision", "rl"]) == [
+        "train_nomad_pointgoal", "train_vint_pointgoal", "decision_cpu"]
+    assert node_warm.jobs(node.make_plan(node.parse(["--quick", "--compile", "off"]), False, 2), ["train"]) == []
+    plan.decision_cpu_size = "nope"  # the job's own error, in its line
+    (line,) = node_warm.warm(plan, ["decision"], 300)
+    assert line.startswith("decision_cpu: ") and "FAILED" in line and "model.size='nope'" in line, line
+    plan.decision_cpu_size = "small"  # a cold compile of minutes, stopped at its limit
+    (line,) = node_warm.warm(plan, ["decision"], 1)
+    assert line == "decision_cpu: stopped after 1 s (its row compiles the rest)", line
