@@ -24,8 +24,8 @@ Rows (each timed for --seconds-per-row after its warm-up, so figures are steady 
     written beside node.md as profile_<row>.txt, so a goal the table misses comes with what bounds it);
  5. rvn-rl PPO collection + learning at 128², ResNet-18, scale=small PPO settings, envs in worker processes:
     env steps/s (with CUDA also with renderer=raycast and gl with __GL_YIELD=USLEEP, and the envs alone: random
-    actions, no policy or learner, in the rl row's workers and in one worker); and with the paper's network and PPO settings (ResNet-50,
-    256²) beside DD-PPO's ~160 per GPU.
+    actions, no policy or learner, in the rl row's workers and in one worker); and with the paper's network and PPO
+    settings (ResNet-50, 256²) beside DD-PPO's ~160 per GPU.
 With CUDA, each row shows issue 32's goal and measured/goal, and "GPU busy": GPU 0's mean utilization
 while the row ran (torch.cuda.utilization or pynvml; "n/a" without them), set-up, warm-up and profile included,
 so it reads low for rows 3 and 4: their profiles give the kernel time of the profiled steps. On the first GPU

@@ -32,7 +32,7 @@ def rl_rows(plan) -> Iterator[dict]:
     yield _rl_row(plan, "rl", "scale=small", small, "rl", "")
     if plan.cuda or plan.quick:
         yield _rl_envs_row(plan, small)
-        if plan.rl_workers > 1 or plan.quick:  # one worker alone: a per-worker rate that drops with more workers is contention
+        if plan.rl_workers > 1 or plan.quick:  # a per-worker rate that drops with more workers: contention
             yield _rl_envs_row(plan, small, workers=1)
     if plan.cuda:
         yield _rl_row(plan, "rl_raycast", "scale=small, renderer=raycast", {**small, "renderer": "raycast"}, "rl", "")

@@ -15,7 +15,7 @@ def op_table(run: Callable[[], None], cuda: bool, rows: int = ROWS) -> str:
     """The operator table of ``run()`` (CPU time, and GPU time with ``cuda``; the GPU is synchronised before
     the profile ends), sorted by self GPU time with ``cuda``, else by self CPU time. With ``cuda`` also the
     host's side: the calls in which it waited for the GPU (`HOST_WAITS`) and the table by self CPU time (the
-    first GPU run's compiled training steps ran a third of their wall time in kernels: bound on the host)."""
+    second GPU run's compiled training steps ran a third of their wall time in kernels: bound on the host)."""
     from torch.profiler import ProfilerActivity, profile
 
     activities = [ProfilerActivity.CPU] + ([ProfilerActivity.CUDA] if cuda else [])
