@@ -19,7 +19,9 @@ Rows (each timed for --seconds-per-row after its warm-up, so figures are steady 
     CPU thread: median ms (the GPU row says "skipped" on a machine without CUDA);
  (--compile, on by default with CUDA: rows 3 and 4 with train.compile / policy.compile as rows of their own
     (`<row>_compiled`), each after its plain row, so a time limit that cuts a first compile (minutes; kernels are
-    cached for the next run) leaves the plain figure;
+    cached for the next run) leaves the plain figure; --compile-mode default reduce-overhead: a compiled training row
+    per torch.compile mode (`<row>_compiled_reduce-overhead`: CUDA graphs); --warm SECONDS: the cold compiles first,
+    side by side (node_warm.py);
     --profile, on by default with CUDA: torch.profiler's operator table of a few more steps of rows 3 and 4,
     written beside node.md as profile_<row>.txt, so a goal the table misses comes with what bounds it);
  5. rvn-rl PPO collection + learning at 128², ResNet-18, scale=small PPO settings, envs in worker processes:
@@ -81,6 +83,9 @@ def parse(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument("--profile", choices=("auto", "on", "off"), default="auto",
                     help="torch.profiler's operator table of a few steps of the training and decision rows, written "
                          "beside node.md as profile_<row>.txt (auto: on with CUDA, not with --quick)")
+    ap.add_argument("--compile-mode", nargs="+", choices=("default", "reduce-overhead"), default=["default"],
+                    help="torch.compile modes of the compiled training rows, a row each (reduce-overhead: CUDA graphs "
+                         "for a step bound by the host's launches; row train_<model>_compiled_reduce-overhead)")
     ap.add_argument("--warm", type=float, default=0, metavar="SECONDS",
                     help="first compile the compiled rows' models side by side in processes of their own, at most "
                          "SECONDS (node_warm.py): their rows then load the kernels (default 0: each row compiles cold)")
@@ -111,6 +116,7 @@ def make_plan(args, cuda: bool, cpus: int) -> SimpleNamespace:
     return SimpleNamespace(
         quick=q, seconds=args.seconds_per_row, cuda=cuda, cpus=cpus, scene=args.scene, backends=args.backends,
         compile=args.compile == "on" or (args.compile == "auto" and cuda and not q),
+        compile_modes=list(dict.fromkeys(args.compile_mode)),
         profile=args.profile == "on" or (args.profile == "auto" and cuda and not q),
         size=64 if q else 256,
         render_processes=sorted({1, 2, cpus}),

@@ -8,8 +8,8 @@
 #   bash benchmarks/node_gpu.sh [OUT] [node.py options, e.g. --rows render gen decision --seconds-per-row 10]
 # Inside a 15-minute device lease, whose $OUT returns at most 8 files (node.md, node.json and up to 9 profiles): the
 # compiled rows first, their cold compiles side by side (--warm), then the other rows on the warm machine, e.g.
-#   NODE_TIMEOUT=480 bash benchmarks/node_gpu.sh /tmp/node --rows train decision --compile on --warm 240 \
-#     --seconds-per-row 5; tar czf "$OUT/node.tgz" -C /tmp node
+#   NODE_TIMEOUT=500 bash benchmarks/node_gpu.sh /tmp/node --rows train decision --compile on \
+#     --compile-mode default reduce-overhead --warm 240 --seconds-per-row 5; tar czf "$OUT/node.tgz" -C /tmp node
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-docs/results/$(date -u +%F)_gpu}

@@ -64,15 +64,17 @@ def plain_then_compiled(measure, compile: bool) -> Iterator[tuple[str, object]]:
     failed) when the compiled path fails (the traceback goes to stderr): the plain figure is in the table before
     the minutes a first compile takes (a GPU node's time limit cut both compiled groups of the first run)."""
     yield "plain", measure(False)
-    if not compile:
-        return
+    if compile:
+        yield compiled_or_failed(lambda: measure(True))
+
+
+def compiled_or_failed(measure_compiled) -> tuple[str, object]:
+    """("compiled", ``measure_compiled()``), or ("failed", what failed; the traceback goes to stderr)."""
     try:
-        got = measure(True)
+        return "compiled", measure_compiled()
     except Exception as e:
         traceback.print_exc()
-        yield "failed", f"{type(e).__name__}: {(str(e).strip().splitlines() or [''])[0][:200]}"
-        return
-    yield "compiled", got
+        return "failed", f"{type(e).__name__}: {(str(e).strip().splitlines() or [''])[0][:200]}"
 
 
 def render_rows(plan) -> Iterator[dict]:
@@ -207,12 +209,12 @@ def train_rows(plan) -> Iterator[dict]:
         for name in ("nomad_pointgoal", "vint_pointgoal"):
             cfg = load_model_config(name, size)
 
-            def measure(compiled: bool, channels_last: bool = True):
+            def measure(compiled: bool, mode: str = "default"):
                 profiles = {} if plan.profile else None
                 with intra_op_threads(plan.train_threads), GpuBusy() as busy:
                     rate, steps, waiting = train_bench.steady_train_rate(
                         root, cfg, plan.train_batch, plan.seconds, device, precision, plan.loader_workers,
-                        str(Path(tmp) / "cache"), compiled, profiles, channels_last)
+                        str(Path(tmp) / "cache"), compiled, profiles, compile_mode=mode)
                 return rate, steps, waiting, busy.share, (profiles or {}).get("train")
 
             w, h = cfg["image_size"]
@@ -225,21 +227,17 @@ def train_rows(plan) -> Iterator[dict]:
                            f"{steps} steps timed, waiting for the loader {100 * waiting:.0f}% of the time, "
                            "synthetic GNM data", gpu_busy=busy, profile=profile)
 
-            paths = plain_then_compiled(measure, plan.compile)  # lazy: the compiled step is measured last
-            _, plain = next(paths)
+            plain = measure(False)  # first: a compiled step is measured after minutes of compiling
             yield train_row(f"train_{name}", "", plain, "train.compile=false")
-            if name == "nomad_pointgoal" and (plan.cuda or plan.quick):
-                # on CUDA torch's group_norm copies a channels-last input to NCHW (NoMaD's GroupNorm EfficientNet)
-                nchw = measure(False, channels_last=False)
-                yield train_row(f"train_{name}_nchw", ", NCHW encoder", nchw,
-                                f"train.compile=false, the encoder NCHW, not channels-last (x{nchw[0] / plain[0]:.2f})")
-            for kind, got in paths:
+            for mode in plan.compile_modes if plan.compile else ():  # default: rvn-train's train.compile=true
+                key, label = (f"train_{name}_compiled", ", train.compile=true") if mode == "default" else (
+                    f"train_{name}_compiled_{mode}", f", train.compile=true, torch.compile mode {mode}")
+                kind, got = compiled_or_failed(lambda: measure(True, mode=mode))
                 if kind == "failed":
-                    yield row(3, f"train_{name}_compiled", f"rvn-train {name} ({device}), train.compile=true",
-                              "samples/s", f"train_{name}", skipped=f"the compiled step FAILED ({got})")
+                    yield row(3, key, f"rvn-train {name} ({device}){label}", "samples/s", f"train_{name}",
+                              skipped=f"the compiled step FAILED ({got})")
                 else:
-                    yield train_row(f"train_{name}_compiled", ", train.compile=true", got,
-                                    f"train.compile=true (x{got[0] / plain[0]:.2f} the plain step)")
+                    yield train_row(key, label, got, f"{label[2:]} (x{got[0] / plain[0]:.2f} the plain step)")
 
 
 def decision_rows(plan) -> Iterator[dict]:

@@ -30,8 +30,9 @@ def jobs(plan, groups: list[str]) -> list[str]:
     if not plan.compile:
         return []
     out = []
-    if "train" in groups:
-        out += ["train_nomad_pointgoal", "train_vint_pointgoal"]
+    if "train" in groups:  # a job per torch.compile mode (node.py --compile-mode): "<row>" or "<row>@<mode>"
+        out += [f"train_{m}" + ("" if mode == "default" else f"@{mode}")
+                for mode in plan.compile_modes for m in ("nomad_pointgoal", "vint_pointgoal")]
     if "decision" in groups:
         out += (["decision_gpu"] if plan.cuda else []) + ["decision_cpu"]
     return out
@@ -76,14 +77,15 @@ def run_job(job: str, plan) -> None:
     from rvn_il.data.synthetic import write_synthetic_gnm
     from rvn_il.policies.policy import intra_op_threads
 
-    name = job.removeprefix("train_")
+    name, _, mode = job.removeprefix("train_").partition("@")
     device, size, precision = ("cuda", "full", "bf16") if plan.cuda else ("cpu", plan.cpu_model_size, "fp32")
     with tempfile.TemporaryDirectory() as tmp:
         trajectories, length = plan.train_data
         root = write_synthetic_gnm(Path(tmp) / "expert", trajectories, length, image_size=plan.train_image)
         with intra_op_threads(plan.train_threads):  # as the row: inductor's CPU kernels are made for a thread count
             train_bench.steady_train_rate(root, load_model_config(name, size), plan.train_batch, 0.1, device,
-                                          precision, min(2, plan.loader_workers), str(Path(tmp) / "cache"), True)
+                                          precision, min(2, plan.loader_workers), str(Path(tmp) / "cache"), True,
+                                          compile_mode=mode or "default")
 
 
 if __name__ == "__main__":

@@ -74,7 +74,7 @@ def train_rate(root: Path, cfg: dict, batch: int, steps: int, channels_last: boo
 def steady_train_rate(root: Path, cfg: dict, batch: int, seconds: float, device: str = "cpu",
                       precision: str = "fp32", workers: int = 0, cache_dir: str | None = None,
                       compile: bool = False, profiles: dict | None = None,
-                      channels_last: bool = True) -> tuple[float, int, float]:
+                      channels_last: bool = True, compile_mode: str = "default") -> tuple[float, int, float]:
     """(samples/s, steps timed, share of the timed wall time spent waiting for the loader's next batch) of
     rvn-train's step in steady state: its DataLoader (``workers`` processes,
     pinned memory on a GPU, uint8 frames), channels-last model on ``device`` (compiled with ``compile``, as
@@ -83,8 +83,9 @@ def steady_train_rate(root: Path, cfg: dict, batch: int, seconds: float, device:
     (at least 3 steps and a fifth of ``seconds``, until a step takes at most 1.5 x the fastest one
     so far, or ``seconds`` have passed). With ``profiles`` (a dict), 3 more steps are profiled after the timing
     into ``profiles["train"]`` (`op_profile.op_table`). ``channels_last=False`` keeps the encoder NCHW (rvn-train
-    makes it NHWC): on CUDA torch's group_norm copies a channels-last input to NCHW (NoMaD's GroupNorm
-    EfficientNet; aten::copy_ was 36% of its step's GPU time on the first GPU run)."""
+    makes it NHWC): on the second GPU run NoMaD's NCHW step was 0.89x as fast, although on CUDA torch's group_norm
+    copies a channels-last input to NCHW (aten::copy_ was 36% of its step's GPU time on the first GPU run). ``compile_mode``: as
+    `compile_for_training`'s (``reduce-overhead``: CUDA graphs; each step then marks its beginning for them)."""
     from op_profile import op_table
     from rvn_il.train.ema import EMA
     from rvn_il.train.optimisation import fused_on
@@ -99,7 +100,8 @@ def steady_train_rate(root: Path, cfg: dict, batch: int, seconds: float, device:
     opt = torch.optim.AdamW(model.parameters(), lr=1e-4, fused=fused_on(dev))
     if compile:
         compile_alone()
-        compile_for_training(model)
+        compile_for_training(model, compile_mode)
+    graphs = compile and compile_mode == "reduce-overhead"
     ema = EMA(model, float(cfg.get("ema_power", 0.75))) if cfg.get("ema", False) else None
     sampler = BatchSampler(EpochSampler(len(ds)), batch, drop_last=True)
     loader = DataLoader(BatchView(ds), batch_size=None, sampler=sampler, num_workers=workers,
@@ -116,6 +118,8 @@ def steady_train_rate(root: Path, cfg: dict, batch: int, seconds: float, device:
         with torch.profiler.record_function("loader wait"):
             b = next(batches)
         wait = time.perf_counter() - t_wait
+        if graphs:  # a new step: the last step's graph outputs may be overwritten
+            torch.compiler.cudagraph_mark_step_begin()
         b = {k: v.to(dev, non_blocking=True) for k, v in b.items()}
         with torch.autocast(dev.type, dtype=torch.bfloat16, enabled=precision == "bf16"):
             loss = model(b, gen)["loss"]

@@ -148,7 +148,9 @@ def test_train_compile_traces_every_part_it_compiles(root, name, monkeypatch, tm
     from rvn_il.models.compiled import compile_for_training
 
     compile_module = torch.nn.Module.compile
-    monkeypatch.setattr(torch.nn.Module, "compile", lambda self: compile_module(self, backend="eager"))
+    modes = []
+    monkeypatch.setattr(torch.nn.Module, "compile",
+                        lambda self, **kw: (modes.append(kw), compile_module(self, backend="eager"))[1])
     monkeypatch.setenv("TORCHINDUCTOR_CACHE_DIR", str(tmp_path / "kernels"))
     cfg = load_model_config(name, "small")
     batch = make_dataset(root, cfg, {"progress": False}).get_batch(range(4))
@@ -161,3 +163,22 @@ def test_train_compile_traces_every_part_it_compiles(root, name, monkeypatch, tm
         model(batch, torch.Generator().manual_seed(0))["loss"].backward()
     assert counters["stats"]["unique_graphs"] == len(parts), dict(counters["stats"])
     assert not counters["graph_break"], dict(counters["graph_break"])
+    assert modes == [{"mode": None}] * len(parts)  # torch.compile's default mode
+
+
+def test_train_compile_mode_reaches_every_part(monkeypatch):
+    """compile_for_training's ``mode`` (benchmarks/node.py --compile-mode: CUDA graphs for host-bound steps) is
+    torch.compile's for every part; an unknown mode is refused before anything compiles, naming the choices."""
+    from torch._inductor import config
+
+    from rvn_il.models.compiled import compile_for_training
+
+    seen = []
+    monkeypatch.setattr(torch.nn.Module, "compile", lambda self, **kw: seen.append((type(self).__name__, kw)))
+    with config.patch(fallback_random=config.fallback_random):
+        compile_for_training(build_model(load_model_config("vint_pointgoal", "small")), mode="reduce-overhead")
+        assert [kw for _, kw in seen] == [{"mode": "reduce-overhead"}] * 3, seen
+        seen.clear()
+        with pytest.raises(ValueError, match="compile mode 'max-autotune': choose one of default, reduce-overhead"):
+            compile_for_training(build_model(load_model_config("vint_pointgoal", "small")), mode="max-autotune")
+    assert seen == []

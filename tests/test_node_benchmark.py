@@ -56,6 +56,7 @@ def test_quick_run_lists_every_row(tmp_path):
 
 @pytest.mark.parametrize("args, says", [(["--seconds-per-row", "0"], "--seconds-per-row"),
                                         (["--rows", "nope"], "invalid choice"),
+                                        (["--compile-mode", "max-autotune"], "invalid choice"),
                                         (["--bogus"], "unrecognized arguments")])
 def test_bad_options_one_line_exit_2(args, says):
     proc = node(*args, timeout=120)
@@ -191,6 +192,11 @@ def test_warm_compiles_each_row_in_a_process_of_its_own(monkeypatch):
     assert node_warm.jobs(plan, ["train", "decision", "rl"]) == [
         "train_nomad_pointgoal", "train_vint_pointgoal", "decision_cpu"]
     assert node_warm.jobs(node.make_plan(node.parse(["--quick", "--compile", "off"]), False, 2), ["train"]) == []
+    both = node.make_plan(node.parse(["--quick", "--compile", "on", "--compile-mode", "default", "reduce-overhead"]),
+                          False, 2)
+    assert node_warm.jobs(both, ["train"]) == ["train_nomad_pointgoal", "train_vint_pointgoal",
+                                               "train_nomad_pointgoal@reduce-overhead",
+                                               "train_vint_pointgoal@reduce-overhead"]
     plan.decision_cpu_size = "nope"  # the job's own error, in its line
     (line,) = node_warm.warm(plan, ["decision"], 300)
     assert line.startswith("decision_cpu: ") and "FAILED" in line and "model.size='nope'" in line, line

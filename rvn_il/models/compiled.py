@@ -172,17 +172,27 @@ class _Slot:
         self.index = index
 
 
-def compile_for_training(model: torch.nn.Module) -> torch.nn.Module:
+TRAIN_COMPILE_MODES = ("default", "reduce-overhead")
+
+
+def compile_for_training(model: torch.nn.Module, mode: str = "default") -> torch.nn.Module:
     """``model`` with its encoder, Transformer and decoder compiled in place (``nn.Module.compile``:
     same parameters and state_dict keys). Training batches have one size (drop_last), so they compile once;
     validation runs on the validator's copy, which ``copy.deepcopy`` leaves uncompiled. Dropout and EfficientNet's drop-connect draw from torch's generator
-    as in the plain model (inductor's ``fallback_random``), so the per-step seeds of rvn-train decide them."""
+    as in the plain model (inductor's ``fallback_random``), so the per-step seeds of rvn-train decide them.
+
+    ``mode``: torch.compile's. ``reduce-overhead`` also replays each part's forward and backward as CUDA graphs on
+    a GPU (on a CPU it compiles as ``default``); a step then begins with ``torch.compiler.cudagraph_mark_step_begin``.
+    It is for steps bound by the host's launches: on the second GPU run a compiled NoMaD full step took 142 ms with
+    50 ms of kernels. rvn-train does not offer it yet: ``benchmarks/node.py --compile-mode`` measures it first."""
     from torch._inductor import config  # imported here: inductor adds a second to every rvn-train and rvn-eval start
 
+    if mode not in TRAIN_COMPILE_MODES:
+        raise ValueError(f"compile mode {mode!r}: choose one of {', '.join(TRAIN_COMPILE_MODES)}")
     _kernel_cache()
     config.fallback_random = True
     for name in ("obs_encoder", "transformer", "noise_pred_net", "decoder"):
         part = getattr(model, name, None)
         if part is not None:
-            part.compile()
+            part.compile(mode=None if mode == "default" else mode)
     return model
