@@ -84,8 +84,9 @@ def steady_train_rate(root: Path, cfg: dict, batch: int, seconds: float, device:
     so far, or ``seconds`` have passed). With ``profiles`` (a dict), 3 more steps are profiled after the timing
     into ``profiles["train"]`` (`op_profile.op_table`). ``channels_last=False`` keeps the encoder NCHW (rvn-train
     makes it NHWC): on the second GPU run NoMaD's NCHW step was 0.89x as fast, although on CUDA torch's group_norm
-    copies a channels-last input to NCHW (aten::copy_ was 36% of its step's GPU time on the first GPU run). ``compile_mode``: as
-    `compile_for_training`'s (``reduce-overhead``: CUDA graphs; each step then marks its beginning for them)."""
+    copies a channels-last input to NCHW (aten::copy_ was 36% of its step's GPU time on the first GPU run).
+    ``compile_mode``: as `compile_for_training`'s (``reduce-overhead``: CUDA graphs; each step then marks its
+    beginning for them)."""
     from op_profile import op_table
     from rvn_il.train.ema import EMA
     from rvn_il.train.optimisation import fused_on
