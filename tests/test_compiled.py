@@ -28,6 +28,11 @@ def losses(out_dir) -> dict[str, list[float]]:
     return {tag: [e.value for e in acc.Scalars(tag)] for tag in acc.Tags()["scalars"] if tag.endswith("loss")}
 
 
+# every kind of part, fewer of some (inductor's compile time grows with the graphs): one Transformer layer, a 2-level
+# U-Net; the encoder stays small's, whose repeated MBConv blocks draw drop-connect
+FEWER_LAYERS = ["model.num_layers=1", "model.sizes.small.down_dims=[32,64]"]
+
+
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
     """NoMaD-PointGoal (small, 3 training steps, 4 denoising steps: the compiled sampling graph unrolls them, and
@@ -36,7 +41,7 @@ def runs(tmp_path_factory):
     write_synthetic_gnm(base / "expert", 3, 24, image_size=64, seed=0)
     common = ["model=nomad_pointgoal", f"data.root={base / 'expert'}", "model.size=small", "train.max_steps=3",
               "train.batch_size=4", "train.log_every=1", "model.num_diffusion_iters=4", "data.num_workers=0",
-              f"cache_dir={base / 'cache'}"]
+              f"cache_dir={base / 'cache'}", *FEWER_LAYERS]
     for name, extra in (("plain", []), ("compiled", ["train.compile=true"])):
         r = subprocess.run([sys.executable, "-m", "rvn_il.train.cli", f"out_dir={base / name}", *common, *extra],
                            capture_output=True, text=True, env=ENV, timeout=900)
