@@ -55,6 +55,8 @@ import node_warm  # noqa: E402
 from node_rl import rl_rows  # noqa: E402
 from node_rows import decision_rows, gen_rows, render_rows, row, train_rows  # noqa: E402
 
+# rvn_il.models.compiled.TRAIN_COMPILE_MODES (a test keeps them equal), not imported: node.py parses without torch
+COMPILE_MODES = ("default", "reduce-overhead")
 GROUPS = {"render": render_rows, "gen": gen_rows, "train": train_rows, "decision": decision_rows, "rl": rl_rows}
 
 
@@ -83,7 +85,7 @@ def parse(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument("--profile", choices=("auto", "on", "off"), default="auto",
                     help="torch.profiler's operator table of a few steps of the training and decision rows, written "
                          "beside node.md as profile_<row>.txt (auto: on with CUDA, not with --quick)")
-    ap.add_argument("--compile-mode", nargs="+", choices=("default", "reduce-overhead"), default=["default"],
+    ap.add_argument("--compile-mode", nargs="+", choices=COMPILE_MODES, default=["default"],
                     help="torch.compile modes of the compiled training rows, a row each (reduce-overhead: CUDA graphs "
                          "for a step bound by the host's launches; row train_<model>_compiled_reduce-overhead)")
     ap.add_argument("--warm", type=float, default=0, metavar="SECONDS",

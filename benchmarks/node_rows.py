@@ -194,18 +194,34 @@ def _gen_row(plan, key: str, renderer: str, env: dict | None = None) -> dict:
                f"one-off costs included, ms/frame): {alone}", gpu_busy=busy.share)
 
 
+def train_settings(plan) -> tuple[str, str, str]:
+    """The training rows' (device, model.size, train.precision): full size in bf16 on a GPU, else the CPU's size."""
+    return ("cuda", "full", "bf16") if plan.cuda else ("cpu", plan.cpu_model_size, "fp32")
+
+
+def write_train_data(plan, folder: Path) -> Path:
+    """The training rows' synthetic GNM dataset, written under ``folder``; its root."""
+    from rvn_il.data.synthetic import write_synthetic_gnm
+
+    trajectories, length = plan.train_data
+    return write_synthetic_gnm(folder / "expert", trajectories, length, image_size=plan.train_image)
+
+
+def decision_sizes(plan) -> dict[str, str]:
+    """The decision rows' model.size of NoMaD, by where they run (gpu, cpu)."""
+    return {"gpu": "full", "cpu": plan.decision_cpu_size}
+
+
 def train_rows(plan) -> Iterator[dict]:
     """3. rvn-train's step (loader + forward + backward + AdamW [+ EMA]) of NoMaD and ViNT: samples/s, the plain
     step first, then with ``plan.compile`` the compiled one (row ``train_<model>_compiled``)."""
     import train as train_bench
-    from rvn_il.data.synthetic import write_synthetic_gnm
     from rvn_il.models import load_model_config
     from rvn_il.policies.policy import intra_op_threads
 
-    device, size, precision = ("cuda", "full", "bf16") if plan.cuda else ("cpu", plan.cpu_model_size, "fp32")
+    device, size, precision = train_settings(plan)
     with tempfile.TemporaryDirectory() as tmp:
-        trajectories, length = plan.train_data
-        root = write_synthetic_gnm(Path(tmp) / "expert", trajectories, length, image_size=plan.train_image)
+        root = write_train_data(plan, Path(tmp))
         for name in ("nomad_pointgoal", "vint_pointgoal"):
             cfg = load_model_config(name, size)
 
@@ -246,7 +262,7 @@ def decision_rows(plan) -> Iterator[dict]:
     import train as train_bench
     from rvn_il.models import load_model_config
 
-    for where, size in (("gpu", "full"), ("cpu", plan.decision_cpu_size)):
+    for where, size in decision_sizes(plan).items():
         steps = load_model_config("nomad_pointgoal", size)["num_diffusion_iters"]
         label = "NoMaD decision, GPU" if where == "gpu" else "NoMaD decision, one CPU thread"
         if where == "gpu" and not plan.cuda:

@@ -39,27 +39,31 @@ def jobs(plan, groups: list[str]) -> list[str]:
 
 
 def warm(plan, groups: list[str], timeout: float) -> list[str]:
-    """Runs the jobs of ``groups`` side by side, each at most ``timeout`` seconds; one line per job (its time, or
-    why it stopped). A job that fails or runs out of time only leaves its row a cold compile."""
+    """Runs the jobs of ``groups`` side by side, each at most ``timeout`` seconds; one line per job (when it ended,
+    or why it stopped). A job that fails or runs out of time only leaves its row a cold compile."""
     todo = jobs(plan, groups)
     if not todo:
         return []
     spec = json.dumps(vars(plan))
-    t0 = time.perf_counter()
-    # each job in a session of its own: a stopped job takes its compile workers (and their compilers) with it
-    procs = {j: subprocess.Popen([sys.executable, str(Path(__file__).resolve()), j, spec], stdout=subprocess.DEVNULL,
-                                 stderr=subprocess.PIPE, text=True, start_new_session=True) for j in todo}
-    lines = []
-    for j, p in procs.items():
-        try:
-            _, err = p.communicate(timeout=max(1.0, timeout - (time.perf_counter() - t0)))
-            last = (err or "").strip().splitlines()[-1:] or [""]
-            lines.append(f"{j}: {time.perf_counter() - t0:.0f} s" + ("" if p.returncode == 0 else
-                                                                     f", FAILED ({last[0][:200]})"))
-        except subprocess.TimeoutExpired:
-            os.killpg(p.pid, signal.SIGKILL)
-            p.communicate()
-            lines.append(f"{j}: stopped after {timeout:.0f} s (its row compiles the rest)")
+    with tempfile.TemporaryDirectory() as logs:  # stderr to files: a full pipe would stall a job nobody reads yet
+        t0, procs, ended = time.perf_counter(), {}, {}
+        for j in todo:  # each in a session of its own: a stopped job takes its compile workers and compilers along
+            with open(Path(logs) / j, "w") as err:
+                procs[j] = subprocess.Popen([sys.executable, str(Path(__file__).resolve()), j, spec],
+                                            stdout=subprocess.DEVNULL, stderr=err, start_new_session=True)
+        while len(ended) < len(procs) and time.perf_counter() - t0 < timeout:
+            ended |= {j: time.perf_counter() - t0 for j, p in procs.items() if j not in ended and p.poll() is not None}
+            time.sleep(0.2)
+        lines = []
+        for j, p in procs.items():
+            if j not in ended and p.poll() is None:
+                os.killpg(p.pid, signal.SIGKILL)
+                p.wait()
+                lines.append(f"{j}: stopped after {timeout:.0f} s (its row compiles the rest)")
+                continue
+            last = (Path(logs) / j).read_text().strip().splitlines()[-1:] or [""]
+            lines.append(f"{j}: {ended.get(j, time.perf_counter() - t0):.0f} s" + ("" if p.returncode == 0 else
+                                                                 f", FAILED ({last[0][:200]})"))
     return lines
 
 
@@ -67,21 +71,20 @@ def run_job(job: str, plan) -> None:
     """One job: the compiled path of one row, at its sizes, through its first steps."""
     sys.path.insert(0, str(HERE))
     import train as train_bench
+    from node_rows import decision_sizes, train_settings, write_train_data
     from rvn_il.models import load_model_config
 
     if job.startswith("decision_"):
-        gpu = job == "decision_gpu"
-        train_bench.decision_ms("nomad_pointgoal", "full" if gpu else plan.decision_cpu_size, 1, threads=1,
-                                reference=False, device="cuda" if gpu else "cpu", compile=True)
+        where = job.removeprefix("decision_")
+        train_bench.decision_ms("nomad_pointgoal", decision_sizes(plan)[where], 1, threads=1, reference=False,
+                                device="cuda" if where == "gpu" else "cpu", compile=True)
         return
-    from rvn_il.data.synthetic import write_synthetic_gnm
     from rvn_il.policies.policy import intra_op_threads
 
     name, _, mode = job.removeprefix("train_").partition("@")
-    device, size, precision = ("cuda", "full", "bf16") if plan.cuda else ("cpu", plan.cpu_model_size, "fp32")
+    device, size, precision = train_settings(plan)
     with tempfile.TemporaryDirectory() as tmp:
-        trajectories, length = plan.train_data
-        root = write_synthetic_gnm(Path(tmp) / "expert", trajectories, length, image_size=plan.train_image)
+        root = write_train_data(plan, Path(tmp))
         with intra_op_threads(plan.train_threads):  # as the row: inductor's CPU kernels are made for a thread count
             train_bench.steady_train_rate(root, load_model_config(name, size), plan.train_batch, 0.1, device,
                                           precision, min(2, plan.loader_workers), str(Path(tmp) / "cache"), True,
