@@ -1,5 +1,6 @@
 """Node benchmark (issue 32, item 1): every figure of issue 32's table, measured on this machine,
-in one table with the device (GPU name or "CPU only"), CPU count, torch version and git commit.
+in one table with the device (GPU name or "CPU only"), CPU count, torch version and git commit; its header also
+names the CPUs, their cgroup quota and the share of a core each process gets with all CPUs busy (node_cpu.py).
 
     python benchmarks/node.py [--seconds-per-row 15] [--out DIR] [--rows render gen train decision rl]
                               [--threads N] [--backends gl raycast] [--quick]
@@ -50,6 +51,7 @@ from types import SimpleNamespace
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # the other benchmarks' modules
 
+import node_cpu  # noqa: E402
 import node_report  # noqa: E402
 import node_warm  # noqa: E402
 from node_rl import rl_rows  # noqa: E402
@@ -147,6 +149,8 @@ def main(argv: list[str] | None = None) -> int:
     plan = make_plan(args, info["cuda"], info["cpu_count"])
     print(f"[node] {info['device']}, {info['cpu_count']} CPUs, torch {info['torch']}: rows {' '.join(args.rows)}, "
           f"{plan.seconds:g} s per figure", file=sys.stderr, flush=True)
+    info["cpu"] = node_cpu.cpu_info(plan.cpus, 0.3 if plan.quick else 1.5)  # before any row loads the CPUs
+    print(f"[node] {node_cpu.describe(info['cpu'], plan.cpus)}", file=sys.stderr, flush=True)
     rows, plan_dict, paths = [], dict(vars(plan)), []
     if args.warm:
         t = time.perf_counter()

@@ -9,6 +9,8 @@ import threading
 from datetime import datetime, timezone
 from pathlib import Path
 
+from node_cpu import describe as describe_cpu
+
 # issue 32's goals on a GPU node: (">=" or "<=", value); compared only where CUDA exists
 GOALS = {"render_gl": (">=", 6000.0), "gen": (">=", 3000.0), "train_nomad_pointgoal": (">=", 4000.0),
          "train_vint_pointgoal": (">=", 6000.0), "decision_gpu": ("<=", 10.0), "decision_cpu": ("<=", 40.0),
@@ -112,6 +114,7 @@ def markdown(info: dict, rows: list[dict], plan: dict) -> str:
              f"mode: {'quick' if plan['quick'] else 'normal'}, {plan['seconds']:g} s measured per figure after "
              "warm-up (steady state); GPU busy = mean utilization of GPU 0 while the row ran",
              *([] if info["cuda"] else ["goals of issue 32 are a GPU node's: not compared on a machine without CUDA"]),
+             *([describe_cpu(info["cpu"], info["cpu_count"])] if info.get("cpu") else []),
              *([f"--warm (the compiled rows' cold compiles side by side first): {'; '.join(plan['warm'])}"]
                if plan.get("warm") else []),
              "",

@@ -87,7 +87,7 @@ def steady_train_rate(root: Path, cfg: dict, batch: int, seconds: float, device:
     copies a channels-last input to NCHW (aten::copy_ was 36% of its step's GPU time on the first GPU run).
     ``compile_mode``: as `compile_for_training`'s (``reduce-overhead``: CUDA graphs; each step then marks its
     beginning for them)."""
-    from op_profile import op_table
+    from op_profile import op_table, phase
     from rvn_il.train.ema import EMA
     from rvn_il.train.optimisation import fused_on
 
@@ -121,14 +121,18 @@ def steady_train_rate(root: Path, cfg: dict, batch: int, seconds: float, device:
         wait = time.perf_counter() - t_wait
         if graphs:  # a new step: the last step's graph outputs may be overwritten
             torch.compiler.cudagraph_mark_step_begin()
-        b = {k: v.to(dev, non_blocking=True) for k, v in b.items()}
-        with torch.autocast(dev.type, dtype=torch.bfloat16, enabled=precision == "bf16"):
+        with phase("to device"):
+            b = {k: v.to(dev, non_blocking=True) for k, v in b.items()}
+        with phase("forward"), torch.autocast(dev.type, dtype=torch.bfloat16, enabled=precision == "bf16"):
             loss = model(b, gen)["loss"]
-        opt.zero_grad(set_to_none=True)
-        loss.backward()
-        opt.step()
+        with phase("backward"):
+            opt.zero_grad(set_to_none=True)
+            loss.backward()
+        with phase("optimizer"):
+            opt.step()
         if ema is not None:
-            ema.update(model)
+            with phase("ema"):
+                ema.update(model)
         return wait
 
     while True:

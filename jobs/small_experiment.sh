@@ -33,7 +33,7 @@ case "$SCALE" in
     : "${VAL_SCENES:=10}" "${VAL_TRAJ:=4}" ;;
   tiny)   # smoke test of the whole chain (tests/test_experiment_smoke.py)
     : "${TRAIN_SCENES:=1}" "${TRAJ_PER_SCENE:=2}" "${IMAGE:=64}" "${VINT_EPOCHS:=1}" "${NOMAD_EPOCHS:=1}" "${MAX_STEPS:=2}"
-    : "${EVAL_SCENES:=1}" "${EVAL_EPISODES:=1}" "${N_GOALS:=2}" "${T_MAX:=100}" "${BATCH:=4}" "${WORKERS:=1}"
+    : "${EVAL_SCENES:=1}" "${EVAL_EPISODES:=1}" "${N_GOALS:=2}" "${T_MAX:=60}" "${BATCH:=4}" "${WORKERS:=1}"
     : "${VAL_SCENES:=1}" "${VAL_TRAJ:=2}" ;;
   *) echo "small_experiment.sh: error: SCALE=$SCALE; choose small or tiny" >&2; exit 2 ;;
 esac

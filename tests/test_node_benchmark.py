@@ -51,6 +51,8 @@ def test_quick_run_lists_every_row(tmp_path):
         assert doc["commit"] == head.stdout.strip()
     assert doc["commit"] and doc["commit"] in json.dumps(doc["provenance"])
     assert doc["torch"] == torch.__version__ and doc["quick"] is True
+    assert doc["cpu"]["scaling"]["ratio"] > 0 and doc["cpu"]["scaling"]["processes"] == cpus
+    assert f"CPUs: {doc['cpu']['model']}; cgroup CPU quota: " in table
     assert not list((tmp_path / "out").glob(".*tmp"))  # written atomically, no temporary files left
 
 
@@ -162,6 +164,7 @@ def test_profile_writes_an_operator_table_per_row(tmp_path):
     assert rows["decision_cpu"]["profile"] == "profile_decision_cpu.txt" and rows["decision_gpu"]["profile"] is None
     table = (tmp_path / "profile_decision_cpu.txt").read_text()
     assert table.startswith("NoMaD decision, one CPU thread: ") and "policy.act" in table and "aten::" in table
+    assert "by Python function" in table  # the host's side, named by function
     assert "profile_decision_cpu.txt" in (tmp_path / "node.md").read_text()
 
 
@@ -206,3 +209,50 @@ def test_warm_compiles_each_row_in_a_process_of_its_own(monkeypatch):
     plan.decision_cpu_size = "small"  # a cold compile of minutes, stopped at its limit
     (line,) = node_warm.warm(plan, ["decision"], 1)
     assert line == "decision_cpu: stopped after 1 s (its row compiles the rest)", line
+
+
+def test_cpu_probe_reads_the_quota_and_times_processes_side_by_side(monkeypatch, tmp_path):
+    """node_cpu (node.md's header): the cgroup quota from cgroup v2 or v1 files (None without a limit), and the
+    probe's loop alone and in two processes at once, as rates and their ratio."""
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
+    import node_cpu
+
+    (tmp_path / "cpu.max").write_text("max 100000\n")
+    assert node_cpu.cpu_quota(tmp_path) is None
+    (tmp_path / "cpu.max").write_text("800000 100000\n")
+    assert node_cpu.cpu_quota(tmp_path) == 8.0
+    v1 = tmp_path / "v1"
+    (v1 / "cpu").mkdir(parents=True)
+    (v1 / "cpu" / "cpu.cfs_quota_us").write_text("150000\n")
+    (v1 / "cpu" / "cpu.cfs_period_us").write_text("100000\n")
+    assert node_cpu.cpu_quota(v1) == 1.5
+    (v1 / "cpu" / "cpu.cfs_quota_us").write_text("-1\n")
+    assert node_cpu.cpu_quota(v1) is None and node_cpu.cpu_quota(tmp_path / "absent") is None
+    info = node_cpu.cpu_info(2, 0.2)
+    s = info["scaling"]
+    assert s["processes"] == 2 and s["alone"] > 0 and 0 < s["slowest"] <= s["side_by_side"]
+    assert s["ratio"] == pytest.approx(s["side_by_side"] / s["alone"])
+    line = node_cpu.describe(info, 2)
+    assert line.startswith(f"CPUs: {info['model']}; cgroup CPU quota: ") and "with 2 side by side" in line
+
+
+def test_profile_gives_each_phase_and_the_python_functions(monkeypatch):
+    """op_profile.op_table: the host's time per `phase` of the steps and a cProfile table of the same steps."""
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
+    from op_profile import op_table, phase
+
+    net = torch.nn.Linear(16, 4)
+
+    def steps():
+        for _ in range(3):
+            with phase("forward"):
+                loss = net(torch.randn(8, 16)).square().mean()
+            with phase("backward"):
+                loss.backward()
+
+    text = op_table(steps, False, rows=10)
+    assert "aten::addmm" in text and "step: forward" in text
+    (line,) = [x for x in text.splitlines() if x.startswith("host time per phase")]
+    assert [p.split()[0] for p in line.split(": ", 1)[1].split(", ")] == ["forward", "backward"], line
+    python = text[text.index("by Python function"):]
+    assert "run_backward" in python and "linear" in python
