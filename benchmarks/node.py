@@ -22,7 +22,8 @@ Rows (each timed for --seconds-per-row after its warm-up, so figures are steady 
     (`<row>_compiled`), each after its plain row, so a time limit that cuts a first compile (minutes; kernels are
     cached for the next run) leaves the plain figure; --compile-mode default reduce-overhead: a compiled training row
     per torch.compile mode (`<row>_compiled_reduce-overhead`: CUDA graphs); --warm SECONDS: the cold compiles first,
-    side by side (node_warm.py);
+    side by side (node_warm.py); RVN's numba kernels are always compiled, or loaded, once before the render, gen and
+    rl rows, so no worker of theirs compiles them (a GPU lease is a fresh install);
     --profile, on by default with CUDA: torch.profiler's operator table of a few more steps of rows 3 and 4,
     written beside node.md as profile_<row>.txt, so a goal the table misses comes with what bounds it);
  5. rvn-rl PPO collection + learning at 128², ResNet-18, scale=small PPO settings, envs in worker processes:
@@ -152,6 +153,9 @@ def main(argv: list[str] | None = None) -> int:
     info["cpu"] = node_cpu.cpu_info(plan.cpus, 0.3 if plan.quick else 1.5)  # before any row loads the CPUs
     print(f"[node] {node_cpu.describe(info['cpu'], plan.cpus)}", file=sys.stderr, flush=True)
     rows, plan_dict, paths = [], dict(vars(plan)), []
+    plan_dict["numba"] = node_warm.numba_kernels(args.rows)  # before any worker process of a row needs them
+    if plan_dict["numba"]:
+        print(f"[node] {plan_dict['numba']}", file=sys.stderr, flush=True)
     if args.warm:
         t = time.perf_counter()
         plan_dict["warm"] = node_warm.warm(plan, args.rows, args.warm)

@@ -117,6 +117,7 @@ def markdown(info: dict, rows: list[dict], plan: dict) -> str:
              *([describe_cpu(info["cpu"], info["cpu_count"])] if info.get("cpu") else []),
              *([f"--warm (the compiled rows' cold compiles side by side first): {'; '.join(plan['warm'])}"]
                if plan.get("warm") else []),
+             *([plan["numba"]] if plan.get("numba") else []),
              "",
              "| # | row | measured | goal (issue 32) | measured/goal | GPU busy | settings, baseline |",
              "|---|-----|---------:|-----------------|--------------:|---------:|--------------------|"]

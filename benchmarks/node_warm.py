@@ -1,4 +1,6 @@
-"""node.py --warm: the compiled rows' cold compiles, done together in parallel processes before any row is timed.
+"""node.py --warm: the compiled rows' cold compiles, done together in parallel processes before any row is timed;
+and (always) RVN's numba kernels, compiled once in node.py's process before the rows whose workers run them
+(`numba_kernels`).
 
 A cold ``torch.compile`` of NoMaD full's training step, ViNT's, NoMaD's whole sampling on the GPU and on the CPU
 each take minutes (the first GPU run's time limits cut two of them). Each job here runs in a process of its own, at
@@ -65,6 +67,32 @@ def warm(plan, groups: list[str], timeout: float) -> list[str]:
             lines.append(f"{j}: {ended.get(j, time.perf_counter() - t0):.0f} s" + ("" if p.returncode == 0 else
                                                                  f", FAILED ({last[0][:200]})"))
     return lines
+
+
+NUMBA_GROUPS = ("render", "gen", "rl")  # the rows whose processes run RVN's numba kernels (navmesh, planning, ray casting)
+
+
+def numba_kernels(groups: list[str]) -> str | None:
+    """RVN's numba kernels compiled (or loaded) here, once, before the rows of ``groups`` that run them in worker
+    processes; the header's line, or None when no such row runs. numba caches its kernels per install
+    (`rvn_data.numba_note`), and a GPU lease is a fresh install: there, each worker process of the first such row
+    compiled them at once, inside its first update or trajectories, and rvn-gen's sizing run, whose one-process
+    figures stand beside the workers', compiled them in its phases. Cold, this takes about 21 s on the 2-core
+    development CPU (a one-trajectory rvn-gen: set-up 59%, planning 37%); cached, about 1 s. Two one-trajectory
+    rvn-gen runs, ray casting then renderer=auto (gl's culling kernel where EGL renders)."""
+    if not set(groups) & set(NUMBA_GROUPS):
+        return None
+    sys.path.insert(0, str(HERE))
+    import gen as gen_bench
+    from rvn_data.numba_note import kernels_cached
+
+    cached, t = kernels_cached(), time.perf_counter()
+    with tempfile.TemporaryDirectory() as tmp:
+        for renderer in ("raycast", "auto"):
+            gen_bench.run(Path(tmp) / renderer, ["scenes.num_scenes=1", "trajectories_per_scene=1", "camera.width=32",
+                                                 "camera.height=32", f"renderer={renderer}"])
+    return (f"numba kernels {'loaded from the cache' if cached else 'compiled (a fresh install)'} in "
+            f"{time.perf_counter() - t:.0f} s, before the rows")
 
 
 def run_job(job: str, plan) -> None:

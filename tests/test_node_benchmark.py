@@ -53,6 +53,7 @@ def test_quick_run_lists_every_row(tmp_path):
     assert doc["torch"] == torch.__version__ and doc["quick"] is True
     assert doc["cpu"]["scaling"]["ratio"] > 0 and doc["cpu"]["scaling"]["processes"] == cpus
     assert f"CPUs: {doc['cpu']['model']}; cgroup CPU quota: " in table
+    assert "numba kernels loaded from the cache in " in table or "numba kernels compiled (a fresh install)" in table
     assert not list((tmp_path / "out").glob(".*tmp"))  # written atomically, no temporary files left
 
 
@@ -203,6 +204,7 @@ def test_warm_compiles_each_row_in_a_process_of_its_own(monkeypatch):
     assert node_warm.jobs(both, ["train"]) == ["train_nomad_pointgoal", "train_vint_pointgoal",
                                                "train_nomad_pointgoal@reduce-overhead",
                                                "train_vint_pointgoal@reduce-overhead"]
+    assert node_warm.numba_kernels(["train", "decision"]) is None  # no row of these runs them in workers
     plan.decision_cpu_size = "nope"  # the job's own error, in its line
     (line,) = node_warm.warm(plan, ["decision"], 300)
     assert line.startswith("decision_cpu: ") and "FAILED" in line and "model.size='nope'" in line, line
