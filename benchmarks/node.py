@@ -150,10 +150,16 @@ def main(argv: list[str] | None = None) -> int:
     plan = make_plan(args, info["cuda"], info["cpu_count"])
     print(f"[node] {info['device']}, {info['cpu_count']} CPUs, torch {info['torch']}: rows {' '.join(args.rows)}, "
           f"{plan.seconds:g} s per figure", file=sys.stderr, flush=True)
-    info["cpu"] = node_cpu.cpu_info(plan.cpus, 0.3 if plan.quick else 1.5)  # before any row loads the CPUs
+    try:  # before any row loads the CPUs; a probe that fails is a line of the header, not the end of the run
+        info["cpu"] = node_cpu.cpu_info(plan.cpus, 0.3 if plan.quick else 1.5)
+    except Exception as e:
+        info["cpu"] = {"error": f"{type(e).__name__}: {e}"}
     print(f"[node] {node_cpu.describe(info['cpu'], plan.cpus)}", file=sys.stderr, flush=True)
     rows, plan_dict, paths = [], dict(vars(plan)), []
-    plan_dict["numba"] = node_warm.numba_kernels(args.rows)  # before any worker process of a row needs them
+    try:  # before any worker process of a row needs them
+        plan_dict["numba"] = node_warm.numba_kernels(args.rows)
+    except Exception as e:
+        plan_dict["numba"] = f"numba kernels: the one-trajectory rvn-gen FAILED ({type(e).__name__}: {e})"[:300]
     if plan_dict["numba"]:
         print(f"[node] {plan_dict['numba']}", file=sys.stderr, flush=True)
     if args.warm:

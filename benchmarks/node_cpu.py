@@ -90,6 +90,8 @@ def cpu_info(processes: int, seconds: float) -> dict:
 
 def describe(cpu: dict, cpus: int) -> str:
     """One line of node.md's header."""
+    if "error" in cpu:
+        return f"CPUs: the probe FAILED ({cpu['error'][:200]})"
     s = cpu["scaling"]
     quota = "none" if cpu["quota"] is None else f"{cpu['quota']:g} CPUs"
     return (f"CPUs: {cpu['model']}; cgroup CPU quota: {quota}; load average {cpu['load_1min']:.1f} at the start; "

@@ -236,6 +236,7 @@ def test_cpu_probe_reads_the_quota_and_times_processes_side_by_side(monkeypatch,
     assert s["ratio"] == pytest.approx(s["side_by_side"] / s["alone"])
     line = node_cpu.describe(info, 2)
     assert line.startswith(f"CPUs: {info['model']}; cgroup CPU quota: ") and "with 2 side by side" in line
+    assert node_cpu.describe({"error": "RuntimeError: boom"}, 2) == "CPUs: the probe FAILED (RuntimeError: boom)"
 
 
 def test_profile_gives_each_phase_and_the_python_functions(monkeypatch):
