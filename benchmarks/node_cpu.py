@@ -38,13 +38,19 @@ def loop_rates(processes: int, seconds: float, start_delay: float = 1.0) -> list
     start = time.monotonic() + start_delay + 0.05 * processes
     procs = [subprocess.Popen([sys.executable, "-c", _CHILD, repr(start), repr(seconds)], stdout=subprocess.PIPE,
                               text=True) for _ in range(processes)]
-    rates = []
-    for p in procs:
-        out, _ = p.communicate(timeout=start_delay + 0.05 * processes + seconds + 60)
-        if p.returncode != 0:
-            raise RuntimeError(f"the CPU probe's loop exited with status {p.returncode}")
-        rates.append(float(out.strip()))
-    return rates
+    try:
+        rates = []
+        for p in procs:
+            out, _ = p.communicate(timeout=start_delay + 0.05 * processes + seconds + 60)
+            if p.returncode != 0:
+                raise RuntimeError(f"the CPU probe's loop exited with status {p.returncode}")
+            rates.append(float(out.strip()))
+        return rates
+    finally:  # none left running when one failed
+        for p in procs:
+            if p.poll() is None:
+                p.kill()
+                p.wait()
 
 
 def scaling(processes: int, seconds: float) -> dict:

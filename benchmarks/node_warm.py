@@ -75,9 +75,10 @@ NUMBA_GROUPS = ("render", "gen", "rl")  # the rows whose processes run RVN's num
 def numba_kernels(groups: list[str]) -> str | None:
     """RVN's numba kernels compiled (or loaded) here, once, before the rows of ``groups`` that run them in worker
     processes; the header's line, or None when no such row runs. numba caches its kernels per install
-    (`rvn_data.numba_note`), and a GPU lease is a fresh install: there, each worker process of the first such row
-    compiled them at once, inside its first update or trajectories, and rvn-gen's sizing run, whose one-process
-    figures stand beside the workers', compiled them in its phases. Cold, this takes about 21 s on the 2-core
+    (`rvn_data.numba_note`, beside the modules in ``__pycache__``), and a GPU lease starts without them (the checkout
+    travels without ignored files): there, each worker process of the first such row would compile them at once,
+    inside its first update or trajectories, and rvn-gen's sizing run, whose one-process figures stand beside the
+    workers', would compile them inside its phases. Cold, this takes about 21 s on the 2-core
     development CPU (a one-trajectory rvn-gen: set-up 59%, planning 37%); cached, about 1 s. Two one-trajectory
     rvn-gen runs, ray casting then renderer=auto (gl's culling kernel where EGL renders)."""
     if not set(groups) & set(NUMBA_GROUPS):
