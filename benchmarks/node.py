@@ -79,6 +79,9 @@ def parse(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument("--threads", type=int, default=None,
                     help="torch intra-op threads of the training rows (rvn-train, rvn-rl); default: all cores "
                          "(rvn-rl on a GPU: 4), --quick: 1 (on a busy machine threads spin-wait on each other)")
+    ap.add_argument("--loader-workers", type=int, default=None, metavar="N",
+                    help="DataLoader worker processes of the training rows (default: one per CPU with CUDA, else 1; "
+                         "--quick: 0): fewer leave the host's main thread a core of its own")
     ap.add_argument("--scene", default="procedural:train/0", help="scene of the renderer rows")
     ap.add_argument("--backends", nargs="+", choices=("gl", "raycast"), default=["gl", "raycast"],
                     help="renderers of the renderer rows (default both; rvn-gen and rvn-rl use renderer=auto)")
@@ -103,6 +106,8 @@ def parse(argv: list[str] | None = None) -> argparse.Namespace:
         ap.error(f"--warm={args.warm:g} must be >= 0")
     if args.threads is not None and args.threads < 1:
         ap.error(f"--threads={args.threads} must be >= 1")
+    if args.loader_workers is not None and args.loader_workers < 0:
+        ap.error(f"--loader-workers={args.loader_workers} must be >= 0")
     if args.out is not None:  # checked before minutes of measuring
         if args.out.exists() and not args.out.is_dir():
             ap.error(f"--out {args.out} is a file, not a folder")
@@ -130,7 +135,7 @@ def make_plan(args, cuda: bool, cpus: int) -> SimpleNamespace:
         train_data=(6, 20) if q else (64, 40) if cuda else (16, 30),
         train_image=64 if q else 128,
         train_batch=4 if q else 256 if cuda else 16,
-        loader_workers=0 if q else cpus if cuda else 1,
+        loader_workers=args.loader_workers if args.loader_workers is not None else 0 if q else cpus if cuda else 1,
         train_threads=args.threads or (1 if q else None),
         cpu_model_size="small",
         decision_cpu_size="small" if q else "full",

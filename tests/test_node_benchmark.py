@@ -60,6 +60,7 @@ def test_quick_run_lists_every_row(tmp_path):
 @pytest.mark.parametrize("args, says", [(["--seconds-per-row", "0"], "--seconds-per-row"),
                                         (["--rows", "nope"], "invalid choice"),
                                         (["--compile-mode", "max-autotune"], "invalid choice"),
+                                        (["--loader-workers", "-1"], "--loader-workers=-1 must be >= 0"),
                                         (["--bogus"], "unrecognized arguments")])
 def test_bad_options_one_line_exit_2(args, says):
     proc = node(*args, timeout=120)
@@ -193,6 +194,8 @@ def test_warm_compiles_each_row_in_a_process_of_its_own(monkeypatch):
     import node_warm
 
     plan = node.make_plan(node.parse(["--quick", "--compile", "on"]), False, 2)
+    assert plan.loader_workers == 0 and node.make_plan(node.parse(["--loader-workers", "3"]), True, 16).loader_workers == 3
+    assert node.make_plan(node.parse([]), True, 16).loader_workers == 16  # one per CPU on a GPU node
     assert node_warm.jobs(plan, ["train", "decision", "rl"]) == [
         "train_nomad_pointgoal", "train_vint_pointgoal", "decision_cpu"]
     assert node_warm.jobs(node.make_plan(node.parse(["--quick", "--compile", "off"]), False, 2), ["train"]) == []
