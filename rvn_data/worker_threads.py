@@ -8,6 +8,11 @@ per planned frame on a 16-core node). The libraries read their variables when th
 worker's own code runs, so the parent sets them while it starts the workers (`worker_threads`); a
 worker then calls `settle_worker_threads` first thing for what has no variable (OpenCV) or was
 loaded before it ran (torch). A variable the user set is left as it is, in the workers too.
+
+torch.compile's code generation (``policy.compile`` in rvn-eval's workers) starts a pool of compile processes, one
+per core by default, in every process that compiles: N workers compiling at once would start N x cores of them,
+each a Python process with torch loaded (~16 x 16 on a 16-core node). TORCHINDUCTOR_COMPILE_THREADS gives each
+worker its share instead.
 """
 from __future__ import annotations
 
@@ -16,7 +21,8 @@ import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 
-THREAD_VARS = ("LP_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+THREAD_VARS = ("LP_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
+               "TORCHINDUCTOR_COMPILE_THREADS")
 
 
 def usable_cores() -> int:
@@ -51,7 +57,8 @@ def settle_worker_threads(threads: int) -> None:
     """In a worker, first thing: the variables the parent did not pass set to ``threads`` (a process not
     started inside `worker_threads`; software GL reads LP_NUM_THREADS when it makes its context); OpenCV
     uses ``threads`` (it reads no variable of these) and torch, only if already imported (this does not
-    import it), OMP_NUM_THREADS's count, as it does itself when it loads later."""
+    import it), OMP_NUM_THREADS's count, as it does itself when it loads later; so does torch.compile's
+    compile pool with TORCHINDUCTOR_COMPILE_THREADS's."""
     for k in THREAD_VARS:
         os.environ.setdefault(k, str(threads))
     import cv2
@@ -60,6 +67,9 @@ def settle_worker_threads(threads: int) -> None:
     torch = sys.modules.get("torch")
     if torch is not None:
         torch.set_num_threads(_positive(os.environ["OMP_NUM_THREADS"]) or threads)
+    inductor = sys.modules.get("torch._inductor.config")
+    if inductor is not None:  # read from the variable when it loaded
+        inductor.compile_threads = _positive(os.environ["TORCHINDUCTOR_COMPILE_THREADS"]) or threads
 
 
 def _positive(text: str) -> int | None:

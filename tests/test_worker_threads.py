@@ -42,7 +42,8 @@ def test_worker_threads_sets_what_the_user_did_not_and_restores_the_environment(
     before = dict(os.environ)
     with worker_threads(2):
         assert {k: os.environ[k] for k in THREAD_VARS} == {
-            "LP_NUM_THREADS": "2", "OMP_NUM_THREADS": "3", "OPENBLAS_NUM_THREADS": "2", "MKL_NUM_THREADS": "2"}
+            "LP_NUM_THREADS": "2", "OMP_NUM_THREADS": "3", "OPENBLAS_NUM_THREADS": "2", "MKL_NUM_THREADS": "2",
+            "TORCHINDUCTOR_COMPILE_THREADS": "2"}
     assert dict(os.environ) == before
     with pytest.raises(RuntimeError), worker_threads(1):  # restored when starting the workers fails too
         raise RuntimeError("no workers")
@@ -55,17 +56,19 @@ def test_worker_threads_sets_what_the_user_did_not_and_restores_the_environment(
 def _settled(threads: int, out) -> None:
     import cv2
     import torch
+    from torch._inductor import config
 
     torch.set_num_threads(5)  # loaded (and set) before the worker settles its threads
     settle_worker_threads(threads)
-    out.put((cv2.getNumThreads(), torch.get_num_threads(), {k: os.environ[k] for k in THREAD_VARS}))
+    out.put((cv2.getNumThreads(), torch.get_num_threads(), config.compile_threads,
+             {k: os.environ[k] for k in THREAD_VARS}))
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("user", [{}, {"OMP_NUM_THREADS": "3"}])
 def test_a_worker_settles_opencv_and_a_loaded_torch(monkeypatch, user):
     """A process not started inside `worker_threads` gets the variables too; OpenCV its share, and torch
-    OMP_NUM_THREADS's count, the user's when set (as torch reads it when it loads)."""
+    OMP_NUM_THREADS's count, the user's when set (as torch reads it when it loads); torch.compile's pool too."""
     for k in THREAD_VARS:
         monkeypatch.delenv(k, raising=False)
     for k, v in user.items():
@@ -74,9 +77,9 @@ def test_a_worker_settles_opencv_and_a_loaded_torch(monkeypatch, user):
     out = ctx.Queue()
     p = ctx.Process(target=_settled, args=(1, out))
     p.start()
-    cv2_threads, torch_threads, env = out.get(timeout=120)
+    cv2_threads, torch_threads, compile_threads, env = out.get(timeout=120)
     p.join(timeout=30)
-    assert (cv2_threads, torch_threads) == (1, 3 if user else 1)
+    assert (cv2_threads, torch_threads, compile_threads) == (1, 3 if user else 1, 1)
     assert env == {**dict.fromkeys(THREAD_VARS, "1"), **user}
 
 
@@ -89,7 +92,8 @@ def test_rvn_gen_workers_start_with_one_thread_each_unless_the_user_says(tmp_pat
                            "progress=false"], capture_output=True, text=True, timeout=600, cwd=tmp_path,
                           env=probed_env(probe, OMP_NUM_THREADS="3"))
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-3000:]
-    one = {"LP_NUM_THREADS": "1", "OMP_NUM_THREADS": "3", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+    one = {"LP_NUM_THREADS": "1", "OMP_NUM_THREADS": "3", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
+           "TORCHINDUCTOR_COMPILE_THREADS": "1"}
     assert list(worker_starts(probe).values()) == [one, one]
 
 
@@ -108,7 +112,8 @@ def test_rvn_eval_workers_get_their_share_of_the_cores(tmp_path):
     share = dict.fromkeys(THREAD_VARS, str(SHARE_OF_2))
     assert list(worker_starts(probe).values()) == [share] * 4
     records = read_records(tmp_path / "out" / "episodes.jsonl")
-    assert [r["policy_stats"] for r in records] == [{"cv2_threads": SHARE_OF_2, "torch_threads": SHARE_OF_2}] * 2
+    assert [r["policy_stats"] for r in records] == [{"cv2_threads": SHARE_OF_2, "torch_threads": SHARE_OF_2,
+                                                     "compile_threads": SHARE_OF_2}] * 2  # policy.compile's pool
 
 
 @pytest.mark.slow

@@ -23,6 +23,7 @@ the first run compiles (NoMaD full: about 3.5 minutes on one core of the 2-core 
 """
 from __future__ import annotations
 
+import os
 from typing import Callable
 
 import torch
@@ -179,7 +180,8 @@ def compile_for_training(model: torch.nn.Module, mode: str = "default") -> torch
     """``model`` with its encoder, Transformer and decoder compiled in place (``nn.Module.compile``:
     same parameters and state_dict keys). Training batches have one size (drop_last), so they compile once;
     validation runs on the validator's copy, which ``copy.deepcopy`` leaves uncompiled. Dropout and EfficientNet's drop-connect draw from torch's generator
-    as in the plain model (inductor's ``fallback_random``), so the per-step seeds of rvn-train decide them.
+    as in the plain model (inductor's ``fallback_random``), so the per-step seeds of rvn-train decide them. Under
+    torchrun each rank's pool of compile processes is its share of the node's cores (`_share_compile_pool`).
 
     ``mode``: torch.compile's. ``reduce-overhead`` also replays each part's forward and backward as CUDA graphs on
     a GPU (on a CPU it compiles as ``default``); a step then begins with ``torch.compiler.cudagraph_mark_step_begin``.
@@ -191,8 +193,20 @@ def compile_for_training(model: torch.nn.Module, mode: str = "default") -> torch
         raise ValueError(f"compile mode {mode!r}: choose one of {', '.join(TRAIN_COMPILE_MODES)}")
     _kernel_cache()
     config.fallback_random = True
+    _share_compile_pool(config)
     for name in ("obs_encoder", "transformer", "noise_pred_net", "decoder"):
         part = getattr(model, name, None)
         if part is not None:
             part.compile(mode=None if mode == "default" else mode)
     return model
+
+
+def _share_compile_pool(config) -> None:
+    """Under torchrun every rank of a node compiles at once, and inductor starts a pool of one compile process per
+    core in each (ranks x cores, each a Python process with torch loaded): unless TORCHINDUCTOR_COMPILE_THREADS says
+    otherwise, each rank gets its share of the cores, as rvn-eval's workers do (`rvn_data.worker_threads`)."""
+    from rvn_data.worker_threads import threads_per_worker
+
+    ranks = int(os.environ.get("LOCAL_WORLD_SIZE") or 1)
+    if ranks > 1 and "TORCHINDUCTOR_COMPILE_THREADS" not in os.environ:
+        config.compile_threads = threads_per_worker(ranks)
