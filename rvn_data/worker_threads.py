@@ -10,9 +10,9 @@ worker then calls `settle_worker_threads` first thing for what has no variable (
 loaded before it ran (torch). A variable the user set is left as it is, in the workers too.
 
 torch.compile's code generation (``policy.compile`` in rvn-eval's workers) starts a pool of compile processes, one
-per core by default, in every process that compiles: N workers compiling at once would start N x cores of them,
-each a Python process with torch loaded (~16 x 16 on a 16-core node). TORCHINDUCTOR_COMPILE_THREADS gives each
-worker its share instead.
+per core by default, in every process that compiles: N workers compiling at once would start N x cores of them
+(~16 x 16 on a 16-core node, ~0.1 GB each). TORCHINDUCTOR_COMPILE_THREADS gives each worker its share instead, at
+least `MIN_COMPILE_THREADS` (`compile_threads`).
 """
 from __future__ import annotations
 
@@ -21,8 +21,21 @@ import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 
-THREAD_VARS = ("LP_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
-               "TORCHINDUCTOR_COMPILE_THREADS")
+COMPILE_VAR = "TORCHINDUCTOR_COMPILE_THREADS"
+THREAD_VARS = ("LP_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", COMPILE_VAR)
+# a pool of one compiles in the worker itself, with nothing beside its single-threaded tracing: two rvn-eval workers
+# compiling NoMaD at once on 2 cores took 126 and 117 s so, 110 and 92 s with a pool of two each (two runs of
+# benchmarks/compile_pool.py)
+MIN_COMPILE_THREADS = 2
+
+
+def compile_threads(threads: int) -> int:
+    """The compile processes of torch.compile's pool in a process whose share of the cores is ``threads``."""
+    return max(MIN_COMPILE_THREADS, threads)
+
+
+def _value(var: str, threads: int) -> str:
+    return str(compile_threads(threads) if var == COMPILE_VAR else threads)
 
 
 def usable_cores() -> int:
@@ -45,7 +58,7 @@ def worker_threads(threads: int) -> Iterator[None]:
     if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
         raise ValueError(f"worker threads={threads!r} must be a positive integer")
     unset = [k for k in THREAD_VARS if k not in os.environ]
-    os.environ.update(dict.fromkeys(unset, str(threads)))
+    os.environ.update({k: _value(k, threads) for k in unset})
     try:
         yield
     finally:
@@ -60,7 +73,7 @@ def settle_worker_threads(threads: int) -> None:
     import it), OMP_NUM_THREADS's count, as it does itself when it loads later; so does torch.compile's
     compile pool with TORCHINDUCTOR_COMPILE_THREADS's."""
     for k in THREAD_VARS:
-        os.environ.setdefault(k, str(threads))
+        os.environ.setdefault(k, _value(k, threads))
     import cv2
 
     cv2.setNumThreads(threads)
@@ -69,7 +82,7 @@ def settle_worker_threads(threads: int) -> None:
         torch.set_num_threads(_positive(os.environ["OMP_NUM_THREADS"]) or threads)
     inductor = sys.modules.get("torch._inductor.config")
     if inductor is not None:  # read from the variable when it loaded
-        inductor.compile_threads = _positive(os.environ["TORCHINDUCTOR_COMPILE_THREADS"]) or threads
+        inductor.compile_threads = _positive(os.environ[COMPILE_VAR]) or compile_threads(threads)
 
 
 def _positive(text: str) -> int | None:
@@ -80,4 +93,5 @@ def _positive(text: str) -> int | None:
     return n if n > 0 else None
 
 
-__all__ = ["THREAD_VARS", "settle_worker_threads", "threads_per_worker", "usable_cores", "worker_threads"]
+__all__ = ["COMPILE_VAR", "THREAD_VARS", "compile_threads", "settle_worker_threads", "threads_per_worker",
+           "usable_cores", "worker_threads"]

@@ -185,11 +185,11 @@ def test_train_compile_mode_reaches_every_part(monkeypatch):
 
 
 def test_train_compile_gives_each_torchrun_rank_its_share_of_the_compile_pool(monkeypatch):
-    """Under torchrun (LOCAL_WORLD_SIZE ranks on a node) inductor's pool of compile processes is cores // ranks in
-    each rank, not one per core in every rank; TORCHINDUCTOR_COMPILE_THREADS, when the user set it, wins."""
+    """Under torchrun (LOCAL_WORLD_SIZE ranks on a node) inductor's pool of compile processes is cores // ranks (at
+    least 2) in each rank, not one per core in every rank; TORCHINDUCTOR_COMPILE_THREADS, when the user set it, wins."""
     from torch._inductor import config
 
-    from rvn_data.worker_threads import threads_per_worker
+    from rvn_data.worker_threads import compile_threads, threads_per_worker
     from rvn_il.models.compiled import compile_for_training
 
     monkeypatch.setattr(torch.nn.Module, "compile", lambda self, **kw: None)
@@ -197,7 +197,7 @@ def test_train_compile_gives_each_torchrun_rank_its_share_of_the_compile_pool(mo
     with config.patch(fallback_random=config.fallback_random, compile_threads=999):
         monkeypatch.setenv("LOCAL_WORLD_SIZE", "2")
         compile_for_training(build_model(load_model_config("vint_pointgoal", "small")))
-        assert config.compile_threads == threads_per_worker(2)
+        assert config.compile_threads == max(2, threads_per_worker(2)) == compile_threads(threads_per_worker(2))
         config.compile_threads = 999
         monkeypatch.setenv("TORCHINDUCTOR_COMPILE_THREADS", "3")  # the user's: inductor read it when it loaded
         compile_for_training(build_model(load_model_config("vint_pointgoal", "small")))

@@ -44,6 +44,8 @@ def test_worker_threads_sets_what_the_user_did_not_and_restores_the_environment(
         assert {k: os.environ[k] for k in THREAD_VARS} == {
             "LP_NUM_THREADS": "2", "OMP_NUM_THREADS": "3", "OPENBLAS_NUM_THREADS": "2", "MKL_NUM_THREADS": "2",
             "TORCHINDUCTOR_COMPILE_THREADS": "2"}
+    with worker_threads(1):  # a pool of one compiles in the worker itself, slower: at least two
+        assert os.environ["TORCHINDUCTOR_COMPILE_THREADS"] == "2" and os.environ["LP_NUM_THREADS"] == "1"
     assert dict(os.environ) == before
     with pytest.raises(RuntimeError), worker_threads(1):  # restored when starting the workers fails too
         raise RuntimeError("no workers")
@@ -79,8 +81,8 @@ def test_a_worker_settles_opencv_and_a_loaded_torch(monkeypatch, user):
     p.start()
     cv2_threads, torch_threads, compile_threads, env = out.get(timeout=120)
     p.join(timeout=30)
-    assert (cv2_threads, torch_threads, compile_threads) == (1, 3 if user else 1, 1)
-    assert env == {**dict.fromkeys(THREAD_VARS, "1"), **user}
+    assert (cv2_threads, torch_threads, compile_threads) == (1, 3 if user else 1, 2)
+    assert env == {**dict.fromkeys(THREAD_VARS, "1"), "TORCHINDUCTOR_COMPILE_THREADS": "2", **user}
 
 
 @pytest.mark.slow
@@ -93,7 +95,7 @@ def test_rvn_gen_workers_start_with_one_thread_each_unless_the_user_says(tmp_pat
                           env=probed_env(probe, OMP_NUM_THREADS="3"))
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-3000:]
     one = {"LP_NUM_THREADS": "1", "OMP_NUM_THREADS": "3", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
-           "TORCHINDUCTOR_COMPILE_THREADS": "1"}
+           "TORCHINDUCTOR_COMPILE_THREADS": "2"}
     assert list(worker_starts(probe).values()) == [one, one]
 
 
@@ -109,11 +111,11 @@ def test_rvn_eval_workers_get_their_share_of_the_cores(tmp_path):
                            "policy=random", "policy._target_=thread_probe_policy.ThreadProbePolicy", "progress=false"],
                           capture_output=True, text=True, timeout=600, cwd=tmp_path, env=probed_env(probe))
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-3000:]
-    share = dict.fromkeys(THREAD_VARS, str(SHARE_OF_2))
+    share = {**dict.fromkeys(THREAD_VARS, str(SHARE_OF_2)), "TORCHINDUCTOR_COMPILE_THREADS": str(max(2, SHARE_OF_2))}
     assert list(worker_starts(probe).values()) == [share] * 4
     records = read_records(tmp_path / "out" / "episodes.jsonl")
     assert [r["policy_stats"] for r in records] == [{"cv2_threads": SHARE_OF_2, "torch_threads": SHARE_OF_2,
-                                                     "compile_threads": SHARE_OF_2}] * 2  # policy.compile's pool
+                                                     "compile_threads": max(2, SHARE_OF_2)}] * 2  # policy.compile's
 
 
 @pytest.mark.slow
@@ -133,7 +135,8 @@ def test_rl_env_workers_get_their_share_and_the_parent_keeps_its_environment(tmp
         envs.reset()
     finally:
         envs.close()
-    share = {**dict.fromkeys(THREAD_VARS, str(SHARE_OF_2)), "OMP_NUM_THREADS": "3"}
+    share = {**dict.fromkeys(THREAD_VARS, str(SHARE_OF_2)), "OMP_NUM_THREADS": "3",
+             "TORCHINDUCTOR_COMPILE_THREADS": str(max(2, SHARE_OF_2))}
     workers = worker_starts(tmp_path)
     assert list(workers.values()) == [share, share]
     ends = [json.loads((tmp_path / f"{pid}.exit.json").read_text()) for pid in workers]

@@ -205,8 +205,8 @@ def _share_compile_pool(config) -> None:
     """Under torchrun every rank of a node compiles at once, and inductor starts a pool of one compile process per
     core in each (ranks x cores, each a Python process with torch loaded): unless TORCHINDUCTOR_COMPILE_THREADS says
     otherwise, each rank gets its share of the cores, as rvn-eval's workers do (`rvn_data.worker_threads`)."""
-    from rvn_data.worker_threads import threads_per_worker
+    from rvn_data.worker_threads import COMPILE_VAR, compile_threads, threads_per_worker
 
     ranks = int(os.environ.get("LOCAL_WORLD_SIZE") or 1)
-    if ranks > 1 and "TORCHINDUCTOR_COMPILE_THREADS" not in os.environ:
-        config.compile_threads = threads_per_worker(ranks)
+    if ranks > 1 and COMPILE_VAR not in os.environ:
+        config.compile_threads = compile_threads(threads_per_worker(ranks))
