@@ -23,7 +23,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from rvn_data.worker_threads import compile_threads, threads_per_worker, usable_cores
+from rvn_data.worker_threads import COMPILE_VAR, compile_threads, threads_per_worker, usable_cores
 
 PAGE = os.sysconf("SC_PAGE_SIZE")
 
@@ -54,17 +54,19 @@ def rss_bytes(pid: int) -> int:
 
 
 def watched(cmd: list[str], env: dict, cwd: Path) -> tuple[float, int, float, int]:
-    """(wall s, peak processes, peak GB of RSS over the tree, exit status) of ``cmd``."""
+    """(wall s, peak processes, peak GB of RSS over the tree, exit status) of ``cmd``; its stderr goes to a file, so
+    a full pipe nobody reads while the tree is sampled cannot stall it (printed when it fails)."""
     t = time.perf_counter()
-    proc = subprocess.Popen(cmd, env=env, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-    peak_n = peak_rss = 0
-    while proc.poll() is None:
-        pids = tree(proc.pid)
-        peak_n, peak_rss = max(peak_n, len(pids)), max(peak_rss, sum(rss_bytes(p) for p in pids))
-        time.sleep(0.2)
-    err = proc.stderr.read()
-    if proc.returncode:
-        print(err[-2000:], file=sys.stderr)
+    with tempfile.TemporaryFile("w+") as err:
+        proc = subprocess.Popen(cmd, env=env, cwd=cwd, stdout=subprocess.DEVNULL, stderr=err, text=True)
+        peak_n = peak_rss = 0
+        while proc.poll() is None:
+            pids = tree(proc.pid)
+            peak_n, peak_rss = max(peak_n, len(pids)), max(peak_rss, sum(rss_bytes(p) for p in pids))
+            time.sleep(0.2)
+        if proc.returncode:
+            err.seek(0)
+            print(err.read()[-2000:], file=sys.stderr)
     return time.perf_counter() - t, peak_n, peak_rss / 1e9, proc.returncode
 
 
@@ -75,7 +77,7 @@ def main() -> None:
     from rvn_il.data.synthetic import write_synthetic_gnm
 
     cores = usable_cores()
-    base = {k: v for k, v in os.environ.items() if k != "TORCHINDUCTOR_COMPILE_THREADS"}
+    base = {k: v for k, v in os.environ.items() if k != COMPILE_VAR}
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         write_synthetic_gnm(tmp / "expert", 3, 24, image_size=64, seed=0)
@@ -91,15 +93,15 @@ def main() -> None:
                          ("one", 1)):
             sizes.setdefault(n, []).append(label)
         for n, labels in sizes.items():
-            label, env = f"a pool of {n} in each worker ({', '.join(labels)})", {"TORCHINDUCTOR_COMPILE_THREADS": str(n)}
+            label, env = f"a pool of {n} in each worker ({', '.join(labels)})", {COMPILE_VAR: str(n)}
             out = tmp / f"eval_{n}"
             cmd = [sys.executable, "-m", "rvn_data.benchmark.cli", "split=val", f"episodes.num_scenes={args.workers}",
                    "episodes.per_scene=1", "episodes.n_goals=1", "env.t_max=4", f"workers={args.workers}",
                    "policy=checkpoint", f"policy.checkpoint_path={tmp / 'ckpt'}", "+policy.compile=true",
                    "camera.width=64", "camera.height=64", f"out_dir={out}", f"cache_dir={out}_cache",
                    "progress=false"]
-            wall, n, gb, rc = watched(cmd, {**base, **env}, tmp)
-            print(f"  {label:56s}: {wall:6.1f} s, peak {n:3d} processes, peak {gb:5.2f} GB RSS"
+            wall, procs, gb, rc = watched(cmd, {**base, **env}, tmp)
+            print(f"  {label:56s}: {wall:6.1f} s, peak {procs:3d} processes, peak {gb:5.2f} GB RSS"
                   + ("" if rc == 0 else f"  (exit status {rc})"))
 
 

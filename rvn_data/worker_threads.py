@@ -54,7 +54,8 @@ def threads_per_worker(workers: int) -> int:
 @contextmanager
 def worker_threads(threads: int) -> Iterator[None]:
     """In the parent, around starting worker processes (they inherit its environment): the variables of
-    `THREAD_VARS` the user has not set hold ``threads``; afterwards the parent's environment is as before."""
+    `THREAD_VARS` the user has not set hold ``threads`` (TORCHINDUCTOR_COMPILE_THREADS `compile_threads`'s count for
+    it); afterwards the parent's environment is as before."""
     if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
         raise ValueError(f"worker threads={threads!r} must be a positive integer")
     unset = [k for k in THREAD_VARS if k not in os.environ]
