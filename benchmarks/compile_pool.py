@@ -74,6 +74,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--workers", type=int, default=2, help="rvn-eval workers (each compiles the policy)")
     args = ap.parse_args()
+    if args.workers < 2:
+        ap.error(f"--workers={args.workers}: give 2 or more (workers that compile at once)")
     from rvn_il.data.synthetic import write_synthetic_gnm
 
     cores = usable_cores()
