@@ -77,3 +77,27 @@ def test_compiled_policy_acts_as_the_plain_one(runs, tmp_path, monkeypatch):
     assert list((tmp_path / "kernels").iterdir())
     with pytest.raises(ValueError, match=r"policy.compile='yes': give true or false"):
         load_policy(runs / "plain", compile="yes")
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="CUDA graphs need a GPU (run on a GPU node: issue 32)")
+def test_reduce_overhead_training_on_cuda_gives_the_plain_losses_and_checkpoint(tmp_path):
+    """train.compile_mode=reduce-overhead on a GPU: each compiled part's forward and backward replays as a CUDA
+    graph, and rvn-train marks each step's start; the losses and weights are the plain fp32 step's (float rounding
+    apart), the EMA's included."""
+    write_synthetic_gnm(tmp_path / "expert", 3, 24, image_size=64, seed=0)
+    common = ["model=nomad_pointgoal", f"data.root={tmp_path / 'expert'}", "model.size=small", "train.max_steps=4",
+              "train.batch_size=4", "train.log_every=1", "model.num_diffusion_iters=4", "data.num_workers=0",
+              "device=cuda", f"cache_dir={tmp_path / 'cache'}", *FEWER_LAYERS]
+    for name, extra in (("plain", []), ("graphs", ["train.compile=true", "train.compile_mode=reduce-overhead"])):
+        r = subprocess.run([sys.executable, "-m", "rvn_il.train.cli", f"out_dir={tmp_path / name}", *common, *extra],
+                           capture_output=True, text=True, env=ENV, timeout=900)
+        assert r.returncode == 0, r.stderr[-3000:]
+    plain, graphs = losses(tmp_path / "plain"), losses(tmp_path / "graphs")
+    assert set(plain) == set(graphs) and "train/diffusion_loss" in plain
+    for tag, values in plain.items():
+        np.testing.assert_allclose(graphs[tag], values, rtol=1e-3, atol=1e-5, err_msg=tag)
+    a = load_file(str(tmp_path / "plain" / "model" / "ckpt_00000004" / "weights.safetensors"))
+    b = load_file(str(tmp_path / "graphs" / "model" / "ckpt_00000004" / "weights.safetensors"))
+    assert a.keys() == b.keys()
+    for k in a:
+        torch.testing.assert_close(b[k], a[k], rtol=0, atol=2e-3, msg=k)

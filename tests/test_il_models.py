@@ -166,19 +166,27 @@ def test_train_compile_traces_every_part_it_compiles(root, name, monkeypatch, tm
     assert modes == [{"mode": None}] * len(parts)  # torch.compile's default mode
 
 
-def test_train_compile_mode_reaches_every_part(monkeypatch):
-    """compile_for_training's ``mode`` (benchmarks/node.py --compile-mode: CUDA graphs for host-bound steps) is
-    torch.compile's for every part; an unknown mode is refused before anything compiles, naming the choices."""
+def test_train_compile_mode_reaches_every_part(root, monkeypatch, tmp_path):
+    """rvn-train's ``train.compile_mode`` (reduce-overhead: CUDA graphs for host-bound steps on a GPU) is torch.compile's
+    mode for every part compile_for_training compiles; an unknown mode is refused before any work, naming the setting
+    and the choices. Here compiling is recorded, not done: the parts run eagerly (tests/test_compiled.py compiles)."""
     from torch._inductor import config
 
     from rvn_il.models.compiled import compile_for_training
+    from rvn_il.train.cli import train
 
     seen = []
     monkeypatch.setattr(torch.nn.Module, "compile", lambda self, **kw: seen.append((type(self).__name__, kw)))
+    common = ["model=vint_pointgoal", "model.size=small", f"data.root={root}", "train.max_steps=1", "train.batch_size=4",
+              "data.num_workers=0", "device=cpu", f"cache_dir={tmp_path / 'cache'}", "train.compile=true"]
     with config.patch(fallback_random=config.fallback_random):
-        compile_for_training(build_model(load_model_config("vint_pointgoal", "small")), mode="reduce-overhead")
+        train([*common, f"out_dir={tmp_path / 'ro'}", "train.compile_mode=reduce-overhead"])
         assert [kw for _, kw in seen] == [{"mode": "reduce-overhead"}] * 3, seen
+        assert (tmp_path / "ro" / "model" / "ckpt_00000001").is_dir()
         seen.clear()
+        with pytest.raises(ValueError, match="train.compile_mode='max-autotune'; choose one of default, reduce-overhead"):
+            train([*common, f"out_dir={tmp_path / 'bad'}", "train.compile_mode=max-autotune"])
+        assert not (tmp_path / "bad" / "model").exists()
         with pytest.raises(ValueError, match="compile mode 'max-autotune': choose one of default, reduce-overhead"):
             compile_for_training(build_model(load_model_config("vint_pointgoal", "small")), mode="max-autotune")
     assert seen == []

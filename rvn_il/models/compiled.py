@@ -185,8 +185,8 @@ def compile_for_training(model: torch.nn.Module, mode: str = "default") -> torch
 
     ``mode``: torch.compile's. ``reduce-overhead`` also replays each part's forward and backward as CUDA graphs on
     a GPU (on a CPU it compiles as ``default``); a step then begins with ``torch.compiler.cudagraph_mark_step_begin``.
-    It is for steps bound by the host's launches: on the second GPU run a compiled NoMaD full step took 142 ms with
-    50 ms of kernels. rvn-train does not offer it yet: ``benchmarks/node.py --compile-mode`` measures it first."""
+    It is for steps bound by the host's launches: on an H200 a compiled NoMaD full step took 142 ms with 50 ms of
+    kernels, and 51 ms with it (docs/results/2026-11-27_gpu3). rvn-train: ``train.compile_mode``."""
     from torch._inductor import config  # imported here: inductor adds a second to every rvn-train and rvn-eval start
 
     if mode not in TRAIN_COMPILE_MODES:

@@ -65,7 +65,7 @@ def optimisation(model_cfg: Mapping, tcfg: Mapping, dataset, world: int, device:
     sched = torch.optim.lr_scheduler.LambdaLR(opt, lr_lambda(max(1, warmup), max_steps))
     ema = EMA(model, float(model_cfg.get("ema_power", 0.75))) if use_ema else None
     if tcfg["compile"]:
-        compile_for_training(model)
+        compile_for_training(model, tcfg["compile_mode"])
     return Optimisation(model, opt, sched, ema, bs, max_steps)
 
 

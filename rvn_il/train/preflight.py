@@ -30,6 +30,7 @@ from ..data.sources import dataset_entries, single_entry
 from ..data.depth import REGENERATE, has_depth
 from ..models import resolve_size
 from ..models.checkpoint import members_of, read_config
+from ..models.compiled import TRAIN_COMPILE_MODES
 from ..models.nomad import check_prediction_type
 from ..policies.loader import resolve_device
 from .adopt import expert_source
@@ -125,6 +126,8 @@ def check_settings(cfg: Mapping) -> None:
     check_waypoint_frames(data["waypoint_frames"])
     if tcfg["precision"] not in PRECISIONS:
         raise ValueError(f"train.precision={tcfg['precision']!r}; choose one of {', '.join(PRECISIONS)}")
+    if tcfg["compile_mode"] not in TRAIN_COMPILE_MODES:
+        raise ValueError(f"train.compile_mode={tcfg['compile_mode']!r}; choose one of {', '.join(TRAIN_COMPILE_MODES)}")
     val_root = data["val_root"]
     if val_root and not Path(val_root).expanduser().is_dir():
         raise ValueError(f"data.val_root={val_root} does not exist; generate an expert dataset on other scenes "

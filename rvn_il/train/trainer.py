@@ -200,6 +200,9 @@ def train_loop(run: Optimisation, batches: Iterator[dict], stats: dict, validato
         from torch.utils.tensorboard import SummaryWriter
         writer = SummaryWriter(str(member_dir.parent / "tb" / member_dir.name), purge_step=step)
     val_every, bf16 = int(tcfg["val_every"]), tcfg["precision"] == "bf16"
+    # train.compile_mode=reduce-overhead on a GPU: the compiled parts replay as CUDA graphs, whose outputs the next
+    # replay overwrites; each step says it begins (its outputs are all read within the step: losses are eager)
+    graphs = tcfg["compile"] and tcfg["compile_mode"] == "reduce-overhead" and device.type == "cuda"
     gen = torch.Generator(device=device)
     log_every, ckpt_every = int(tcfg["log_every"]), int(tcfg["ckpt_every"])
     net.train()
@@ -207,6 +210,8 @@ def train_loop(run: Optimisation, batches: Iterator[dict], stats: dict, validato
     bar = tqdm(total=max_steps, initial=step, desc=label, disable=rank != 0, mininterval=float(tcfg["tqdm_interval"]))
     try:
         for batch in batches:
+            if graphs:
+                torch.compiler.cudagraph_mark_step_begin()
             batch = {k: v.to(device, non_blocking=True) for k, v in batch.items()}
             gen.manual_seed(derive_seed(seed, index, rank, step))
             torch.manual_seed(derive_seed(seed, index, rank, step, 1))
