@@ -5,13 +5,15 @@ last action of the previous one (the transition's reward is the ending step's; t
 recurrent state and previous action are masked out from the next step on).
 
 Each env keeps its last few loaded scenes (navmesh, simulator, renderer) in a small LRU
-cache, so switching back to a scene does not rebuild its navmesh. An optional
+cache, so switching back to a scene does not rebuild its navmesh, and prepares the next scene it
+will switch to in a thread while it steps (``env.prefetch_scenes``: the same scenes and episodes). An optional
 ``depth_fn(rgb uint8 [N,H,W,3]) -> float32 [N,H,W]`` fills ``obs["depth"]`` from the RGB
 batch (predicted depth); with ``depth=True`` in the env settings the rendered depth is used.
 """
 from __future__ import annotations
 
 from collections import OrderedDict
+from concurrent.futures import Future, ThreadPoolExecutor
 
 import numpy as np
 
@@ -23,17 +25,57 @@ from .settings import EnvSettings
 
 
 class CachedSceneEnv(RVNEnv):
-    """`RVNEnv` that keeps up to ``scene_cache`` scenes loaded besides the current one."""
+    """`RVNEnv` that keeps up to ``scene_cache`` scenes loaded besides the current one and, with ``prefetch``,
+    prepares the scene its next switch will draw in a thread of its own (`_draw_scene`)."""
 
-    def __init__(self, scene_cache: int = 2, **kwargs):
+    def __init__(self, scene_cache: int = 2, prefetch: bool = True, **kwargs):
         super().__init__(**kwargs)
-        self.scene_cache = int(scene_cache)
+        self.scene_cache, self.prefetch = int(scene_cache), bool(prefetch)
         self._cache: OrderedDict[int, SceneSlot] = OrderedDict()
+        self._ahead = None  # (scene stream, position, Future of its SceneSlot or None): the next switch's scene
+        self._ready: tuple[int, Future] | None = None  # the drawn scene's prepared slot, for `_load`
+        self._threads: ThreadPoolExecutor | None = None
+        self.prefetched = 0  # switches that found their scene prepared (or being prepared)
+
+    def _draw_scene(self) -> int:
+        """The scene stream's next draw; with ``prefetch``, also the one after it, whose scene (navmesh, simulator,
+        goal pool: all but the renderer) a thread prepares while this scene's episodes run. The stream is used for
+        nothing else, so drawing ahead gives the same scenes in the same order: only the wait at a switch goes.
+        Vectorised envs step together, so an env loading a scene (~0.1 s) and building its goal pool (~0.3 s)
+        held up every env of the batch; in 15 workers, one or another of them did at most steps."""
+        ahead, self._ahead = self._ahead, None
+        if ahead is not None and ahead[0] is self._scene_rng:
+            pos, future = ahead[1], ahead[2]
+        else:  # the stream was started again (a reset with a seed): what was drawn ahead is not next
+            pos, future = super()._draw_scene(), None
+        self._ready = None if future is None else (pos, future)
+        if self.prefetch:
+            nxt = super()._draw_scene()
+            loaded = nxt == pos or nxt in self._cache
+            self._ahead = (self._scene_rng, nxt, None if loaded else self._executor().submit(self._prepare, nxt))
+        return pos
+
+    def _executor(self) -> ThreadPoolExecutor:
+        if self._threads is None:
+            self._threads = ThreadPoolExecutor(max_workers=1, thread_name_prefix="rvn-scene-prefetch")
+        return self._threads
+
+    def _prepare(self, pos: int) -> SceneSlot:
+        slot = SceneSlot.load(self.config, self._slots[pos], pos)
+        if self.config.goal_pool:
+            slot.goal_sampler(self.config)
+        return slot
 
     def _load(self, pos: int) -> None:
+        ready, self._ready = self._ready, None
         if self._scene is not None and self._scene.pos == pos:
             return
-        slot = self._cache.pop(pos, None) or SceneSlot.open(self.config, self._slots[pos], pos)
+        slot = self._cache.pop(pos, None)
+        if slot is None and ready is not None and ready[0] == pos:
+            slot = ready[1].result().with_renderer(self.config)  # its error, if it failed, is this reset's
+            self.prefetched += 1
+        if slot is None:
+            slot = SceneSlot.open(self.config, self._slots[pos], pos)
         if self._scene is not None:
             self._cache[self._scene.pos] = self._scene
         while len(self._cache) > self.scene_cache:
@@ -41,6 +83,10 @@ class CachedSceneEnv(RVNEnv):
         self._scene = slot
 
     def close(self) -> None:
+        if self._threads is not None:
+            self._threads.shutdown(wait=True, cancel_futures=True)
+            self._threads = None
+        self._ahead = self._ready = None
         while self._cache:
             self._cache.popitem()[1].close()
         super().close()
@@ -55,7 +101,7 @@ class BatchEnv:
     """``num_envs`` train-mode envs; ``reset()`` then ``step(actions)`` on batches."""
 
     def __init__(self, env_kwargs: dict, num_envs: int, seed: int = 0, rank: int = 0, scene_cache: int = 2,
-                 depth_fn=None, index_offset: int = 0):
+                 depth_fn=None, index_offset: int = 0, prefetch: bool = True):
         if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
             raise ValueError(f"env.num_envs={num_envs!r} must be a positive integer")
         self.num_envs, self.seed, self.rank, self.offset = num_envs, int(seed), int(rank), int(index_offset)
@@ -63,7 +109,7 @@ class BatchEnv:
         self.envs: list[CachedSceneEnv] = []
         try:
             for _ in range(num_envs):
-                self.envs.append(CachedSceneEnv(scene_cache=scene_cache, **env_kwargs))
+                self.envs.append(CachedSceneEnv(scene_cache=scene_cache, prefetch=prefetch, **env_kwargs))
         except Exception:
             self.close()
             raise
@@ -126,7 +172,7 @@ class BatchEnv:
 def make_envs(env_kwargs: dict, env: EnvSettings, seed: int, rank: int = 0, depth_fn=None):
     """A run's ``env.num_envs`` environments (`RVNEnv` keyword arguments ``env_kwargs``, `RLConfig.env_kwargs`): in this
     process (``env.workers=0``) or split over worker processes; ``depth_fn`` predicts the depth channel."""
-    common = dict(seed=seed, rank=rank, scene_cache=env.scene_cache, depth_fn=depth_fn)
+    common = dict(seed=seed, rank=rank, scene_cache=env.scene_cache, depth_fn=depth_fn, prefetch=env.prefetch_scenes)
     if not env.workers:
         return BatchEnv(env_kwargs, env.num_envs, **common)
     from .vec_procs import ProcessBatchEnv

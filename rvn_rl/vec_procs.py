@@ -67,11 +67,13 @@ def gather_obs(blocks: list[ObsBlocks], layouts: list) -> dict:
     return {k: np.concatenate([b.arrays[k] for b in blocks]) for k in blocks[0].arrays}
 
 
-def _worker(conn, env_kwargs: dict, indices: list[int], seed: int, rank: int, scene_cache: int, threads: int) -> None:
+def _worker(conn, env_kwargs: dict, indices: list[int], seed: int, rank: int, scene_cache: int, threads: int,
+            prefetch: bool = True) -> None:
     settle_worker_threads(threads)
     envs, blocks = None, ObsBlocks()
     try:
-        envs = BatchEnv(env_kwargs, len(indices), seed=seed, rank=rank, scene_cache=scene_cache, index_offset=indices[0])
+        envs = BatchEnv(env_kwargs, len(indices), seed=seed, rank=rank, scene_cache=scene_cache, index_offset=indices[0],
+                        prefetch=prefetch)
         conn.send(("ok", None))
         while True:
             cmd, arg = conn.recv()
@@ -94,7 +96,7 @@ def _worker(conn, env_kwargs: dict, indices: list[int], seed: int, rank: int, sc
 
 class ProcessBatchEnv:
     def __init__(self, env_kwargs: dict, num_envs: int, workers: int, seed: int = 0, rank: int = 0,
-                 scene_cache: int = 2, depth_fn=None):
+                 scene_cache: int = 2, depth_fn=None, prefetch: bool = True):
         if isinstance(workers, bool) or not isinstance(workers, int) or not 1 <= workers <= num_envs:
             raise ValueError(f"env.workers={workers!r} must be between 1 and env.num_envs={num_envs}")
         self.num_envs, self.depth_fn = num_envs, depth_fn
@@ -106,7 +108,7 @@ class ProcessBatchEnv:
             for w in range(workers):
                 parent, child = ctx.Pipe()
                 p = ctx.Process(target=_worker, daemon=True, args=(
-                    child, env_kwargs, list(range(bounds[w], bounds[w + 1])), seed, rank, scene_cache, threads))
+                    child, env_kwargs, list(range(bounds[w], bounds[w + 1])), seed, rank, scene_cache, threads, prefetch))
                 p.start()
                 child.close()
                 self.conns.append(parent)

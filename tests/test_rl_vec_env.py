@@ -124,6 +124,45 @@ def test_worker_processes_pass_the_same_observations_through_shared_memory():
             shared_memory.SharedMemory(name=name)
 
 
+def test_prefetched_scenes_give_the_same_episodes(monkeypatch):
+    """With env.prefetch_scenes each env draws its next scene ahead and a thread prepares it (navmesh, goal pool)
+    while it steps: observations, rewards, episode records and scene order equal the envs' without it, across
+    scene switches at every reset and a reset with a seed, which starts the scene stream again."""
+    from rvn_data.benchmark import episodes_source
+
+    threads = []
+    real_load = episodes_source.SceneSlot.load.__func__
+    monkeypatch.setattr(episodes_source.SceneSlot, "load", classmethod(
+        lambda cls, *a: (threads.append(__import__("threading").current_thread().name), real_load(cls, *a))[1]))
+    kw = {**KW, "scenes": {"num_scenes": 6}, "scene_switch_every": 1, "goal_pool": 8}
+    plain, ahead = BatchEnv(kw, 2, seed=7, prefetch=False), BatchEnv(kw, 2, seed=7)
+    try:
+        a, b = plain.reset(), ahead.reset()
+        rng, ended, scenes = np.random.default_rng(2), 0, []
+        for t in range(100):
+            for key in a:
+                np.testing.assert_array_equal(b[key], a[key], err_msg=f"{key} at step {t}")
+            if t == 50:  # a reset with the seeds: the scenes drawn ahead are not next any more
+                a, b = plain.reset(), ahead.reset()
+                continue
+            actions = rng.choice([0, 0, 1, 1, 2], size=2)  # STOPs and collisions end episodes often
+            ra, rb = plain.step(actions), ahead.step(actions)
+            for x, y in zip(ra[1:4], rb[1:4]):
+                np.testing.assert_array_equal(y, x)
+            assert [i.get("episode") for i in rb[4]] == [i.get("episode") for i in ra[4]]
+            ended += int(ra[3].sum())
+            scenes.append([env.scene.scene_id for env in ahead.envs])
+            assert scenes[-1] == [env.scene.scene_id for env in plain.envs]
+            a, b = ra[0], rb[0]
+        assert ended >= 6 and len({s for pair in scenes for s in pair}) >= 3
+        assert sum(env.prefetched for env in ahead.envs) >= 4 and sum(env.prefetched for env in plain.envs) == 0
+        assert any(name.startswith("rvn-scene-prefetch") for name in threads)
+    finally:
+        plain.close()
+        ahead.close()
+    assert all(env._threads is None for env in ahead.envs)
+
+
 def test_gae_stops_at_episode_ends():
     T, N, gamma, tau = 5, 2, 0.9, 0.8
     st = RolloutStorage(T, N, {"pointgoal": ((2,), torch.float32)}, (4, N, 8), heads=1)

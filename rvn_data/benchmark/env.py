@@ -158,7 +158,7 @@ class RVNEnv(gym.Env):
         if "scene" in options:
             pos = int(options["scene"]) % len(self._slots)
         elif self._scene is None or seed is not None or self._resets % self.config.scene_switch_every == 0:
-            pos = int(self._scene_rng.integers(len(self._slots)))
+            pos = self._draw_scene()
         else:
             pos = self._scene.pos
         self._resets += 1
@@ -171,6 +171,10 @@ class RVNEnv(gym.Env):
                 return
         raise SceneError(f"scene {self._scene.scene_id}: no goal found {self.config.episodes.d_min}-"
                            f"{self.config.episodes.d_max} m from {self.config.episodes.max_restarts} starts")
+
+    def _draw_scene(self) -> int:
+        """The next scene of train mode's scene stream (``_scene_rng``, used for nothing else: its draws are known ahead)."""
+        return int(self._scene_rng.integers(len(self._slots)))
 
     def _begin(self, scene_id, scene_index, episode_index, position, yaw) -> None:
         self.simulator.reset(np.asarray(position, dtype=np.float64), float(yaw))

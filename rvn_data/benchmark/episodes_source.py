@@ -166,14 +166,24 @@ class SceneSlot:
 
     @classmethod
     def open(cls, config: EnvConfig, slot: tuple[str, int], pos: int) -> "SceneSlot":
-        from rvn_data.render import make_renderer
+        return cls.load(config, slot, pos).with_renderer(config)
+
+    @classmethod
+    def load(cls, config: EnvConfig, slot: tuple[str, int], pos: int) -> "SceneSlot":
+        """The scene, its navmesh and simulator, without a renderer (`with_renderer`): what may be prepared in another
+        thread, since a GL context belongs to the thread that renders."""
         from rvn_data.sim import Simulator
 
         spec, scene_index = slot
         scene, navmesh = open_scene(spec, config.scenes, config.navmesh, config.cache_folder())
-        renderer = make_renderer(scene, config.camera, backend=config.renderer.get("backend", "auto"),
-                                 device=int(config.renderer.get("device", 0)))
-        return cls(pos, spec, scene_index, scene, navmesh, Simulator(navmesh, config.agent), renderer)
+        return cls(pos, spec, scene_index, scene, navmesh, Simulator(navmesh, config.agent), None)
+
+    def with_renderer(self, config: EnvConfig) -> "SceneSlot":
+        from rvn_data.render import make_renderer
+
+        self.renderer = make_renderer(self.scene, config.camera, backend=config.renderer.get("backend", "auto"),
+                                      device=int(config.renderer.get("device", 0)))
+        return self
 
     def episodes(self, config: EnvConfig) -> list:
         """The scene's first ``config.per_scene`` episodes (generated and cached if missing)."""

@@ -16,6 +16,7 @@ per process of at most ``MAX_BYTES`` (20 bytes per graph node and goal: 17-31 MB
 apartment's 13-25k nodes); values read are float32, as when pools held whole fields."""
 from __future__ import annotations
 
+import threading
 from collections import OrderedDict
 
 import numpy as np
@@ -24,6 +25,7 @@ from rvn_data.navmesh.geodesic import GeodesicField
 
 MAX_BYTES = 512 << 20
 _POOLS: OrderedDict[tuple, "GoalPool"] = OrderedDict()
+_LOCK = threading.Lock()  # an RL env prepares its next scene's pool in a thread of its own (rvn_rl.vec_env)
 
 
 class GoalPool:
@@ -49,12 +51,14 @@ class GoalPool:
 def pool_for(navmesh, scene_key: tuple, size: int, split_code: int, scene_index: int) -> GoalPool:
     """The cached pool of a scene (``scene_key`` names the scene and its navmesh settings)."""
     key = (scene_key, int(size), int(split_code), int(scene_index))
-    pool = _POOLS.pop(key, None)
-    if pool is None:
+    with _LOCK:
+        pool = _POOLS.pop(key, None)
+    if pool is None:  # built outside the lock: two threads may both build a pool, the same one
         pool = GoalPool.build(navmesh, size, split_code, scene_index)
-    _POOLS[key] = pool
-    while len(_POOLS) > 1 and sum(p.nbytes for p in _POOLS.values()) > MAX_BYTES:
-        _POOLS.popitem(last=False)
+    with _LOCK:
+        _POOLS[key] = pool
+        while len(_POOLS) > 1 and sum(p.nbytes for p in _POOLS.values()) > MAX_BYTES:
+            _POOLS.popitem(last=False)
     return pool
 
 
