@@ -51,9 +51,16 @@ class CachedSceneEnv(RVNEnv):
         self._ready = None if future is None else (pos, future)
         if self.prefetch:
             nxt = super()._draw_scene()
-            loaded = nxt == pos or nxt in self._cache
+            loaded = nxt == pos or nxt in self._cached_after(pos)
             self._ahead = (self._scene_rng, nxt, None if loaded else self._executor().submit(self._prepare, nxt))
         return pos
+
+    def _cached_after(self, pos: int) -> list[int]:
+        """The scenes the cache will hold once `_load` has made ``pos`` the current one (its LRU order)."""
+        kept = [k for k in self._cache if k != pos]
+        if self._scene is not None and self._scene.pos != pos:
+            kept.append(self._scene.pos)
+        return kept[max(0, len(kept) - self.scene_cache):]
 
     def _executor(self) -> ThreadPoolExecutor:
         if self._threads is None:
