@@ -9,7 +9,7 @@ from collections.abc import Iterator
 from types import SimpleNamespace
 
 from node_report import GpuBusy
-from node_rows import GL_USLEEP, environ, row
+from node_rows import environ, row
 
 
 def rl_rows(plan) -> Iterator[dict]:
@@ -19,11 +19,10 @@ def rl_rows(plan) -> Iterator[dict]:
     ~160 frames/s per GPU), both with the same envs on ``plan.rl_scenes`` train scenes (200: envs keep loading
     scenes they have not seen, as a run over all 800 does). A first run of two updates (the first one loads scenes:
     not counted) times an update; when that left part of ``plan.seconds``, the run resumes for as many more updates as
-    fit (the first again not counted). With CUDA, scale=small once more with renderer=raycast (ray casting on the
-    workers' cores) and with gl under __GL_YIELD=USLEEP (NVIDIA's GL waits without spinning), and the envs alone
-    (``rl_envs``, also with --quick): on the first GPU run (2026-11-27) envs stepping took ~80% of an update at renderer=auto (gl),
-    with 15 worker processes sharing the GPU, and the renderer rows showed processes that render one view per call
-    contend rather than add up on one GPU."""
+    fit (the first again not counted). With CUDA (and --quick), the envs alone (``rl_envs``): with env.prefetch_scenes
+    (the default), without it (``rl_envs_no_prefetch``: vectorised envs then wait for whichever env switches scene,
+    the bound of the third GPU run, docs/results/2026-11-27_gpu3) and in one worker (``rl_envs_1``). The second and
+    third GPU runs also timed renderer=raycast and gl under __GL_YIELD=USLEEP: the renderer is not the bound."""
     small = dict(size=plan.rl_size, backbone="resnet18", num_steps=plan.rl_num_steps, ppo_epoch=4,
                  mini_batches=min(4, plan.rl_envs))
     paper = dict(size=plan.rl_paper_size, backbone="resnet50", num_steps=2 * plan.rl_num_steps, ppo_epoch=2,
@@ -31,13 +30,11 @@ def rl_rows(plan) -> Iterator[dict]:
     what, ddppo = "scale=paper network and PPO", "DD-PPO (Wijmans et al. 2020): ~160 frames/s per GPU (2.5B frames, 180 GPU-days)"
     yield _rl_row(plan, "rl", "scale=small", small, "rl", "")
     if plan.cuda or plan.quick:
-        yield _rl_envs_row(plan, small)
+        envs = _rl_envs_row(plan, small)
+        yield envs
+        yield _rl_envs_row(plan, small, prefetch=False, with_prefetch=envs["value"])
         if plan.rl_workers > 1 or plan.quick:  # a per-worker rate that drops with more workers: contention
             yield _rl_envs_row(plan, small, workers=1)
-    if plan.cuda:
-        yield _rl_row(plan, "rl_raycast", "scale=small, renderer=raycast", {**small, "renderer": "raycast"}, "rl", "")
-        yield _rl_row(plan, "rl_gl_usleep", "scale=small, renderer=gl, __GL_YIELD=USLEEP", {**small, "renderer": "gl"},
-                      "rl", "", GL_USLEEP)
     if not (plan.cuda or plan.quick):  # minutes per update on a few cores; --quick runs it small
         yield row(5, "rl_paper", f"rvn-rl PPO collection + learning, {what}", "env steps/s",
                   skipped="ResNet-50 at 256² is sized for a GPU (--quick runs it at 64²)")
@@ -86,26 +83,32 @@ def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, bas
                f"PPO update {100 * share('time_learn'):.0f}%", baseline, busy.share)
 
 
-def _rl_envs_row(plan, settings: dict, workers: int | None = None) -> dict:
+def _rl_envs_row(plan, settings: dict, workers: int | None = None, prefetch: bool = True,
+                 with_prefetch: float | None = None) -> dict:
     """The rl row's envs alone (`rl.collection`: the same vec env and worker processes, random actions, no policy, no
     learner), so a slow rl row shows whether the envs or their sharing the node with the learner bound it. With
     ``workers`` (row ``rl_envs_<workers>``), that many worker processes with as many envs each as the rl row's: on the
-    first GPU run an env step took ~30 ms in 15 workers against ~9 ms in 2 workers of the 2-core development CPU."""
+    first GPU run an env step took ~30 ms in 15 workers against ~9 ms in 2 workers of the 2-core development CPU.
+    ``prefetch``: env.prefetch_scenes (row ``rl_envs_no_prefetch`` without it, which names the ratio of
+    ``with_prefetch``, the rate with it, to its own)."""
     import rl as rl_bench
     from rvn_rl.cli import compose
 
     args = _rl_args(plan, settings, updates=1)
     if workers is not None:
         args.envs, args.workers = max(1, plan.rl_envs // plan.rl_workers) * workers, workers
+    extra = [] if prefetch else ["env.prefetch_scenes=false"]
     with tempfile.TemporaryDirectory() as tmp, GpuBusy() as busy:
-        rate = rl_bench.collection(compose(rl_bench.overrides(args, f"{tmp}/run")), 2 * args.num_steps, False)
-    return row(5, "rl_envs" + ("" if workers is None else f"_{workers}"),
+        rate = rl_bench.collection(compose(rl_bench.overrides(args, f"{tmp}/run") + extra), 2 * args.num_steps, False)
+    ratio = "" if with_prefetch is None else f"; with env.prefetch_scenes (rl_envs): x{with_prefetch / rate:.2f} this"
+    return row(5, "rl_envs" + ("" if workers is None else f"_{workers}") + ("" if prefetch else "_no_prefetch"),
                f"rvn-rl envs alone, scale=small's envs ({'cuda' if plan.cuda else 'cpu'})"
-               + ("" if workers is None else f", {workers} worker(s)"), "env steps/s", None, rate,
+               + ("" if workers is None else f", {workers} worker(s)") + ("" if prefetch else ", env.prefetch_scenes=false"),
+               "env steps/s", None, rate,
                f"{args.size}² RGB, renderer={args.renderer}, {args.envs} envs in {args.workers} worker processes, "
                f"{plan.rl_scenes} train scenes, goal pool {args.goal_pool}, random actions, no policy or learner, "
                f"{2 * args.num_steps} batched steps after 10 of warm-up: {rate / args.workers:.0f} env steps/s "
-               "per worker", gpu_busy=busy.share)
+               f"per worker{ratio}", gpu_busy=busy.share)
 
 
 def _steps_seconds(update: dict, envs: int) -> tuple[float, float, dict]:
