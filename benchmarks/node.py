@@ -27,12 +27,13 @@ Rows (each timed for --seconds-per-row after its warm-up, so figures are steady 
     --profile, on by default with CUDA: torch.profiler's operator table of a few more steps of rows 3 and 4,
     written beside node.md as profile_<row>.txt, so a goal the table misses comes with what bounds it);
  5. rvn-rl PPO collection + learning at 128², ResNet-18, scale=small PPO settings, envs in worker processes:
-    env steps/s (with CUDA also with renderer=raycast and gl with __GL_YIELD=USLEEP, and the envs alone: random
-    actions, no policy or learner, in the rl row's workers and in one worker); and with the paper's network and PPO
+    env steps/s (with CUDA also the envs alone: random actions, no policy or learner, in the rl row's workers with
+    and without env.prefetch_scenes, and in one worker); and with the paper's network and PPO
     settings (ResNet-50, 256²) beside DD-PPO's ~160 per GPU.
 With CUDA, each row shows issue 32's goal and measured/goal, and "GPU busy": GPU 0's mean utilization
-while the row ran (torch.cuda.utilization or pynvml; "n/a" without them), set-up, warm-up and profile included,
-so it reads low for rows 3 and 4: their profiles give the kernel time of the profiled steps. On the first GPU
+(torch.cuda.utilization or pynvml; "n/a" without them) during the timed steps of rows 3 and 4, while the whole row
+ran for the others (set-up and warm-up included: the third GPU run's kernel-bound training steps read 7-24 % so);
+the profiles give the kernel time of the profiled steps. On the first GPU
 run (H200, 16 cores, 5 s per figure) render with --backends gl took 86 s, gen 16 s, rl 66 s; the plain decision
 and train groups 44 and 58 s (6 s per figure); cold compiles of both ran past 150 and 190 s. --quick: about a second per figure at tiny sizes (a smoke test;
 its figures mean little). --out DIR: DIR/node.md and DIR/node.json (with the commit), e.g.

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import os
 import threading
+import time
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -64,18 +65,26 @@ def _utilization_reader():
 
 class GpuBusy:
     """Samples GPU 0's utilization (share of time a kernel ran) every ``interval`` s in a thread while
-    the block runs; ``share`` is the mean in [0, 1], or None ("n/a": no GPU, or no NVML to read it)."""
+    the block runs; ``share`` is the mean in [0, 1], or None ("n/a": no GPU, or no NVML to read it), and
+    `share_in` the mean over the samples of a time window (a row's timed steps, without its set-up and warm-up)."""
 
     def __init__(self, interval: float = 0.2):
-        self.interval, self.samples, self.share = interval, [], None
+        self.interval, self.samples, self.share = interval, [], None  # samples: (time.perf_counter(), percent)
         self._read, self._stop = _utilization_reader(), threading.Event()
 
     def _run(self) -> None:
         while not self._stop.wait(self.interval):
             try:
-                self.samples.append(self._read())
+                self.samples.append((time.perf_counter(), self._read()))
             except Exception:
                 return
+
+    def share_in(self, window: list | tuple | None) -> float | None:
+        """Mean utilization in [0, 1] of the samples taken in ``window`` ([start, end], perf_counter seconds, as
+        `train.steady_train_rate` and `train.decision_ms` fill it); ``share`` when there is no window or no sample
+        in it (a window shorter than the sampling interval)."""
+        inside = [v for t, v in self.samples if window and window[0] <= t <= window[1]]
+        return sum(inside) / len(inside) / 100.0 if inside else self.share
 
     def __enter__(self) -> "GpuBusy":
         if self._read is not None:
@@ -87,7 +96,7 @@ class GpuBusy:
         if self._read is not None:
             self._stop.set()
             self._thread.join()
-            self.share = sum(self.samples) / len(self.samples) / 100.0 if self.samples else None
+            self.share = sum(v for _, v in self.samples) / len(self.samples) / 100.0 if self.samples else None
 
 
 def compare(row: dict, cuda: bool) -> None:
@@ -112,7 +121,8 @@ def markdown(info: dict, rows: list[dict], plan: dict) -> str:
              f"device {info['device']} ({info['gpus']} GPU(s), CUDA {info['cuda_version'] or '-'}) | "
              f"{info['cpu_count']} CPUs | torch {info['torch']} | commit {commit} | {info['date']}",
              f"mode: {'quick' if plan['quick'] else 'normal'}, {plan['seconds']:g} s measured per figure after "
-             "warm-up (steady state); GPU busy = mean utilization of GPU 0 while the row ran",
+             "warm-up (steady state); GPU busy = mean utilization of GPU 0 during the timed steps (training, decision rows), "
+             "else while the row ran",
              *([] if info["cuda"] else ["goals of issue 32 are a GPU node's: not compared on a machine without CUDA"]),
              *([describe_cpu(info["cpu"], info["cpu_count"])] if info.get("cpu") else []),
              *([f"--warm (the compiled rows' cold compiles side by side first): {'; '.join(plan['warm'])}"]

@@ -226,12 +226,12 @@ def train_rows(plan) -> Iterator[dict]:
             cfg = load_model_config(name, size)
 
             def measure(compiled: bool, mode: str = "default"):
-                profiles = {} if plan.profile else None
+                profiles, window = ({} if plan.profile else None), []
                 with intra_op_threads(plan.train_threads), GpuBusy() as busy:
                     rate, steps, waiting = train_bench.steady_train_rate(
                         root, cfg, plan.train_batch, plan.seconds, device, precision, plan.loader_workers,
-                        str(Path(tmp) / "cache"), compiled, profiles, compile_mode=mode)
-                return rate, steps, waiting, busy.share, (profiles or {}).get("train")
+                        str(Path(tmp) / "cache"), compiled, profiles, compile_mode=mode, window=window)
+                return rate, steps, waiting, busy.share_in(window), (profiles or {}).get("train")
 
             w, h = cfg["image_size"]
 
@@ -270,12 +270,12 @@ def decision_rows(plan) -> Iterator[dict]:
             continue
 
         def measure(compiled: bool):  # each path alone, as in a process of its own
-            profiles = {} if plan.profile else None
+            profiles, window = ({} if plan.profile else None), []
             with GpuBusy() as busy:
                 ms, _ = train_bench.decision_ms("nomad_pointgoal", size, 5, threads=1, reference=False,
                                                 seconds=plan.seconds, device="cuda" if where == "gpu" else "cpu",
-                                                compile=compiled, profiles=profiles)
-            return ms, busy.share if where == "gpu" else None, (profiles or {}).get("decision")
+                                                compile=compiled, profiles=profiles, window=window)
+            return ms, busy.share_in(window) if where == "gpu" else None, (profiles or {}).get("decision")
 
         plain = None
         for kind, got in plain_then_compiled(measure, plan.compile):

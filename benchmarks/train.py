@@ -74,7 +74,8 @@ def train_rate(root: Path, cfg: dict, batch: int, steps: int, channels_last: boo
 def steady_train_rate(root: Path, cfg: dict, batch: int, seconds: float, device: str = "cpu",
                       precision: str = "fp32", workers: int = 0, cache_dir: str | None = None,
                       compile: bool = False, profiles: dict | None = None,
-                      channels_last: bool = True, compile_mode: str = "default") -> tuple[float, int, float]:
+                      channels_last: bool = True, compile_mode: str = "default",
+                      window: list | None = None) -> tuple[float, int, float]:
     """(samples/s, steps timed, share of the timed wall time spent waiting for the loader's next batch) of
     rvn-train's step in steady state: its DataLoader (``workers`` processes,
     pinned memory on a GPU, uint8 frames), channels-last model on ``device`` (compiled with ``compile``, as
@@ -86,7 +87,8 @@ def steady_train_rate(root: Path, cfg: dict, batch: int, seconds: float, device:
     makes it NHWC): on the second GPU run NoMaD's NCHW step was 0.89x as fast, although on CUDA torch's group_norm
     copies a channels-last input to NCHW (aten::copy_ was 36% of its step's GPU time on the first GPU run).
     ``compile_mode``: as `compile_for_training`'s (``reduce-overhead``: CUDA graphs; each step then marks its
-    beginning for them)."""
+    beginning for them). ``window`` (a list) receives the timed steps' [start, end] (``time.perf_counter``), for
+    `node_report.GpuBusy.share_in`."""
     from op_profile import op_table, phase
     from rvn_il.train.ema import EMA
     from rvn_il.train.optimisation import fused_on
@@ -151,6 +153,8 @@ def steady_train_rate(root: Path, cfg: dict, batch: int, seconds: float, device:
             sync()
             break
     wall = time.perf_counter() - t_start
+    if window is not None:
+        window[:] = [t_start, t_start + wall]
     if profiles is not None:
         profiles["train"] = op_table(lambda: [step() for _ in range(3)], dev.type == "cuda")
     del batches, loader
@@ -172,7 +176,7 @@ DECISION_BLOCK = 8  # decisions of one policy in a row when decision_ms times tw
 def decision_ms(name: str, size: str, decisions: int, threads: int | None = 1,
                 sampler: str = "ddpm", device: str = "cpu", reference: bool = True,
                 seconds: float | None = None, compile: bool = False,
-                profiles: dict | None = None) -> tuple[float, float | None]:
+                profiles: dict | None = None, window: list | None = None) -> tuple[float, float | None]:
     """Median ms per ``act`` of the policy on ``device`` and, for NoMaD models with ``reference``, of
     the same policy on the reference sampling path (same weights and frames, the two timed in turns);
     NoMaD samples with ``sampler`` (policy.sampler). With ``compile`` the first policy
@@ -187,7 +191,7 @@ def decision_ms(name: str, size: str, decisions: int, threads: int | None = 1,
     blocks of 8: 31.7 and 47.1; each alone in its process: 25.8 and 40.5).
 
     With ``profiles`` (a dict), 5 more decisions of the first policy are profiled into ``profiles["decision"]``
-    (`op_profile.op_table`)."""
+    (`op_profile.op_table`). ``window`` (a list) receives the timed decisions' [start, end] (``time.perf_counter``)."""
     cfg = load_model_config("nomad_pointgoal" if name == "nomad_neg" else name, size)
     ctrl = ControlConfig.from_agent(AgentConfig())
     if compile:
@@ -229,6 +233,8 @@ def decision_ms(name: str, size: str, decisions: int, threads: int | None = 1,
                     ts.append(time.perf_counter() - t)
         k += block
     ms = [1e3 * statistics.median(ts) for ts in times]
+    if window is not None:
+        window[:] = [start, time.perf_counter()]
     if profiles is not None:
         from op_profile import op_table
 

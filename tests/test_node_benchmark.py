@@ -264,3 +264,29 @@ def test_profile_gives_each_phase_and_the_python_functions(monkeypatch):
     assert [p.split()[0] for p in line.split(": ", 1)[1].split(", ")] == ["forward", "backward"], line
     python = text[text.index("by Python function"):]
     assert "run_backward" in python and "linear" in python
+
+
+def test_gpu_busy_of_a_row_is_that_of_its_timed_steps(monkeypatch, tmp_path):
+    """A training or decision row's GPU busy share is the mean of the samples taken while its timed steps ran
+    (`steady_train_rate` and `decision_ms` give that window), not of its set-up, compiling and warm-up."""
+    import time
+
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
+    import train as train_bench
+    from node_report import GpuBusy
+
+    from rvn_il.data.synthetic import write_synthetic_gnm
+    from rvn_il.models import load_model_config
+
+    busy = GpuBusy()
+    busy.samples, busy.share = [(1.0, 10.0), (2.0, 80.0), (3.0, 100.0), (4.0, 20.0)], 0.525
+    assert busy.share_in([1.5, 3.5]) == pytest.approx(0.9)
+    assert busy.share_in([]) == busy.share_in([4.5, 5.0]) == 0.525  # no window, or no sample in it: the row's
+    root = write_synthetic_gnm(tmp_path / "expert", 2, 12, image_size=32)
+    before, window = time.perf_counter(), []
+    rate, steps, _ = train_bench.steady_train_rate(root, load_model_config("vint_pointgoal", "small"), 4, 0.3,
+                                                   cache_dir=str(tmp_path / "cache"), window=window)
+    assert rate > 0 and steps > 0 and before < window[0] < window[1] <= time.perf_counter()
+    before, window = time.perf_counter(), []
+    ms, _ = train_bench.decision_ms("nomad_pointgoal", "small", 3, reference=False, window=window)
+    assert ms > 0 and before < window[0] < window[1] <= time.perf_counter()
