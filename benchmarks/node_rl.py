@@ -69,6 +69,13 @@ def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, bas
             train(compose(rl_bench.overrides(args, out)))
             counted += [_steps_seconds(r, envs) for r in _metrics(out)[seen + 1:]]
     steps, seconds = sum(n for n, _, _ in counted), sum(s for _, s, _ in counted)
+    profile = None
+    if plan.profile:  # the learner's side of an update, without the envs (rl.learner_profile)
+        from rvn_il.policies.policy import intra_op_threads
+
+        with tempfile.TemporaryDirectory() as tmp, intra_op_threads(plan.rl_threads):
+            profile = rl_bench.learner_profile(compose(rl_bench.overrides(args, f"{tmp}/run")),
+                                               "cuda" if plan.cuda else "cpu")
 
     def share(k: str) -> float:  # time-weighted share of the counted updates' time
         return sum(s * r.get(k, float("nan")) for _, s, r in counted) / seconds
@@ -80,7 +87,7 @@ def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, bas
                f"{plan.rl_scenes} train scenes, goal pool {args.goal_pool}, "
                f"{len(counted)} updates timed ({seconds:.1f} s); time: envs stepping {100 * share('time_envs'):.0f}%, "
                f"policy and storage {100 * (1 - share('time_envs') - share('time_learn')):.0f}%, "
-               f"PPO update {100 * share('time_learn'):.0f}%", baseline, busy.share)
+               f"PPO update {100 * share('time_learn'):.0f}%", baseline, busy.share, profile=profile)
 
 
 def _rl_envs_row(plan, settings: dict, workers: int | None = None, prefetch: bool = True,

@@ -290,3 +290,20 @@ def test_gpu_busy_of_a_row_is_that_of_its_timed_steps(monkeypatch, tmp_path):
     before, window = time.perf_counter(), []
     ms, _ = train_bench.decision_ms("nomad_pointgoal", "small", 3, reference=False, window=window)
     assert ms > 0 and before < window[0] < window[1] <= time.perf_counter()
+
+
+def test_learner_profile_names_the_phases_of_an_update(monkeypatch, tmp_path):
+    """rl.learner_profile (node.py's RL rows with --profile): the operator table of rvn-rl's learner side of one
+    update without the envs, with the host's time per phase (act, storage, returns, update)."""
+    from types import SimpleNamespace
+
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
+    import rl as rl_bench
+    from rvn_rl.cli import compose
+
+    args = SimpleNamespace(size=32, envs=2, workers=0, scenes=2, base_planes=8, num_steps=4, threads=1,
+                           renderer="raycast", updates=1, goal_pool=8, ppo_epoch=1, mini_batches=1)
+    text = rl_bench.learner_profile(compose(rl_bench.overrides(args, str(tmp_path / "run"))))
+    (line,) = [x for x in text.splitlines() if x.startswith("host time per phase")]
+    assert [p.split()[0] for p in line.split(": ", 1)[1].split(", ")] == ["act", "storage", "returns", "update"], line
+    assert "aten::convolution" in text or "aten::conv2d" in text
