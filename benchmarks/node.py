@@ -24,8 +24,9 @@ Rows (each timed for --seconds-per-row after its warm-up, so figures are steady 
     per torch.compile mode (`<row>_compiled_reduce-overhead`: CUDA graphs); --warm SECONDS: the cold compiles first,
     side by side (node_warm.py); RVN's numba kernels are always compiled, or loaded, once before the render, gen and
     rl rows, so no worker of theirs compiles them (a GPU lease is a fresh install);
-    --profile, on by default with CUDA: torch.profiler's operator table of a few more steps of rows 3 and 4,
-    written beside node.md as profile_<row>.txt, so a goal the table misses comes with what bounds it);
+    --profile, on by default with CUDA: torch.profiler's operator table of a few more steps of rows 3 and 4
+    (and of row 5's learner: one update's act, storage and PPO update without the envs), written beside node.md as
+    profile_<row>.txt, so a goal the table misses comes with what bounds it);
  5. rvn-rl PPO collection + learning at 128², ResNet-18, scale=small PPO settings, envs in worker processes:
     env steps/s (with CUDA also the envs alone: random actions, no policy or learner, in the rl row's workers with
     and without env.prefetch_scenes, and in one worker); and with the paper's network and PPO
@@ -90,8 +91,9 @@ def parse(argv: list[str] | None = None) -> argparse.Namespace:
                     help="train.compile and policy.compile in the training and decision rows (auto: on with CUDA, "
                          "not with --quick; the plain decision is timed beside the compiled one)")
     ap.add_argument("--profile", choices=("auto", "on", "off"), default="auto",
-                    help="torch.profiler's operator table of a few steps of the training and decision rows, written "
-                         "beside node.md as profile_<row>.txt (auto: on with CUDA, not with --quick)")
+                    help="torch.profiler's operator table of a few steps of the training and decision rows, and of "
+                         "the RL rows' learner, written beside node.md as profile_<row>.txt (auto: on with CUDA, not "
+                         "with --quick)")
     ap.add_argument("--compile-mode", nargs="+", choices=COMPILE_MODES, default=["default"],
                     help="torch.compile modes of the compiled training rows, a row each (reduce-overhead: CUDA graphs "
                          "for a step bound by the host's launches; row train_<model>_compiled_reduce-overhead)")
