@@ -279,6 +279,38 @@ def data_figures(workers: int, reps: int) -> None:
                 print(f"  {name:16s} {size:5s} batch {batch:3d}: {rate:8.1f} samples/s  (NCHW encoder: {nchw:6.1f}, "
                       f"x{rate / nchw:.2f})")
         print("  (nomad_neg trains two nomad_pointgoal models one after the other: half the nomad rate)")
+    ema, baseline = ema_ms(reps * 3)
+    print(f"\nEMA update, NoMaD full (rvn-train's EMA, parameters found once): {ema:.2f} ms; reading a state_dict "
+          f"each update (before 2026-11-27): {baseline:.2f} ms, x{baseline / ema:.2f}")
+
+
+def ema_ms(reps: int) -> tuple[float, float]:
+    """Median ms of `EMA.update` on NoMaD full, and of the same update reading ``model.state_dict()`` each time (its
+    form before the third GPU run, where it took ~11 ms of host time a step), timed in turns."""
+    from rvn_il.train.ema import EMA
+
+    model = build_model(load_model_config("nomad_pointgoal", "full")).train()
+    ema, old = EMA(model), EMA(model)
+
+    @torch.no_grad()
+    def by_state_dict() -> None:
+        old.step += 1
+        d, floats_s, floats_m = old.decay(), [], []
+        for k, v in model.state_dict().items():
+            if v.dtype.is_floating_point:
+                floats_s.append(old.shadow[k])
+                floats_m.append(v.detach())
+            else:
+                old.shadow[k].copy_(v)
+        torch._foreach_lerp_(floats_s, floats_m, 1.0 - d)
+
+    times: tuple[list, list] = ([], [])
+    for k in range(2 * reps + 2):
+        t = time.perf_counter()
+        ema.update(model) if k % 2 == 0 else by_state_dict()
+        if k >= 2:
+            times[k % 2].append(1e3 * (time.perf_counter() - t))
+    return statistics.median(times[0]), statistics.median(times[1])
 
 
 def main() -> None:

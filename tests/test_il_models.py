@@ -82,6 +82,42 @@ def test_vint_predicts_waypoints_and_bad_settings_are_named():
         build_model(load_model_config("nomad_pointgoal", "small", len_traj_pred=6))
 
 
+def test_ema_keeps_the_parameters_and_gives_the_state_dict_formula(root):
+    """EMA.update finds the model's parameters once and reads its buffers each update: the shadows equal the
+    state_dict formula (lerp of every float tensor, integer buffers copied) after training steps, a parameter's
+    data replaced in place of the object (as ``.to()`` does) and a buffer replaced."""
+    from rvn_il.train.ema import EMA
+
+    cfg = load_model_config("nomad_pointgoal", "small")
+    batch = make_dataset(root, cfg, {"progress": False}).get_batch(range(4))
+    torch.manual_seed(0)
+    model = build_model(cfg).train()
+    ema, ref = EMA(model), {k: v.detach().clone() for k, v in model.state_dict().items()}
+    opt = torch.optim.AdamW(model.parameters(), lr=1e-3)
+    gen = torch.Generator().manual_seed(0)
+    for step in range(4):
+        model(batch, gen)["loss"].backward()
+        opt.step()
+        opt.zero_grad()
+        if step == 2:
+            weight = next(model.parameters())
+            weight.data = weight.data.clone() + 1.0
+            model.action_min = model.action_min.clone() - 1.0  # a registered buffer, replaced
+        ema.update(model)
+        d = ema.decay()
+        with torch.no_grad():
+            for k, v in model.state_dict().items():
+                ref[k] = torch.lerp(ref[k], v, 1.0 - d) if v.is_floating_point() else v.clone()
+    for k, v in ref.items():
+        torch.testing.assert_close(ema.shadow[k], v, rtol=0, atol=1e-6, msg=k)
+    net = torch.nn.Sequential(torch.nn.Linear(3, 4), torch.nn.BatchNorm1d(4))  # an integer buffer: copied
+    ema = EMA(net)
+    for _ in range(3):
+        net(torch.randn(5, 3))
+        ema.update(net)
+    assert ema.shadow["1.num_batches_tracked"] == 3 and torch.equal(ema.shadow["1.weight"], net[1].weight)
+
+
 def test_ema_warms_up_like_diffusers_0_11():
     from rvn_il.train.ema import EMA
 
