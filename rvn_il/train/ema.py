@@ -22,7 +22,7 @@ class EMA:
         its data is replaced (``.to()``), so it can be kept. A ``state_dict()`` per update walked every module: on
         the GPU node ~11 ms of host time a NoMaD full step (docs/results/2026-11-27_gpu3)."""
         if self._params is None or self._params[0] is not model:
-            named = [(k, p) for k, p in model.named_parameters(remove_duplicate=False) if k in self.shadow]
+            named = list(model.named_parameters(remove_duplicate=False))  # each is in the state_dict: a KeyError if not
             floats = [(self.shadow[k], p) for k, p in named if p.is_floating_point()]
             self._params = (model, [s for s, _ in floats], [p for _, p in floats],
                             [(self.shadow[k], p) for k, p in named if not p.is_floating_point()])
