@@ -9,7 +9,7 @@ from collections.abc import Iterator
 from types import SimpleNamespace
 
 from node_report import GpuBusy
-from node_rows import environ, row
+from node_rows import row
 
 
 def rl_rows(plan) -> Iterator[dict]:
@@ -49,8 +49,7 @@ def _rl_args(plan, settings: dict, updates: int) -> SimpleNamespace:
                            threads=plan.rl_threads, updates=updates, goal_pool=64, **{"renderer": "auto", **settings})
 
 
-def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, baseline: str,
-            env: dict | None = None) -> dict:
+def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, baseline: str) -> dict:
     import rl as rl_bench
     from rvn_rl.cli import compose
     from rvn_rl.trainer import train
@@ -58,7 +57,7 @@ def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, bas
     envs, workers = plan.rl_envs, plan.rl_workers
     args = _rl_args(plan, settings, updates=2)
     counted = []  # (env steps, seconds, update's metrics) of the updates that count
-    with tempfile.TemporaryDirectory() as tmp, environ(env), GpuBusy() as busy:
+    with tempfile.TemporaryDirectory() as tmp, GpuBusy() as busy:
         out = f"{tmp}/run"
         train(compose(rl_bench.overrides(args, out)))
         counted += [_steps_seconds(r, envs) for r in _metrics(out)[1:]]
