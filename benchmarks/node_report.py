@@ -63,6 +63,11 @@ def _utilization_reader():
         return None
 
 
+def _mean_share(percents: list[float]) -> float | None:
+    """The mean of utilization samples (%) as a share in [0, 1]; None without samples."""
+    return sum(percents) / len(percents) / 100.0 if percents else None
+
+
 class GpuBusy:
     """Samples GPU 0's utilization (share of time a kernel ran) every ``interval`` s in a thread while
     the block runs; ``share`` is the mean in [0, 1], or None ("n/a": no GPU, or no NVML to read it), and
@@ -84,7 +89,7 @@ class GpuBusy:
         `train.steady_train_rate` and `train.decision_ms` fill it); ``share`` when there is no window or no sample
         in it (a window shorter than the sampling interval)."""
         inside = [v for t, v in self.samples if window and window[0] <= t <= window[1]]
-        return sum(inside) / len(inside) / 100.0 if inside else self.share
+        return _mean_share(inside) if inside else self.share
 
     def __enter__(self) -> "GpuBusy":
         if self._read is not None:
@@ -96,7 +101,7 @@ class GpuBusy:
         if self._read is not None:
             self._stop.set()
             self._thread.join()
-            self.share = sum(v for _, v in self.samples) / len(self.samples) / 100.0 if self.samples else None
+            self.share = _mean_share([v for _, v in self.samples])
 
 
 def compare(row: dict, cuda: bool) -> None:
