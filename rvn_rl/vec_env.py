@@ -49,18 +49,18 @@ class CachedSceneEnv(RVNEnv):
         else:  # the stream was started again (a reset with a seed): what was drawn ahead is not next
             pos, future = super()._draw_scene(), None
         self._ready = None if future is None else (pos, future)
-        if self.prefetch:
-            nxt = super()._draw_scene()
-            loaded = nxt == pos or nxt in self._cached_after(pos)
-            self._ahead = (self._scene_rng, nxt, None if loaded else self._executor().submit(self._prepare, nxt))
+        if self.prefetch:  # prepared by `_prepare_ahead` once `_load` has made ``pos`` current
+            self._ahead = (self._scene_rng, super()._draw_scene(), None)
         return pos
 
-    def _cached_after(self, pos: int) -> list[int]:
-        """The scenes the cache will hold once `_load` has made ``pos`` the current one (its LRU order)."""
-        kept = [k for k in self._cache if k != pos]
-        if self._scene is not None and self._scene.pos != pos:
-            kept.append(self._scene.pos)
-        return kept[max(0, len(kept) - self.scene_cache):]
+    def _prepare_ahead(self) -> None:
+        """Start preparing the scene drawn ahead, unless it is being prepared already or is loaded: the current
+        scene or in the cache, which only `_load` changes."""
+        if self._ahead is None or self._ahead[2] is not None:
+            return
+        stream, nxt, _ = self._ahead
+        if nxt != self._scene.pos and nxt not in self._cache:
+            self._ahead = (stream, nxt, self._executor().submit(self._prepare, nxt))
 
     def _executor(self) -> ThreadPoolExecutor:
         if self._threads is None:
@@ -74,6 +74,10 @@ class CachedSceneEnv(RVNEnv):
         return slot
 
     def _load(self, pos: int) -> None:
+        self._switch_to(pos)
+        self._prepare_ahead()
+
+    def _switch_to(self, pos: int) -> None:
         ready, self._ready = self._ready, None
         if self._scene is not None and self._scene.pos == pos:
             return
