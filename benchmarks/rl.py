@@ -37,7 +37,9 @@ def overrides(args, out_dir: str) -> list[str]:
             f"env.goal_pool={args.goal_pool}", f"ppo.ppo_epoch={args.ppo_epoch}", f"ppo.num_mini_batch={args.mini_batches}"]
 
 
-def collection(cfg, steps: int, with_policy: bool) -> float:
+def collection(cfg, steps: int, with_policy: bool, times: list | None = None) -> float:
+    """Env steps/s of ``steps`` batched steps after 10 of warm-up: random actions, or ``with_policy`` the policy's
+    act(); ``times`` (a list) receives each timed batched step's seconds."""
     from rvn_rl.model import PointNavResNetPolicy
     from rvn_rl.vec_env import make_envs
 
@@ -49,9 +51,10 @@ def collection(cfg, steps: int, with_policy: bool) -> float:
     try:
         obs = envs.reset()
 
-        def run(k):
+        def run(k, times=None):
             nonlocal obs, state, prev, masks
             for _ in range(k):
+                t_step = time.perf_counter()
                 if net is None:
                     actions = rng.integers(0, 4, n)
                 else:
@@ -62,10 +65,12 @@ def collection(cfg, steps: int, with_policy: bool) -> float:
                 obs, _, _, done, _ = envs.step(actions)
                 if net is not None:
                     masks = torch.as_tensor(~done, dtype=torch.float32)
+                if times is not None:
+                    times.append(time.perf_counter() - t_step)
 
         run(10)  # warm-up: scenes of the first resets loaded, numba compiled
         t = time.perf_counter()
-        run(steps)
+        run(steps, times)
         return steps * n / (time.perf_counter() - t)
     finally:
         envs.close()

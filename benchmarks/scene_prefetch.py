@@ -18,26 +18,16 @@ from __future__ import annotations
 import argparse
 import os
 import tempfile
-import time
 
 import numpy as np
 
 
 def batched_step_times(cfg, steps: int) -> np.ndarray:
-    """Seconds of each of ``steps`` batched steps (random actions) after 10 of warm-up."""
-    from rvn_rl.vec_env import make_envs
+    """Seconds of each of ``steps`` batched steps (random actions) after 10 of warm-up (`rl.collection`)."""
+    import rl as rl_bench
 
-    envs = make_envs(cfg.env_kwargs(), cfg.env, seed=0)
-    rng, times = np.random.default_rng(0), []
-    try:
-        envs.reset()
-        for k in range(10 + steps):
-            t = time.perf_counter()
-            envs.step(rng.integers(0, 4, envs.num_envs))
-            if k >= 10:
-                times.append(time.perf_counter() - t)
-    finally:
-        envs.close()
+    times: list[float] = []
+    rl_bench.collection(cfg, steps, False, times)
     return np.array(times)
 
 
