@@ -1,0 +1,25 @@
+"""The weight caches of the models' inference forms (:meth:`ConditionalUnet1D.packed_weights`,
+:meth:`ObsEncoder.packed_weights`): weights repacked once for a decision loop's layout and kept on the
+module until any of its parameters or buffers is replaced (a load, ``.to()``) or changed in place (an
+optimiser step), which their data pointers and version counters tell (an inference tensor, made under
+``torch.inference_mode``, has no version counter: its data pointer alone)."""
+from __future__ import annotations
+
+from typing import Callable
+
+import torch
+from torch import nn
+
+
+def packed_cache(module: nn.Module, build: Callable[[], dict]) -> dict:
+    """``build()`` (run without autograd) for ``module``'s current weights, cached on the module."""
+    mods = module.__dict__.get("_packed_modules") or module.__dict__.setdefault("_packed_modules", list(module.modules()))
+    key = tuple((t.data_ptr(), -1 if t.is_inference() else t._version)  # inference tensors keep no version
+                for m in mods for t in (*m._parameters.values(), *m._buffers.values()) if t is not None)
+    cache = module.__dict__.get("_packed_cache")
+    if cache is not None and cache[0] == key:
+        return cache[1]
+    with torch.no_grad():
+        packed = build()
+    module.__dict__["_packed_cache"] = (key, packed)
+    return packed
