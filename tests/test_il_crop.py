@@ -97,7 +97,7 @@ def test_train_with_official_crop_records_it_and_the_policy_applies_it(tmp_path)
     assert member.crop == "official"
     rgb = render_frame(np.array([0.5, 0.0]), 0.3, 64)  # square: the aspect crop keeps it whole
     seen = []
-    member.model.encode_frames = lambda x: seen.append(x) or x.flatten(1)  # record what the encoder is given
+    member.model.encode_frames = lambda x, **kw: seen.append(x) or x.flatten(1)  # record what the encoder is given
     policy.act({"rgb": rgb, "pointgoal": np.array([0.0, 0.0], np.float32)})  # at the goal: STOP, after the push
     for crop, same in (("official", True), ("aspect", False)):
         want = torch.from_numpy(preprocess_image(rgb, member.model.image_size, crop)).permute(2, 0, 1)[None] / 255.0

@@ -158,6 +158,47 @@ def test_channels_last_training_layout_keeps_values_and_checkpoints(name, tmp_pa
         torch.testing.assert_close(back.encode_frames(images), nchw.encode_frames(images), rtol=1e-4, atol=1e-5)
 
 
+@pytest.mark.parametrize("name, size", [("vint_pointgoal", "small"), ("nomad_pointgoal", "small"), ("nomad_pointgoal", "full")])
+def test_packed_encoder_gives_the_tokens_of_the_forward(name, size):
+    """The encoder's inference form (a policy's encode_frames(fast=True)) gives the module forward's tokens to
+    float rounding, for GroupNorm (NoMaD) and BatchNorm with running statistics (ViNT), one frame or several,
+    uint8 or float, NCHW or NHWC weights; its packed weights follow an in-place change; autograd and training
+    mode take the module forward."""
+    cfg = load_model_config(name, size)
+    torch.manual_seed(0)
+    model = build_model(cfg).eval()
+    g = torch.Generator().manual_seed(5)
+    with torch.no_grad():  # norms away from their initial identity, so that a mistaken affine or statistic shows
+        for m in model.obs_encoder.modules():
+            if isinstance(m, (torch.nn.GroupNorm, torch.nn.BatchNorm2d)):
+                m.weight.uniform_(0.5, 1.5, generator=g)
+                m.bias.uniform_(-0.3, 0.3, generator=g)
+            if isinstance(m, torch.nn.BatchNorm2d):
+                m.running_mean.uniform_(-0.2, 0.2, generator=g)
+                m.running_var.uniform_(0.5, 2.0, generator=g)
+    w, h = model.image_size
+    frames = torch.randint(0, 256, (3, 3, h, w), dtype=torch.uint8, generator=g)
+    with torch.inference_mode():
+        want = model.encode_frames(frames)
+        assert model.encode_frames(frames, fast=True).shape == want.shape
+        torch.testing.assert_close(model.encode_frames(frames, fast=True), want, rtol=0, atol=2e-5)
+        torch.testing.assert_close(model.encode_frames(frames[1:2].float() / 255, fast=True), want[1:2], rtol=0, atol=2e-5)
+        model.fast_encoding = False  # the reference path: the forward itself
+        assert torch.equal(model.encode_frames(frames, fast=True), want)
+        model.fast_encoding = True
+        packed = model.obs_encoder.packed_weights()
+        assert model.obs_encoder.packed_weights() is packed
+    with torch.no_grad():
+        model.use_channels_last()
+        torch.testing.assert_close(model.encode_frames(frames, fast=True), want, rtol=0, atol=2e-5)
+        model.obs_encoder.compress.bias.add_(1.0)
+        torch.testing.assert_close(model.encode_frames(frames, fast=True), want + 1.0, rtol=0, atol=2e-5)
+    model.train()
+    torch.manual_seed(1)
+    trained = model.encode_frames(frames, fast=True)  # training: the module forward, with autograd
+    assert trained.requires_grad
+
+
 def test_encoder_width_whose_channels_16_does_not_divide(root):
     """width_coefficient 0.5 gives EfficientNet stages of 56 channels (56 // 16 = 3 groups would not divide
     them): the GroupNorm swap takes whole groups (2 of 28), and the model trains one step and predicts."""

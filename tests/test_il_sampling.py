@@ -157,7 +157,7 @@ def test_policy_decision_threads(threads, inside):
     model = nomad()
     seen = []
     encode = model.encode_frames
-    model.encode_frames = lambda x: seen.append(torch.get_num_threads()) or encode(x)
+    model.encode_frames = lambda x, **kw: seen.append(torch.get_num_threads()) or encode(x, **kw)
     policy = PointGoalPolicy([Member(model, 0.25)], ControlConfig.from_agent(AgentConfig()), 2, threads=threads)
     before = torch.get_num_threads()
     torch.set_num_threads(2)
@@ -168,3 +168,27 @@ def test_policy_decision_threads(threads, inside):
         torch.set_num_threads(before)
     with pytest.raises(ValueError, match="policy threads=0"):
         PointGoalPolicy([Member(model, 0.25)], ControlConfig.from_agent(AgentConfig()), threads=0)
+
+
+def test_fast_policy_acts_as_the_reference_path():
+    """A NoMaD full policy's decisions with the inference forms (the packed encoder and U-Net, the precomputed
+    updates) and on the reference path (the modules' forward, diffusers' scheduler), same weights and seed, over a
+    walk of frames: the same action every step and the followed trajectories equal to float rounding."""
+    from rvn_il.data.synthetic import render_frame
+
+    policies = []
+    for fast in (True, False):
+        model = nomad("full")
+        model.fast_sampling = model.fast_encoding = fast
+        policies.append(PointGoalPolicy([Member(model, 0.25)], ControlConfig.from_agent(AgentConfig()), 8, threads=1))
+    frames = [render_frame(np.array([0.2 * k, 0.05 * k]), 0.1 * k, 128) for k in range(12)]
+    actions = {True: [], False: []}
+    for policy, fast in zip(policies, (True, False)):
+        policy.reset()
+        for k, rgb in enumerate(frames):
+            goal = np.array([3.0 - 0.2 * k, 1.0 - 0.3 * k], np.float32)
+            actions[fast].append((policy.act({"rgb": rgb, "pointgoal": goal}), policy.last_waypoints.copy()))
+    for (fast_action, fast_wp), (ref_action, ref_wp) in zip(actions[True], actions[False]):
+        assert fast_action == ref_action
+        np.testing.assert_allclose(fast_wp, ref_wp, rtol=0, atol=1e-4)
+    assert len({a for a, _ in actions[True]}) > 1  # the walk asks for more than one action

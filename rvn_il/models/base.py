@@ -3,7 +3,8 @@ from a two-layer MLP, sinusoidal positions and a pre-norm Transformer.
 
 Contract used by training and policies:
 - ``encode_frames(images [N,3,H,W]) -> [N, D]`` (per frame, so a policy caches it): float in [0, 1],
-  or uint8 0-255 as the data loader gives them (scaled here, on the model's device);
+  or uint8 0-255 as the data loader gives them (scaled here, on the model's device); a policy passes
+  ``fast=True`` for the encoder's inference form;
 - ``forward(batch, generator=None) -> dict`` of scalar losses (``loss`` is optimised);
 - ``predict(tokens [B,C+1,D], goal [B,2], num_samples, generator) -> [B,S,len_traj_pred,2]``
   waypoints in units of metric_waypoint_spacing, robot frame (x forward, y left).
@@ -32,6 +33,7 @@ DEPTH_RANGE = (0.05, 50.0)  # m: log-depth targets are clamped to it (the camera
 class PointGoalModel(nn.Module):
     name = "base"
     frame_encoder = None  # encode_frames' compiled encoder (policy.compile: rvn_il.models.compiled); None: obs_encoder
+    fast_encoding = True  # encode_frames(fast=True), a policy's: the encoder's inference form; False: its forward
 
     def __init__(self, cfg: Mapping, group_norm: bool):
         super().__init__()
@@ -61,10 +63,17 @@ class PointGoalModel(nn.Module):
         self.obs_encoder.to(memory_format=torch.channels_last)
         return self
 
-    def encode_frames(self, images: torch.Tensor) -> torch.Tensor:
+    def encode_frames(self, images: torch.Tensor, fast: bool = False) -> torch.Tensor:
+        """Tokens [N, D] of images [N,3,H,W]: the compiled encoder where one is set (policy.compile); else with
+        ``fast`` (a policy's decisions, without autograd) and ``fast_encoding`` the encoder's inference form
+        (:meth:`ObsEncoder.forward_packed`), which agrees with its forward to float rounding."""
         if images.dtype == torch.uint8:  # the loader's frames: the same floats as scaling before the copy
             images = images.float().div_(255.0)
-        return (self.frame_encoder or self.obs_encoder)(images)
+        if self.frame_encoder is not None:
+            return self.frame_encoder(images)
+        if fast and self.fast_encoding:
+            return self.obs_encoder.forward_packed(images)
+        return self.obs_encoder(images)
 
     def batch_tokens(self, obs_image: torch.Tensor) -> torch.Tensor:
         """obs_image [B,C+1,3,H,W] → tokens [B,C+1,D] (all frames through the encoder at once)."""

@@ -11,6 +11,9 @@ import torch
 from efficientnet_pytorch import EfficientNet
 from torch import nn
 
+from .encoder_packed import encode_packed, pack_encoder
+from .packing import packed_cache
+
 IMAGENET_MEAN = (0.485, 0.456, 0.406)
 IMAGENET_STD = (0.229, 0.224, 0.225)
 
@@ -71,6 +74,17 @@ class ObsEncoder(nn.Module):
         x = self.net.extract_features((images - self.mean) / self.std)
         x = self.net._dropout(self.net._avg_pooling(x).flatten(1))
         return self.compress(x)
+
+    def packed_weights(self) -> dict:
+        """The weights of :meth:`forward_packed`, cached until any parameter or buffer changes."""
+        return packed_cache(self, lambda: pack_encoder(self))
+
+    def forward_packed(self, images: torch.Tensor) -> torch.Tensor:
+        """:meth:`forward` for decisions, in the encoder's inference form (:mod:`.encoder_packed`: channels-last,
+        1x1 convolutions as matrix products); the module's ``forward`` while training."""
+        if self.training or torch.is_grad_enabled():
+            return self(images)
+        return encode_packed(self.packed_weights(), images)
 
 
 class GoalMLP(nn.Sequential):

@@ -118,7 +118,7 @@ class PointGoalPolicy:
             if key not in frames:
                 img = preprocess_image(rgb, m.model.image_size, m.crop)
                 frames[key] = torch.from_numpy(img).to(self.device).permute(2, 0, 1).unsqueeze(0).float().div_(255.0)
-            tok = m.model.encode_frames(frames[key])[0]
+            tok = m.model.encode_frames(frames[key], fast=True)[0]
             while len(q) < q.maxlen - 1:  # first frame after reset fills the context
                 q.append(tok)
             q.append(tok)
