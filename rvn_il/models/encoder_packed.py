@@ -10,7 +10,7 @@ for a policy's one frame a decision, with channels-last activations throughout, 
   GroupNorm / BatchNorm read and write channels-last, with no layout copies;
 - squeeze-and-excitation is two products on the pooled [N, C].
 
-NoMaD full, one frame of 96x96, one CPU thread: 13.5 ms → 7.3 ms. Values agree with the module's forward to
+NoMaD full, one frame of 96x96, one CPU thread: 14.8 ms → 8.6 ms (x1.73, benchmarks/train.py --latency-only). Values agree with the module's forward to
 float rounding (tests/test_il_models.py). Eval mode only: drop-connect and dropout are off, BatchNorm (ViNT's
 encoder) uses its running statistics."""
 from __future__ import annotations
@@ -40,10 +40,11 @@ def _pack_conv(conv: nn.Conv2d) -> tuple:
 
 
 def _pack_norm(norm: nn.Module) -> tuple:
+    affine = tuple(None if p is None else p.detach() for p in (norm.weight, norm.bias))
     if isinstance(norm, nn.GroupNorm):
-        return "group", norm.num_groups, norm.weight.detach(), norm.bias.detach(), norm.eps
+        return "group", norm.num_groups, *affine, norm.eps
     if isinstance(norm, nn.BatchNorm2d) and norm.track_running_stats:
-        return "batch", norm.running_mean, norm.running_var, norm.weight.detach(), norm.bias.detach(), norm.eps
+        return "batch", norm.running_mean, norm.running_var, *affine, norm.eps
     raise ValueError(f"forward_packed supports GroupNorm and BatchNorm2d with running statistics, not {norm}")
 
 
