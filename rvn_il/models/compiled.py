@@ -19,7 +19,7 @@ of the plain model; random draws are torch's, so losses agree with the plain fp3
 rounding (same test file).
 
 Compiled kernels are cached under the cache root (`rvn_data.cache_root.keep_compiled_kernels`):
-the first run compiles (NoMaD full: about 3.5 minutes on one core of the 2-core development machine), later runs load.
+the first run compiles (NoMaD full: about 3 minutes, 170 s, on the 2-core development machine), later runs load.
 """
 from __future__ import annotations
 
