@@ -90,13 +90,8 @@ class PackedEncoder:
     def __init__(self, encoder: nn.Module, device: torch.device):
         from .encoder_packed import encode_packed
 
-        self.weights, flat = nn.Module(), []
-        self.layout = _flatten(encoder.packed_weights(), flat)
-        for i, t in enumerate(flat):
-            self.weights.register_buffer(f"packed_{i}", t, persistent=False)
-        self.call = CompiledCall(
-            lambda images: encode_packed(_unflatten(self.layout, lambda i: getattr(self.weights, f"packed_{i}")), images),
-            device)
+        self.weights, self.layout = _as_buffers(encoder.packed_weights())
+        self.call = CompiledCall(lambda images: encode_packed(_from_buffers(self.weights, self.layout), images), device)
 
     def __call__(self, images: torch.Tensor) -> torch.Tensor:
         return self.call(images)
@@ -125,15 +120,12 @@ class PackedSampler:
     the model can hold it (as ``sampling_graph``) without becoming its own child."""
 
     def __init__(self, model: torch.nn.Module, device: torch.device):
-        self.model, self.weights = model, nn.Module()
+        self.model = model
         with torch.no_grad():
             packed = model.noise_pred_net.packed_weights()
-            flat: list[torch.Tensor] = []
-            weights = {k: v for k, v in packed.items() if isinstance(k, str)}  # not film_timestep_part's cache (tuple keys)
-            self.layout = _flatten(weights, flat)
             part_t = model.plan_film_part(packed)
-        for i, t in enumerate(flat):
-            self.weights.register_buffer(f"packed_{i}", t, persistent=False)
+        # not film_timestep_part's cache (tuple keys)
+        self.weights, self.layout = _as_buffers({k: v for k, v in packed.items() if isinstance(k, str)})
         self.weights.register_buffer("part_t", part_t, persistent=False)
         if device.type == "cuda":  # the weights stay where they are: CUDA graphs need not copy them in
             from torch._dynamo import mark_static_address
@@ -145,7 +137,7 @@ class PackedSampler:
             self.biases, self.denoise, self.whole = CompiledCall(self._biases, device), CompiledCall(self._denoise, device), None
 
     def _packed(self) -> dict:
-        return _unflatten(self.layout, lambda i: getattr(self.weights, f"packed_{i}"))
+        return _from_buffers(self.weights, self.layout)
 
     def _biases(self, tokens: torch.Tensor, goal: torch.Tensor, goal_mask: torch.Tensor | None, rows: int):
         return self.model.step_biases(tokens, goal, goal_mask, rows, self._packed(), self.weights.part_t)
@@ -163,6 +155,21 @@ class PackedSampler:
         if self.whole is not None:
             return self.whole(tokens, goal, goal_mask, x, noise)
         return self.denoise(x, noise, self.biases(tokens, goal, goal_mask, x.shape[0]))
+
+
+def _as_buffers(tree) -> tuple[nn.Module, object]:
+    """A module holding ``tree``'s tensors as its buffers, and ``tree``'s layout (:func:`_flatten`), so that
+    torch.compile sees packed weights as a module's constants, not as a nested dict of inputs to guard at every call."""
+    weights, flat = nn.Module(), []
+    layout = _flatten(tree, flat)
+    for i, t in enumerate(flat):
+        weights.register_buffer(f"packed_{i}", t, persistent=False)
+    return weights, layout
+
+
+def _from_buffers(weights: nn.Module, layout):
+    """The tree :func:`_as_buffers` took apart, from the module's buffers."""
+    return _unflatten(layout, lambda i: getattr(weights, f"packed_{i}"))
 
 
 def _flatten(tree, flat: list[torch.Tensor]):
