@@ -247,22 +247,28 @@ def decision_ms(name: str, size: str, decisions: int, threads: int | None = 1,
     return ms[0], ms[1] if len(ms) > 1 else None
 
 
+def in_turns(first, second, reps: int, warm: int) -> tuple[float, float]:
+    """Median ms of ``first()`` and of ``second()``, called in turns ``reps`` times each after ``warm`` untimed turns,
+    so that both see the same load over time."""
+    times: tuple[list, list] = ([], [])
+    for k in range(warm + reps):
+        for fn, ts in zip((first, second), times):
+            t = time.perf_counter()
+            fn()
+            if k >= warm:
+                ts.append(1e3 * (time.perf_counter() - t))
+    return statistics.median(times[0]), statistics.median(times[1])
+
+
 def encoder_ms(name: str, size: str, reps: int = 60) -> tuple[float, float]:
     """Median ms to encode one frame (the policy's case) with the encoder's inference form (``encode_frames(fast=True)``:
     rvn_il/models/encoder_packed.py) and with its module forward, the two timed in turns."""
     torch.manual_seed(0)
-    model = build_model(load_model_config("nomad_pointgoal" if name == "nomad_neg" else name, size)).eval()
+    model = build_model(load_model_config(name, size)).eval()
     w, h = model.image_size
     frame = torch.rand(1, 3, h, w, generator=torch.Generator().manual_seed(0))
-    times: dict[bool, list[float]] = {True: [], False: []}
     with torch.inference_mode():
-        for k in range(reps + 5):
-            for fast in (True, False):
-                t = time.perf_counter()
-                model.encode_frames(frame, fast=fast)
-                if k >= 5:
-                    times[fast].append(time.perf_counter() - t)
-    return 1e3 * statistics.median(times[True]), 1e3 * statistics.median(times[False])
+        return in_turns(lambda: model.encode_frames(frame, fast=True), lambda: model.encode_frames(frame), reps, 5)
 
 
 def veto_check_ms(size: str, veto: DepthVeto, reps: int = 200) -> float:
@@ -323,13 +329,7 @@ def ema_ms(reps: int) -> tuple[float, float]:
                 old.shadow[k].copy_(v)
         torch._foreach_lerp_(floats_s, floats_m, 1.0 - d)
 
-    times: tuple[list, list] = ([], [])
-    for k in range(2 * reps + 2):
-        t = time.perf_counter()
-        ema.update(model) if k % 2 == 0 else by_state_dict()
-        if k >= 2:
-            times[k % 2].append(1e3 * (time.perf_counter() - t))
-    return statistics.median(times[0]), statistics.median(times[1])
+    return in_turns(lambda: ema.update(model), by_state_dict, reps, 1)
 
 
 def main() -> None:
