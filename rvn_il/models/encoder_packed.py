@@ -10,7 +10,8 @@ for a policy's one frame a decision, with channels-last activations throughout, 
   GroupNorm / BatchNorm read and write channels-last, with no layout copies;
 - squeeze-and-excitation is two products on the pooled [N, C].
 
-NoMaD full, one frame of 96x96, one CPU thread: 14.8 ms → 8.6 ms (x1.73, benchmarks/train.py --latency-only). Values agree with the module's forward to
+NoMaD full, one frame of 96x96, one CPU thread: 14.8 ms → 8.6 ms (x1.73, benchmarks/train.py --latency-only);
+~7.6 ms once the stride-1 paddings became the convolutions' own. Values agree with the module's forward to
 float rounding (tests/test_il_models.py). Eval mode only: drop-connect and dropout are off, BatchNorm (ViNT's
 encoder) uses its running statistics."""
 from __future__ import annotations
@@ -28,7 +29,9 @@ def _bias(conv: nn.Conv2d) -> torch.Tensor | None:
 
 def _pack_conv(conv: nn.Conv2d) -> tuple:
     """("rows", weight [C_in, C_out], bias) for a 1x1 stride-1 convolution; otherwise ("conv", channels-last
-    weight, bias, stride, groups, static "same" padding or None) of efficientnet-pytorch's padded Conv2d."""
+    weight, bias, stride, groups, static "same" padding or None, padding) of efficientnet-pytorch's padded Conv2d:
+    a padding the same on all sides is the convolution's own (F.pad first, then the convolution, took 46-127 µs
+    against 34-80 for B0's stride-1 depthwise convolutions at 96x96, with the same values), an uneven one F.pad's."""
     w = conv.weight.detach()
     pad = getattr(conv, "static_padding", None)
     pad = tuple(pad.padding) if isinstance(pad, nn.ZeroPad2d) else None
@@ -36,7 +39,9 @@ def _pack_conv(conv: nn.Conv2d) -> tuple:
         raise ValueError(f"forward_packed supports efficientnet-pytorch's static-padding Conv2d only, not {conv}")
     if w.shape[2:] == (1, 1) and conv.groups == 1 and tuple(conv.stride) == (1, 1) and pad is None:
         return "rows", w.flatten(1).t().contiguous(), _bias(conv)
-    return "conv", w.contiguous(memory_format=CL), _bias(conv), tuple(conv.stride), conv.groups, pad
+    if pad is not None and len(set(pad)) == 1:  # the same on every side (stride 1): the convolution's own zero padding
+        return "conv", w.contiguous(memory_format=CL), _bias(conv), tuple(conv.stride), conv.groups, None, pad[0]
+    return "conv", w.contiguous(memory_format=CL), _bias(conv), tuple(conv.stride), conv.groups, pad, 0
 
 
 def _pack_norm(norm: nn.Module) -> tuple:
@@ -79,14 +84,14 @@ def _conv(x: torch.Tensor, packed: tuple) -> torch.Tensor:
         rows = x.permute(0, 2, 3, 1).reshape(n * h * wd, c)  # a view of channels-last memory
         out = torch.mm(rows, w) if b is None else torch.addmm(b, rows, w)
         return out.view(n, h, wd, -1).permute(0, 3, 1, 2)
-    _, w, b, stride, groups, pad = packed
-    return F.conv2d(x if pad is None else F.pad(x, pad), w, b, stride, 0, 1, groups)
+    _, w, b, stride, groups, pad, same = packed
+    return F.conv2d(x if pad is None else F.pad(x, pad), w, b, stride, same, 1, groups)
 
 
 def _norm(x: torch.Tensor, packed: tuple, act: bool = True) -> torch.Tensor:
     """The packed norm of x, then swish (in place) when ``act``."""
     if packed[0] == "group":
-        y = F.group_norm(x, *packed[1:])
+        y = torch.group_norm(x, *packed[1:])  # without F.group_norm's checks: ~2 µs a call
     else:
         mean, var, w, b, eps = packed[1:]
         y = F.batch_norm(x, mean, var, w, b, False, 0.0, eps)

@@ -13,9 +13,11 @@ from torch import nn
 
 def packed_cache(module: nn.Module, build: Callable[[], dict]) -> dict:
     """``build()`` (run without autograd) for ``module``'s current weights, cached on the module."""
-    mods = module.__dict__.get("_packed_modules") or module.__dict__.setdefault("_packed_modules", list(module.modules()))
-    key = tuple((t.data_ptr(), -1 if t.is_inference() else t._version)  # inference tensors keep no version
-                for m in mods for t in (*m._parameters.values(), *m._buffers.values()) if t is not None)
+    tables = module.__dict__.get("_packed_tables")  # every submodule's parameter and buffer dicts (entries may change)
+    if tables is None:
+        tables = module.__dict__["_packed_tables"] = [d for m in module.modules() for d in (m._parameters, m._buffers) if d]
+    key = [(t.data_ptr(), -1 if t.is_inference() else t._version)  # inference tensors keep no version
+           for d in tables for t in d.values() if t is not None]
     cache = module.__dict__.get("_packed_cache")
     if cache is not None and cache[0] == key:
         return cache[1]
