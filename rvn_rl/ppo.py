@@ -59,8 +59,8 @@ def ppo_update(model: nn.Module, optimizer, rollouts, cfg: PPOConfig, generator:
         adv = adv[..., 0]
     if cfg.use_normalized_advantage:
         adv = normalise(adv)
-    sums = {"value_loss": 0.0, "action_loss": 0.0, "entropy": 0.0, "grad_norm": 0.0}
-    updates = 0
+    names = ("value_loss", "action_loss", "entropy", "grad_norm")
+    sums, updates = None, 0  # summed on the learner's device (float64, as Python's floats): one host sync an update
     for _ in range(cfg.ppo_epoch):
         for mb in rollouts.minibatches(adv, cfg.num_mini_batch, generator):
             logp, entropy, values = model(mb["obs"], mb["state"], mb["prev_actions"], mb["masks"], mb["actions"])
@@ -73,14 +73,14 @@ def ppo_update(model: nn.Module, optimizer, rollouts, cfg: PPOConfig, generator:
                 value_loss = 0.5 * torch.max((values - ret).pow(2), (clipped - ret).pow(2)).sum(-1).mean()
             else:
                 value_loss = 0.5 * (values - ret).pow(2).sum(-1).mean()
-            loss = value_loss * cfg.value_loss_coef + action_loss - entropy.mean() * cfg.entropy_coef
+            entropy = entropy.mean()
+            loss = value_loss * cfg.value_loss_coef + action_loss - entropy * cfg.entropy_coef
             optimizer.zero_grad()
             loss.backward()
             grad_norm = nn.utils.clip_grad_norm_(model.parameters(), cfg.max_grad_norm)
             optimizer.step()
-            sums["value_loss"] += value_loss.item()
-            sums["action_loss"] += action_loss.item()
-            sums["entropy"] += entropy.mean().item()
-            sums["grad_norm"] += float(grad_norm)
+            terms = torch.stack([value_loss.detach(), action_loss.detach(), entropy.detach(), grad_norm]).double()
+            sums = terms if sums is None else sums + terms
             updates += 1
-    return {k: v / max(1, updates) for k, v in sums.items()}
+    totals = sums.tolist() if sums is not None else [0.0] * len(names)
+    return {k: v / max(1, updates) for k, v in zip(names, totals)}

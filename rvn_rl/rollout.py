@@ -72,18 +72,6 @@ class RolloutStorage:
         self.state0.copy_(state)
         self.step = 0
 
-    def minibatches(self, advantages: torch.Tensor, num_mini_batch: int, generator: torch.Generator):
-        """Whole-rollout sequences of a random subset of envs per mini-batch (time-major, flat)."""
-        n = self.step
-        perm = torch.randperm(self.num_envs, generator=generator)
-        for idx in perm.chunk(num_mini_batch):
-            def flat(x):
-                return x[:n, idx].reshape(n * len(idx), *x.shape[2:])
-            yield dict(obs={k: flat(v) for k, v in self.obs.items()}, state=self.state0[:, idx],
-                       prev_actions=flat(self.prev_actions), masks=flat(self.masks), actions=flat(self.actions),
-                       logp=flat(self.logp), values=flat(self.values), returns=flat(self.returns),
-                       advantages=flat(advantages))
-
 
 def to_device(obs: dict, device) -> dict:
     """A batch of observations (arrays or tensors) as tensors on ``device``."""
@@ -91,16 +79,34 @@ def to_device(obs: dict, device) -> dict:
 
 
 class DeviceRollouts:
-    """Mini-batches of a CPU `RolloutStorage` moved to the learner's device."""
+    """The PPO update's mini-batches of a CPU `RolloutStorage`, on the learner's device: each the whole rollout of a
+    random subset of envs (time-major, flat). The filled part of the rollout moves to the device once per update (at
+    the first `minibatches` call with a new ``advantages``) and every epoch's mini-batches are gathered there, instead
+    of each mini-batch being gathered on the CPU and copied over (scale=small on 30 envs: 4 epochs x 4 mini-batches
+    of ~24 MB of frames an update)."""
 
     def __init__(self, rollouts: RolloutStorage, device):
-        self.r, self.device = rollouts, device
+        self.r, self.device = rollouts, torch.device(device)
         self.returns, self.values = rollouts.returns, rollouts.values
+        self._adv, self._on_device = None, None
 
     @property
     def step(self) -> int:
         return self.r.step
 
-    def minibatches(self, adv, num_mini_batch, generator):
-        for mb in self.r.minibatches(adv, num_mini_batch, generator):
-            yield {k: (to_device(v, self.device) if isinstance(v, dict) else v.to(self.device)) for k, v in mb.items()}
+    def _load(self, adv: torch.Tensor) -> dict:
+        r, n = self.r, self.r.step
+        tensors = {f"obs.{k}": v[:n] for k, v in r.obs.items()}
+        tensors.update({k: getattr(r, k)[:n] for k in ("prev_actions", "masks", "actions", "logp", "values", "returns")})
+        return {k: v.to(self.device) for k, v in {**tensors, "state": r.state0, "advantages": adv}.items()}
+
+    def minibatches(self, adv: torch.Tensor, num_mini_batch: int, generator: torch.Generator):
+        if adv is not self._adv:  # a new update (holding the last one's advantages, no new tensor can be them)
+            self._adv, self._on_device = adv, self._load(adv)
+        d, n = self._on_device, self.r.step
+        perm = torch.randperm(self.r.num_envs, generator=generator)
+        for idx in perm.chunk(num_mini_batch):
+            idx = idx.to(self.device)
+            flat = {k: v[:, idx].reshape(n * len(idx), *v.shape[2:]) for k, v in d.items() if k != "state"}
+            yield {"obs": {k[4:]: v for k, v in flat.items() if k.startswith("obs.")}, "state": d["state"][:, idx],
+                   **{k: v for k, v in flat.items() if not k.startswith("obs.")}}

@@ -187,3 +187,46 @@ def test_gae_stops_at_episode_ends():
     np.testing.assert_allclose(adv, expect, rtol=1e-5, atol=1e-5)
     assert st.masks[3, 0] == 0 and st.masks[3, 1] == 1  # the step after the end starts a new episode
     assert np.isclose(adv[2, 0], rewards[2, 0] - values[2, 0], atol=1e-5)  # no bootstrap across the end
+
+
+def test_device_rollouts_give_each_envs_whole_rollout_and_load_once_an_update():
+    """The PPO update's mini-batches (`DeviceRollouts`): each the filled steps of a random subset of envs, every
+    stored field of the same envs (frames, state, actions, masks, ...), flat time-major; the subsets of one epoch
+    cover every env once; the rollout moves to the device once an update and again for the next one."""
+    from rvn_rl.rollout import DeviceRollouts
+
+    T, N, heads, steps = 6, 4, 2, 5  # a rollout that ended early (DD-PPO's pre-emption): 5 of 6 steps filled
+    rng = np.random.default_rng(0)
+    space = {"rgb": ((3, 3, 3), torch.uint8), "pointgoal": ((2,), torch.float32)}
+
+    def obs() -> dict:
+        return {"rgb": rng.integers(0, 256, (N, 3, 3, 3), dtype=np.uint8), "pointgoal": rng.normal(size=(N, 2)).astype(np.float32)}
+
+    st = RolloutStorage(T, N, space, (4, N, 8), heads)
+    batches = DeviceRollouts(st, "cpu")
+    for update in range(2):
+        st.set_first(obs(), torch.randn(4, N, 8), torch.randint(0, 4, (N,)), torch.ones(N))
+        for _ in range(steps):
+            st.insert(obs(), torch.randint(0, 4, (N,)), torch.randn(N), torch.randn(N, heads), rng.normal(size=(N, heads)),
+                      rng.random(N) < 0.3)
+        adv = st.compute_returns(torch.randn(N, heads), 0.99, 0.95)[..., 0]
+        gen = torch.Generator().manual_seed(update)
+        for _ in range(2):  # two epochs of one update: their draws differ, the rollout is loaded once
+            seen = []
+            for mb in batches.minibatches(adv, 2, gen):
+                envs = [int(torch.nonzero((st.state0[0, :, 0] == s)).item()) for s in mb["state"][0, :, 0]]
+                seen += envs
+                k = len(envs)
+                assert mb["obs"]["rgb"].shape == (steps * k, 3, 3, 3)
+                for name, full in (("rgb", st.obs["rgb"]), ("pointgoal", st.obs["pointgoal"])):
+                    assert torch.equal(mb["obs"][name], full[:steps, envs].reshape(steps * k, *full.shape[2:]))
+                for name in ("prev_actions", "masks", "actions", "logp", "values", "returns"):
+                    full = getattr(st, name)
+                    assert torch.equal(mb[name], full[:steps, envs].reshape(steps * k, *full.shape[2:])), name
+                assert torch.equal(mb["advantages"], adv[:, envs].reshape(-1))
+                assert torch.equal(mb["state"], st.state0[:, envs])
+            assert sorted(seen) == list(range(N))
+        loaded = batches._on_device
+        list(batches.minibatches(adv, 2, gen))
+        assert batches._on_device is loaded  # the same update: not loaded again
+        st.after_update(torch.randn(4, N, 8))
