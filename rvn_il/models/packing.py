@@ -15,7 +15,7 @@ def packed_cache(module: nn.Module, build: Callable[[], dict]) -> dict:
     """``build()`` (run without autograd) for ``module``'s current weights, cached on the module."""
     tables = module.__dict__.get("_packed_tables")  # every submodule's parameter and buffer dicts (entries may change)
     if tables is None:
-        tables = module.__dict__["_packed_tables"] = [d for m in module.modules() for d in (m._parameters, m._buffers) if d]
+        tables = module.__dict__["_packed_tables"] = [d for m in module.modules() for d in (m._parameters, m._buffers)]
     key = [(t.data_ptr(), -1 if t.is_inference() else t._version)  # inference tensors keep no version
            for d in tables for t in d.values() if t is not None]
     cache = module.__dict__.get("_packed_cache")
