@@ -78,6 +78,9 @@ def to_device(obs: dict, device) -> dict:
     return {k: torch.as_tensor(v).to(device, non_blocking=True) for k, v in obs.items()}
 
 
+_FIELDS = ("prev_actions", "masks", "actions", "logp", "values", "returns")  # per step and env, besides obs
+
+
 class DeviceRollouts:
     """The PPO update's mini-batches of a CPU `RolloutStorage`, on the learner's device: each the whole rollout of a
     random subset of envs (time-major, flat). The filled part of the rollout moves to the device once per update (at
@@ -95,10 +98,9 @@ class DeviceRollouts:
         return self.r.step
 
     def _load(self, adv: torch.Tensor) -> dict:
-        r, n = self.r, self.r.step
-        tensors = {f"obs.{k}": v[:n] for k, v in r.obs.items()}
-        tensors.update({k: getattr(r, k)[:n] for k in ("prev_actions", "masks", "actions", "logp", "values", "returns")})
-        return {k: v.to(self.device) for k, v in {**tensors, "state": r.state0, "advantages": adv}.items()}
+        r, n, dev = self.r, self.r.step, self.device
+        return {"obs": {k: v[:n].to(dev) for k, v in r.obs.items()}, "state": r.state0.to(dev),
+                **{k: getattr(r, k)[:n].to(dev) for k in _FIELDS}, "advantages": adv.to(dev)}
 
     def minibatches(self, adv: torch.Tensor, num_mini_batch: int, generator: torch.Generator):
         if adv is not self._adv:  # a new update (holding the last one's advantages, no new tensor can be them)
@@ -107,6 +109,8 @@ class DeviceRollouts:
         perm = torch.randperm(self.r.num_envs, generator=generator)
         for idx in perm.chunk(num_mini_batch):
             idx = idx.to(self.device)
-            flat = {k: v[:, idx].reshape(n * len(idx), *v.shape[2:]) for k, v in d.items() if k != "state"}
-            yield {"obs": {k[4:]: v for k, v in flat.items() if k.startswith("obs.")}, "state": d["state"][:, idx],
-                   **{k: v for k, v in flat.items() if not k.startswith("obs.")}}
+
+            def flat(x: torch.Tensor) -> torch.Tensor:
+                return x[:, idx].reshape(n * len(idx), *x.shape[2:])
+            yield {"obs": {k: flat(v) for k, v in d["obs"].items()}, "state": d["state"][:, idx],
+                   **{k: flat(d[k]) for k in (*_FIELDS, "advantages")}}

@@ -39,9 +39,9 @@ def _pack_conv(conv: nn.Conv2d) -> tuple:
         raise ValueError(f"forward_packed supports efficientnet-pytorch's static-padding Conv2d only, not {conv}")
     if w.shape[2:] == (1, 1) and conv.groups == 1 and tuple(conv.stride) == (1, 1) and pad is None:
         return "rows", w.flatten(1).t().contiguous(), _bias(conv)
-    if pad is not None and len(set(pad)) == 1:  # the same on every side (stride 1): the convolution's own zero padding
-        return "conv", w.contiguous(memory_format=CL), _bias(conv), tuple(conv.stride), conv.groups, None, pad[0]
-    return "conv", w.contiguous(memory_format=CL), _bias(conv), tuple(conv.stride), conv.groups, pad, 0
+    even = pad is not None and len(set(pad)) == 1  # the same on every side (stride 1): the convolution's own zero padding
+    return ("conv", w.contiguous(memory_format=CL), _bias(conv), tuple(conv.stride), conv.groups,
+            None if even else pad, pad[0] if even else 0)
 
 
 def _pack_norm(norm: nn.Module) -> tuple:
