@@ -109,6 +109,33 @@ def test_invalid_action_names_policy(runs, tmp_path):
     assert "rvn-eval: note: policy._target_=badpol.BadPolicy is not a registered policy" in proc.stderr
 
 
+def test_one_process_runs_the_policy_it_checked(runs, tmp_path):
+    """rvn-eval builds the policy once to check it before any episode; with workers=1 that policy runs the
+    episodes (bound to the env), where each worker process builds its own."""
+    (tmp_path / "countpol.py").write_text(
+        "import os\n"
+        "class CountPolicy:\n"
+        "    def __init__(self, **kw):\n        self.log('built')\n"
+        "    def log(self, what):\n"
+        "        with open(os.environ['COUNT_LOG'], 'a') as f:\n            f.write(f'{what} {os.getpid()}\\n')\n"
+        "    def bind(self, env):\n        self.log('bound')\n"
+        "    def reset(self):\n        pass\n"
+        "    def act(self, obs):\n        return 1\n")
+    for workers in (1, 2):
+        log = tmp_path / f"count{workers}.txt"
+        env = dict(os.environ, COUNT_LOG=str(log),
+                   PYTHONPATH=f"{tmp_path}{os.pathsep}{os.environ.get('PYTHONPATH', '')}")
+        ok(rvn_eval(runs, "policy=random", "policy._target_=countpol.CountPolicy", "method=Count", f"workers={workers}",
+                    f"out_dir={tmp_path / f'count{workers}'}", env=env))
+        lines = [ln.split() for ln in log.read_text().splitlines()]
+        if workers == 1:  # built, checked, then bound and run in the same process
+            assert [what for what, _ in lines] == ["built", "bound"] and lines[0][1] == lines[1][1]
+        else:  # the check's policy, then one built and bound in each worker process
+            assert [what for what, _ in lines].count("built") == 3 and [w for w, _ in lines].count("bound") == 2
+        assert load(tmp_path / f"count{workers}")["episodes"] == 4
+    assert load(tmp_path / "count1")["SR_1"] == load(tmp_path / "count2")["SR_1"]
+
+
 def test_missing_scene_is_named(runs, tmp_path):
     missing = tmp_path / "no_such_scenes"
     proc = rvn_eval(runs, "scenes=mesh_dir", f"scenes.root={missing}", f"out_dir={tmp_path / 'x'}")

@@ -73,7 +73,7 @@ def evaluate(config: EvalConfig, choice: str = "policy", on_checked=None) -> dic
     env_cfg.store().write_index()
     with tqdm(total=len(keys), initial=len(keys) - len(todo), desc=f"eval {config.method} {config.split}",
               unit="ep", disable=not config.progress) as bar:
-        for _, rec in run_episodes(job, todo, workers):
+        for _, rec in run_episodes(job, todo, workers, policy):
             run.append(rec)
             done[record_key(rec)] = rec
             bar.update(1)

@@ -55,6 +55,11 @@ def make_policy(policy_cfg: dict, env, name: str):
         if not callable(getattr(policy, method, None)):
             raise TypeError(f"policy {name!r} ({type(policy).__name__}) has no {method}() method; "
                             "a policy needs reset() and act(obs) -> int")
+    return bind_policy(policy, env)
+
+
+def bind_policy(policy, env):
+    """``policy`` bound to ``env`` when it has ``bind`` (and ``env`` is not None); the policy."""
     if env is not None and callable(getattr(policy, "bind", None)):
         policy.bind(env)
     return policy
@@ -143,15 +148,16 @@ def run_episode(env, policy, k: int, name: str, seed: int = 0) -> dict:
 _WORKER: dict = {}
 
 
-def _init_worker(job: EvalJob, threads: int | None = None) -> None:
-    """Build this process's env and policy; in a worker process (``threads``: its share of the cores, `_pool`)
-    its CPU threads are settled first."""
+def _init_worker(job: EvalJob, threads: int | None = None, policy=None) -> None:
+    """Build this process's env and policy (or bind ``policy``, built from ``job.policy`` without an env); in a
+    worker process (``threads``: its share of the cores, `_pool`) its CPU threads are settled first."""
     from rvn_data.benchmark.env import RVNEnv
 
     if threads is not None:
         settle_worker_threads(threads)
     env = RVNEnv(config=job.env)
-    _WORKER.update(env=env, policy=make_policy(job.policy, env, job.name), name=job.name, seed=job.seed)
+    policy = make_policy(job.policy, env, job.name) if policy is None else bind_policy(policy, env)
+    _WORKER.update(env=env, policy=policy, name=job.name, seed=job.seed)
 
 
 def _run_task(k: int) -> tuple[int, dict]:
@@ -195,12 +201,14 @@ def prepare_episodes(env: EnvConfig, slots: list, workers: int, progress: Callab
                 progress(1)
 
 
-def run_episodes(job: EvalJob, todo: list[int], workers: int) -> Iterator[tuple[int, dict]]:
-    """Yield (k, record) for the schedule positions ``todo`` (completion order)."""
+def run_episodes(job: EvalJob, todo: list[int], workers: int, policy=None) -> Iterator[tuple[int, dict]]:
+    """Yield (k, record) for the schedule positions ``todo`` (completion order). ``policy``: one already built from
+    ``job.policy`` with no env (rvn-eval's check), used in this process rather than building another (a
+    checkpoint policy loads in about a second); worker processes build their own."""
     if not todo:
         return
     if workers <= 1:
-        _init_worker(job)
+        _init_worker(job, policy=policy)
         try:
             for k in todo:
                 yield _run_task(k)
