@@ -32,8 +32,8 @@ def losses(out_dir) -> dict[str, list[float]]:
 # U-Net, small's encoder with one repeated MBConv block (depth 0.3: 8 blocks instead of 10), which draws drop-connect
 FEWER_LAYERS = ["model.num_layers=1", "model.sizes.small.down_dims=[32,64]", "model.sizes.small.depth_coefficient=0.3"]
 # The training step compiles to scalar C++ kernels: what this file checks of it is RVN's wiring (in-place compile,
-# parameter names, random draws, the kernel cache's place), and inductor's vectorised codegen and g++ on its output
-# took 170 of its 187 s alone on the 2-core machine (100 s scalar). The policy below compiles vectorised kernels, as
+# parameter names, random draws, the kernel cache's place), and compiling vectorised kernels took 164 s of its run's
+# 187 alone on the 2-core machine (the run: 101 s with scalar ones). The policy below compiles vectorised kernels, as
 # a CPU policy does in use.
 SCALAR = {"TORCHINDUCTOR_VEC_ISA_OK": "0"}
 

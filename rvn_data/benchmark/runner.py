@@ -1,6 +1,7 @@
 """Run a policy over an episode set, in this process or in worker processes.
 
-Each worker builds its own `RVNEnv` (eval mode) and policy from the same `EvalJob`; episodes are addressed by their position in the set's schedule, so the records
+Each worker builds its own `RVNEnv` (eval mode) and policy from the same `EvalJob` (in one process, the policy
+rvn-eval built to check it); episodes are addressed by their position in the set's schedule, so the records
 do not depend on the number of workers. The policy config's ``_target_`` is resolved through the policies
 installed packages register (entry point group ``rvn.policies``, :mod:`.policy_registry`) and called with the
 config's other keys: any object with ``reset()`` and ``act(obs)`` is a policy; one with ``bind(env)`` gets the
