@@ -127,11 +127,11 @@ def test_one_process_runs_the_policy_it_checked(runs, tmp_path):
                    PYTHONPATH=f"{tmp_path}{os.pathsep}{os.environ.get('PYTHONPATH', '')}")
         ok(rvn_eval(runs, "policy=random", "policy._target_=countpol.CountPolicy", "method=Count", f"workers={workers}",
                     f"out_dir={tmp_path / f'count{workers}'}", env=env))
-        lines = [ln.split() for ln in log.read_text().splitlines()]
+        whats, pids = zip(*(ln.split() for ln in log.read_text().splitlines()))
         if workers == 1:  # built, checked, then bound and run in the same process
-            assert [what for what, _ in lines] == ["built", "bound"] and lines[0][1] == lines[1][1]
+            assert whats == ("built", "bound") and pids[0] == pids[1]
         else:  # the check's policy, then one built and bound in each worker process
-            assert [what for what, _ in lines].count("built") == 3 and [w for w, _ in lines].count("bound") == 2
+            assert whats.count("built") == 3 and whats.count("bound") == 2
         assert load(tmp_path / f"count{workers}")["episodes"] == 4
     assert load(tmp_path / "count1")["SR_1"] == load(tmp_path / "count2")["SR_1"]
 
