@@ -8,7 +8,11 @@ collection + learning figure).
 2. rvn-rl's own loop (``train()``) at the small recipe's settings (64x64, ResNet-18 at base width
    16, 8 envs, 64-step rollouts, 4 epochs x 4 mini-batches), once with the baseline patched in
    and once as it is: env steps/s of collection + learning, and the ratio.
-Run: python benchmarks/rl_lstm.py [--threads 2] [--updates 3]
+3. ``--update``: one PPO update as rvn-rl runs it (`ppo_update` over `DeviceRollouts`: 4 epochs x 4 mini-batches of
+   64-step rollouts, ResNet-18, restarts as a ~25-step episode makes them) with each mini-batch's plan of pieces
+   (`recurrent.Pieces`, computed on the CPU), against the same update with the LSTM reading its masks on the host
+   (three host-device waits a mini-batch on a GPU), alternated, best of ``--repeats``; ``--device cuda`` on a node.
+Run: python benchmarks/rl_lstm.py [--threads 2] [--updates 3] [--update [--device cuda --envs 30 --size 128]]
 """
 from __future__ import annotations
 
@@ -16,13 +20,15 @@ import argparse
 import json
 import tempfile
 import time
+import warnings
 
 import torch
 from torch import nn
 
 
-def split_lstm(rnn, x, masks, h, c, need_state=True):
-    """The baseline: one LSTM call per stretch between steps where any env restarts."""
+def split_lstm(rnn, x, masks, h, c, need_state=True, pieces=None):
+    """The baseline: one LSTM call per stretch between steps where any env restarts (a PPO update's plan of
+    pieces unused)."""
     starts = [0] + [t for t in range(1, masks.size(0)) if bool((masks[t] == 0).any())] + [masks.size(0)]
     outs = []
     for a, b in zip(starts[:-1], starts[1:]):
@@ -85,14 +91,78 @@ def train_fps(args, baseline: bool) -> tuple[float, float]:
     return sum(r["fps"] for r in timed) / len(timed), (rows[-1]["episodes"] - rows[0]["episodes"]) / len(timed)
 
 
+def update_with_plans(args) -> None:
+    import numpy as np
+
+    from rvn_rl.model import PointNavResNetPolicy
+    from rvn_rl.ppo import PPOConfig, ppo_update
+    from rvn_rl.rollout import DeviceRollouts, RolloutStorage
+    from rvn_rl.trainer import _Evaluate
+
+    dev, T, N, size = torch.device(args.device), 64, args.envs, args.size
+    torch.manual_seed(0)
+    policy = PointNavResNetPolicy(obs_size=size, backbone="resnet18", base_planes=args.base_planes,
+                                  ngroups=args.base_planes // 2).to(dev)
+    learner, optimizer = _Evaluate(policy), torch.optim.Adam(policy.parameters(), lr=2.5e-4, eps=1e-5)
+    rng = np.random.default_rng(0)
+    space = {"rgb": ((size, size, 3), torch.uint8), "pointgoal": ((2,), torch.float32)}
+    rollouts = RolloutStorage(T, N, space, tuple(policy.initial_state(N).shape), 1)
+
+    def obs() -> dict:
+        return {"rgb": rng.integers(0, 256, (N, size, size, 3), dtype=np.uint8),
+                "pointgoal": rng.normal(size=(N, 2)).astype(np.float32)}
+
+    rollouts.set_first(obs(), policy.initial_state(N).cpu(), torch.zeros(N, dtype=torch.long), torch.ones(N))
+    for _ in range(T):
+        rollouts.insert(obs(), torch.randint(0, 4, (N,)), torch.randn(N), torch.randn(N, 1), rng.normal(size=(N, 1)),
+                        rng.random(N) < 1 / 25)
+    rollouts.compute_returns(torch.randn(N, 1), 0.99, 0.95)
+    cfg, gen = PPOConfig(ppo_epoch=4, num_mini_batch=4, num_steps=T), torch.Generator().manual_seed(0)
+    planned = DeviceRollouts(rollouts, dev)
+    variants = {"plans (now)": planned, "masks read on the host": DeviceRollouts(rollouts, dev, plans=False)}
+    best = {k: float("inf") for k in variants}
+    for i in range(args.repeats + 1):  # the first round warms up (cuDNN's choices, the allocator): not counted
+        for name, batches in variants.items():
+            t = time.perf_counter()
+            ppo_update(learner, optimizer, batches, cfg, gen)  # ends reading its loss sums: the device has finished
+            if i:
+                best[name] = min(best[name], time.perf_counter() - t)
+    restarts = int((rollouts.masks[1:T] == 0).sum())
+    print(f"One PPO update on {dev.type} ({N} envs x {T} steps, {restarts} restarts, {size}², ResNet-18 base "
+          f"{args.base_planes}, 4 x 4 mini-batches; ms, best of {args.repeats}):")
+    base = best["masks read on the host"]
+    for name, sec in best.items():
+        print(f"  {name:<24} {1000 * sec:8.1f} ms   x{base / sec:.2f}")
+    if dev.type == "cuda":  # the host's waits for the GPU, as torch's sync debug mode reports them
+        for name, batches in variants.items():
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                torch.cuda.set_sync_debug_mode("warn")
+                try:
+                    ppo_update(learner, optimizer, batches, cfg, gen)
+                finally:
+                    torch.cuda.set_sync_debug_mode("default")
+            waits = [w for w in caught if "synchroniz" in str(w.message)]
+            print(f"  {name:<24} {len(waits)} synchronizing CUDA operations in one update")
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--updates", type=int, default=3, help="PPO updates timed per variant (after one warm-up)")
     p.add_argument("--renderer", default="auto")
     p.add_argument("--lstm-only", action="store_true")
+    p.add_argument("--update", action="store_true", help="only section 3: the PPO update with and without plans")
+    p.add_argument("--device", default="cpu", help="section 3's device")
+    p.add_argument("--envs", type=int, default=8, help="section 3's envs")
+    p.add_argument("--size", type=int, default=64, help="section 3's frame size")
+    p.add_argument("--base-planes", type=int, default=16, help="section 3's ResNet width")
+    p.add_argument("--repeats", type=int, default=3, help="section 3's timed rounds")
     args = p.parse_args()
     torch.set_num_threads(args.threads)
+    if args.update:
+        update_with_plans(args)
+        return
     lstm_alone([0, 2, 4, 8, 16, 32])
     if args.lstm_only:
         return

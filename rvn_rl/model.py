@@ -10,7 +10,7 @@ import torch.distributed as dist
 import torch.nn.functional as F
 from torch import nn
 
-from .recurrent import run_lstm
+from .recurrent import Pieces, run_lstm
 from .resnet import make_backbone
 
 NUM_ACTIONS = 4
@@ -127,17 +127,18 @@ class PointNavResNetPolicy(nn.Module):
         return torch.zeros(2 * self.rnn_layers, n, self.hidden_size, device=device)
 
     def forward(self, obs: dict, state: torch.Tensor, prev_actions: torch.Tensor, masks: torch.Tensor,
-                need_state: bool = True):
+                need_state: bool = True, pieces: Pieces | None = None):
         """obs tensors [T*N, ...], state [2L, N, H], prev_actions/masks [T*N] (T steps of N envs,
         time-major). Returns (features [T*N, H], new state); the new state is None with
-        ``need_state=False`` when some env starts an episode after step 0 (`recurrent.run_lstm`)."""
+        ``need_state=False`` when some env starts an episode after step 0, or with ``pieces``, the masks' plan for
+        a PPO update (`recurrent.run_lstm`)."""
         n = state.size(1)
         visual = self.visual_fc(self.visual_encoder(visual_input(obs, self.use_depth)))
         prev = self.prev_action_embedding(((prev_actions.long() + 1) * masks.long()))
         x = torch.cat([visual, prev, self.goal_embedding(goal_input(obs["pointgoal"].float()))], dim=-1)
         x = x.view(-1, n, x.size(-1))
         L = self.rnn_layers
-        out, h, c = run_lstm(self.rnn, x, masks.float().view(-1, n), state[:L], state[L:], need_state)
+        out, h, c = run_lstm(self.rnn, x, masks.float().view(-1, n), state[:L], state[L:], need_state, pieces)
         return out.reshape(-1, self.hidden_size), None if h is None else torch.cat([h, c], 0)
 
     def act(self, obs, state, prev_actions, masks, deterministic: bool = False, generator=None):
@@ -155,8 +156,8 @@ class PointNavResNetPolicy(nn.Module):
         v = self.critic(feats)
         return v if self.cost_critic is None else torch.cat([v, self.cost_critic(feats)], -1)
 
-    def evaluate(self, obs, state, prev_actions, masks, actions):
-        feats, _ = self(obs, state, prev_actions, masks, need_state=False)
+    def evaluate(self, obs, state, prev_actions, masks, actions, pieces: Pieces | None = None):
+        feats, _ = self(obs, state, prev_actions, masks, need_state=False, pieces=pieces)
         logp_all = F.log_softmax(self.actor(feats), -1)
         logp = logp_all.gather(-1, actions.long()[:, None]).squeeze(-1)
         entropy = -(logp_all.exp() * logp_all).sum(-1)

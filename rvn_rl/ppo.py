@@ -63,7 +63,8 @@ def ppo_update(model: nn.Module, optimizer, rollouts, cfg: PPOConfig, generator:
     sums, updates = None, 0  # summed on the learner's device (float64, as Python's floats): one host sync an update
     for _ in range(cfg.ppo_epoch):
         for mb in rollouts.minibatches(adv, cfg.num_mini_batch, generator):
-            logp, entropy, values = model(mb["obs"], mb["state"], mb["prev_actions"], mb["masks"], mb["actions"])
+            logp, entropy, values = model(mb["obs"], mb["state"], mb["prev_actions"], mb["masks"], mb["actions"],
+                                          pieces=mb["pieces"])
             ratio = torch.exp(logp - mb["logp"])
             a = mb["advantages"]
             action_loss = -torch.min(ratio * a, ratio.clamp(1 - cfg.clip_param, 1 + cfg.clip_param) * a).mean()

@@ -1,10 +1,13 @@
 """Rollout storage for recurrent PPO with GAE over one or two value heads (reward, and cost
 for PPO-Lagrangian). Rollouts may end early (DD-PPO's straggler pre-emption): only the
-first ``step`` transitions are used. `DeviceRollouts` hands the update its mini-batches on the learner's device."""
+first ``step`` transitions are used. `DeviceRollouts` hands the update its mini-batches on the learner's device, each
+with the plan of its LSTM pass (`recurrent.Pieces`)."""
 from __future__ import annotations
 
 import numpy as np
 import torch
+
+from .recurrent import plan_pieces
 
 
 class RolloutStorage:
@@ -88,8 +91,10 @@ class DeviceRollouts:
     of each mini-batch being gathered on the CPU and copied over (scale=small on 30 envs: 4 epochs x 4 mini-batches
     of ~24 MB of frames an update)."""
 
-    def __init__(self, rollouts: RolloutStorage, device):
-        self.r, self.device = rollouts, torch.device(device)
+    def __init__(self, rollouts: RolloutStorage, device, plans: bool = True):
+        """``plans=False``: mini-batches without their plan of pieces (None), so that the LSTM reads the masks on the
+        host, as before the plans (for comparison: benchmarks/rl_lstm.py --update, the tests)."""
+        self.r, self.device, self.plans = rollouts, torch.device(device), plans
         self.returns, self.values = rollouts.returns, rollouts.values
         self._adv, self._on_device = None, None
 
@@ -107,10 +112,11 @@ class DeviceRollouts:
             self._adv, self._on_device = adv, self._load(adv)
         d, n = self._on_device, self.r.step
         perm = torch.randperm(self.r.num_envs, generator=generator)
-        for idx in perm.chunk(num_mini_batch):
-            idx = idx.to(self.device)
+        for env in perm.chunk(num_mini_batch):
+            pieces = plan_pieces(self.r.masks[:n, env], self.device) if self.plans else None  # from the CPU's masks
+            idx = env.to(self.device, non_blocking=True)
 
             def flat(x: torch.Tensor) -> torch.Tensor:
                 return x[:, idx].reshape(n * len(idx), *x.shape[2:])
             yield {"obs": {k: flat(v) for k, v in d["obs"].items()}, "state": d["state"][:, idx],
-                   **{k: flat(d[k]) for k in (*_FIELDS, "advantages")}}
+                   **{k: flat(d[k]) for k in (*_FIELDS, "advantages")}, "pieces": pieces}

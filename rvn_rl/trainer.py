@@ -38,8 +38,8 @@ class _Evaluate(nn.Module):
         super().__init__()
         self.policy = policy
 
-    def forward(self, obs, state, prev_actions, masks, actions):
-        return self.policy.evaluate(obs, state, prev_actions, masks, actions)
+    def forward(self, obs, state, prev_actions, masks, actions, pieces=None):
+        return self.policy.evaluate(obs, state, prev_actions, masks, actions, pieces)
 
 
 @dataclass

@@ -1,13 +1,21 @@
 """The policy's LSTM over rollouts with episode restarts (rvn_rl.recurrent): packed and padded
-forms against the definition, one step at a time with the state zeroed where the mask is 0."""
+forms against the definition, one step at a time with the state zeroed where the mask is 0; the PPO update's
+plan of pieces (computed on the CPU) against the masks read on the host: the same outputs, gradients and update bit
+for bit, and no operation in the learner's pass that makes the host wait for a GPU."""
 from __future__ import annotations
 
+import numpy as np
 import pytest
 import torch
 from torch import nn
+from torch.utils._python_dispatch import TorchDispatchMode
+from torch.utils._pytree import tree_leaves
 
 from rvn_rl.model import PointNavResNetPolicy
-from rvn_rl.recurrent import episode_pieces, run_lstm
+from rvn_rl.ppo import PPOConfig, ppo_update
+from rvn_rl.recurrent import episode_pieces, plan_pieces, run_lstm
+from rvn_rl.rollout import DeviceRollouts, RolloutStorage
+from rvn_rl.trainer import _Evaluate
 
 
 def step_by_step(rnn, x, masks, h, c):
@@ -71,3 +79,110 @@ def test_policy_over_a_rollout_equals_its_steps():
     torch.testing.assert_close(feats, torch.cat(steps), atol=1e-5, rtol=1e-4)
     torch.testing.assert_close(state, s, atol=1e-5, rtol=1e-4)
     assert loss_view_state is None
+
+
+@pytest.mark.parametrize("T,N,p_restart", [(1, 3, 0.5), (16, 4, 0.2), (8, 5, 0.9), (12, 3, 0.0)])
+def test_a_plan_of_pieces_gives_the_same_pass_bit_for_bit(T, N, p_restart):
+    """run_lstm with `plan_pieces` of the masks (a PPO update's mini-batch) against run_lstm reading the masks: the
+    same outputs and gradients exactly, with and without restarts after step 0."""
+    g = torch.Generator().manual_seed(T * 10 + N)
+    rnn = nn.LSTM(12, 8, num_layers=2)
+    x = torch.randn(T, N, 12, generator=g, requires_grad=True)
+    masks = (torch.rand(T, N, generator=g) >= p_restart).float()
+    h, c = torch.randn(2, N, 8, generator=g), torch.randn(2, N, 8, generator=g)
+    want = run_lstm(rnn, x, masks, h, c, need_state=False)[0]
+    got, h_n, c_n = run_lstm(rnn, x, masks, h, c, need_state=False, pieces=plan_pieces(masks))
+    assert torch.equal(got, want) and h_n is None and c_n is None
+    params = [x, *rnn.parameters()]
+    for a, b in zip(torch.autograd.grad(got.square().sum(), params), torch.autograd.grad(want.square().sum(), params)):
+        assert torch.equal(a, b)
+    with pytest.raises(ValueError, match="need_state=False"):
+        run_lstm(rnn, x, masks, h, c, pieces=plan_pieces(masks))
+
+
+class HostReads(TorchDispatchMode):
+    """The operations that, on a GPU, make the host wait for the device: a value read on the host (``bool()``,
+    ``int()``, ``.item()``), ``nonzero`` and ``masked_select`` (their output size), indexing by a boolean mask."""
+
+    def __init__(self):
+        super().__init__()
+        self.ops = []
+
+    def __torch_dispatch__(self, func, types, args=(), kwargs=None):
+        name = str(func.overloadpacket)
+        masked = name.startswith("aten.index") and any(
+            isinstance(a, torch.Tensor) and a.dtype == torch.bool for a in tree_leaves((args, kwargs or {}))[1:])
+        if masked or name in ("aten._local_scalar_dense", "aten.nonzero", "aten.masked_select", "aten.is_nonzero"):
+            self.ops.append(name)
+        return func(*args, **(kwargs or {}))
+
+
+def small_update_setup(seed: int = 0):
+    """A small policy, its optimiser and a filled 8-step rollout of 4 envs with episode restarts mid-way."""
+    torch.manual_seed(seed)
+    T, N, size = 8, 4, 32
+    policy = PointNavResNetPolicy(obs_size=size, backbone="resnet18", base_planes=8, ngroups=4, input_size=32,
+                                  hidden_size=16)
+    rng = np.random.default_rng(seed)
+
+    def obs() -> dict:
+        return {"rgb": rng.integers(0, 256, (N, size, size, 3), dtype=np.uint8),
+                "pointgoal": rng.normal(size=(N, 2)).astype(np.float32)}
+
+    space = {"rgb": ((size, size, 3), torch.uint8), "pointgoal": ((2,), torch.float32)}
+    rollouts = RolloutStorage(T, N, space, tuple(policy.initial_state(N).shape), 1)
+    rollouts.set_first(obs(), torch.randn(4, N, 16), torch.zeros(N, dtype=torch.long), torch.ones(N))
+    for _ in range(T):
+        rollouts.insert(obs(), torch.randint(0, 4, (N,)), torch.randn(N), torch.randn(N, 1), rng.normal(size=(N, 1)),
+                        rng.random(N) < 0.3)
+    assert bool((rollouts.masks[1:T] == 0).any())  # some env restarts after step 0
+    rollouts.compute_returns(torch.randn(N, 1), 0.99, 0.95)
+    return policy, torch.optim.Adam(policy.parameters(), lr=1e-3), rollouts
+
+
+def test_the_learners_pass_reads_nothing_on_the_host():
+    """The PPO update's forward + backward on a `DeviceRollouts` mini-batch runs no operation that reads a value on
+    the host (`HostReads`); without the mini-batch's plan, the same pass reads the masks (what the check sees)."""
+    policy, _, rollouts = small_update_setup()
+    learner = _Evaluate(policy)
+    adv = rollouts.returns[:rollouts.step, :, 0] - rollouts.values[:rollouts.step, :, 0]
+    mb = next(DeviceRollouts(rollouts, "cpu").minibatches(adv, 1, torch.Generator().manual_seed(0)))
+    reads = {}
+    for plan in (mb["pieces"], None):
+        with HostReads() as probe:
+            logp, entropy, values = learner(mb["obs"], mb["state"], mb["prev_actions"], mb["masks"], mb["actions"],
+                                            pieces=plan)
+            (logp.sum() + entropy.sum() + values.sum()).backward()
+            nn.utils.clip_grad_norm_(policy.parameters(), 0.5)
+        reads[plan is None] = probe.ops
+    assert reads[False] == []
+    assert "aten.nonzero" in reads[True] and "aten._local_scalar_dense" in reads[True]
+
+
+class Recording(_Evaluate):
+    """The learner, noting whether each call got a plan."""
+
+    def __init__(self, policy):
+        super().__init__(policy)
+        self.planned = []
+
+    def forward(self, *args, pieces=None):
+        self.planned.append(pieces is not None)
+        return super().forward(*args, pieces=pieces)
+
+
+def test_ppo_update_with_plans_equals_the_update_reading_the_masks():
+    """Two PPO epochs of 2 mini-batches each, every learner call with its plan: the same losses and the same weights
+    bit for bit as without plans (``DeviceRollouts(..., plans=False)``)."""
+    cfg = PPOConfig(ppo_epoch=2, num_mini_batch=2)
+    results = []
+    for plans in (True, False):
+        policy, optimizer, rollouts = small_update_setup()
+        learner = Recording(policy)
+        batches = DeviceRollouts(rollouts, "cpu", plans)
+        losses = ppo_update(learner, optimizer, batches, cfg, torch.Generator().manual_seed(1))
+        results.append((losses, [p.detach().clone() for p in policy.parameters()], learner.planned))
+    (losses, weights, planned), (losses_ref, weights_ref, planned_ref) = results
+    assert planned == [True] * 4 and planned_ref == [False] * 4
+    assert losses == losses_ref and losses["action_loss"] != 0.0
+    assert all(torch.equal(a, b) for a, b in zip(weights, weights_ref))
