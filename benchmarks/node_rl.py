@@ -22,7 +22,8 @@ def rl_rows(plan) -> Iterator[dict]:
     fit (the first again not counted). With CUDA (and --quick), the envs alone (``rl_envs``): with env.prefetch_scenes
     (the default), without it (``rl_envs_no_prefetch``: vectorised envs then wait for whichever env switches scene,
     the bound of the third GPU run, docs/results/2026-11-27_gpu3) and in one worker (``rl_envs_1``). The second and
-    third GPU runs also timed renderer=raycast and gl under __GL_YIELD=USLEEP: the renderer is not the bound."""
+    third GPU runs also timed renderer=raycast and gl under __GL_YIELD=USLEEP: the renderer is not the bound. Last, the
+    envs alone with fresh goals (``rl_envs_fresh_goals``, env.goal_pool=0) against the pool's 64 solves a scene."""
     small = dict(size=plan.rl_size, backbone="resnet18", num_steps=plan.rl_num_steps, ppo_epoch=4,
                  mini_batches=min(4, plan.rl_envs))
     paper = dict(size=plan.rl_paper_size, backbone="resnet50", num_steps=2 * plan.rl_num_steps, ppo_epoch=2,
@@ -40,6 +41,7 @@ def rl_rows(plan) -> Iterator[dict]:
                   skipped="ResNet-50 at 256² is sized for a GPU (--quick runs it at 64²)")
         return
     yield _rl_row(plan, "rl_paper", what, paper, None, ddppo)
+    yield _rl_envs_row(plan, small, goal_pool=0, with_pool=envs["value"])  # last: what a lease that runs short loses
 
 
 def _rl_args(plan, settings: dict, updates: int) -> SimpleNamespace:
@@ -90,26 +92,33 @@ def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, bas
 
 
 def _rl_envs_row(plan, settings: dict, workers: int | None = None, prefetch: bool = True,
-                 with_prefetch: float | None = None) -> dict:
+                 with_prefetch: float | None = None, goal_pool: int = 64, with_pool: float | None = None) -> dict:
     """The rl row's envs alone (`rl.collection`: the same vec env and worker processes, random actions, no policy, no
     learner), so a slow rl row shows whether the envs or their sharing the node with the learner bound it. With
     ``workers`` (row ``rl_envs_<workers>``), that many worker processes with as many envs each as the rl row's: on the
     first GPU run an env step took ~30 ms in 15 workers against ~9 ms in 2 workers of the 2-core development CPU.
     ``prefetch``: env.prefetch_scenes (row ``rl_envs_no_prefetch`` without it, which names the ratio of
-    ``with_prefetch``, the rate with it, to its own)."""
+    ``with_prefetch``, the rate with it, to its own). ``goal_pool=0`` (row ``rl_envs_fresh_goals``, naming the ratio
+    of ``with_pool``, the rate with the recipe's pool of 64, to its own): two Dijkstra solves a goal instead of the pool's
+    64 at each scene a worker has not kept (on the 2-core development CPU, 200 scenes: ~500 env steps/s against ~410
+    with the pool and prefetch)."""
     import rl as rl_bench
     from rvn_rl.cli import compose
 
     args = _rl_args(plan, settings, updates=1)
+    args.goal_pool = goal_pool
     if workers is not None:
         args.envs, args.workers = max(1, plan.rl_envs // plan.rl_workers) * workers, workers
     extra = [] if prefetch else ["env.prefetch_scenes=false"]
     with tempfile.TemporaryDirectory() as tmp, GpuBusy() as busy:
         rate = rl_bench.collection(compose(rl_bench.overrides(args, f"{tmp}/run") + extra), 2 * args.num_steps, False)
     ratio = "" if with_prefetch is None else f"; with env.prefetch_scenes (rl_envs): x{with_prefetch / rate:.2f} this"
-    return row(5, "rl_envs" + ("" if workers is None else f"_{workers}") + ("" if prefetch else "_no_prefetch"),
+    ratio += "" if with_pool is None else f"; with the goal pool of 64 (rl_envs): x{with_pool / rate:.2f} this"
+    return row(5, "rl_envs" + ("" if workers is None else f"_{workers}") + ("" if prefetch else "_no_prefetch")
+               + ("" if goal_pool else "_fresh_goals"),
                f"rvn-rl envs alone, scale=small's envs ({'cuda' if plan.cuda else 'cpu'})"
-               + ("" if workers is None else f", {workers} worker(s)") + ("" if prefetch else ", env.prefetch_scenes=false"),
+               + ("" if workers is None else f", {workers} worker(s)") + ("" if prefetch else ", env.prefetch_scenes=false")
+               + ("" if goal_pool else ", env.goal_pool=0"),
                "env steps/s", None, rate,
                f"{args.size}² RGB, renderer={args.renderer}, {args.envs} envs in {args.workers} worker processes, "
                f"{plan.rl_scenes} train scenes, goal pool {args.goal_pool}, random actions, no policy or learner, "

@@ -28,7 +28,9 @@ class EnvSettings:
     num_scenes: int | None = None  # train scenes (null = all 800)
     scene_switch_every: int = 8  # resets of an env before it draws another scene
     # train goals from a fixed pool of this many per scene, distance fields computed once per process
-    # (0: a fresh goal and two Dijkstra solves per draw)
+    # (0: a fresh goal and two Dijkstra solves per draw). A pool costs one solve per goal at each scene its process has
+    # not kept (a cache of ~20 pools): over many scenes fresh goals step faster (2-core CPU, 4 envs, random actions:
+    # ~510-560 against ~375-415 env steps/s on 50 scenes, ~500 against ~410 on 200)
     goal_pool: int = 64
     scene_cache: int = 2  # scenes each env keeps loaded besides the current one
     # each env prepares the scene of its next switch (navmesh, goal pool) in a thread while it steps: the same scenes

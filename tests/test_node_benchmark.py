@@ -28,12 +28,15 @@ def test_quick_run_lists_every_row(tmp_path):
     rows = {r["key"]: r for r in doc["rows"]}
     cpus = doc["cpu_count"]
     expected = {"gen", "train_nomad_pointgoal", "train_vint_pointgoal", "decision_gpu", "decision_cpu", "rl", "rl_envs",
-                "rl_envs_no_prefetch", "rl_envs_1", "render_gl_4scenes"}
+                "rl_envs_no_prefetch", "rl_envs_1", "rl_envs_fresh_goals", "render_gl_4scenes"}
     expected |= {f"render_{b}_{n}p" for b in ("gl", "raycast") for n in {1, 2, cpus}}
     assert expected <= set(rows), sorted(expected - set(rows))
     assert {r["group"] for r in doc["rows"]} == set(GROUPS.values())
     assert "env.prefetch_scenes=false" in rows["rl_envs_no_prefetch"]["label"]
     assert "with env.prefetch_scenes (rl_envs): x" in rows["rl_envs_no_prefetch"]["settings"]
+    assert "env.goal_pool=0" in rows["rl_envs_fresh_goals"]["label"]
+    assert "goal pool 0" in rows["rl_envs_fresh_goals"]["settings"]
+    assert "with the goal pool of 64 (rl_envs): x" in rows["rl_envs_fresh_goals"]["settings"]
     for r in doc["rows"]:
         assert f"| {r['group']} | {r['label']} |" in table
         assert r["error"] is None, r
