@@ -79,19 +79,14 @@ def numba_kernels(groups: list[str]) -> str | None:
     travels without ignored files): there, each worker process of the first such row would compile them at once,
     inside its first update or trajectories, and rvn-gen's sizing run, whose one-process figures stand beside the
     workers', would compile them inside its phases. Cold, this takes about 21 s on the 2-core
-    development CPU (a one-trajectory rvn-gen: set-up 59%, planning 37%); cached, about 1 s. Two one-trajectory
-    rvn-gen runs, ray casting then renderer=auto (gl's culling kernel where EGL renders)."""
+    development CPU (a one-trajectory rvn-gen: set-up 59%, planning 37%); cached, about 1 s
+    (`rvn_data.numba_note.warm_kernels`)."""
     if not set(groups) & set(NUMBA_GROUPS):
         return None
-    sys.path.insert(0, str(HERE))
-    import gen as gen_bench
-    from rvn_data.numba_note import kernels_cached
+    from rvn_data.numba_note import kernels_cached, warm_kernels
 
     cached, t = kernels_cached(), time.perf_counter()
-    with tempfile.TemporaryDirectory() as tmp:
-        for renderer in ("raycast", "auto"):
-            gen_bench.run(Path(tmp) / renderer, ["scenes.num_scenes=1", "trajectories_per_scene=1", "camera.width=32",
-                                                 "camera.height=32", f"renderer={renderer}"])
+    warm_kernels()
     return (f"numba kernels {'loaded from the cache' if cached else 'compiled (a fresh install)'} in "
             f"{time.perf_counter() - t:.0f} s, before the rows")
 
