@@ -78,7 +78,7 @@ def numba_kernels(groups: list[str]) -> str | None:
     (`rvn_data.numba_note`, beside the modules in ``__pycache__``), and a GPU lease starts without them (the checkout
     travels without ignored files): there, each worker process of the first such row would compile them at once,
     inside its first update or trajectories, and rvn-gen's sizing run, whose one-process figures stand beside the
-    workers', would compile them inside its phases. Cold, this takes about 21 s on the 2-core
+    workers', would compile them inside its phases. Cold, this takes about 25 s on the 2-core
     development CPU (a one-trajectory rvn-gen: set-up 59%, planning 37%); cached, about 1 s
     (`rvn_data.numba_note.warm_kernels`)."""
     if not set(groups) & set(NUMBA_GROUPS):

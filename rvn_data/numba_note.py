@@ -33,8 +33,8 @@ def note_first_compile(tool: str) -> bool:
 def warm_kernels() -> None:
     """Compile (or load) the kernels rvn-gen and an episode run, here and once: two one-trajectory rvn-gen runs on one
     scene at 32x32 in a temporary folder, ray casting then ``renderer=auto`` (gl's culling kernel where EGL renders),
-    then a random walk of the simulator (collisions slide) and a shortest path on that scene. Cold, about 30 s on a
-    2-core CPU; cached, a few seconds. Used before work that starts many processes at once (node.py's rows, the test
+    then a random walk of the simulator (collisions slide) and a shortest path on that scene. Cold, about 25 s on a
+    2-core CPU; cached, about 2 s. Used before work that starts many processes at once (node.py's rows, the test
     suite's workers), which would otherwise each compile them side by side until one had cached them. The navmesh
     profiles' own kernels (``navmesh.profile=recast``, Detour files) are left to their first use."""
     import contextlib
