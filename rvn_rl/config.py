@@ -151,6 +151,9 @@ def check_env(env: EnvSettings) -> None:
     for key in ("num_envs", "size", "scene_switch_every", "t_max"):
         at_least(f"env.{key}", getattr(env, key))
     at_least("env.scene_cache + 1", env.scene_cache + 1)
+    at_least("env.goal_pool", env.goal_pool, minimum=0)  # else the envs refuse these after out_dir is written
+    if env.num_scenes is not None:  # null: all of the split's scenes
+        at_least("env.num_scenes", env.num_scenes)
 
 
 def settings_of(cfg) -> RLConfig:

@@ -110,6 +110,8 @@ def test_ppo_lag_logs_lambda_and_episode_cost(tmp_path):
 @pytest.mark.parametrize("args, words", [
     (["algo=sac"], "algo='sac' is unknown"),
     (["env.num_envs=0"], "env.num_envs=0 must be a positive integer"),
+    (["env.goal_pool=-1"], "env.goal_pool=-1 must be an integer >= 0"),
+    (["env.num_scenes=0"], "env.num_scenes=0 must be a positive integer"),
     (["model.backbone=vgg"], "model.backbone='vgg'"),
     (["algo=ddppo_depth"], "depth.model_path"),
     (["env.num_envs=1"], "ppo.num_mini_batch"),
