@@ -66,6 +66,11 @@ class RLConfig:
         if env.num_envs < ppo.num_mini_batch:
             raise ValueError(f"env.num_envs={env.num_envs} is below ppo.num_mini_batch={ppo.num_mini_batch}: "
                              "each mini-batch holds whole rollouts of some envs; raise env.num_envs or lower num_mini_batch")
+        self._check_ppo_values()
+        at_least("seed", self.seed, minimum=0)
+        at_least("train.keep_checkpoints", self.train.keep_checkpoints)
+        if self.train.threads is not None:  # null: torch's setting
+            at_least("train.threads", self.train.threads)
         at_least("train.total_steps", self.train.total_steps)
         at_least("train.checkpoint_every", self.train.checkpoint_every)
         if self.model.backbone not in ("resnet18", "resnet50"):
@@ -79,6 +84,19 @@ class RLConfig:
         if self.episodes.seed != EpisodeSettings.seed:  # a setting that would act nowhere (and config.yaml omits)
             raise ValueError(f"episodes.seed={self.episodes.seed} does nothing in rvn-rl: its episodes are drawn "
                              f"from seed={self.seed}; leave episodes.seed out")
+
+    def _check_ppo_values(self) -> None:
+        """ppo's real-valued settings (else torch refuses some of them after out_dir is written)."""
+        p = self.ppo
+        for key in ("lr", "eps", "clip_param", "max_grad_norm"):
+            if not getattr(p, key) > 0:
+                raise ValueError(f"ppo.{key}={getattr(p, key)!r} must be > 0")
+        for key in ("value_loss_coef", "entropy_coef"):
+            if not getattr(p, key) >= 0:
+                raise ValueError(f"ppo.{key}={getattr(p, key)!r} must be >= 0")
+        for key in ("gamma", "tau"):
+            if not 0 <= getattr(p, key) <= 1:
+                raise ValueError(f"ppo.{key}={getattr(p, key)!r} must be in [0, 1]")
 
     def _check_depth(self) -> None:
         if not self.algo.use_depth:

@@ -91,6 +91,8 @@ def test_eval_checks_paths_before_any_episode(tmp_path):
                        f"out_dir={blocker}/sub", "cannot write there")
     one_line_bad_input(cli("rvn-eval", "policy=random", "scenes=mesh_dir", f"scenes.root={blocker}", f"out_dir={out}",
                            *common, cwd=tmp_path), "scene list")
+    one_line_bad_input(cli("rvn-eval", "policy=random", "workers=-1", f"out_dir={out}", *common, cwd=tmp_path),
+                       "workers=-1 must be a positive integer")
     typo = cli("rvn-eval", "policy=random", "episodes.per_scne=1", f"out_dir={out}", cwd=tmp_path)
     assert typo.returncode == 2 and "per_scne" in typo.stderr
     assert not out.exists() and not episodes.exists() and not (tmp_path / ".hydra").exists()

@@ -45,6 +45,8 @@ def evaluate(config: EvalConfig, choice: str = "policy", on_checked=None) -> dic
     from rvn_data.benchmark.metrics import compute_metrics
 
     with validating():
+        if isinstance(config.workers, bool) or not isinstance(config.workers, int) or config.workers < 1:
+            raise ValueError(f"workers={config.workers!r} must be a positive integer (worker processes)")
         env_cfg = config.env_config()
         slots = env_cfg.scene_slots("episodes.first_scene")
         keys = [(slots[pos][1], e) for pos, e in eval_schedule(slots, env_cfg.per_scene)]
@@ -65,7 +67,7 @@ def evaluate(config: EvalConfig, choice: str = "policy", on_checked=None) -> dic
     if on_checked is not None:
         on_checked()
     todo = [k for k, key in enumerate(keys) if key not in done]
-    workers = max(1, config.workers)
+    workers = config.workers
     need = sorted({keys[k][0] for k in todo})
     need_slots = [s for s in slots if s[1] in need]
     with tqdm(total=len(need_slots), desc="episodes", unit="scene", disable=not config.progress or not need_slots) as bar:
