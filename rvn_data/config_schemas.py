@@ -88,6 +88,10 @@ class EvalConfig:
     episodes: EvalEpisodesConfig = field(default_factory=EvalEpisodesConfig)
     env: EpisodeRules = field(default_factory=EpisodeRules)
 
+    def __post_init__(self) -> None:
+        if self.workers < 1:
+            raise ValueError(f"workers={self.workers!r} must be a positive integer (worker processes)")
+
     def env_config(self) -> EnvConfig:
         """`RVNEnv`'s settings (eval mode) for this run: the typed groups as they are, the episode cache under
         ``episodes.dir``, else the cache root's ``episodes/`` (`rvn_data.cache_root`), built navmeshes in its

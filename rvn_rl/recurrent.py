@@ -47,6 +47,9 @@ class Pieces(NamedTuple):
     carry: torch.Tensor  # [1, S, 1] 1 for a piece at step 0 whose mask is 1 (it continues the state (h, c)), else 0
     rows: torch.Tensor  # [T * N] the padded output's flat row (of Lmax * S) of each (step, env), time-major
 
+    def to(self, device, non_blocking: bool = False) -> "Pieces":
+        return Pieces(*(p.to(device, non_blocking=non_blocking) for p in self))
+
 
 def _plan(masks: torch.Tensor) -> tuple[Pieces, torch.Tensor, torch.Tensor]:
     """(plan, env, length) of the CPU tensor ``masks`` [T, N]: `Pieces`, and `episode_pieces`'s env and length."""
@@ -64,7 +67,7 @@ def _plan(masks: torch.Tensor) -> tuple[Pieces, torch.Tensor, torch.Tensor]:
 def plan_pieces(masks: torch.Tensor, device=None) -> Pieces:
     """The plan of ``masks`` [T, N] (a CPU tensor), moved to ``device`` without waiting (non-blocking copies)."""
     plan = _plan(masks)[0]
-    return plan if device is None else Pieces(*(p.to(device, non_blocking=True) for p in plan))
+    return plan if device is None else plan.to(device, non_blocking=True)
 
 
 def run_lstm(rnn: nn.LSTM, x: torch.Tensor, masks: torch.Tensor, h: torch.Tensor, c: torch.Tensor,
@@ -82,7 +85,7 @@ def run_lstm(rnn: nn.LSTM, x: torch.Tensor, masks: torch.Tensor, h: torch.Tensor
             out, (h, c) = rnn(x, (h * keep, c * keep))
             return out, h, c
         plan, env_cpu, length = _plan(masks.cpu())
-        pieces = Pieces(*(p.to(x.device) for p in plan))
+        pieces = plan.to(x.device)
     elif need_state:
         raise ValueError("run_lstm: a plan of pieces is for a PPO update's pass, which needs no state "
                          "(need_state=False)")

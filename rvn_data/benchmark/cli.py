@@ -45,8 +45,6 @@ def evaluate(config: EvalConfig, choice: str = "policy", on_checked=None) -> dic
     from rvn_data.benchmark.metrics import compute_metrics
 
     with validating():
-        if isinstance(config.workers, bool) or not isinstance(config.workers, int) or config.workers < 1:
-            raise ValueError(f"workers={config.workers!r} must be a positive integer (worker processes)")
         env_cfg = config.env_config()
         slots = env_cfg.scene_slots("episodes.first_scene")
         keys = [(slots[pos][1], e) for pos, e in eval_schedule(slots, env_cfg.per_scene)]
@@ -67,15 +65,14 @@ def evaluate(config: EvalConfig, choice: str = "policy", on_checked=None) -> dic
     if on_checked is not None:
         on_checked()
     todo = [k for k, key in enumerate(keys) if key not in done]
-    workers = config.workers
     need = sorted({keys[k][0] for k in todo})
     need_slots = [s for s in slots if s[1] in need]
     with tqdm(total=len(need_slots), desc="episodes", unit="scene", disable=not config.progress or not need_slots) as bar:
-        prepare_episodes(env_cfg, need_slots, workers, bar.update)
+        prepare_episodes(env_cfg, need_slots, config.workers, bar.update)
     env_cfg.store().write_index()
     with tqdm(total=len(keys), initial=len(keys) - len(todo), desc=f"eval {config.method} {config.split}",
               unit="ep", disable=not config.progress) as bar:
-        for _, rec in run_episodes(job, todo, workers, policy):
+        for _, rec in run_episodes(job, todo, config.workers, policy):
             run.append(rec)
             done[record_key(rec)] = rec
             bar.update(1)
