@@ -21,7 +21,7 @@ from collections import OrderedDict
 
 import numpy as np
 
-from rvn_data.navmesh.geodesic import GeodesicField
+from rvn_data.navmesh.geodesic import FieldTrees, GeodesicField
 
 MAX_BYTES = 512 << 20
 _POOLS: OrderedDict[tuple, "GoalPool"] = OrderedDict()
@@ -35,6 +35,11 @@ class GoalPool:
         self.goals, self.trees, self.values = goals, trees, values
         self.nbytes = sum(v.nbytes + (0 if t is None else t.pred.nbytes + t.out.nbytes + t.parent.nbytes)
                           for t, v in zip(trees, values))
+        # stacked, so that a goal draw reads every field in one call (`NavMesh.fields_distance`); None: a goal
+        # without a tree (no graph node near it, inf everywhere), read field by field
+        self.stack = None if any(t is None for t in trees) else FieldTrees(trees, values)
+        if self.stack is not None:
+            self.values = self.stack.rows()
 
     @classmethod
     def build(cls, navmesh, size: int, split_code: int, scene_index: int) -> "GoalPool":
@@ -66,13 +71,16 @@ class PoolSampler:
     """Goal draws for one loaded scene of one env."""
 
     def __init__(self, navmesh, pool: GoalPool):
-        self.goals = pool.goals
+        self.navmesh, self.goals, self.stack = navmesh, pool.goals, pool.stack
         self.fields = pool.fields(navmesh)
 
     def sample(self, source: np.ndarray, rng: np.random.Generator, d_min: float,
                d_max: float) -> tuple[np.ndarray, GeodesicField] | None:
         """A pool goal in [d_min, d_max] of ``source`` and its field; None if no goal is in range."""
-        d = np.array([f.distance(source) for f in self.fields])
+        if self.stack is not None:  # every field's distance in one call: the same values as field by field
+            d = self.navmesh.fields_distance(self.stack, source)
+        else:
+            d = np.array([f.distance(source) for f in self.fields])
         ok = np.flatnonzero((d >= d_min) & (d <= d_max))
         if ok.size == 0:
             return None

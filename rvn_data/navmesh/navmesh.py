@@ -14,7 +14,7 @@ from scipy import ndimage
 
 from rvn_data.navmesh import kernels as K
 from rvn_data.navmesh.build import build_layers
-from rvn_data.navmesh.geodesic import (FieldTree, GeodesicField, build_graph, node_cells, node_centres,
+from rvn_data.navmesh.geodesic import (FieldTree, FieldTrees, GeodesicField, build_graph, node_cells, node_centres,
                                       run_dijkstra)
 from rvn_data.navmesh.grid import NavGrid, pack
 from rvn_data.navmesh.settings import NavMeshSettings
@@ -257,10 +257,24 @@ class NavMesh:
                                     self.settings.agent_radius - 1e-6)
         else:
             out = K.field_lookup(P.meta, P.height, P.x0, P.z0, P.cs, node_of, field.values, pts, MAX_Y_DELTA)
-        near = np.linalg.norm(pts - field.goal, axis=1)  # next to the goal: straight line
-        close = (near < 2 * P.cs) & np.isfinite(out)
-        out[close] = np.minimum(out[close], near[close])
+        out = self._straight_near_goal(out[None], pts, field.goal[None])[0]
         return float(out[0]) if np.ndim(p) == 1 else out
+
+    def fields_distance(self, trees: FieldTrees, p: np.ndarray) -> np.ndarray:
+        """Distances [G, N] at points [N, 3] (or [G] at a point [3]) of the G fields whose trees are stacked in
+        ``trees`` (a goal pool's): each field's `GeodesicField.distance`, in one call."""
+        _, node_of, centres, cells = self._ensure_graph()
+        pts = np.ascontiguousarray(np.asarray(p, dtype=np.float64).reshape(-1, 3))
+        out = trees.lookup(pts, node_of, cells, centres, self.packed, MAX_Y_DELTA, self.settings.agent_radius - 1e-6)
+        out = self._straight_near_goal(out, pts, trees.goals)
+        return out[:, 0] if np.ndim(p) == 1 else out
+
+    def _straight_near_goal(self, out: np.ndarray, pts: np.ndarray, goals: np.ndarray) -> np.ndarray:
+        """Distances [G, N] to goals [G, 3] with the straight line where a point is next to its goal."""
+        near = np.linalg.norm(pts[None] - goals[:, None], axis=-1)
+        close = (near < 2 * self.packed.cs) & np.isfinite(out)
+        out[close] = np.minimum(out[close], near[close])
+        return out
 
     def shortest_path(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """Shortest path [K, 3] from a to b (snapped): the 32-neighbour grid path, string-pulled

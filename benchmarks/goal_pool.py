@@ -1,0 +1,63 @@
+"""Goal pool figures (issue 32, RL row): what a train-mode reset with ``env.goal_pool`` costs.
+
+A reset draws a start, then a pool goal whose geodesic distance from it lies in the benchmark's range: it reads the
+distance from every one of the pool's fields at the start (smoothing each field's tree where it reads it). Vectorised
+envs step together, so on a node with 30 envs, where most batched steps hold a reset, its cost is the batch's.
+Printed: the ms of a goal draw (at starts not read before, as at a reset, and again at the same starts) with the pool
+read in one call (`NavMesh.fields_distance`) against field by field (the baseline, as before 2026-11-28), each on a
+pool of its own, the two in turns; the same distances (checked).
+Run: python benchmarks/goal_pool.py [--scene procedural:train/3] [--goals 64] [--starts 300]
+"""
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+
+import numpy as np
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--scene", default="procedural:train/3")
+    p.add_argument("--goals", type=int, default=64, help="pool size (env.goal_pool)")
+    p.add_argument("--starts", type=int, default=300, help="start points drawn")
+    args = p.parse_args()
+
+    from rvn_data.benchmark.env import RVNEnv
+    from rvn_data.benchmark.goal_pool import GoalPool, PoolSampler
+
+    with tempfile.TemporaryDirectory() as tmp:
+        env = RVNEnv(mode="train", split="train", scene_specs=[args.scene], goal_pool=1, cache_dir=tmp)
+        env.reset(seed=0)
+        nav = env.navmesh
+        t = time.perf_counter()
+        pools = [GoalPool.build(nav, args.goals, 0, 0) for _ in range(2)]
+        build = (time.perf_counter() - t) / 2
+        pools[1].stack = None  # field by field
+        stacked, apart = (PoolSampler(nav, pool) for pool in pools)
+        rng = np.random.default_rng(0)
+        starts = [nav.sample(rng, island=0) for _ in range(args.starts)]
+        nav.fields_distance(stacked.stack, starts[0] + 1e-3)  # numba: loaded before the timing
+        ms = {"new": ([], []), "again": ([], [])}
+        for rep in ("new", "again"):
+            for s in starts:
+                t0 = time.perf_counter()
+                one = nav.fields_distance(stacked.stack, s)
+                t1 = time.perf_counter()
+                each = np.array([f.distance(s) for f in apart.fields])
+                t2 = time.perf_counter()
+                if not np.array_equal(one, each):
+                    raise SystemExit(f"the two reads differ at {s}: {one} against {each}")
+                ms[rep][0].append(1e3 * (t1 - t0))
+                ms[rep][1].append(1e3 * (t2 - t1))
+        env.close()
+    print(f"goal pool of {args.goals} on {args.scene} ({nav._ensure_graph()[0].shape[0]} graph nodes): "
+          f"built in {1e3 * build:.0f} ms (one Dijkstra solve a goal)")
+    for rep, label in (("new", "at starts not read before (a reset)"), ("again", "again at the same starts")):
+        one, each = (float(np.median(v)) for v in ms[rep])
+        print(f"  goal draw {label:38s}: one call {one:7.3f} ms, field by field {each:7.3f} ms (x{each / one:.1f})")
+
+
+if __name__ == "__main__":
+    main()
