@@ -33,16 +33,17 @@ def note_first_compile(tool: str) -> bool:
 def warm_kernels() -> None:
     """Compile (or load) the kernels rvn-gen and an episode run, here and once: two one-trajectory rvn-gen runs on one
     scene at 32x32 in a temporary folder, ray casting then ``renderer=auto`` (gl's culling kernel where EGL renders),
-    then a random walk of the simulator (collisions slide) and a shortest path on that scene. Cold, about 25 s on a
-    2-core CPU; cached, about 2 s. Used before work that starts many processes at once (node.py's rows, the test
-    suite's workers), which would otherwise each compile them side by side until one had cached them. The navmesh
-    profiles' own kernels (``navmesh.profile=recast``, Detour files) are left to their first use."""
+    then a random walk of the simulator (collisions slide), a shortest path and a goal pool's draw (rvn-rl's resets) on
+    that scene. Cold, about 25 s on a 2-core CPU; cached, about 2 s. Used before work that starts many processes at
+    once (node.py's rows, the test suite's workers), which would otherwise each compile them side by side until one
+    had cached them. The navmesh profiles' own kernels (``navmesh.profile=recast``, Detour files) are left to their first use."""
     import contextlib
     import io
     import tempfile
 
     import numpy as np
 
+    from rvn_data.benchmark.goal_pool import GoalPool, PoolSampler
     from rvn_data.config import load_config
     from rvn_data.conventions import Action, AgentConfig
     from rvn_data.gen.run import generate
@@ -67,3 +68,4 @@ def warm_kernels() -> None:
     for a in rng.choice([Action.MOVE_FORWARD, Action.MOVE_FORWARD, Action.TURN_LEFT], size=200):
         sim.step(Action(int(a)))
     navmesh.shortest_path(navmesh.sample(rng), navmesh.sample(rng))
+    PoolSampler(navmesh, GoalPool.build(navmesh, 2, 0, 0)).sample(navmesh.sample(rng), rng, 0.0, np.inf)
