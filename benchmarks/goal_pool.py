@@ -3,8 +3,11 @@
 A reset draws a start, then a pool goal whose geodesic distance from it lies in the benchmark's range: it reads the
 distance from every one of the pool's fields at the start (smoothing each field's tree where it reads it). Vectorised
 envs step together, so on a node with 30 envs, where most batched steps hold a reset, its cost is the batch's.
-Printed: the ms of a goal draw (at starts not read before, as at a reset, and again at the same starts) with the pool
-read in one call (`NavMesh.fields_distance`) against field by field (the baseline, as before 2026-11-28), each on a
+Printed: a pool's build by a thread while the process runs a Python loop, its solves in this process (scipy's
+Dijkstra holds the GIL: the loop stalls) against in the helper process (`rvn_data.navmesh.solver_process`, which
+`env.prefetch_scenes` uses); the ms of a goal draw (at starts not read before, as at a reset, and again at the same
+starts) with the pool
+read in one call (`rvn_data.navmesh.field_sets.fields_distance`) against field by field (the baseline, as before 2026-11-28), each on a
 pool of its own, the two in turns; the same distances (checked).
 Run: python benchmarks/goal_pool.py [--scene procedural:train/3] [--goals 64] [--starts 300]
 """
@@ -17,6 +20,36 @@ import time
 import numpy as np
 
 
+def loop_rate(done) -> float:
+    """Iterations a second of a pure-Python loop (an env's steps stand-in) until ``done()``."""
+    k, t = 0, time.perf_counter()
+    while not done():
+        k += 1
+    return k / (time.perf_counter() - t)
+
+
+def built_beside_steps(nav, goals: int, solve) -> tuple[float, float]:
+    """(ms, share): a pool built in a thread (as `env.prefetch_scenes` does) with its solves by ``solve``, and the pace
+    the process's own Python loop kept meanwhile against alone. scipy's Dijkstra holds the GIL while it solves."""
+    import threading
+    from concurrent.futures import ThreadPoolExecutor
+
+    from rvn_data.benchmark.goal_pool import GoalPool
+
+    GoalPool.build(nav, 2, 0, 1, solve)  # a helper process started, outside the timing
+    stop = threading.Event()  # the loop's test costs the same alone and beside the build
+    threading.Timer(0.5, stop.set).start()
+    alone = loop_rate(stop.is_set)
+    with ThreadPoolExecutor(1) as pool:
+        built = threading.Event()
+        t = time.perf_counter()
+        job = pool.submit(GoalPool.build, nav, goals, 0, 1, solve)
+        job.add_done_callback(lambda _: built.set())
+        beside = loop_rate(built.is_set)
+        job.result()
+        return 1e3 * (time.perf_counter() - t), beside / alone
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--scene", default="procedural:train/3")
@@ -26,6 +59,8 @@ def main() -> None:
 
     from rvn_data.benchmark.env import RVNEnv
     from rvn_data.benchmark.goal_pool import GoalPool, PoolSampler
+    from rvn_data.navmesh.field_sets import fields_distance
+    from rvn_data.navmesh.solver_process import SolverProcess
 
     with tempfile.TemporaryDirectory() as tmp:
         env = RVNEnv(mode="train", split="train", scene_specs=[args.scene], goal_pool=1, cache_dir=tmp)
@@ -34,26 +69,30 @@ def main() -> None:
         t = time.perf_counter()
         pools = [GoalPool.build(nav, args.goals, 0, 0) for _ in range(2)]
         build = (time.perf_counter() - t) / 2
-        pools[1].stack = None  # field by field
-        stacked, apart = (PoolSampler(nav, pool) for pool in pools)
+        stacked, apart = PoolSampler(nav, pools[0]), pools[1].fields(nav)  # the other read field by field
         rng = np.random.default_rng(0)
         starts = [nav.sample(rng, island=0) for _ in range(args.starts)]
-        nav.fields_distance(stacked.stack, starts[0] + 1e-3)  # numba: loaded before the timing
+        fields_distance(nav, stacked.stack, starts[0] + 1e-3)  # numba: loaded before the timing
         ms = {"new": ([], []), "again": ([], [])}
         for rep in ("new", "again"):
             for s in starts:
                 t0 = time.perf_counter()
-                one = nav.fields_distance(stacked.stack, s)
+                one = fields_distance(nav, stacked.stack, s)
                 t1 = time.perf_counter()
-                each = np.array([f.distance(s) for f in apart.fields])
+                each = np.array([f.distance(s) for f in apart])
                 t2 = time.perf_counter()
                 if not np.array_equal(one, each):
                     raise SystemExit(f"the two reads differ at {s}: {one} against {each}")
                 ms[rep][0].append(1e3 * (t1 - t0))
                 ms[rep][1].append(1e3 * (t2 - t1))
+        pace = {where: built_beside_steps(nav, args.goals, solve) for where, solve in
+                (("in this process", None), ("in the helper process", SolverProcess().predecessors))}
         env.close()
     print(f"goal pool of {args.goals} on {args.scene} ({nav._ensure_graph()[0].shape[0]} graph nodes): "
           f"built in {1e3 * build:.0f} ms (one Dijkstra solve a goal)")
+    for where, (took, share) in pace.items():
+        print(f"  built by a thread, its solves {where:22s}: {took:5.0f} ms, while the process's own loop kept "
+              f"{share:.0%} of its pace")
     for rep, label in (("new", "at starts not read before (a reset)"), ("again", "again at the same starts")):
         one, each = (float(np.median(v)) for v in ms[rep])
         print(f"  goal draw {label:38s}: one call {one:7.3f} ms, field by field {each:7.3f} ms (x{each / one:.1f})")

@@ -19,6 +19,7 @@ import numpy as np
 
 from rvn_data.benchmark.env import RVNEnv
 from rvn_data.benchmark.episodes_source import SceneSlot
+from rvn_data.navmesh.solver_process import SolverProcess
 from rvn_data.render import render_views
 
 from .settings import EnvSettings
@@ -36,6 +37,7 @@ class CachedSceneEnv(RVNEnv):
         self._ready: tuple[int, Future] | None = None  # the drawn scene's prepared slot, for `_load`
         self._threads: ThreadPoolExecutor | None = None
         self.prefetched = 0  # switches that found their scene prepared (or being prepared)
+        self._solver: SolverProcess | None = None  # `_prepare`'s Dijkstra solves, started on first use
 
     def _draw_scene(self) -> int:
         """The scene stream's next draw; with ``prefetch``, also the one after it, whose scene (navmesh, simulator,
@@ -68,9 +70,13 @@ class CachedSceneEnv(RVNEnv):
         return self._threads
 
     def _prepare(self, pos: int) -> SceneSlot:
+        """The scene's slot without its renderer; its goal pool's solves in the env's helper process
+        (`rvn_data.navmesh.solver_process`: in this thread they would hold the GIL, and the env's steps, ~0.3 s)."""
         slot = SceneSlot.load(self.config, self._slots[pos], pos)
         if self.config.goal_pool:
-            slot.goal_sampler(self.config)
+            if self._solver is None:
+                self._solver = SolverProcess()
+            slot.goal_sampler(self.config, self._solver.predecessors)
         return slot
 
     def _load(self, pos: int) -> None:
@@ -97,6 +103,9 @@ class CachedSceneEnv(RVNEnv):
         if self._threads is not None:
             self._threads.shutdown(wait=True, cancel_futures=True)
             self._threads = None
+        if self._solver is not None:
+            self._solver.close()
+            self._solver = None
         self._ahead = self._ready = None
         while self._cache:
             self._cache.popitem()[1].close()

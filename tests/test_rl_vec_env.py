@@ -125,15 +125,19 @@ def test_worker_processes_pass_the_same_observations_through_shared_memory():
 
 
 def test_prefetched_scenes_give_the_same_episodes(monkeypatch):
-    """With env.prefetch_scenes each env draws its next scene ahead and a thread prepares it (navmesh, goal pool)
-    while it steps: observations, rewards, episode records and scene order equal the envs' without it, across
+    """With env.prefetch_scenes each env draws its next scene ahead and a thread prepares it (navmesh, goal pool, the
+    pool's solves in a helper process) while it steps: observations, rewards, episode records and scene order equal the envs' without it, across
     scene switches at every reset and a reset with a seed, which starts the scene stream again."""
     from rvn_data.benchmark import episodes_source
 
-    threads = []
+    from rvn_data.navmesh.solver_process import SolverProcess
+
+    threads, solved = [], []
     real_load = episodes_source.SceneSlot.load.__func__
     monkeypatch.setattr(episodes_source.SceneSlot, "load", classmethod(
         lambda cls, *a: (threads.append(__import__("threading").current_thread().name), real_load(cls, *a))[1]))
+    real_solve = SolverProcess.predecessors
+    monkeypatch.setattr(SolverProcess, "predecessors", lambda self, *a: (solved.append(self), real_solve(self, *a))[1])
     kw = {**KW, "scenes": {"num_scenes": 6}, "scene_switch_every": 1, "goal_pool": 8}
     plain, ahead = BatchEnv(kw, 2, seed=7, prefetch=False), BatchEnv(kw, 2, seed=7)
     try:
@@ -157,10 +161,13 @@ def test_prefetched_scenes_give_the_same_episodes(monkeypatch):
         assert ended >= 6 and len({s for pair in scenes for s in pair}) >= 3
         assert sum(env.prefetched for env in ahead.envs) >= 4 and sum(env.prefetched for env in plain.envs) == 0
         assert any(name.startswith("rvn-scene-prefetch") for name in threads)
+        assert solved  # pools prepared ahead were solved in the envs' helper processes
+        helpers = [solver._proc for solver in set(solved)]
     finally:
         plain.close()
         ahead.close()
-    assert all(env._threads is None for env in ahead.envs)
+    assert all(env._threads is None and env._solver is None for env in ahead.envs)
+    assert all(proc.poll() is not None for proc in helpers)  # closed with their envs
 
 
 def test_gae_stops_at_episode_ends():

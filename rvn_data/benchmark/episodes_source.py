@@ -193,12 +193,13 @@ class SceneSlot:
                                                 loaded=(self.scene, self.navmesh))
         return self._episodes
 
-    def goal_sampler(self, config: EnvConfig):
-        """This scene's train-mode goal pool (`rvn_data.benchmark.goal_pool`), built on first use."""
+    def goal_sampler(self, config: EnvConfig, solve=None):
+        """This scene's train-mode goal pool (`rvn_data.benchmark.goal_pool`), built on first use (its solves with
+        ``solve``: `rvn_data.navmesh.field_sets.distance_fields`)."""
         if self._goal_sampler is None:
             from rvn_data.benchmark.goal_pool import PoolSampler, pool_for
             key = (self.spec, repr(config.navmesh), repr(sorted(config.scenes.items())))
-            pool = pool_for(self.navmesh, key, config.goal_pool, config.split_code, self.scene_index)
+            pool = pool_for(self.navmesh, key, config.goal_pool, config.split_code, self.scene_index, solve)
             self._goal_sampler = PoolSampler(self.navmesh, pool)
         return self._goal_sampler
 

@@ -13,7 +13,9 @@ A pool's fields are smoothed where they are read (`rvn_data.navmesh.geodesic.Fie
 its Dijkstra solves (0.2 s for 64 on a procedural apartment, where smoothing every node had added 0.8 s, most
 of an RL env's time when its scenes change often and are many). Pools live in one least-recently-used cache
 per process of at most ``MAX_BYTES`` (20 bytes per graph node and goal: 17-31 MB for 64 goals on a procedural
-apartment's 13-25k nodes); values read are float32, as when pools held whole fields."""
+apartment's 13-25k nodes); values read are float32, as when pools held whole fields. The fields are stacked
+(`rvn_data.navmesh.field_sets.FieldTrees`), so a draw reads them all in one call (0.04-1.0 ms for 64 against
+0.6-1.6 field by field, benchmarks/goal_pool.py); rvn-rl's scene prefetch has their solves done in a helper process."""
 from __future__ import annotations
 
 import threading
@@ -21,7 +23,8 @@ from collections import OrderedDict
 
 import numpy as np
 
-from rvn_data.navmesh.geodesic import FieldTrees, GeodesicField
+from rvn_data.navmesh.field_sets import FieldTrees, fields_distance
+from rvn_data.navmesh.geodesic import GeodesicField
 
 MAX_BYTES = 512 << 20
 _POOLS: OrderedDict[tuple, "GoalPool"] = OrderedDict()
@@ -29,37 +32,31 @@ _LOCK = threading.Lock()  # an RL env prepares its next scene's pool in a thread
 
 
 class GoalPool:
-    """``size`` goals of one scene with their fields' trees and float32 values (per navmesh node)."""
+    """``size`` goals of one scene with their fields (`FieldTrees`: trees and float32 values per navmesh node)."""
 
-    def __init__(self, goals: np.ndarray, trees: list, values: list[np.ndarray]):
-        self.goals, self.trees, self.values = goals, trees, values
-        self.nbytes = sum(v.nbytes + (0 if t is None else t.pred.nbytes + t.out.nbytes + t.parent.nbytes)
-                          for t, v in zip(trees, values))
-        # stacked, so that a goal draw reads every field in one call (`NavMesh.fields_distance`); None: a goal
-        # without a tree (no graph node near it, inf everywhere), read field by field
-        self.stack = None if any(t is None for t in trees) else FieldTrees(trees, values)
-        if self.stack is not None:
-            self.values = self.stack.rows()
+    def __init__(self, fields: FieldTrees):
+        self.stack, self.goals, self.trees, self.values = fields, fields.goals, fields.trees, list(fields.values)
+        self.nbytes = fields.nbytes
 
     @classmethod
-    def build(cls, navmesh, size: int, split_code: int, scene_index: int) -> "GoalPool":
+    def build(cls, navmesh, size: int, split_code: int, scene_index: int, solve=None) -> "GoalPool":
+        """The pool's goals and fields, their solves in one call (``solve``: `FieldTrees`)."""
         rng = np.random.default_rng([0x600A1, int(split_code), int(scene_index), int(size)])
-        fields = [navmesh.distance_field(navmesh.sample(rng, island=0), keep=False) for _ in range(size)]
-        return cls(np.stack([f.goal for f in fields]), [f.tree for f in fields],
-                   [np.asarray(f.values, dtype=np.float32) for f in fields])
+        return cls(FieldTrees(navmesh, [navmesh.sample(rng, island=0) for _ in range(size)], solve))
 
     def fields(self, navmesh) -> list[GeodesicField]:
         """The pool's fields bound to ``navmesh`` (an env's own build of the same scene)."""
         return [GeodesicField(navmesh, g, v, t) for g, v, t in zip(self.goals, self.values, self.trees)]
 
 
-def pool_for(navmesh, scene_key: tuple, size: int, split_code: int, scene_index: int) -> GoalPool:
-    """The cached pool of a scene (``scene_key`` names the scene and its navmesh settings)."""
+def pool_for(navmesh, scene_key: tuple, size: int, split_code: int, scene_index: int, solve=None) -> GoalPool:
+    """The cached pool of a scene (``scene_key`` names the scene and its navmesh settings); built with ``solve``
+    (`GoalPool.build`) when not cached."""
     key = (scene_key, int(size), int(split_code), int(scene_index))
     with _LOCK:
         pool = _POOLS.pop(key, None)
     if pool is None:  # built outside the lock: two threads may both build a pool, the same one
-        pool = GoalPool.build(navmesh, size, split_code, scene_index)
+        pool = GoalPool.build(navmesh, size, split_code, scene_index, solve)
     with _LOCK:
         _POOLS[key] = pool
         while len(_POOLS) > 1 and sum(p.nbytes for p in _POOLS.values()) > MAX_BYTES:
@@ -77,10 +74,7 @@ class PoolSampler:
     def sample(self, source: np.ndarray, rng: np.random.Generator, d_min: float,
                d_max: float) -> tuple[np.ndarray, GeodesicField] | None:
         """A pool goal in [d_min, d_max] of ``source`` and its field; None if no goal is in range."""
-        if self.stack is not None:  # every field's distance in one call: the same values as field by field
-            d = self.navmesh.fields_distance(self.stack, source)
-        else:
-            d = np.array([f.distance(source) for f in self.fields])
+        d = fields_distance(self.navmesh, self.stack, source)  # every field's, in one call
         ok = np.flatnonzero((d >= d_min) & (d <= d_max))
         if ok.size == 0:
             return None

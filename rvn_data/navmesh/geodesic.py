@@ -205,10 +205,12 @@ class FieldTree:
     """The Dijkstra tree of a geodesic field (predecessor per graph node, rooted at the goal's node)
     with its smoothing state, done where lookups read it (`tree_lookup`). 16 bytes per node."""
 
-    def __init__(self, pred: np.ndarray, root: int, goal: np.ndarray, grid: tuple):
+    def __init__(self, pred: np.ndarray, root: int, goal: np.ndarray, grid: tuple, out: np.ndarray | None = None,
+                 parent: np.ndarray | None = None):
         self.pred, self.root, self.goal, self.grid = pred, int(root), goal, grid  # goal's (layer, row, col), grid units
-        self.out = np.full(len(pred), np.inf)
-        self.parent = np.full(len(pred), -1, np.int32)
+        # the smoothing's state: inf / -1 where not done (``out``, ``parent``: rows of `field_sets.FieldTrees`)
+        self.out = np.full(len(pred), np.inf) if out is None else out
+        self.parent = np.full(len(pred), -1, np.int32) if parent is None else parent
 
     def reaches(self, node: int) -> bool:
         """A path leads from ``node`` to the root."""
@@ -220,50 +222,6 @@ class FieldTree:
         P = packed
         return tree_lookup(P.meta, P.height, P.x0, P.z0, P.cs, node_of, pts, tol, self.pred, self.root, cells, centres,
                            P.clearance, P.island, self.goal, *self.grid, radius, self.out, self.parent, values)
-
-
-class FieldTrees:
-    """The trees of several fields of one scene (a goal pool's) stacked row by row, so that one call (`lookup`)
-    reads every field at the same points. The `FieldTree`s given work on their rows from then on (their arrays
-    become views of the stack), as do ``values`` (`rows`), so a lookup through either smooths the same state."""
-
-    def __init__(self, trees: list[FieldTree], values: list[np.ndarray]):
-        self.pred, self.out, self.parent = (np.stack([getattr(t, a) for t in trees]) for a in ("pred", "out", "parent"))
-        self.values = np.stack(values)
-        for t, pred, out, parent in zip(trees, self.pred, self.out, self.parent):
-            t.pred, t.out, t.parent = pred, out, parent
-        self.roots = np.array([t.root for t in trees], np.int64)
-        self.goals = np.stack([t.goal for t in trees]).astype(np.float64)
-        self.gk = np.array([t.grid[0] for t in trees], np.int64)
-        self.gi, self.gj = (np.array([t.grid[a] for t in trees], np.float64) for a in (1, 2))
-
-    def rows(self) -> list[np.ndarray]:
-        """Each field's values: views of the stack."""
-        return list(self.values)
-
-    def lookup(self, pts: np.ndarray, node_of, cells, centres, packed, tol: float, radius: float) -> np.ndarray:
-        """Distances [G, N] at points [N, 3]: `FieldTree.lookup` of every tree, in one call."""
-        P = packed
-        return trees_lookup(P.meta, P.height, P.x0, P.z0, P.cs, node_of, pts, tol, self.pred, self.roots, cells,
-                            centres, P.clearance, P.island, self.goals, self.gk, self.gi, self.gj, radius, self.out,
-                            self.parent, self.values)
-
-
-@njit(cache=True)
-def trees_lookup(meta, height, x0, z0, cs, node_of, pts, tol, preds, roots, cells, centres, clearance, island, goals,
-                 gks, gis, gjs, r, outs, parents, values):
-    """`tree_lookup` of each stacked tree (row g of ``preds``, ``outs``, ``parents``, ``values``) at the same points
-    [N, 3] → [G, N], the nodes read found once."""
-    wanted = K.field_support(meta, height, x0, z0, cs, node_of, pts, tol)
-    res = np.empty((preds.shape[0], pts.shape[0]))
-    chain = np.empty(256, np.int64)
-    for g in range(preds.shape[0]):
-        for w in wanted.ravel():
-            if w >= 0 and outs[g, w] == np.inf:
-                chain = _fill_chain(w, chain, preds[g], roots[g], cells, centres, meta, clearance, island, goals[g],
-                                    gks[g], gis[g], gjs[g], r, outs[g], parents[g], values[g])
-        res[g] = K.field_lookup(meta, height, x0, z0, cs, node_of, values[g], pts, tol)
-    return res
 
 
 def run_dijkstra(graph, source: int, predecessors: bool = False):

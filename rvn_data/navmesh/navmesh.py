@@ -14,8 +14,7 @@ from scipy import ndimage
 
 from rvn_data.navmesh import kernels as K
 from rvn_data.navmesh.build import build_layers
-from rvn_data.navmesh.geodesic import (FieldTree, FieldTrees, GeodesicField, build_graph, node_cells, node_centres,
-                                      run_dijkstra)
+from rvn_data.navmesh.geodesic import FieldTree, GeodesicField, build_graph, node_cells, node_centres, run_dijkstra
 from rvn_data.navmesh.grid import NavGrid, pack
 from rvn_data.navmesh.settings import NavMeshSettings
 from rvn_data.scenes.scene import Scene
@@ -221,20 +220,23 @@ class NavMesh:
         """The Dijkstra tree to the goal point (default: the node's centre) from every node, smoothed only
         where fields read it; the last 8 are kept and given again. ``keep=False``: a tree of its own, not kept
         (a tree fills one values array: a goal pool's float32 copy cannot share one)."""
-        graph, _, centres, cells = self._ensure_graph()
+        graph, _, centres, _ = self._ensure_graph()
         goal = centres[node] if goal is None else goal
         key = (node, *np.round(goal, 9).tolist())
         if keep and key in self._fields:
             return self._fields[key]
-        pred = run_dijkstra(graph, node, predecessors=True)[1]
-        g = self.layers[cells[node, 0]]
-        grid = (cells[node, 0], (goal[2] - g.z0) / g.cs - 0.5, (goal[0] - g.x0) / g.cs - 0.5)  # goal's layer, row, col
-        tree = FieldTree(pred, node, goal, grid)
+        tree = FieldTree(run_dijkstra(graph, node, predecessors=True)[1], node, goal, self._goal_grid(node, goal))
         if keep:
             if len(self._fields) >= 8:
                 self._fields.pop(next(iter(self._fields)))
             self._fields[key] = tree
         return tree
+
+    def _goal_grid(self, node: int, goal: np.ndarray) -> tuple:
+        """A field's goal in its node's layer: (layer, row, col), grid units."""
+        cells = self._ensure_graph()[3]
+        g = self.layers[cells[node, 0]]
+        return cells[node, 0], (goal[2] - g.z0) / g.cs - 0.5, (goal[0] - g.x0) / g.cs - 0.5
 
     def distance_field(self, goal: np.ndarray, keep: bool = True) -> GeodesicField:
         """Geodesic distance field to `goal` (one Dijkstra over the goal's island; the any-angle smoothing
@@ -259,15 +261,6 @@ class NavMesh:
             out = K.field_lookup(P.meta, P.height, P.x0, P.z0, P.cs, node_of, field.values, pts, MAX_Y_DELTA)
         out = self._straight_near_goal(out[None], pts, field.goal[None])[0]
         return float(out[0]) if np.ndim(p) == 1 else out
-
-    def fields_distance(self, trees: FieldTrees, p: np.ndarray) -> np.ndarray:
-        """Distances [G, N] at points [N, 3] (or [G] at a point [3]) of the G fields whose trees are stacked in
-        ``trees`` (a goal pool's): each field's `GeodesicField.distance`, in one call."""
-        _, node_of, centres, cells = self._ensure_graph()
-        pts = np.ascontiguousarray(np.asarray(p, dtype=np.float64).reshape(-1, 3))
-        out = trees.lookup(pts, node_of, cells, centres, self.packed, MAX_Y_DELTA, self.settings.agent_radius - 1e-6)
-        out = self._straight_near_goal(out, pts, trees.goals)
-        return out[:, 0] if np.ndim(p) == 1 else out
 
     def _straight_near_goal(self, out: np.ndarray, pts: np.ndarray, goals: np.ndarray) -> np.ndarray:
         """Distances [G, N] to goals [G, 3] with the straight line where a point is next to its goal."""

@@ -1,0 +1,89 @@
+"""Many geodesic fields of one scene at once: a goal pool's (`rvn_data.benchmark.goal_pool`).
+
+- `FieldTrees(navmesh, goals, solve)`: the fields of ``navmesh.distance_field(goal, keep=False)`` for every goal,
+  their Dijkstra solves in one call, here or in a helper process (`rvn_data.navmesh.solver_process`, which a thread
+  preparing a scene uses so as not to hold the GIL through them), their trees stacked row by row;
+- `fields_distance(navmesh, trees, p)`: every field's distance at points in one call, so that a goal draw (every pool
+  field's distance at a start) costs one kernel call instead of one lookup per field (benchmarks/goal_pool.py). The
+  same values as field by field, bit for bit (tests/test_env.py).
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from rvn_data.navmesh import kernels as K
+from rvn_data.navmesh.geodesic import FieldTree, _fill_chain, run_dijkstra
+from rvn_data.navmesh.navmesh import MAX_Y_DELTA
+
+
+class FieldTrees:
+    """The geodesic fields of several goals of one scene (a goal pool's), their trees stacked row by row and read
+    together by `fields_distance`; ``trees`` holds each field's `FieldTree`, working on its rows (a lookup through
+    either smooths the same state), and ``values`` each field's values in ``dtype`` (float32: a pool's).
+
+    Each field is ``navmesh.distance_field(goal, keep=False)``'s (snapped goal, same tree; for a goal with no graph
+    node near it a tree that reaches nothing: inf everywhere), their Dijkstra solves in one call: ``solve(graph,
+    nodes)`` → predecessors [len(nodes), graph nodes] (default: scipy's, in this process;
+    `rvn_data.navmesh.solver_process.SolverProcess.predecessors`: in a process of its own). The arrays are made
+    whole, a few numpy calls in all: a thread that builds them gives up the GIL at each call and waits ~5 ms (the
+    switch interval) to get it back from a busy env, which 64 fields built one by one (~400 calls) made 0.1 s into 2 s."""
+
+    def __init__(self, navmesh, goals, solve=None, dtype=np.float32):
+        graph = navmesh._ensure_graph()[0]
+        points, nodes = [], []
+        for goal in goals:
+            goal = np.asarray(goal, dtype=np.float64).reshape(3)
+            node = navmesh._node(goal)
+            points.append(goal if node < 0 or navmesh.is_navigable(goal) else navmesh.snap(goal))
+            nodes.append(node)
+        self.goals, self.roots = np.stack(points), np.array(nodes, np.int64)
+        shape, solved = (len(points), graph.shape[0]), np.flatnonzero(self.roots >= 0)
+        self.pred = np.full(shape, -1, np.int32)
+        if solved.size:
+            self.pred[solved] = (solve or _solve_here)(graph, self.roots[solved])
+        self.out, self.parent = np.full(shape, np.inf), np.full(shape, -1, np.int32)
+        self.values = np.full(shape, np.inf, dtype)
+        grids = [navmesh._goal_grid(node, p) if node >= 0 else (0, 0.0, 0.0) for node, p in zip(nodes, points)]
+        self.gk = np.array([g[0] for g in grids], np.int64)
+        self.gi, self.gj = (np.array([g[a] for g in grids], np.float64) for a in (1, 2))
+        self.trees = [FieldTree(pred, node, goal, grid, out, parent) for pred, node, goal, grid, out, parent in
+                      zip(self.pred, nodes, self.goals, grids, self.out, self.parent)]
+
+    @property
+    def nbytes(self) -> int:
+        return self.pred.nbytes + self.out.nbytes + self.parent.nbytes + self.values.nbytes
+
+
+def _solve_here(graph, nodes) -> np.ndarray:
+    return run_dijkstra(graph, nodes, predecessors=True)[1]
+
+
+def fields_distance(navmesh, trees: FieldTrees, p: np.ndarray) -> np.ndarray:
+    """Distances [G, N] at points [N, 3] (or [G] at a point [3]) of the G fields stacked in ``trees``: each field's
+    `GeodesicField.distance`, in one call."""
+    _, node_of, centres, cells = navmesh._ensure_graph()
+    P, t = navmesh.packed, trees
+    pts = np.ascontiguousarray(np.asarray(p, dtype=np.float64).reshape(-1, 3))
+    out = trees_lookup(P.meta, P.height, P.x0, P.z0, P.cs, node_of, pts, MAX_Y_DELTA, t.pred, t.roots, cells, centres,
+                       P.clearance, P.island, t.goals, t.gk, t.gi, t.gj, navmesh.settings.agent_radius - 1e-6, t.out,
+                       t.parent, t.values)
+    out = navmesh._straight_near_goal(out, pts, t.goals)
+    return out[:, 0] if np.ndim(p) == 1 else out
+
+
+@njit(cache=True)
+def trees_lookup(meta, height, x0, z0, cs, node_of, pts, tol, preds, roots, cells, centres, clearance, island, goals,
+                 gks, gis, gjs, r, outs, parents, values):
+    """`geodesic.tree_lookup` of each stacked tree (row g of ``preds``, ``outs``, ``parents``, ``values``) at the same
+    points [N, 3] → [G, N], the nodes read found once."""
+    wanted = K.field_support(meta, height, x0, z0, cs, node_of, pts, tol)
+    res = np.empty((preds.shape[0], pts.shape[0]))
+    chain = np.empty(256, np.int64)
+    for g in range(preds.shape[0]):
+        for w in wanted.ravel():
+            if w >= 0 and outs[g, w] == np.inf:
+                chain = _fill_chain(w, chain, preds[g], roots[g], cells, centres, meta, clearance, island, goals[g],
+                                    gks[g], gis[g], gjs[g], r, outs[g], parents[g], values[g])
+        res[g] = K.field_lookup(meta, height, x0, z0, cs, node_of, values[g], pts, tol)
+    return res
