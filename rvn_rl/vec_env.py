@@ -6,7 +6,8 @@ recurrent state and previous action are masked out from the next step on).
 
 Each env keeps its last few loaded scenes (navmesh, simulator, renderer) in a small LRU
 cache, so switching back to a scene does not rebuild its navmesh, and prepares the next scene it
-will switch to in a thread while it steps (``env.prefetch_scenes``: the same scenes and episodes). An optional
+will switch to in a thread while it steps, its goal pool's solves in a helper process
+(``env.prefetch_scenes``: the same scenes and episodes). An optional
 ``depth_fn(rgb uint8 [N,H,W,3]) -> float32 [N,H,W]`` fills ``obs["depth"]`` from the RGB
 batch (predicted depth); with ``depth=True`` in the env settings the rendered depth is used.
 """
