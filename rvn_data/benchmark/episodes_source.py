@@ -195,7 +195,7 @@ class SceneSlot:
 
     def goal_sampler(self, config: EnvConfig, solve=None):
         """This scene's train-mode goal pool (`rvn_data.benchmark.goal_pool`), built on first use (its solves with
-        ``solve``: `rvn_data.navmesh.field_sets.distance_fields`)."""
+        ``solve``: `rvn_data.navmesh.field_sets.FieldTrees`)."""
         if self._goal_sampler is None:
             from rvn_data.benchmark.goal_pool import PoolSampler, pool_for
             key = (self.spec, repr(config.navmesh), repr(sorted(config.scenes.items())))
