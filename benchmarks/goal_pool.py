@@ -6,9 +6,8 @@ envs step together, so on a node with 30 envs, where most batched steps hold a r
 Printed: a pool's build by a thread while the process runs a Python loop, its solves in this process (scipy's
 Dijkstra holds the GIL: the loop stalls) against in the helper process (`rvn_data.navmesh.solver_process`, which
 `env.prefetch_scenes` uses); the ms of a goal draw (at starts not read before, as at a reset, and again at the same
-starts) with the pool
-read in one call (`rvn_data.navmesh.field_sets.fields_distance`) against field by field (the baseline, as before 2026-11-28), each on a
-pool of its own, the two in turns; the same distances (checked).
+starts) with the pool read in one call (`rvn_data.navmesh.field_sets.fields_distance`) against field by field (the
+baseline, as before 2026-11-28), each on a pool of its own, the two in turns; the same distances (checked).
 Run: python benchmarks/goal_pool.py [--scene procedural:train/3] [--goals 64] [--starts 300]
 """
 from __future__ import annotations
@@ -85,9 +84,13 @@ def main() -> None:
                     raise SystemExit(f"the two reads differ at {s}: {one} against {each}")
                 ms[rep][0].append(1e3 * (t1 - t0))
                 ms[rep][1].append(1e3 * (t2 - t1))
-        pace = {where: built_beside_steps(nav, args.goals, solve) for where, solve in
-                (("in this process", None), ("in the helper process", SolverProcess().predecessors))}
-        env.close()
+        helper = SolverProcess()
+        try:
+            pace = {where: built_beside_steps(nav, args.goals, solve) for where, solve in
+                    (("in this process", None), ("in the helper process", helper.predecessors))}
+        finally:
+            helper.close()
+            env.close()
     print(f"goal pool of {args.goals} on {args.scene} ({nav._ensure_graph()[0].shape[0]} graph nodes): "
           f"built in {1e3 * build:.0f} ms (one Dijkstra solve a goal)")
     for where, (took, share) in pace.items():
