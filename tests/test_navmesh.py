@@ -277,7 +277,7 @@ def test_field_sets_solve_together_here_or_in_a_helper_process():
         first.kill()
         first.wait()
         assert np.array_equal(FieldTrees(nm, goals[:1], helper.predecessors).pred[0], one_by_one[0].tree.pred)
-        assert helper._proc is not first  # started again
+        assert helper._proc is not first and first.stdin.closed and first.stdout.closed  # started anew
         with pytest.raises(RuntimeError, match="Dijkstra helper process.*env.prefetch_scenes=false"):
             helper.predecessors(nm._ensure_graph()[0], [10 ** 9])  # no such node: the helper fails
     finally:

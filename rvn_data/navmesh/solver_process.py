@@ -49,7 +49,9 @@ class SolverProcess:
         return pred
 
     def _start(self) -> subprocess.Popen:
-        if self._proc is None or self._proc.poll() is not None:
+        if self._proc is not None and self._proc.poll() is not None:  # ended since the last request: its pipes closed
+            self._stop()
+        if self._proc is None:
             root = str(Path(__file__).resolve().parents[2])  # this checkout's rvn_data, installed or not
             path = os.pathsep.join(p for p in (root, os.environ.get("PYTHONPATH", "")) if p)
             self._proc = subprocess.Popen([sys.executable, "-m", "rvn_data.navmesh.solver_process"],
