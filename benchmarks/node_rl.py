@@ -8,6 +8,8 @@ import tempfile
 from collections.abc import Iterator
 from types import SimpleNamespace
 
+import numpy as np
+
 from node_report import GpuBusy
 from node_rows import row
 
@@ -101,7 +103,8 @@ def _rl_envs_row(plan, settings: dict, workers: int | None = None, prefetch: boo
     ``with_prefetch``, the rate with it, to its own). ``goal_pool=0`` (row ``rl_envs_fresh_goals``, naming the ratio
     of ``with_pool``, the rate with the recipe's pool of 64, to its own): two Dijkstra solves a goal instead of the pool's
     64 at each scene a worker has not kept (on the 2-core development CPU, 200 scenes: ~500 env steps/s against ~410
-    with the pool and prefetch)."""
+    with the pool and prefetch). The settings give each batched step's median, 90th and 99th percentile and slowest:
+    vectorised envs step together, so an env whose scene switch waits holds up the batch, in the tail."""
     import rl as rl_bench
     from rvn_rl.cli import compose
 
@@ -110,8 +113,11 @@ def _rl_envs_row(plan, settings: dict, workers: int | None = None, prefetch: boo
     if workers is not None:
         args.envs, args.workers = max(1, plan.rl_envs // plan.rl_workers) * workers, workers
     extra = [] if prefetch else ["env.prefetch_scenes=false"]
+    times: list[float] = []  # each batched step's seconds: a scene switch that waits shows in the top percentiles
     with tempfile.TemporaryDirectory() as tmp, GpuBusy() as busy:
-        rate = rl_bench.collection(compose(rl_bench.overrides(args, f"{tmp}/run") + extra), 2 * args.num_steps, False)
+        rate = rl_bench.collection(compose(rl_bench.overrides(args, f"{tmp}/run") + extra), 2 * args.num_steps, False,
+                                   times)
+    ms = 1e3 * np.percentile(times, [50, 90, 99, 100])
     ratio = "" if with_prefetch is None else f"; with env.prefetch_scenes (rl_envs): x{with_prefetch / rate:.2f} this"
     ratio += "" if with_pool is None else f"; with the goal pool of 64 (rl_envs): x{with_pool / rate:.2f} this"
     return row(5, "rl_envs" + ("" if workers is None else f"_{workers}") + ("" if prefetch else "_no_prefetch")
@@ -123,7 +129,8 @@ def _rl_envs_row(plan, settings: dict, workers: int | None = None, prefetch: boo
                f"{args.size}² RGB, renderer={args.renderer}, {args.envs} envs in {args.workers} worker processes, "
                f"{plan.rl_scenes} train scenes, goal pool {args.goal_pool}, random actions, no policy or learner, "
                f"{2 * args.num_steps} batched steps after 10 of warm-up: {rate / args.workers:.0f} env steps/s "
-               f"per worker{ratio}", gpu_busy=busy.share)
+               f"per worker; batched step median {ms[0]:.1f} ms, 90th {ms[1]:.1f}, 99th {ms[2]:.1f}, slowest {ms[3]:.0f}"
+               f"{ratio}", gpu_busy=busy.share)
 
 
 def _steps_seconds(update: dict, envs: int) -> tuple[float, float, dict]:

@@ -2,6 +2,7 @@
 checked (no timed assertions): every row is listed, GPU rows say they were skipped without CUDA,
 measured figures are positive, and the JSON names the commit."""
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -37,6 +38,8 @@ def test_quick_run_lists_every_row(tmp_path):
     assert "env.goal_pool=0" in rows["rl_envs_fresh_goals"]["label"]
     assert "goal pool 0" in rows["rl_envs_fresh_goals"]["settings"]
     assert "with the goal pool of 64 (rl_envs): x" in rows["rl_envs_fresh_goals"]["settings"]
+    for name in ("rl_envs", "rl_envs_no_prefetch", "rl_envs_1", "rl_envs_fresh_goals"):  # switch waits show in the tail
+        assert re.search(r"batched step median [\d.]+ ms, 90th [\d.]+, 99th [\d.]+, slowest \d+", rows[name]["settings"])
     for r in doc["rows"]:
         assert f"| {r['group']} | {r['label']} |" in table
         assert r["error"] is None, r
