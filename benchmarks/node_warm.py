@@ -79,7 +79,7 @@ def numba_kernels(groups: list[str]) -> str | None:
     travels without ignored files): there, each worker process of the first such row would compile them at once,
     inside its first update or trajectories, and rvn-gen's sizing run, whose one-process figures stand beside the
     workers', would compile them inside its phases. Cold, this takes about 25 s on the 2-core
-    development CPU (a one-trajectory rvn-gen: set-up 59%, planning 37%); cached, about 1 s
+    development CPU (a one-trajectory rvn-gen: set-up 59%, planning 37%); cached, about 2 s
     (`rvn_data.numba_note.warm_kernels`)."""
     if not set(groups) & set(NUMBA_GROUPS):
         return None

@@ -32,12 +32,7 @@ class FieldTrees:
 
     def __init__(self, navmesh, goals, solve=None, dtype=np.float32):
         graph = navmesh._ensure_graph()[0]
-        points, nodes = [], []
-        for goal in goals:
-            goal = np.asarray(goal, dtype=np.float64).reshape(3)
-            node = navmesh._node(goal)
-            points.append(goal if node < 0 or navmesh.is_navigable(goal) else navmesh.snap(goal))
-            nodes.append(node)
+        nodes, points = zip(*(navmesh._field_goal(goal) for goal in goals))
         self.goals, self.roots = np.stack(points), np.array(nodes, np.int64)
         shape, solved = (len(points), graph.shape[0]), np.flatnonzero(self.roots >= 0)
         self.pred = np.full(shape, -1, np.int32)

@@ -241,14 +241,18 @@ class NavMesh:
     def distance_field(self, goal: np.ndarray, keep: bool = True) -> GeodesicField:
         """Geodesic distance field to `goal` (one Dijkstra over the goal's island; the any-angle smoothing
         is done where lookups read it). ``keep``: from and into the navmesh's cache of the last 8 fields."""
-        goal = np.asarray(goal, dtype=np.float64).reshape(3)
-        node = self._node(goal)
+        node, goal = self._field_goal(goal)
         if node < 0:  # no graph node at or near the goal: inf everywhere
             return GeodesicField(self, goal, np.full(self._ensure_graph()[0].shape[0], np.inf))
-        if not self.is_navigable(goal):
-            goal = self.snap(goal)
         tree = self._solve(node, goal, keep)
         return GeodesicField(self, goal, tree.out, tree)
+
+    def _field_goal(self, goal) -> tuple[int, np.ndarray]:
+        """(graph node, goal point) of a field to ``goal``: the point snapped onto the navmesh unless it is on it or
+        has no node (-1)."""
+        goal = np.asarray(goal, dtype=np.float64).reshape(3)
+        node = self._node(goal)
+        return node, goal if node < 0 or self.is_navigable(goal) else self.snap(goal)
 
     def _field_distance(self, field: GeodesicField, p: np.ndarray):
         _, node_of, centres, cells = self._ensure_graph()
