@@ -11,7 +11,7 @@ import torch
 from rvn_data.conventions import AgentConfig
 from rvn_il.models import build_model, load_model_config
 from rvn_il.models.nomad import PREDICTION_TYPES, SAMPLERS
-from rvn_il.models.sampling_plan import ddim_plan, ddpm_plan
+from rvn_il.models.sampling_plan import NoiseSchedule, ddim_plan, ddpm_plan
 from rvn_il.policies import ControlConfig, Member, PointGoalPolicy
 
 torch.set_num_threads(1)
@@ -33,7 +33,7 @@ def test_ddpm_plan_matches_diffusers_step(prediction_type):
     """The same denoiser outputs through both updates (noise from generators seeded alike) give
     the same floats."""
     model = nomad(prediction_type=prediction_type)
-    plan = ddpm_plan(model.scheduler, model.num_diffusion_iters)
+    plan = ddpm_plan(model.noise_schedule, model.num_diffusion_iters)
     model.scheduler.set_timesteps(model.num_diffusion_iters)
     assert [s.t for s in plan] == model.scheduler.timesteps.tolist()
     cond = torch.randn(16, model.encoding_size)
@@ -57,7 +57,7 @@ def test_ddim_plan_matches_diffusers_step(prediction_type):
     model = nomad(prediction_type=prediction_type)
     ddim = DDIMScheduler.from_config(model.scheduler.config)
     ddim.set_timesteps(model.num_diffusion_iters)
-    plan = ddim_plan(model.scheduler, model.num_diffusion_iters)
+    plan = ddim_plan(model.noise_schedule, model.num_diffusion_iters)
     assert [s.t for s in plan] == ddim.timesteps.tolist() == list(range(9, -1, -1))
     cond = torch.randn(16, model.encoding_size)
     ga, gb = torch.Generator().manual_seed(3), torch.Generator().manual_seed(3)
@@ -68,6 +68,25 @@ def test_ddim_plan_matches_diffusers_step(prediction_type):
             xb = step.update(model.noise_pred_net(xb, step.t, cond), xb, gb)
             torch.testing.assert_close(xb, xa, rtol=0, atol=0)
     assert torch.equal(ga.get_state(), torch.Generator().manual_seed(3).get_state())  # eta 0: no draws
+
+
+@pytest.mark.parametrize("num_train, num_steps", [(10, 10), (2, 2), (16, 16), (100, 100), (100, 10), (10, 3)])
+def test_noise_schedule_gives_diffusers_numbers(num_train, num_steps):
+    """The plans' noise schedule, computed without importing diffusers, gives its DDPMScheduler's and DDIMScheduler's
+    ᾱ and inference timesteps, the same floats and integers, for other step counts than NoMaD's 10 too."""
+    from diffusers import DDIMScheduler, DDPMScheduler
+
+    for kind in PREDICTION_TYPES:
+        ours = NoiseSchedule(num_train, kind)
+        ddpm = DDPMScheduler(num_train_timesteps=num_train, beta_schedule="squaredcos_cap_v2", clip_sample=True,
+                             prediction_type=kind)
+        ddim = DDIMScheduler.from_config(ddpm.config)
+        for ref in (ddpm, ddim):
+            assert torch.equal(ours.alphas_cumprod(), ref.alphas_cumprod)
+            ref.set_timesteps(num_steps)
+            assert ours.timesteps(num_steps) == ref.timesteps.tolist()
+    with pytest.raises(ValueError, match="11 inference steps for a schedule of 10 timesteps"):
+        NoiseSchedule(10, "epsilon").timesteps(11)
 
 
 @pytest.mark.parametrize("size", ["small", "full"])

@@ -103,6 +103,20 @@ def test_cli_trains_and_writes_a_self_contained_checkpoint(runs, name):
         assert (p.selection, p.cor_alpha) == ("argmin", 2.0) and len(episode(p)) == len(frames)
 
 
+def test_a_nomad_policy_acts_without_importing_diffusers(runs):
+    """A NoMaD checkpoint's policy samples with the plans' own noise schedule (rvn_il.models.sampling_plan.NoiseSchedule):
+    a process that loads one and acts, with either sampler, never imports diffusers, whose import (torch._dynamo)
+    costs ~1.9 s a process; the reference path brings it in."""
+    code = ("import sys, numpy as np; from rvn_il.policies import load_policy; from rvn_il.data.synthetic import render_frame\n"
+            "obs = {'rgb': render_frame(np.zeros(2), 0.0, 64), 'pointgoal': np.array([3.0, -1.0], np.float32)}\n"
+            f"for sampler in ('ddpm', 'ddim'):\n p = load_policy({str(runs['nomad_neg'])!r}, sampler=sampler); p.reset(); p.act(obs)\n"
+            "print('diffusers' in sys.modules)\n"
+            "p.members[0].model.fast_sampling = False; p.act(obs); print('diffusers' in sys.modules)")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=ENV, timeout=300)
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert r.stdout.split() == ["False", "True"]
+
+
 def test_checkpoint_of_another_model_is_named(runs, data):
     with pytest.raises(ValueError, match="holds a 'vint_pointgoal' model, not 'nomad_pointgoal'"):
         load_policy(runs["vint_pointgoal"], model="nomad_pointgoal")

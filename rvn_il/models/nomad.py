@@ -26,7 +26,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from .base import PointGoalModel, masked_mean
-from .sampling_plan import PREDICTION_TYPES, DDIMStep, DDPMStep, ddim_plan, ddpm_plan, draw_noise
+from .sampling_plan import PREDICTION_TYPES, DDIMStep, DDPMStep, NoiseSchedule, ddim_plan, ddpm_plan, draw_noise
 from .unet1d import ConditionalUnet1D
 
 SAMPLERS = ("ddpm", "ddim")
@@ -60,9 +60,8 @@ class NoMaDPointGoal(PointGoalModel):
         self.dist_pred_net = nn.Sequential(nn.Linear(d, d // 4), nn.ReLU(), nn.Linear(d // 4, d // 16), nn.ReLU(), nn.Linear(d // 16, 1))
         self.num_diffusion_iters = int(cfg["num_diffusion_iters"])
         self.prediction_type = check_prediction_type(cfg.get("prediction_type", "epsilon"))
-        from diffusers import DDPMScheduler  # imported here: diffusers is slow to import
-        self.scheduler = DDPMScheduler(num_train_timesteps=self.num_diffusion_iters, beta_schedule="squaredcos_cap_v2",
-                                       clip_sample=True, prediction_type=self.prediction_type)
+        # the sampling plans' numbers; diffusers' DDPMScheduler (`scheduler`) is made on first use
+        self.noise_schedule = NoiseSchedule(self.num_diffusion_iters, self.prediction_type)
         stats = cfg["action_stats"]  # "auto": set from the data by the trainer, saved in the weights
         if stats == "auto":
             stats = {"min": [-1.0, -1.0], "max": [1.0, 1.0]}
@@ -71,6 +70,18 @@ class NoMaDPointGoal(PointGoalModel):
         self.register_buffer("action_min", torch.tensor(stats["min"], dtype=torch.float32))
         self.register_buffer("action_max", torch.tensor(stats["max"], dtype=torch.float32))
         self.alpha = float(cfg.get("alpha", 1e-4))
+
+    @property
+    def scheduler(self):
+        """diffusers' DDPMScheduler of :attr:`noise_schedule` (training's ``add_noise``, the reference path), made on
+        first use: importing diffusers takes ~1.9 s, which a policy's fast sampling path does without."""
+        if getattr(self, "_scheduler", None) is None:
+            from diffusers import DDPMScheduler
+            s = self.noise_schedule
+            self._scheduler = DDPMScheduler(num_train_timesteps=s.num_train_timesteps, beta_schedule="squaredcos_cap_v2",
+                                            clip_sample=s.clip is not None, clip_sample_range=s.clip or 1.0,
+                                            prediction_type=s.prediction_type)
+        return self._scheduler
 
     # -- action normalisation ---------------------------------------------------------------
     def normalize_actions(self, waypoints: torch.Tensor) -> torch.Tensor:
@@ -139,11 +150,10 @@ class NoMaDPointGoal(PointGoalModel):
         ``generator`` in the same order, so for a given seed they give the same trajectories up to
         float rounding."""
         fast = self.fast_sampling if fast is None else bool(fast)
-        plan = self._plan() if fast else None  # None: a scheduler setting it does not reproduce
         b = tokens.shape[0]
         shape = (b * num_samples, self.len_traj_pred, 2)
-        if plan is not None:
-            x, noise = draw_noise(plan, shape, generator, tokens.device)
+        if fast:
+            x, noise = draw_noise(self._plan(), shape, generator, tokens.device)
             x = (self.sampling_graph or self.sample_packed)(tokens, goal, goal_mask, x, noise)
             return self.unnormalize_actions(x).view(b, num_samples, self.len_traj_pred, 2)
         cond = self.condition(tokens, goal, goal_mask)
@@ -196,14 +206,14 @@ class NoMaDPointGoal(PointGoalModel):
             k += bool(step.std)
         return x
 
-    def _plan(self) -> list[DDPMStep] | list[DDIMStep] | None:
-        """:func:`ddpm_plan` or :func:`ddim_plan` of this model's scheduler for ``self.sampler``,
+    def _plan(self) -> list[DDPMStep] | list[DDIMStep]:
+        """:func:`ddpm_plan` or :func:`ddim_plan` of this model's noise schedule for ``self.sampler``,
         computed once (again if any of them changes)."""
-        key = (self.scheduler, self.num_diffusion_iters, check_sampler(self.sampler))
+        key = (self.noise_schedule, self.num_diffusion_iters, check_sampler(self.sampler))
         cache = getattr(self, "_plan_cache", None)
         if cache is None or cache[0] != key:
             make = ddpm_plan if self.sampler == "ddpm" else ddim_plan
-            cache = self._plan_cache = (key, make(self.scheduler, self.num_diffusion_iters))
+            cache = self._plan_cache = (key, make(self.noise_schedule, self.num_diffusion_iters))
         return cache[1]
 
     def _inference_scheduler(self):

@@ -1,17 +1,47 @@
 """NoMaD's reverse process as plain numbers: every step of diffusers' DDPMScheduler
 (:func:`ddpm_plan`) or of its η = 0 DDIMScheduler (:func:`ddim_plan`) over the model's inference
-timesteps, with its coefficients computed once, so that the fast sampling path of
+timesteps, with its coefficients computed once from the model's :class:`NoiseSchedule`, so that the fast sampling path of
 :meth:`rvn_il.models.nomad.NoMaDPointGoal.predict` updates x_t with a few tensor operations per step
 (and torch.compile can take them into its graph), in the operation order of ``scheduler.step`` so
 the floats match it. :func:`draw_noise` draws a decision's noise before its loop, in the order the
 reference loop draws it."""
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
+import numpy as np
 import torch
 
 PREDICTION_TYPES = ("epsilon", "sample", "v_prediction")
+
+
+class NoiseSchedule(NamedTuple):
+    """The numbers of NoMaD's DDPMScheduler (squaredcos_cap_v2 betas, clip_sample, fixed_small variance,
+    "leading" timesteps) that the plans read, computed as diffusers computes them, without importing
+    diffusers: its import brings torch._dynamo in, ~1.9 s of every process that loads a NoMaD policy
+    (``benchmarks/policy_start.py``). The reference path and training keep diffusers' schedulers;
+    tests/test_il_sampling.py checks the same floats as theirs."""
+
+    num_train_timesteps: int
+    prediction_type: str
+    clip: float | None = 1.0  # clip_sample_range, or None without clipping
+
+    def alphas_cumprod(self) -> torch.Tensor:
+        """ᾱ_t [T], float32: diffusers' ``betas_for_alpha_bar`` (cosine, max_beta 0.999), then the cumulative product."""
+        def alpha_bar(t: float) -> float:
+            return math.cos((t + 0.008) / 1.008 * math.pi / 2) ** 2
+        n = self.num_train_timesteps
+        betas = torch.tensor([min(1 - alpha_bar((i + 1) / n) / alpha_bar(i / n), 0.999) for i in range(n)],
+                             dtype=torch.float32)
+        return torch.cumprod(1.0 - betas, dim=0)
+
+    def timesteps(self, num_steps: int) -> list[int]:
+        """The inference timesteps of ``set_timesteps(num_steps)`` with "leading" spacing, last first."""
+        if not 1 <= num_steps <= self.num_train_timesteps:
+            raise ValueError(f"{num_steps} inference steps for a schedule of {self.num_train_timesteps} timesteps")
+        ratio = self.num_train_timesteps // num_steps
+        return [int(t) for t in (np.arange(0, num_steps) * ratio).round()[::-1]]
 
 
 class DDPMStep(NamedTuple):
@@ -66,18 +96,11 @@ def draw_noise(plan: list, shape: tuple, generator: torch.Generator | None,
     return x, torch.stack(draws) if draws else x.new_zeros((0, *shape))
 
 
-def ddpm_plan(scheduler, num_steps: int) -> list[DDPMStep] | None:
-    """The reverse steps of ``scheduler`` (a diffusers DDPMScheduler) over ``num_steps`` inference
-    steps, with every coefficient computed once, as ``DDPMScheduler.step`` computes it (float32
-    tensors, then Python floats). None when the scheduler uses a feature this update does not
-    reproduce (thresholding, a variance type other than fixed_small): predict then calls
-    ``scheduler.step``."""
-    cfg = scheduler.config
-    if cfg.thresholding or cfg.variance_type != "fixed_small" or cfg.prediction_type not in PREDICTION_TYPES:
-        return None
-    scheduler.set_timesteps(num_steps)
-    ts = [int(t) for t in scheduler.timesteps]
-    acp, one = scheduler.alphas_cumprod.cpu(), scheduler.one.cpu()
+def ddpm_plan(schedule: NoiseSchedule, num_steps: int) -> list[DDPMStep]:
+    """The reverse steps of ``schedule``'s DDPMScheduler over ``num_steps`` inference steps, with every
+    coefficient computed once, as ``DDPMScheduler.step`` computes it (float32 tensors, then Python floats)."""
+    ts = schedule.timesteps(num_steps)
+    acp, one = schedule.alphas_cumprod(), torch.tensor(1.0)
     plan = []
     for i, t in enumerate(ts):
         prev_t = ts[i + 1] if i + 1 < len(ts) else -1
@@ -86,8 +109,7 @@ def ddpm_plan(scheduler, num_steps: int) -> list[DDPMStep] | None:
         cur_a = a_t / a_prev
         cur_b = 1 - cur_a
         var = torch.clamp(b_prev / b_t * cur_b, min=1e-20)
-        plan.append(DDPMStep(t, cfg.prediction_type, float(a_t ** 0.5), float(b_t ** 0.5),
-                             float(cfg.clip_sample_range) if cfg.clip_sample else None,
+        plan.append(DDPMStep(t, schedule.prediction_type, float(a_t ** 0.5), float(b_t ** 0.5), schedule.clip,
                              float(a_prev ** 0.5 * cur_b / b_t), float(cur_a ** 0.5 * b_prev / b_t),
                              float(var ** 0.5) if t > 0 else 0.0))
     return plan
@@ -123,22 +145,17 @@ class DDIMStep(NamedTuple):
         return self.c_x0 * x0 + self.c_eps * eps
 
 
-def ddim_plan(scheduler, num_steps: int) -> list[DDIMStep] | None:
-    """The η = 0 DDIM reverse steps over ``num_steps`` inference steps for the betas of
-    ``scheduler`` (the model's DDPMScheduler), with the timesteps and coefficients diffusers'
-    DDIMScheduler uses (ᾱ_prev = 1 after the last step); None where the config has thresholding."""
-    from diffusers import DDIMScheduler
-    ddim = DDIMScheduler.from_config(scheduler.config)
-    cfg = ddim.config
-    if cfg.thresholding or cfg.prediction_type not in PREDICTION_TYPES:
-        return None
-    ddim.set_timesteps(num_steps)
-    ratio = cfg.num_train_timesteps // ddim.num_inference_steps
+def ddim_plan(schedule: NoiseSchedule, num_steps: int) -> list[DDIMStep]:
+    """The η = 0 DDIM reverse steps over ``num_steps`` inference steps for the betas of ``schedule``, with
+    the timesteps and coefficients diffusers' DDIMScheduler uses with the model's DDPMScheduler config
+    (ᾱ_prev = 1 after the last step: ``set_alpha_to_one``)."""
+    ts = schedule.timesteps(num_steps)
+    ratio = schedule.num_train_timesteps // num_steps
+    acp, final = schedule.alphas_cumprod(), torch.tensor(1.0)
     plan = []
-    for t in (int(t) for t in ddim.timesteps):
-        a_t = ddim.alphas_cumprod[t]
-        a_prev = ddim.alphas_cumprod[t - ratio] if t - ratio >= 0 else ddim.final_alpha_cumprod
-        plan.append(DDIMStep(t, cfg.prediction_type, float(a_t ** 0.5), float((1 - a_t) ** 0.5),
-                             float(cfg.clip_sample_range) if cfg.clip_sample else None,
+    for t in ts:
+        a_t = acp[t]
+        a_prev = acp[t - ratio] if t - ratio >= 0 else final
+        plan.append(DDIMStep(t, schedule.prediction_type, float(a_t ** 0.5), float((1 - a_t) ** 0.5), schedule.clip,
                              float(a_prev ** 0.5), float((1 - a_prev) ** 0.5)))
     return plan
