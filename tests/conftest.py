@@ -17,14 +17,30 @@ DREAM_APARTMENT = Path(os.environ.get(
     "RVN_TEST_SCENE", Path(__file__).resolve().parents[2] / "shared" / "scenes" / "dream_apartment.glb"))
 
 
+# The files whose tests take longest on 2 cores (--durations, slowest first: test_compiled's two tests ~180 s,
+# test_experiment_smoke ~160, test_rl_ddppo ~95, test_real_sim_smoke ~80, test_node_benchmark ~85, the README block
+# ~40). xdist's loadfile hands files out in queue order, by default the files with the most tests first, which put
+# test_rl_ddppo last: one worker ran it alone for about two minutes. These go first, the short files fill in behind.
+LONGEST_FIRST = ("test_compiled.py", "test_experiment_smoke.py", "test_rl_ddppo.py", "test_real_sim_smoke.py",
+                 "test_node_benchmark.py", "test_readme_block.py")
+
+
+def pytest_collection_modifyitems(config, items):
+    """:data:`LONGEST_FIRST` first, the other files after them in their order (a stable sort)."""
+    rank = {name: i for i, name in enumerate(LONGEST_FIRST)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))
+
+
 def pytest_configure(config):
     """With xdist's workers (``-n``) and numba's kernels not cached yet (a fresh clone), compile them once here, in
     pytest's main process, before the workers start (`rvn_data.numba_note.warm_kernels`, ~25 s on 2 cores). Otherwise
     each worker and each CLI process it starts compiles them side by side until one has cached them. On a 2-core
     machine, fresh clones: 895 s of tests without this, 765 s with it (823 s with the kernels cached beforehand). A
-    failure or time-out here is left to the tests, which compile what they need as before."""
+    failure or time-out here is left to the tests, which compile what they need as before. xdist's queue takes the
+    collection's order (:data:`LONGEST_FIRST`)."""
     if hasattr(config, "workerinput") or not getattr(config.option, "numprocesses", None):
         return
+    config.option.loadscopereorder = False  # xdist's queue in the collection's order: LONGEST_FIRST's files first
     from rvn_data.numba_note import kernels_cached
 
     if not kernels_cached():
@@ -59,8 +75,9 @@ def interrupted_copy(full: Path, part: Path, step: int = 2, member: str = "model
 
 
 def run_recipe(script: str, out: Path, **env: str) -> subprocess.CompletedProcess:
-    """``bash jobs/<script> OUT`` at SCALE=tiny with this interpreter, from OUT's parent folder."""
-    full = {**os.environ, "SCALE": "tiny", "PYTHON": sys.executable, **env}
+    """``bash jobs/<script> OUT`` at SCALE=tiny with this interpreter, from OUT's parent folder; its trainings on one
+    torch thread (``THREADS``; the recipes' default is 2), as the suite's processes each have about one core."""
+    full = {**os.environ, "SCALE": "tiny", "PYTHON": sys.executable, "THREADS": "1", **env}
     return subprocess.run(["bash", str(Path(__file__).resolve().parents[1] / "jobs" / script), str(out)],
                           capture_output=True, text=True, timeout=900, env=full, cwd=out.parent)
 
