@@ -210,7 +210,7 @@ def test_goal_draws_read_the_pool_in_one_call_as_field_by_field(tmp_path):
         assert d.shape == (16,) and np.array_equal(d, [f.distance(p) for f in fields])
     many = np.array(points)
     assert np.array_equal(fields_distance(nav, a.stack, many), [f.distance(many) for f in fields])
-    for fa, fb, ta, tb in zip(a.fields, fields, stacked.trees, apart.trees):  # the fields read the stack's state
+    for fa, fb, ta, tb in zip(a.fields, fields, stacked.stack.trees, apart.stack.trees):  # the fields read the stack's state
         assert np.array_equal(fa.values, fb.values) and np.array_equal(ta.out, tb.out)
         assert fa.distance(points[0]) == fb.distance(points[0])
     drawn = [a.sample(p, np.random.default_rng(7), 4.0, 8.0) for p in points]

@@ -32,11 +32,19 @@ _LOCK = threading.Lock()  # an RL env prepares its next scene's pool in a thread
 
 
 class GoalPool:
-    """``size`` goals of one scene with their fields (`FieldTrees`: trees and float32 values per navmesh node)."""
+    """``size`` goals of one scene with their fields (``stack``, a `FieldTrees`: trees and float32 values per navmesh
+    node)."""
 
-    def __init__(self, fields: FieldTrees):
-        self.stack, self.goals, self.trees, self.values = fields, fields.goals, fields.trees, list(fields.values)
-        self.nbytes = fields.nbytes
+    def __init__(self, stack: FieldTrees):
+        self.stack = stack
+
+    @property
+    def goals(self) -> np.ndarray:
+        return self.stack.goals
+
+    @property
+    def nbytes(self) -> int:
+        return self.stack.nbytes
 
     @classmethod
     def build(cls, navmesh, size: int, split_code: int, scene_index: int, solve=None) -> "GoalPool":
@@ -46,7 +54,8 @@ class GoalPool:
 
     def fields(self, navmesh) -> list[GeodesicField]:
         """The pool's fields bound to ``navmesh`` (an env's own build of the same scene)."""
-        return [GeodesicField(navmesh, g, v, t) for g, v, t in zip(self.goals, self.values, self.trees)]
+        s = self.stack
+        return [GeodesicField(navmesh, g, v, t) for g, v, t in zip(s.goals, s.values, s.trees)]
 
 
 def pool_for(navmesh, scene_key: tuple, size: int, split_code: int, scene_index: int, solve=None) -> GoalPool:
