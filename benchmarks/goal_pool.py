@@ -3,9 +3,10 @@
 A reset draws a start, then a pool goal whose geodesic distance from it lies in the benchmark's range: it reads the
 distance from every one of the pool's fields at the start (smoothing each field's tree where it reads it). Vectorised
 envs step together, so on a node with 30 envs, where most batched steps hold a reset, its cost is the batch's.
-Printed: a pool's build by a thread while the process runs a Python loop, its solves in this process (scipy's
-Dijkstra holds the GIL: the loop stalls) against in the helper process (`rvn_data.navmesh.solver_process`, which
-`env.prefetch_scenes` uses); the ms of a goal draw (at starts not read before, as at a reset, and again at the same
+Printed: a scene's preparation with its pool (`SceneSlot.prepared_parts`: load, navmesh, pool) by a thread while the
+process runs a Python loop, in this process (the loading and scipy's Dijkstra hold the GIL: the loop stalls) against
+in a helper process (`rvn_data.helper_process`, which `env.prefetch_scenes` uses; the thread waits for its answer);
+the ms of a goal draw (at starts not read before, as at a reset, and again at the same
 starts) with the pool read in one call (`rvn_data.navmesh.field_sets.fields_distance`) against field by field (the
 baseline, as before 2026-11-28), each on a pool of its own, the two in turns; the same distances (checked).
 Run: python benchmarks/goal_pool.py [--scene procedural:train/3] [--goals 64] [--starts 300]
@@ -27,22 +28,20 @@ def loop_rate(done) -> float:
     return k / (time.perf_counter() - t)
 
 
-def built_beside_steps(nav, goals: int, solve) -> tuple[float, float]:
-    """(ms, share): a pool built in a thread (as `env.prefetch_scenes` does) with its solves by ``solve``, and the pace
-    the process's own Python loop kept meanwhile against alone. scipy's Dijkstra holds the GIL while it solves."""
+def built_beside_steps(make) -> tuple[float, float]:
+    """(ms, share): ``make()`` run by a thread (as `env.prefetch_scenes` does), and the pace the process's own Python
+    loop kept meanwhile against alone."""
     import threading
     from concurrent.futures import ThreadPoolExecutor
 
-    from rvn_data.benchmark.goal_pool import GoalPool
-
-    GoalPool.build(nav, 2, 0, 1, solve)  # a helper process started, outside the timing
+    make()  # a helper process started, numba's kernels loaded: outside the timing
     stop = threading.Event()  # the loop's test costs the same alone and beside the build
     threading.Timer(0.5, stop.set).start()
     alone = loop_rate(stop.is_set)
     with ThreadPoolExecutor(1) as pool:
         built = threading.Event()
         t = time.perf_counter()
-        job = pool.submit(GoalPool.build, nav, goals, 0, 1, solve)
+        job = pool.submit(make)
         job.add_done_callback(lambda _: built.set())
         beside = loop_rate(built.is_set)
         job.result()
@@ -57,12 +56,13 @@ def main() -> None:
     args = p.parse_args()
 
     from rvn_data.benchmark.env import RVNEnv
+    from rvn_data.benchmark.episodes_source import SceneSlot
     from rvn_data.benchmark.goal_pool import GoalPool, PoolSampler
+    from rvn_data.helper_process import HelperProcess
     from rvn_data.navmesh.field_sets import fields_distance
-    from rvn_data.navmesh.solver_process import SolverProcess
 
     with tempfile.TemporaryDirectory() as tmp:
-        env = RVNEnv(mode="train", split="train", scene_specs=[args.scene], goal_pool=1, cache_dir=tmp)
+        env = RVNEnv(mode="train", split="train", scene_specs=[args.scene], goal_pool=args.goals, cache_dir=tmp)
         env.reset(seed=0)
         nav = env.navmesh
         t = time.perf_counter()
@@ -84,18 +84,18 @@ def main() -> None:
                     raise SystemExit(f"the two reads differ at {s}: {one} against {each}")
                 ms[rep][0].append(1e3 * (t1 - t0))
                 ms[rep][1].append(1e3 * (t2 - t1))
-        helper = SolverProcess()
+        helper, prepare = HelperProcess(), (SceneSlot.prepared_parts, env.config, env._slots[0], 0, True)
         try:
-            pace = {where: built_beside_steps(nav, args.goals, solve) for where, solve in
-                    (("in this process", None), ("in the helper process", helper.predecessors))}
+            pace = {"in this process": built_beside_steps(lambda: prepare[0](*prepare[1:])),
+                    "in a helper process": built_beside_steps(lambda: helper.call(*prepare))}
         finally:
             helper.close()
             env.close()
     print(f"goal pool of {args.goals} on {args.scene} ({nav._ensure_graph()[0].shape[0]} graph nodes): "
           f"built in {1e3 * build:.0f} ms (one Dijkstra solve a goal)")
     for where, (took, share) in pace.items():
-        print(f"  built by a thread, its solves {where:22s}: {took:5.0f} ms, while the process's own loop kept "
-              f"{share:.0%} of its pace")
+        print(f"  scene and pool prepared by a thread, {where:19s}: {took:5.0f} ms, while the process's own loop "
+              f"kept {share:.0%} of its pace")
     for rep, label in (("new", "at starts not read before (a reset)"), ("again", "again at the same starts")):
         one, each = (float(np.median(v)) for v in ms[rep])
         print(f"  goal draw {label:38s}: one call {one:7.3f} ms, field by field {each:7.3f} ms (x{each / one:.1f})")

@@ -33,9 +33,10 @@ class EnvSettings:
     # ~510-560 against ~375-415 env steps/s on 50 scenes, ~500 against ~410 on 200)
     goal_pool: int = 64
     scene_cache: int = 2  # scenes each env keeps loaded besides the current one
-    # each env prepares the scene of its next switch (navmesh, goal pool) in a thread while it steps, the pool's solves
-    # in a helper process of its own (Dijkstra holds the GIL): the same scenes and episodes, without the ~0.4 s wait at
-    # a switch that holds up every env stepped with it (one scene more in memory, one small process more per env)
+    # each env has the scene of its next switch (navmesh, goal pool) prepared in a helper process of its own while it
+    # steps (in the env's process, loading and Dijkstra take turns with its steps for the GIL): the same scenes and
+    # episodes, without the ~0.4 s wait at a switch that holds up every env stepped with it (one scene more in memory,
+    # one process more per env)
     prefetch_scenes: bool = True
     workers: int = 0  # env worker processes (0: step the envs in this process)
     t_max: int = 500  # steps allowed per goal

@@ -5,9 +5,9 @@ last action of the previous one (the transition's reward is the ending step's; t
 recurrent state and previous action are masked out from the next step on).
 
 Each env keeps its last few loaded scenes (navmesh, simulator, renderer) in a small LRU
-cache, so switching back to a scene does not rebuild its navmesh, and prepares the next scene it
-will switch to in a thread while it steps, its goal pool's solves in a helper process
-(``env.prefetch_scenes``: the same scenes and episodes). An optional
+cache, so switching back to a scene does not rebuild its navmesh, and has the next scene it
+will switch to prepared in a helper process while it steps (``env.prefetch_scenes``: the same
+scenes and episodes). An optional
 ``depth_fn(rgb uint8 [N,H,W,3]) -> float32 [N,H,W]`` fills ``obs["depth"]`` from the RGB
 batch (predicted depth); with ``depth=True`` in the env settings the rendered depth is used.
 """
@@ -19,8 +19,9 @@ from concurrent.futures import Future, ThreadPoolExecutor
 import numpy as np
 
 from rvn_data.benchmark.env import RVNEnv
-from rvn_data.benchmark.episodes_source import SceneSlot
-from rvn_data.navmesh.solver_process import SolverProcess
+from rvn_data.benchmark.episodes_source import SceneSlot, pool_key
+from rvn_data.benchmark.goal_pool import cached_pool
+from rvn_data.helper_process import HelperProcess
 from rvn_data.render import render_views
 
 from .settings import EnvSettings
@@ -28,7 +29,7 @@ from .settings import EnvSettings
 
 class CachedSceneEnv(RVNEnv):
     """`RVNEnv` that keeps up to ``scene_cache`` scenes loaded besides the current one and, with ``prefetch``,
-    prepares the scene its next switch will draw in a thread of its own (`_draw_scene`)."""
+    has the scene its next switch will draw prepared while it steps (`_draw_scene`)."""
 
     def __init__(self, scene_cache: int = 2, prefetch: bool = True, **kwargs):
         super().__init__(**kwargs)
@@ -38,11 +39,11 @@ class CachedSceneEnv(RVNEnv):
         self._ready: tuple[int, Future] | None = None  # the drawn scene's prepared slot, for `_load`
         self._threads: ThreadPoolExecutor | None = None
         self.prefetched = 0  # switches that found their scene prepared (or being prepared)
-        self._solver: SolverProcess | None = None  # `_prepare`'s Dijkstra solves, started on first use
+        self._helper: HelperProcess | None = None  # where `_prepare` has the scene made, started on first use
 
     def _draw_scene(self) -> int:
         """The scene stream's next draw; with ``prefetch``, also the one after it, whose scene (navmesh, simulator,
-        goal pool: all but the renderer) a thread prepares while this scene's episodes run. The stream is used for
+        goal pool: all but the renderer) is prepared (`_prepare`) while this scene's episodes run. The stream is used for
         nothing else, so drawing ahead gives the same scenes in the same order: only the wait at a switch goes.
         Vectorised envs step together, so an env loading a scene (~0.1 s) and building its goal pool (~0.3 s)
         held up every env of the batch; in 15 workers, one or another of them did at most steps."""
@@ -71,14 +72,22 @@ class CachedSceneEnv(RVNEnv):
         return self._threads
 
     def _prepare(self, pos: int) -> SceneSlot:
-        """The scene's slot without its renderer; its goal pool's solves in the env's helper process
-        (`rvn_data.navmesh.solver_process`: in this thread they would hold the GIL, and the env's steps, ~0.3 s)."""
-        slot = SceneSlot.load(self.config, self._slots[pos], pos)
-        if self.config.goal_pool:
-            if self._solver is None:
-                self._solver = SolverProcess()
-            slot.goal_sampler(self.config, self._solver.predecessors)
-        return slot
+        """The scene's slot without its renderer, run in a thread: the scene, its navmesh and goal pool (unless this
+        process keeps it) are made in the env's helper process (`rvn_data.helper_process`), and this thread, which only
+        waits for them, makes the simulator. Made in the thread (with the pool's solves alone in a helper), they took
+        turns with the env's steps for the GIL: a scene took 0.9 s to load there against 0.05-0.1 s alone, and a
+        switch often waited for it (2 envs in one process, 200 scenes, goal pool 64, 2-core development CPU: 349-364
+        env steps/s, 433-442 so; benchmarks/scene_prefetch.py, 2 envs in one worker: 300-327 and 357-472)."""
+        config, slot = self.config, self._slots[pos]
+        config = config.with_(cache_dir=str(config.cache_folder()))  # the helper's cache root is this process's
+        with_pool = bool(config.goal_pool) and cached_pool(pool_key(config, slot)) is None
+        if self._helper is None:
+            self._helper = HelperProcess()
+        scene, navmesh, pool = self._helper.call(SceneSlot.prepared_parts, config, slot, pos, with_pool)
+        prepared = SceneSlot.from_parts(config, slot, pos, scene, navmesh)
+        if config.goal_pool:
+            prepared.goal_sampler(config, pool)
+        return prepared
 
     def _load(self, pos: int) -> None:
         self._switch_to(pos)
@@ -104,9 +113,9 @@ class CachedSceneEnv(RVNEnv):
         if self._threads is not None:
             self._threads.shutdown(wait=True, cancel_futures=True)
             self._threads = None
-        if self._solver is not None:
-            self._solver.close()
-            self._solver = None
+        if self._helper is not None:
+            self._helper.close()
+            self._helper = None
         self._ahead = self._ready = None
         while self._cache:
             self._cache.popitem()[1].close()

@@ -249,37 +249,36 @@ def test_field_read_at_points_equals_the_whole_field():
     assert depth > 256 and field.distance(b) == _whole_field(nm, a).distance(b) == pytest.approx(19.4, abs=0.05)
 
 
-def test_field_sets_solve_together_here_or_in_a_helper_process():
+def test_field_sets_solve_together_and_pickle_without_their_smoothing_state():
     """`FieldTrees` (a goal pool's fields, their solves in one call) holds the fields of `distance_field(goal,
-    keep=False)` one by one (trees, snapped goals; inf for a goal with no graph node), its solves in this process or in
-    `SolverProcess`, which starts again after its process died, names itself when a request fails, and ends on close."""
+    keep=False)` one by one (trees, snapped goals; inf for a goal with no graph node). Pickled (a helper process sends
+    pools so), it leaves out its smoothing state, which lookups fill again: the same distances, before and after reads,
+    with each field's tree on its rows of the stack again."""
+    import pickle
+
     from rvn_data.navmesh.field_sets import FieldTrees, fields_distance
-    from rvn_data.navmesh.solver_process import SolverProcess
 
     nm = NavMesh.build(load_scene("procedural:val/0"))
     rng = np.random.default_rng(4)
     goals = [nm.sample(rng) + [0.02, 0.0, 0.0] for _ in range(5)] + [np.array([500.0, 0.0, 500.0])]
-    helper = SolverProcess()
-    try:
-        for solve in (None, helper.predecessors):
-            one_by_one = [nm.distance_field(g, keep=False) for g in goals]
-            assert one_by_one[-1].tree is None and one_by_one[0].tree is not None
-            stack = FieldTrees(nm, goals, solve, dtype=np.float64)  # float64 values, as a field of its own
-            assert np.array_equal(stack.goals, [f.goal for f in one_by_one])
-            for tree, ref in zip(stack.trees, one_by_one[:-1]):
-                assert np.array_equal(tree.pred, ref.tree.pred) and tree.pred.dtype == ref.tree.pred.dtype
-                assert (tree.root, tree.grid) == (ref.tree.root, ref.tree.grid)
-            assert (stack.trees[-1].pred == -1).all() and stack.trees[-1].root == -1
-            for p in [nm.sample(rng) for _ in range(3)]:
-                assert np.array_equal(fields_distance(nm, stack, p), [f.distance(p) for f in one_by_one])
-                assert fields_distance(nm, stack, p)[-1] == np.inf
-        first = helper._proc
-        first.kill()
-        first.wait()
-        assert np.array_equal(FieldTrees(nm, goals[:1], helper.predecessors).pred[0], one_by_one[0].tree.pred)
-        assert helper._proc is not first and first.stdin.closed and first.stdout.closed  # started anew
-        with pytest.raises(RuntimeError, match="Dijkstra helper process.*env.prefetch_scenes=false"):
-            helper.predecessors(nm._ensure_graph()[0], [10 ** 9])  # no such node: the helper fails
-    finally:
-        helper.close()
-    assert helper._proc is None
+    one_by_one = [nm.distance_field(g, keep=False) for g in goals]
+    assert one_by_one[-1].tree is None and one_by_one[0].tree is not None
+    stack = FieldTrees(nm, goals, dtype=np.float64)  # float64 values, as a field of its own
+    assert np.array_equal(stack.goals, [f.goal for f in one_by_one])
+    for tree, ref in zip(stack.trees, one_by_one[:-1]):
+        assert np.array_equal(tree.pred, ref.tree.pred) and tree.pred.dtype == ref.tree.pred.dtype
+        assert (tree.root, tree.grid) == (ref.tree.root, ref.tree.grid)
+    assert (stack.trees[-1].pred == -1).all() and stack.trees[-1].root == -1
+    points = [nm.sample(rng) for _ in range(6)]
+    fresh = pickle.loads(pickle.dumps(stack))
+    for p in points[:3]:  # read before pickling: the smoothing state is left behind, refilled where read
+        assert np.array_equal(fields_distance(nm, stack, p), [f.distance(p) for f in one_by_one])
+        assert fields_distance(nm, stack, p)[-1] == np.inf
+    again = pickle.loads(pickle.dumps(stack))
+    assert len(pickle.dumps(stack)) < stack.pred.nbytes + 4096 < stack.nbytes  # the predecessors and the goals
+    for copy in (fresh, again):
+        assert copy.values.dtype == np.float64 and np.isinf(copy.out).all() and (copy.parent == -1).all()
+        assert all(np.shares_memory(t.out, copy.out) and np.shares_memory(t.pred, copy.pred) for t in copy.trees)
+        for p in points:
+            assert np.array_equal(fields_distance(nm, copy, p), [f.distance(p) for f in one_by_one])
+        assert [t.grid for t in copy.trees] == [t.grid for t in stack.trees]

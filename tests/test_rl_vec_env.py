@@ -125,19 +125,18 @@ def test_worker_processes_pass_the_same_observations_through_shared_memory():
 
 
 def test_prefetched_scenes_give_the_same_episodes(monkeypatch):
-    """With env.prefetch_scenes each env draws its next scene ahead and a thread prepares it (navmesh, goal pool, the
-    pool's solves in a helper process) while it steps: observations, rewards, episode records and scene order equal the envs' without it, across
-    scene switches at every reset and a reset with a seed, which starts the scene stream again."""
-    from rvn_data.benchmark import episodes_source
+    """With env.prefetch_scenes each env draws its next scene ahead and has it prepared while it steps (scene, navmesh
+    and goal pool made in a helper process, the simulator in a thread): observations, rewards, episode records and
+    scene order equal the envs' without it, across scene switches at every reset and a reset with a seed, which starts
+    the scene stream again. A pool this process keeps is not made again."""
+    import threading
 
-    from rvn_data.navmesh.solver_process import SolverProcess
+    from rvn_data.helper_process import HelperProcess
 
-    threads, solved = [], []
-    real_load = episodes_source.SceneSlot.load.__func__
-    monkeypatch.setattr(episodes_source.SceneSlot, "load", classmethod(
-        lambda cls, *a: (threads.append(__import__("threading").current_thread().name), real_load(cls, *a))[1]))
-    real_solve = SolverProcess.predecessors
-    monkeypatch.setattr(SolverProcess, "predecessors", lambda self, *a: (solved.append(self), real_solve(self, *a))[1])
+    threads, calls = [], []
+    real_call = HelperProcess.call
+    monkeypatch.setattr(HelperProcess, "call", lambda self, fn, *a: (
+        threads.append(threading.current_thread().name), calls.append((self, a[-1])), real_call(self, fn, *a))[2])
     kw = {**KW, "scenes": {"num_scenes": 6}, "scene_switch_every": 1, "goal_pool": 8}
     plain, ahead = BatchEnv(kw, 2, seed=7, prefetch=False), BatchEnv(kw, 2, seed=7)
     try:
@@ -160,13 +159,14 @@ def test_prefetched_scenes_give_the_same_episodes(monkeypatch):
             a, b = ra[0], rb[0]
         assert ended >= 6 and len({s for pair in scenes for s in pair}) >= 3
         assert sum(env.prefetched for env in ahead.envs) >= 4 and sum(env.prefetched for env in plain.envs) == 0
-        assert any(name.startswith("rvn-scene-prefetch") for name in threads)
-        assert solved  # pools prepared ahead were solved in the envs' helper processes
-        helpers = [solver._proc for solver in set(solved)]
+        assert calls and all(name.startswith("rvn-scene-prefetch") for name in threads)
+        # pools made there, and one this process kept already (built by the envs without prefetch): not made again
+        assert {with_pool for _, with_pool in calls} == {True, False}
+        helpers = [helper._proc for helper in {helper for helper, _ in calls}]
     finally:
         plain.close()
         ahead.close()
-    assert all(env._threads is None and env._solver is None for env in ahead.envs)
+    assert all(env._threads is None and env._helper is None for env in ahead.envs)
     assert all(proc.poll() is not None for proc in helpers)  # closed with their envs
 
 

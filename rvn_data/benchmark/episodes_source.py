@@ -172,11 +172,26 @@ class SceneSlot:
     def load(cls, config: EnvConfig, slot: tuple[str, int], pos: int) -> "SceneSlot":
         """The scene, its navmesh and simulator, without a renderer (`with_renderer`): what may be prepared in another
         thread, since a GL context belongs to the thread that renders."""
+        spec, _ = slot
+        return cls.from_parts(config, slot, pos, *open_scene(spec, config.scenes, config.navmesh, config.cache_folder()))
+
+    @classmethod
+    def from_parts(cls, config: EnvConfig, slot: tuple[str, int], pos: int, scene, navmesh) -> "SceneSlot":
+        """The slot of a loaded scene and navmesh (its simulator made here), without a renderer."""
         from rvn_data.sim import Simulator
 
-        spec, scene_index = slot
-        scene, navmesh = open_scene(spec, config.scenes, config.navmesh, config.cache_folder())
-        return cls(pos, spec, scene_index, scene, navmesh, Simulator(navmesh, config.agent), None)
+        return cls(pos, *slot, scene, navmesh, Simulator(navmesh, config.agent), None)
+
+    @classmethod
+    def prepared_parts(cls, config: EnvConfig, slot: tuple[str, int], pos: int, with_pool: bool) -> tuple:
+        """(scene, navmesh, goal pool or None) of a slot, as `load` and `goal_sampler` make them: what rvn-rl's scene
+        prefetch has a helper process prepare (`rvn_data.helper_process`) and send back; the pool only ``with_pool``."""
+        from rvn_data.benchmark.goal_pool import GoalPool
+
+        loaded = cls.load(config, slot, pos)
+        pool = GoalPool.build(loaded.navmesh, config.goal_pool, config.split_code, loaded.scene_index) if with_pool \
+            else None
+        return loaded.scene, loaded.navmesh, pool
 
     def with_renderer(self, config: EnvConfig) -> "SceneSlot":
         from rvn_data.render import make_renderer
@@ -193,13 +208,12 @@ class SceneSlot:
                                                 loaded=(self.scene, self.navmesh))
         return self._episodes
 
-    def goal_sampler(self, config: EnvConfig, solve=None):
-        """This scene's train-mode goal pool (`rvn_data.benchmark.goal_pool`), built on first use (its solves with
-        ``solve``: `rvn_data.navmesh.field_sets.FieldTrees`)."""
+    def goal_sampler(self, config: EnvConfig, pool=None):
+        """This scene's train-mode goal pool (`rvn_data.benchmark.goal_pool`), on first use taken from the process's
+        cache of pools or built (``pool``: built elsewhere, which the cache then keeps)."""
         if self._goal_sampler is None:
             from rvn_data.benchmark.goal_pool import PoolSampler, pool_for
-            key = (self.spec, repr(config.navmesh), repr(sorted(config.scenes.items())))
-            pool = pool_for(self.navmesh, key, config.goal_pool, config.split_code, self.scene_index, solve)
+            pool = pool_for(self.navmesh, pool_key(config, (self.spec, self.scene_index)), pool)
             self._goal_sampler = PoolSampler(self.navmesh, pool)
         return self._goal_sampler
 
@@ -218,6 +232,14 @@ class SceneSlot:
         if self.renderer is not None:
             self.renderer.close()
             self.renderer = None
+
+
+def pool_key(config: EnvConfig, slot: tuple[str, int]) -> tuple:
+    """What names a scene slot's goal pool in a process's cache (`rvn_data.benchmark.goal_pool.pool_for`): the scene,
+    its navmesh and scene settings, the pool's size, split and scene index (which seed its goals)."""
+    spec, scene_index = slot
+    return (spec, repr(config.navmesh), repr(sorted(config.scenes.items())), int(config.goal_pool),
+            int(config.split_code), int(scene_index))
 
 
 def eval_schedule(slots: list, per_scene: int) -> list[tuple[int, int]]:

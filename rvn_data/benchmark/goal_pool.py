@@ -15,7 +15,8 @@ of an RL env's time when its scenes change often and are many). Pools live in on
 per process of at most ``MAX_BYTES`` (20 bytes per graph node and goal: 17-31 MB for 64 goals on a procedural
 apartment's 13-25k nodes); values read are float32, as when pools held whole fields. The fields are stacked
 (`rvn_data.navmesh.field_sets.FieldTrees`), so a draw reads them all in one call (0.04-1.0 ms for 64 against
-0.6-1.6 field by field, benchmarks/goal_pool.py); rvn-rl's scene prefetch has their solves done in a helper process."""
+0.6-1.6 field by field, benchmarks/goal_pool.py); rvn-rl's scene prefetch has a scene's pool made with the scene in a helper process (`rvn_data.helper_process`), which
+sends it without the smoothing state (`FieldTrees` pickles its trees alone)."""
 from __future__ import annotations
 
 import threading
@@ -47,10 +48,10 @@ class GoalPool:
         return self.stack.nbytes
 
     @classmethod
-    def build(cls, navmesh, size: int, split_code: int, scene_index: int, solve=None) -> "GoalPool":
-        """The pool's goals and fields, their solves in one call (``solve``: `FieldTrees`)."""
+    def build(cls, navmesh, size: int, split_code: int, scene_index: int) -> "GoalPool":
+        """The pool's goals and fields, their solves in one call (`FieldTrees`)."""
         rng = np.random.default_rng([0x600A1, int(split_code), int(scene_index), int(size)])
-        return cls(FieldTrees(navmesh, [navmesh.sample(rng, island=0) for _ in range(size)], solve))
+        return cls(FieldTrees(navmesh, [navmesh.sample(rng, island=0) for _ in range(size)]))
 
     def fields(self, navmesh) -> list[GeodesicField]:
         """The pool's fields bound to ``navmesh`` (an env's own build of the same scene)."""
@@ -58,19 +59,27 @@ class GoalPool:
         return [GeodesicField(navmesh, g, v, t) for g, v, t in zip(s.goals, s.values, s.trees)]
 
 
-def pool_for(navmesh, scene_key: tuple, size: int, split_code: int, scene_index: int, solve=None) -> GoalPool:
-    """The cached pool of a scene (``scene_key`` names the scene and its navmesh settings); built with ``solve``
-    (`GoalPool.build`) when not cached."""
-    key = (scene_key, int(size), int(split_code), int(scene_index))
+def pool_for(navmesh, key: tuple, pool: GoalPool | None = None) -> GoalPool:
+    """The pool named ``key`` (`rvn_data.benchmark.episodes_source.pool_key`: scene and settings, then the pool's size,
+    split code and scene index, its last three items, which `GoalPool.build` takes) from this process's cache, else ``pool`` (built elsewhere, the same: a helper process's), else built
+    (`GoalPool.build`); kept in the cache as its most recently used."""
     with _LOCK:
-        pool = _POOLS.pop(key, None)
-    if pool is None:  # built outside the lock: two threads may both build a pool, the same one
-        pool = GoalPool.build(navmesh, size, split_code, scene_index, solve)
+        cached = _POOLS.pop(key, None)
+    if cached is not None:
+        pool = cached
+    elif pool is None:  # built outside the lock: two threads may both build a pool, the same one
+        pool = GoalPool.build(navmesh, *key[-3:])
     with _LOCK:
         _POOLS[key] = pool
         while len(_POOLS) > 1 and sum(p.nbytes for p in _POOLS.values()) > MAX_BYTES:
             _POOLS.popitem(last=False)
     return pool
+
+
+def cached_pool(key: tuple) -> GoalPool | None:
+    """The pool named ``key`` if this process's cache keeps it (not made more recently used)."""
+    with _LOCK:
+        return _POOLS.get(key)
 
 
 class PoolSampler:

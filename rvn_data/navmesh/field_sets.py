@@ -1,8 +1,9 @@
 """Many geodesic fields of one scene at once: a goal pool's (`rvn_data.benchmark.goal_pool`).
 
-- `FieldTrees(navmesh, goals, solve)`: the fields of ``navmesh.distance_field(goal, keep=False)`` for every goal,
-  their Dijkstra solves in one call, here or in a helper process (`rvn_data.navmesh.solver_process`, which a thread
-  preparing a scene uses so as not to hold the GIL through them), their trees stacked row by row;
+- `FieldTrees(navmesh, goals)`: the fields of ``navmesh.distance_field(goal, keep=False)`` for every goal, their
+  Dijkstra solves in one call, their trees stacked row by row; pickled without their smoothing state (which lookups
+  fill again where they read), so that a helper process that builds a pool sends a few MB
+  (`rvn_data.helper_process`);
 - `fields_distance(navmesh, trees, p)`: every field's distance at points in one call, so that a goal draw (every pool
   field's distance at a start) costs one kernel call instead of one lookup per field (benchmarks/goal_pool.py). The
   same values as field by field, bit for bit (tests/test_env.py).
@@ -23,36 +24,43 @@ class FieldTrees:
     either smooths the same state), and ``values`` each field's values in ``dtype`` (float32: a pool's).
 
     Each field is ``navmesh.distance_field(goal, keep=False)``'s (snapped goal, same tree; for a goal with no graph
-    node near it a tree that reaches nothing: inf everywhere), their Dijkstra solves in one call: ``solve(graph,
-    nodes)`` → predecessors [len(nodes), graph nodes] (default: scipy's, in this process;
-    `rvn_data.navmesh.solver_process.SolverProcess.predecessors`: in a process of its own). The arrays are made
-    whole, a few numpy calls in all: a thread that builds them gives up the GIL at each call and waits up to ~5 ms
-    (the switch interval) to get it back from a busy env; 64 fields built one by one (~400 calls) took ~2 s beside a
-    busy Python loop against 0.3 s alone (2-core development CPU)."""
+    node near it a tree that reaches nothing: inf everywhere), their Dijkstra solves in one call (scipy's). The
+    arrays are made whole, a few numpy calls in all."""
 
-    def __init__(self, navmesh, goals, solve=None, dtype=np.float32):
+    def __init__(self, navmesh, goals, dtype=np.float32):
         graph = navmesh._ensure_graph()[0]
         nodes, points = zip(*(navmesh._field_goal(goal) for goal in goals))
         self.goals, self.roots = np.stack(points), np.array(nodes, np.int64)
-        shape, solved = (len(points), graph.shape[0]), np.flatnonzero(self.roots >= 0)
-        self.pred = np.full(shape, -1, np.int32)
+        solved = np.flatnonzero(self.roots >= 0)
+        self.pred = np.full((len(points), graph.shape[0]), -1, np.int32)
         if solved.size:
-            self.pred[solved] = (solve or _solve_here)(graph, self.roots[solved])
-        self.out, self.parent = np.full(shape, np.inf), np.full(shape, -1, np.int32)
-        self.values = np.full(shape, np.inf, dtype)
+            self.pred[solved] = run_dijkstra(graph, self.roots[solved], predecessors=True)[1]
         grids = [navmesh._goal_grid(node, p) if node >= 0 else (0, 0.0, 0.0) for node, p in zip(nodes, points)]
         self.gk = np.array([g[0] for g in grids], np.int64)
         self.gi, self.gj = (np.array([g[a] for g in grids], np.float64) for a in (1, 2))
-        self.trees = [FieldTree(pred, node, goal, grid, out, parent) for pred, node, goal, grid, out, parent in
-                      zip(self.pred, nodes, self.goals, grids, self.out, self.parent)]
+        self._stack_trees(dtype)
+
+    def _stack_trees(self, dtype) -> None:
+        """The smoothing state, none done yet (inf / -1), and each field's `FieldTree` on its rows."""
+        shape = self.pred.shape
+        self.out, self.parent = np.full(shape, np.inf), np.full(shape, -1, np.int32)
+        self.values = np.full(shape, np.inf, dtype)
+        self.trees = [FieldTree(pred, root, goal, (k, i, j), out, parent) for pred, root, goal, k, i, j, out, parent in
+                      zip(self.pred, self.roots, self.goals, self.gk, self.gi, self.gj, self.out, self.parent)]
+
+    def __getstate__(self) -> dict:
+        """The trees without their smoothing state (3x the predecessors' bytes): lookups fill it again, the same."""
+        state = {k: v for k, v in self.__dict__.items() if k not in ("out", "parent", "values", "trees")}
+        return {**state, "dtype": self.values.dtype.str}
+
+    def __setstate__(self, state: dict) -> None:
+        dtype = np.dtype(state.pop("dtype"))
+        self.__dict__.update(state)
+        self._stack_trees(dtype)
 
     @property
     def nbytes(self) -> int:
         return self.pred.nbytes + self.out.nbytes + self.parent.nbytes + self.values.nbytes
-
-
-def _solve_here(graph, nodes) -> np.ndarray:
-    return run_dijkstra(graph, nodes, predecessors=True)[1]
 
 
 def fields_distance(navmesh, trees: FieldTrees, p: np.ndarray) -> np.ndarray:
