@@ -1,12 +1,14 @@
 """Scene prefetch (issue 32, RL row): env steps/s of rvn-rl's vectorised envs alone with ``env.prefetch_scenes``
 off and on, in worker processes that step together, and each batched step's time (median, 90th and 99th
-percentile).
+percentile); with ``--workers 0`` the envs step in this process (rvn-rl's default ``env.workers=0``).
 
 Vectorised envs step together: a batched step lasts as long as its slowest worker. An env switching scene (every
 ``env.scene_switch_every`` resets; with random actions an episode lasts ~25 steps) waited for the scene (~0.1 s) and
 its goal pool (~0.3 s), and with 15 workers one or another of them did at most steps (on an H200 node, 28 env steps/s
-per worker in 15 workers against 331 in one). With prefetch each env draws its next scene ahead and prepares it in a
-thread while it steps: the same scenes and episodes (tests/test_rl_vec_env.py), without the wait.
+per worker in 15 workers against 331 in one). With prefetch each env draws its next scene ahead and has it prepared in a
+helper process while it steps (`rvn_rl.vec_env.CachedSceneEnv._prepare`): the same scenes and episodes
+(tests/test_rl_vec_env.py), without the wait. Short runs (``--steps`` a few hundred) also time each env's helper
+starting (~1 s, once a run): give ``--steps 1000`` or more for a long run's rate.
 
 Runs alternate off / on after a first untimed run that fills the cache root's navmeshes of the scenes they visit
 (all runs draw the same scenes), so each timed run loads built navmeshes and builds its goal pools, as a long run
@@ -33,7 +35,7 @@ def batched_step_times(cfg, steps: int) -> np.ndarray:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="env worker processes (default: one per CPU)")
+    p.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="env worker processes (default: one per CPU; 0: the envs in this process)")
     p.add_argument("--envs-per-worker", type=int, default=2)
     p.add_argument("--scenes", type=int, default=200)
     p.add_argument("--steps", type=int, default=200, help="timed batched steps per run")
@@ -42,11 +44,11 @@ def main() -> None:
     p.add_argument("--renderer", default="auto")
     p.add_argument("--goal-pool", type=int, default=64)
     args = p.parse_args()
-    if args.workers < 1 or args.envs_per_worker < 1 or args.steps < 1 or args.rounds < 1:
-        p.error("--workers, --envs-per-worker, --steps and --rounds must be positive")
+    if args.workers < 0 or args.envs_per_worker < 1 or args.steps < 1 or args.rounds < 1:
+        p.error("--envs-per-worker, --steps and --rounds must be positive, --workers at least 0")
     from rvn_rl.cli import compose
 
-    envs = args.workers * args.envs_per_worker
+    envs, processes = max(1, args.workers) * args.envs_per_worker, max(1, args.workers)
     with tempfile.TemporaryDirectory() as tmp:
         def cfg(prefetch: bool):
             return compose([f"env.size={args.size}", f"env.num_envs={envs}", f"env.workers={args.workers}",
@@ -54,12 +56,16 @@ def main() -> None:
                             f"env.prefetch_scenes={str(prefetch).lower()}", f"cache_dir={tmp}/cache", f"out_dir={tmp}/run",
                             "progress=false"])
 
+        from rvn_data.benchmark import goal_pool
+
         batched_step_times(cfg(False), args.steps)  # fills the cache root's navmeshes
         runs = {False: [], True: []}
         for _ in range(args.rounds):
             for prefetch in (False, True):
+                goal_pool._POOLS.clear()  # with --workers 0: no pool kept from an earlier run (workers start empty)
                 runs[prefetch].append(batched_step_times(cfg(prefetch), args.steps))
-    print(f"rvn-rl envs alone: {envs} envs in {args.workers} worker processes, {args.size}² RGB, renderer={args.renderer}, "
+    where = f"{args.workers} worker processes" if args.workers else "this process"
+    print(f"rvn-rl envs alone: {envs} envs in {where}, {args.size}² RGB, renderer={args.renderer}, "
           f"{args.scenes} train scenes, goal pool {args.goal_pool}, random actions, {args.steps} batched steps a run, "
           f"{args.rounds} run(s) each, alternated:")
     rate = {}
@@ -68,7 +74,7 @@ def main() -> None:
         rate[prefetch] = envs * len(t) / t.sum()
         q = np.percentile(t, [50, 90, 99]) * 1e3
         print(f"  env.prefetch_scenes={str(prefetch).lower():5s} {rate[prefetch]:7.0f} env steps/s "
-              f"({rate[prefetch] / args.workers:.0f} per worker); batched step median {q[0]:.1f} ms, "
+              f"({rate[prefetch] / processes:.0f} per process); batched step median {q[0]:.1f} ms, "
               f"90th {q[1]:.1f} ms, 99th {q[2]:.1f} ms, slowest {1e3 * t.max():.0f} ms")
     print(f"  prefetch: x{rate[True] / rate[False]:.2f} the env steps/s without it")
 

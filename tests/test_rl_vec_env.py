@@ -160,14 +160,39 @@ def test_prefetched_scenes_give_the_same_episodes(monkeypatch):
         assert ended >= 6 and len({s for pair in scenes for s in pair}) >= 3
         assert sum(env.prefetched for env in ahead.envs) >= 4 and sum(env.prefetched for env in plain.envs) == 0
         assert calls and all(name.startswith("rvn-scene-prefetch") for name in threads)
-        # pools made there, and one this process kept already (built by the envs without prefetch): not made again
-        assert {with_pool for _, with_pool in calls} == {True, False}
         helpers = [helper._proc for helper in {helper for helper, _ in calls}]
     finally:
         plain.close()
         ahead.close()
     assert all(env._threads is None and env._helper is None for env in ahead.envs)
     assert all(proc.poll() is not None for proc in helpers)  # closed with their envs
+
+
+def test_a_prepared_scene_takes_the_pool_this_process_keeps(tmp_path, monkeypatch):
+    """`CachedSceneEnv._prepare` has its helper process make a scene's goal pool only when this process keeps none:
+    the same pool either way (its goals and draws), kept by the process after."""
+    from rvn_data.benchmark.episodes_source import pool_key
+    from rvn_data.benchmark.goal_pool import cached_pool
+    from rvn_data.helper_process import HelperProcess
+
+    env = CachedSceneEnv(**{**KW, "scenes": {"num_scenes": 3}, "goal_pool": 4, "cache_dir": str(tmp_path)})
+    sent, real_call = [], HelperProcess.call
+    monkeypatch.setattr(HelperProcess, "call", lambda self, fn, *a: (sent.append(a[-1]), real_call(self, fn, *a))[1])
+    try:
+        env.reset(seed=3)
+        pos = next(p for p in range(3) if cached_pool(pool_key(env.config, env._slots[p])) is None)
+        made = env._prepare(pos)  # in this thread: what the prefetch thread runs
+        kept = cached_pool(pool_key(env.config, env._slots[pos]))
+        again = env._prepare(pos)
+        assert sent[-2:] == [True, False] and kept is not None
+        assert again.goal_sampler(env.config).stack is kept.stack is made.goal_sampler(env.config).stack
+        rng = np.random.default_rng(0)
+        start = made.navmesh.sample(rng, island=0)
+        a = made.goal_sampler(env.config).sample(start, np.random.default_rng(1), 0.0, np.inf)
+        b = again.goal_sampler(env.config).sample(start, np.random.default_rng(1), 0.0, np.inf)
+        assert np.array_equal(a[0], b[0]) and a[1].distance(start) == b[1].distance(start)
+    finally:
+        env.close()
 
 
 def test_gae_stops_at_episode_ends():
