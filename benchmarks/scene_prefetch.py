@@ -35,7 +35,8 @@ def batched_step_times(cfg, steps: int) -> np.ndarray:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="env worker processes (default: one per CPU; 0: the envs in this process)")
+    p.add_argument("--workers", type=int, default=os.cpu_count() or 1,
+                   help="env worker processes (default: one per CPU; 0: the envs in this process)")
     p.add_argument("--envs-per-worker", type=int, default=2)
     p.add_argument("--scenes", type=int, default=200)
     p.add_argument("--steps", type=int, default=200, help="timed batched steps per run")

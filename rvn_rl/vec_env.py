@@ -43,8 +43,8 @@ class CachedSceneEnv(RVNEnv):
 
     def _draw_scene(self) -> int:
         """The scene stream's next draw; with ``prefetch``, also the one after it, whose scene (navmesh, simulator,
-        goal pool: all but the renderer) is prepared (`_prepare`) while this scene's episodes run. The stream is used for
-        nothing else, so drawing ahead gives the same scenes in the same order: only the wait at a switch goes.
+        goal pool: all but the renderer) is prepared (`_prepare`) while this scene's episodes run. The stream is used
+        for nothing else, so drawing ahead gives the same scenes in the same order: only the wait at a switch goes.
         Vectorised envs step together, so an env loading a scene (~0.1 s) and building its goal pool (~0.3 s)
         held up every env of the batch; in 15 workers, one or another of them did at most steps."""
         ahead, self._ahead = self._ahead, None

@@ -172,8 +172,8 @@ class SceneSlot:
     def load(cls, config: EnvConfig, slot: tuple[str, int], pos: int) -> "SceneSlot":
         """The scene, its navmesh and simulator, without a renderer (`with_renderer`): what may be prepared in another
         thread, since a GL context belongs to the thread that renders."""
-        spec, _ = slot
-        return cls.from_parts(config, slot, pos, *open_scene(spec, config.scenes, config.navmesh, config.cache_folder()))
+        scene, navmesh = open_scene(slot[0], config.scenes, config.navmesh, config.cache_folder())
+        return cls.from_parts(config, slot, pos, scene, navmesh)
 
     @classmethod
     def from_parts(cls, config: EnvConfig, slot: tuple[str, int], pos: int, scene, navmesh) -> "SceneSlot":

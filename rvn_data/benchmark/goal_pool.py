@@ -15,8 +15,9 @@ of an RL env's time when its scenes change often and are many). Pools live in on
 per process of at most ``MAX_BYTES`` (20 bytes per graph node and goal: 17-31 MB for 64 goals on a procedural
 apartment's 13-25k nodes); values read are float32, as when pools held whole fields. The fields are stacked
 (`rvn_data.navmesh.field_sets.FieldTrees`), so a draw reads them all in one call (0.04-1.0 ms for 64 against
-0.6-1.6 field by field, benchmarks/goal_pool.py); rvn-rl's scene prefetch has a scene's pool made with the scene in a helper process (`rvn_data.helper_process`), which
-sends it without the smoothing state (`FieldTrees` pickles its trees alone)."""
+0.6-1.6 field by field, benchmarks/goal_pool.py); rvn-rl's scene prefetch has a scene's pool made with the scene in
+a helper process (`rvn_data.helper_process`), which sends it without the smoothing state (`FieldTrees` pickles its
+trees alone)."""
 from __future__ import annotations
 
 import threading
@@ -61,8 +62,9 @@ class GoalPool:
 
 def pool_for(navmesh, key: tuple, pool: GoalPool | None = None) -> GoalPool:
     """The pool named ``key`` (`rvn_data.benchmark.episodes_source.pool_key`: scene and settings, then the pool's size,
-    split code and scene index, its last three items, which `GoalPool.build` takes) from this process's cache, else ``pool`` (built elsewhere, the same: a helper process's), else built
-    (`GoalPool.build`); kept in the cache as its most recently used."""
+    split code and scene index, its last three items, which `GoalPool.build` takes) from this process's cache, else
+    ``pool`` (built elsewhere, the same: a helper process's), else built; kept in the cache as its most recently
+    used."""
     with _LOCK:
         cached = _POOLS.pop(key, None)
     if cached is not None:
