@@ -84,7 +84,7 @@ def main() -> None:
                     raise SystemExit(f"the two reads differ at {s}: {one} against {each}")
                 ms[rep][0].append(1e3 * (t1 - t0))
                 ms[rep][1].append(1e3 * (t2 - t1))
-        helper, prepare = HelperProcess(), (SceneSlot.prepared_parts, env.config, env._slots[0], 0, True)
+        helper, prepare = HelperProcess(), (SceneSlot.prepared_parts, env.config, env._slots[0], True)
         try:
             pace = {"in this process": built_beside_steps(lambda: prepare[0](*prepare[1:])),
                     "in a helper process": built_beside_steps(lambda: helper.call(*prepare))}

@@ -83,7 +83,7 @@ class CachedSceneEnv(RVNEnv):
         with_pool = bool(config.goal_pool) and cached_pool(pool_key(config, slot)) is None
         if self._helper is None:
             self._helper = HelperProcess()
-        scene, navmesh, pool = self._helper.call(SceneSlot.prepared_parts, config, slot, pos, with_pool)
+        scene, navmesh, pool = self._helper.call(SceneSlot.prepared_parts, config, slot, with_pool)
         prepared = SceneSlot.from_parts(config, slot, pos, scene, navmesh)
         if config.goal_pool:
             prepared.goal_sampler(config, pool)

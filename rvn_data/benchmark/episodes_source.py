@@ -172,8 +172,12 @@ class SceneSlot:
     def load(cls, config: EnvConfig, slot: tuple[str, int], pos: int) -> "SceneSlot":
         """The scene, its navmesh and simulator, without a renderer (`with_renderer`): what may be prepared in another
         thread, since a GL context belongs to the thread that renders."""
-        scene, navmesh = open_scene(slot[0], config.scenes, config.navmesh, config.cache_folder())
-        return cls.from_parts(config, slot, pos, scene, navmesh)
+        return cls.from_parts(config, slot, pos, *cls.scene_and_navmesh(config, slot))
+
+    @staticmethod
+    def scene_and_navmesh(config: EnvConfig, slot: tuple[str, int]) -> tuple:
+        """The slot's scene and its navmesh (built, or read from the cache root's navmesh cache)."""
+        return open_scene(slot[0], config.scenes, config.navmesh, config.cache_folder())
 
     @classmethod
     def from_parts(cls, config: EnvConfig, slot: tuple[str, int], pos: int, scene, navmesh) -> "SceneSlot":
@@ -183,15 +187,14 @@ class SceneSlot:
         return cls(pos, *slot, scene, navmesh, Simulator(navmesh, config.agent), None)
 
     @classmethod
-    def prepared_parts(cls, config: EnvConfig, slot: tuple[str, int], pos: int, with_pool: bool) -> tuple:
+    def prepared_parts(cls, config: EnvConfig, slot: tuple[str, int], with_pool: bool) -> tuple:
         """(scene, navmesh, goal pool or None) of a slot, as `load` and `goal_sampler` make them: what rvn-rl's scene
         prefetch has a helper process prepare (`rvn_data.helper_process`) and send back; the pool only ``with_pool``."""
         from rvn_data.benchmark.goal_pool import GoalPool
 
-        loaded = cls.load(config, slot, pos)
-        pool = GoalPool.build(loaded.navmesh, config.goal_pool, config.split_code, loaded.scene_index) if with_pool \
-            else None
-        return loaded.scene, loaded.navmesh, pool
+        scene, navmesh = cls.scene_and_navmesh(config, slot)
+        pool = GoalPool.build(navmesh, config.goal_pool, config.split_code, slot[1]) if with_pool else None
+        return scene, navmesh, pool
 
     def with_renderer(self, config: EnvConfig) -> "SceneSlot":
         from rvn_data.render import make_renderer
@@ -234,12 +237,13 @@ class SceneSlot:
             self.renderer = None
 
 
-def pool_key(config: EnvConfig, slot: tuple[str, int]) -> tuple:
-    """What names a scene slot's goal pool in a process's cache (`rvn_data.benchmark.goal_pool.pool_for`): the scene,
-    its navmesh and scene settings, the pool's size, split and scene index (which seed its goals)."""
+def pool_key(config: EnvConfig, slot: tuple[str, int]):
+    """The `rvn_data.benchmark.goal_pool.PoolKey` of a scene slot's goal pool under ``config``."""
+    from rvn_data.benchmark.goal_pool import PoolKey
+
     spec, scene_index = slot
-    return (spec, repr(config.navmesh), repr(sorted(config.scenes.items())), int(config.goal_pool),
-            int(config.split_code), int(scene_index))
+    return PoolKey((spec, repr(config.navmesh), repr(sorted(config.scenes.items()))), int(config.goal_pool),
+                   int(config.split_code), int(scene_index))
 
 
 def eval_schedule(slots: list, per_scene: int) -> list[tuple[int, int]]:

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import threading
 from collections import OrderedDict
+from typing import NamedTuple
 
 import numpy as np
 
@@ -31,6 +32,16 @@ from rvn_data.navmesh.geodesic import GeodesicField
 MAX_BYTES = 512 << 20
 _POOLS: OrderedDict[tuple, "GoalPool"] = OrderedDict()
 _LOCK = threading.Lock()  # an RL env prepares its next scene's pool in a thread of its own (rvn_rl.vec_env)
+
+
+class PoolKey(NamedTuple):
+    """What names a scene's goal pool in a process's cache (`pool_for`): the scene with its navmesh and scene settings
+    (``scene``), and the pool's size, split code and scene index, which seed its goals (`GoalPool.build`)."""
+
+    scene: tuple
+    size: int
+    split_code: int
+    scene_index: int
 
 
 class GoalPool:
@@ -60,17 +71,15 @@ class GoalPool:
         return [GeodesicField(navmesh, g, v, t) for g, v, t in zip(s.goals, s.values, s.trees)]
 
 
-def pool_for(navmesh, key: tuple, pool: GoalPool | None = None) -> GoalPool:
-    """The pool named ``key`` (`rvn_data.benchmark.episodes_source.pool_key`: scene and settings, then the pool's size,
-    split code and scene index, its last three items, which `GoalPool.build` takes) from this process's cache, else
-    ``pool`` (built elsewhere, the same: a helper process's), else built; kept in the cache as its most recently
-    used."""
+def pool_for(navmesh, key: PoolKey, pool: GoalPool | None = None) -> GoalPool:
+    """The pool named ``key`` from this process's cache, else ``pool`` (built elsewhere, the same: a helper
+    process's), else built; kept in the cache as its most recently used."""
     with _LOCK:
         cached = _POOLS.pop(key, None)
     if cached is not None:
         pool = cached
     elif pool is None:  # built outside the lock: two threads may both build a pool, the same one
-        pool = GoalPool.build(navmesh, *key[-3:])
+        pool = GoalPool.build(navmesh, key.size, key.split_code, key.scene_index)
     with _LOCK:
         _POOLS[key] = pool
         while len(_POOLS) > 1 and sum(p.nbytes for p in _POOLS.values()) > MAX_BYTES:
@@ -78,7 +87,7 @@ def pool_for(navmesh, key: tuple, pool: GoalPool | None = None) -> GoalPool:
     return pool
 
 
-def cached_pool(key: tuple) -> GoalPool | None:
+def cached_pool(key: PoolKey) -> GoalPool | None:
     """The pool named ``key`` if this process's cache keeps it (not made more recently used)."""
     with _LOCK:
         return _POOLS.get(key)
