@@ -3,12 +3,14 @@
 A reset draws a start, then a pool goal whose geodesic distance from it lies in the benchmark's range: it reads the
 distance from every one of the pool's fields at the start (smoothing each field's tree where it reads it). Vectorised
 envs step together, so on a node with 30 envs, where most batched steps hold a reset, its cost is the batch's.
-Printed: a scene's preparation with its pool (`SceneSlot.prepared_parts`: load, navmesh, pool) by a thread while the
-process runs a Python loop, in this process (the loading and scipy's Dijkstra hold the GIL: the loop stalls) against
-in a helper process (`rvn_data.helper_process`, which `env.prefetch_scenes` uses; the thread waits for its answer);
-the ms of a goal draw (at starts not read before, as at a reset, and again at the same
-starts) with the pool read in one call (`rvn_data.navmesh.field_sets.fields_distance`) against field by field (the
-baseline, as before 2026-11-28), each on a pool of its own, the two in turns; the same distances (checked).
+Printed: a pool's build against its read back from the cache root's ``goal_pools`` (`rvn_data.benchmark.pool_cache`,
+which every env uses: a scene's pool is solved once per cache root); a scene's preparation with its pool
+(`SceneSlot.prepared_parts`: load, navmesh, pool, the last two read back from the cache root as at a long run's later
+visits) by a thread while the process runs a Python loop, in this process (loading holds the GIL: the loop stalls)
+against in a helper process (`rvn_data.helper_process`, which `env.prefetch_scenes` uses; the thread waits for its
+answer); the ms of a goal draw (at starts not read before, as at a reset, and again at the same starts) with the pool
+read in one call (`rvn_data.navmesh.field_sets.fields_distance`) against field by field (the baseline, as before
+2026-11-28), each on a pool of its own, the two in turns; the same distances (checked).
 Run: python benchmarks/goal_pool.py [--scene procedural:train/3] [--goals 64] [--starts 300]
 """
 from __future__ import annotations
@@ -16,6 +18,7 @@ from __future__ import annotations
 import argparse
 import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -68,6 +71,13 @@ def main() -> None:
         t = time.perf_counter()
         pools = [GoalPool.build(nav, args.goals, 0, 0) for _ in range(2)]
         build = (time.perf_counter() - t) / 2
+        kept = Path(tmp) / "goal_pools"
+        GoalPool.build(nav, args.goals, 0, 0, kept)  # solved and written to the cache root
+        t = time.perf_counter()
+        read = [GoalPool.build(nav, args.goals, 0, 0, kept) for _ in range(5)]
+        read_ms, file_mb = 1e3 * (time.perf_counter() - t) / 5, sum(f.stat().st_size for f in kept.glob("*.npz")) / 1e6
+        if not all(np.array_equal(r.stack.pred, pools[0].stack.pred) for r in read):
+            raise SystemExit("a pool read back differs from the built one")
         stacked, apart = PoolSampler(nav, pools[0]), pools[1].fields(nav)  # the other read field by field
         rng = np.random.default_rng(0)
         starts = [nav.sample(rng, island=0) for _ in range(args.starts)]
@@ -92,7 +102,8 @@ def main() -> None:
             helper.close()
             env.close()
     print(f"goal pool of {args.goals} on {args.scene} ({nav._ensure_graph()[0].shape[0]} graph nodes): "
-          f"built in {1e3 * build:.0f} ms (one Dijkstra solve a goal)")
+          f"built in {1e3 * build:.0f} ms (one Dijkstra solve a goal); read back from the cache root in "
+          f"{read_ms:.0f} ms (x{1e3 * build / read_ms:.0f}; its file {file_mb:.2f} MB)")
     for where, (took, share) in pace.items():
         print(f"  scene and pool prepared by a thread, {where:19s}: {took:5.0f} ms, while the process's own loop "
               f"kept {share:.0%} of its pace")

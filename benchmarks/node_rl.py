@@ -4,8 +4,11 @@ from __future__ import annotations
 
 import json
 import math
+import multiprocessing as mp
 import tempfile
+import time
 from collections.abc import Iterator
+from concurrent.futures import ProcessPoolExecutor
 from types import SimpleNamespace
 
 import numpy as np
@@ -25,32 +28,68 @@ def rl_rows(plan) -> Iterator[dict]:
     (the default), without it (``rl_envs_no_prefetch``: vectorised envs then wait for whichever env switches scene,
     the bound of the third GPU run, docs/results/2026-11-27_gpu3) and in one worker (``rl_envs_1``). The second and
     third GPU runs also timed renderer=raycast and gl under __GL_YIELD=USLEEP: the renderer is not the bound. Last, the
-    envs alone with fresh goals (``rl_envs_fresh_goals``, env.goal_pool=0) against the pool's 64 solves a scene."""
+    envs alone with fresh goals (``rl_envs_fresh_goals``, env.goal_pool=0) against the pool's 64 solves a scene.
+
+    Every row but one runs over one cache root that holds the scenes' built navmeshes and goal pools
+    (`fill_scene_caches`, before the rows): what a long run sees after its first pass over its scenes, since both are
+    kept on disk (`rvn_data.navmesh.disk_cache`, `rvn_data.benchmark.pool_cache`). ``rl_envs_first_pass`` times the
+    envs alone over an empty root (each scene's navmesh built and pool solved at its first visit, as every row of the
+    first three GPU runs did)."""
     small = dict(size=plan.rl_size, backbone="resnet18", num_steps=plan.rl_num_steps, ppo_epoch=4,
                  mini_batches=min(4, plan.rl_envs))
     paper = dict(size=plan.rl_paper_size, backbone="resnet50", num_steps=2 * plan.rl_num_steps, ppo_epoch=2,
                  mini_batches=min(2, plan.rl_envs))
     what, ddppo = "scale=paper network and PPO", "DD-PPO (Wijmans et al. 2020): ~160 frames/s per GPU (2.5B frames, 180 GPU-days)"
-    yield _rl_row(plan, "rl", "scale=small", small, "rl", "")
-    if plan.cuda or plan.quick:
-        envs = _rl_envs_row(plan, small)
-        yield envs
-        yield _rl_envs_row(plan, small, prefetch=False, with_prefetch=envs["value"])
-        if plan.rl_workers > 1 or plan.quick:  # a per-worker rate that drops with more workers: contention
-            yield _rl_envs_row(plan, small, workers=1)
-    if not (plan.cuda or plan.quick):  # minutes per update on a few cores; --quick runs it small
-        yield row(5, "rl_paper", f"rvn-rl PPO collection + learning, {what}", "env steps/s",
-                  skipped="ResNet-50 at 256² is sized for a GPU (--quick runs it at 64²)")
-        return
-    yield _rl_row(plan, "rl_paper", what, paper, None, ddppo)
-    yield _rl_envs_row(plan, small, goal_pool=0, with_pool=envs["value"])  # last: what a lease that runs short loses
+    with tempfile.TemporaryDirectory() as kept:
+        plan = SimpleNamespace(**vars(plan), rl_cache=kept, rl_filled=fill_scene_caches(plan, small, kept))
+        yield _rl_row(plan, "rl", "scale=small", small, "rl", "")
+        if plan.cuda or plan.quick:
+            envs = _rl_envs_row(plan, small)
+            yield envs
+            yield _rl_envs_row(plan, small, first_pass=True, kept_caches=envs["value"])
+            yield _rl_envs_row(plan, small, prefetch=False, with_prefetch=envs["value"])
+            if plan.rl_workers > 1 or plan.quick:  # a per-worker rate that drops with more workers: contention
+                yield _rl_envs_row(plan, small, workers=1)
+        if not (plan.cuda or plan.quick):  # minutes per update on a few cores; --quick runs it small
+            yield row(5, "rl_paper", f"rvn-rl PPO collection + learning, {what}", "env steps/s",
+                      skipped="ResNet-50 at 256² is sized for a GPU (--quick runs it at 64²)")
+            return
+        yield _rl_row(plan, "rl_paper", what, paper, None, ddppo)
+        # last: what a lease that runs short loses
+        yield _rl_envs_row(plan, small, goal_pool=0, with_pool=envs["value"])
+
+
+def _keep_scene(config, slot) -> None:
+    from rvn_data.benchmark.episodes_source import SceneSlot
+
+    SceneSlot.prepared_parts(config, slot, True)  # written to the cache root; nothing sent back
+
+
+def fill_scene_caches(plan, settings: dict, root: str) -> str:
+    """The RL rows' scenes' navmeshes and goal pools of 64, made into the cache root ``root`` by ``plan.cpus``
+    processes; what the rows' settings say about it."""
+    import rl as rl_bench
+    from rvn_data.benchmark.env import RVNEnv
+    from rvn_rl.cli import compose
+
+    cfg = compose(rl_bench.overrides(_rl_args(plan, settings, updates=1), f"{root}/run") + [f"cache_dir={root}"])
+    env = RVNEnv(**cfg.env_kwargs())
+    config, slots = env.config, list(env._slots)
+    env.close()
+    t = time.perf_counter()
+    with ProcessPoolExecutor(plan.cpus, mp_context=mp.get_context("spawn")) as pool:
+        list(pool.map(_keep_scene, [config] * len(slots), slots))
+    return (f"over a cache root holding the {len(slots)} scenes' navmeshes and goal pools (made by {plan.cpus} "
+            f"processes in {time.perf_counter() - t:.0f} s before the rows: a long run after its first pass)")
 
 
 def _rl_args(plan, settings: dict, updates: int) -> SimpleNamespace:
     """benchmarks/rl.py's arguments (`rl.overrides`) for the RL rows: the plan's envs, workers and scenes, a goal pool
     of 64, ``settings`` (size, backbone, PPO; renderer, else auto)."""
     return SimpleNamespace(envs=plan.rl_envs, workers=plan.rl_workers, scenes=plan.rl_scenes, base_planes=32,
-                           threads=plan.rl_threads, updates=updates, goal_pool=64, **{"renderer": "auto", **settings})
+                           threads=plan.rl_threads, updates=updates, goal_pool=64,
+                           cache_dir=getattr(plan, "rl_cache", None),
+                           **{"renderer": "auto", **settings})
 
 
 def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, baseline: str) -> dict:
@@ -87,14 +126,15 @@ def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, bas
                goal_key, steps / seconds,
                f"{args.size}² RGB, renderer={args.renderer}, {args.backbone} (base planes 32), PPO rollouts of {args.num_steps} x {envs} envs, "
                f"{args.ppo_epoch} epochs x {args.mini_batches} mini-batches, {workers} env worker processes, "
-               f"{plan.rl_scenes} train scenes, goal pool {args.goal_pool}, "
+               f"{plan.rl_scenes} train scenes, goal pool {args.goal_pool} {plan.rl_filled}, "
                f"{len(counted)} updates timed ({seconds:.1f} s); time: envs stepping {100 * share('time_envs'):.0f}%, "
                f"policy and storage {100 * (1 - share('time_envs') - share('time_learn')):.0f}%, "
                f"PPO update {100 * share('time_learn'):.0f}%", baseline, busy.share, profile=profile)
 
 
 def _rl_envs_row(plan, settings: dict, workers: int | None = None, prefetch: bool = True,
-                 with_prefetch: float | None = None, goal_pool: int = 64, with_pool: float | None = None) -> dict:
+                 with_prefetch: float | None = None, goal_pool: int = 64, with_pool: float | None = None,
+                 first_pass: bool = False, kept_caches: float | None = None) -> dict:
     """The rl row's envs alone (`rl.collection`: the same vec env and worker processes, random actions, no policy, no
     learner), so a slow rl row shows whether the envs or their sharing the node with the learner bound it. With
     ``workers`` (row ``rl_envs_<workers>``), that many worker processes with as many envs each as the rl row's: on the
@@ -103,13 +143,17 @@ def _rl_envs_row(plan, settings: dict, workers: int | None = None, prefetch: boo
     ``with_prefetch``, the rate with it, to its own). ``goal_pool=0`` (row ``rl_envs_fresh_goals``, naming the ratio
     of ``with_pool``, the rate with the recipe's pool of 64, to its own): two Dijkstra solves a goal instead of the pool's
     64 at each scene a worker has not kept (on the 2-core development CPU, 200 scenes: ~500 env steps/s against ~410
-    with the pool and prefetch). The settings give each batched step's median, 90th and 99th percentile and slowest:
-    vectorised envs step together, so an env whose scene switch waits holds up the batch, in the tail."""
+    with the pool and prefetch). ``first_pass`` (row ``rl_envs_first_pass``, naming the ratio of ``kept_caches``, the
+    rate over the kept caches, to its own): over an empty cache root, each scene's navmesh built and pool solved at its
+    first visit. The settings give each batched step's median, 90th and 99th percentile and slowest: vectorised envs
+    step together, so an env whose scene switch waits holds up the batch, in the tail."""
     import rl as rl_bench
     from rvn_rl.cli import compose
 
     args = _rl_args(plan, settings, updates=1)
     args.goal_pool = goal_pool
+    if first_pass:
+        args.cache_dir = None  # the row's own <out_dir>/cache, empty
     if workers is not None:
         args.envs, args.workers = max(1, plan.rl_envs // plan.rl_workers) * workers, workers
     extra = [] if prefetch else ["env.prefetch_scenes=false"]
@@ -120,14 +164,18 @@ def _rl_envs_row(plan, settings: dict, workers: int | None = None, prefetch: boo
     ms = 1e3 * np.percentile(times, [50, 90, 99, 100])
     ratio = "" if with_prefetch is None else f"; with env.prefetch_scenes (rl_envs): x{with_prefetch / rate:.2f} this"
     ratio += "" if with_pool is None else f"; with the goal pool of 64 (rl_envs): x{with_pool / rate:.2f} this"
+    ratio += "" if kept_caches is None else f"; over the kept caches (rl_envs): x{kept_caches / rate:.2f} this"
+    caches = ("over an empty cache root (each scene's navmesh built and pool solved at its first visit)" if first_pass
+              else plan.rl_filled)
     return row(5, "rl_envs" + ("" if workers is None else f"_{workers}") + ("" if prefetch else "_no_prefetch")
-               + ("" if goal_pool else "_fresh_goals"),
+               + ("" if goal_pool else "_fresh_goals") + ("_first_pass" if first_pass else ""),
                f"rvn-rl envs alone, scale=small's envs ({'cuda' if plan.cuda else 'cpu'})"
                + ("" if workers is None else f", {workers} worker(s)") + ("" if prefetch else ", env.prefetch_scenes=false")
-               + ("" if goal_pool else ", env.goal_pool=0"),
+               + ("" if goal_pool else ", env.goal_pool=0") + (", first pass over the scenes" if first_pass else ""),
                "env steps/s", None, rate,
                f"{args.size}² RGB, renderer={args.renderer}, {args.envs} envs in {args.workers} worker processes, "
-               f"{plan.rl_scenes} train scenes, goal pool {args.goal_pool}, random actions, no policy or learner, "
+               f"{plan.rl_scenes} train scenes, goal pool {args.goal_pool} {caches}, random actions, no policy or "
+               "learner, "
                f"{2 * args.num_steps} batched steps after 10 of warm-up: {rate / args.workers:.0f} env steps/s "
                f"per worker; batched step median {ms[0]:.1f} ms, 90th {ms[1]:.1f}, 99th {ms[2]:.1f}, slowest {ms[3]:.0f}"
                f"{ratio}", gpu_busy=busy.share)

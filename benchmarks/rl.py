@@ -34,7 +34,8 @@ def overrides(args, out_dir: str) -> list[str]:
             f"model.ngroups={min(16, args.base_planes // 2)}", f"ppo.num_steps={args.num_steps}",
             f"train.threads={args.threads}", "progress=false", f"renderer={args.renderer}", f"out_dir={out_dir}",
             f"train.total_steps={args.updates * args.num_steps * args.envs}", "train.checkpoint_every=1000",
-            f"env.goal_pool={args.goal_pool}", f"ppo.ppo_epoch={args.ppo_epoch}", f"ppo.num_mini_batch={args.mini_batches}"]
+            f"env.goal_pool={args.goal_pool}", f"ppo.ppo_epoch={args.ppo_epoch}", f"ppo.num_mini_batch={args.mini_batches}"
+            ] + ([f"cache_dir={args.cache_dir}"] if getattr(args, "cache_dir", None) else [])  # else <out_dir>/cache
 
 
 def collection(cfg, steps: int, with_policy: bool, times: list | None = None) -> float:

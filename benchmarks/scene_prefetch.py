@@ -1,25 +1,31 @@
-"""Scene prefetch (issue 32, RL row): env steps/s of rvn-rl's vectorised envs alone with ``env.prefetch_scenes``
-off and on, in worker processes that step together, and each batched step's time (median, 90th and 99th
-percentile); with ``--workers 0`` the envs step in this process (rvn-rl's default ``env.workers=0``).
+"""Scene prefetch and kept goal pools (issue 32, RL row): env steps/s of rvn-rl's vectorised envs alone with
+``env.prefetch_scenes`` off and on, each with every scene's goal pool solved at its visit (a run's first pass over its
+scenes, and every visit before pools were kept) and read back from the cache root (a long run after its first pass),
+in worker processes that step together, and each batched step's time (median, 90th and 99th percentile); with
+``--workers 0`` the envs step in this process (rvn-rl's default ``env.workers=0``).
 
 Vectorised envs step together: a batched step lasts as long as its slowest worker. An env switching scene (every
 ``env.scene_switch_every`` resets; with random actions an episode lasts ~25 steps) waited for the scene (~0.1 s) and
 its goal pool (~0.3 s), and with 15 workers one or another of them did at most steps (on an H200 node, 28 env steps/s
 per worker in 15 workers against 331 in one). With prefetch each env draws its next scene ahead and has it prepared in a
 helper process while it steps (`rvn_rl.vec_env.CachedSceneEnv._prepare`): the same scenes and episodes
-(tests/test_rl_vec_env.py), without the wait. Short runs (``--steps`` a few hundred) also time each env's helper
-starting (~1 s, once a run): give ``--steps 1000`` or more for a long run's rate.
+(tests/test_rl_vec_env.py), without the wait. A pool's 64 Dijkstra solves still cost the node's cores at every visit
+until pools were kept on disk (`rvn_data.benchmark.pool_cache`): read back in ~20 ms instead of ~0.3 s, the same pool.
+Short runs (``--steps`` a few hundred) also time each env's helper starting (~1 s, once a run): give ``--steps 1000``
+or more for a long run's rate.
 
-Runs alternate off / on after a first untimed run that fills the cache root's navmeshes of the scenes they visit
-(all runs draw the same scenes), so each timed run loads built navmeshes and builds its goal pools, as a long run
-over many scenes does.
+A first untimed run fills the cache root's navmeshes and pools of the scenes the runs visit (all runs draw the same
+scenes); then runs alternate over the four settings, those with pools solved after the root's ``goal_pools`` folder was
+emptied, so each timed run loads built navmeshes and either solves or reads its pools.
 Run: python benchmarks/scene_prefetch.py [--workers CPUS] [--envs-per-worker 2] [--scenes 200] [--steps 200] [--rounds 2]
 """
 from __future__ import annotations
 
 import argparse
 import os
+import shutil
 import tempfile
+from pathlib import Path
 
 import numpy as np
 
@@ -50,6 +56,7 @@ def main() -> None:
     from rvn_rl.cli import compose
 
     envs, processes = max(1, args.workers) * args.envs_per_worker, max(1, args.workers)
+    settings = [(prefetch, kept) for kept in (False, True) for prefetch in (False, True)]
     with tempfile.TemporaryDirectory() as tmp:
         def cfg(prefetch: bool):
             return compose([f"env.size={args.size}", f"env.num_envs={envs}", f"env.workers={args.workers}",
@@ -59,25 +66,34 @@ def main() -> None:
 
         from rvn_data.benchmark import goal_pool
 
-        batched_step_times(cfg(False), args.steps)  # fills the cache root's navmeshes
-        runs = {False: [], True: []}
+        batched_step_times(cfg(False), args.steps)  # fills the cache root's navmeshes and pools
+        kept_pools = Path(tmp) / "cache" / "goal_pools"
+        runs = {k: [] for k in settings}
         for _ in range(args.rounds):
-            for prefetch in (False, True):
+            for prefetch, kept in settings:
                 goal_pool._POOLS.clear()  # with --workers 0: no pool kept from an earlier run (workers start empty)
-                runs[prefetch].append(batched_step_times(cfg(prefetch), args.steps))
+                if not kept:
+                    shutil.rmtree(kept_pools, ignore_errors=True)
+                runs[prefetch, kept].append(batched_step_times(cfg(prefetch), args.steps))
     where = f"{args.workers} worker processes" if args.workers else "this process"
     print(f"rvn-rl envs alone: {envs} envs in {where}, {args.size}² RGB, renderer={args.renderer}, "
           f"{args.scenes} train scenes, goal pool {args.goal_pool}, random actions, {args.steps} batched steps a run, "
           f"{args.rounds} run(s) each, alternated:")
     rate = {}
-    for prefetch, times in runs.items():
+    for (prefetch, kept), times in runs.items():
         t = np.concatenate(times)
-        rate[prefetch] = envs * len(t) / t.sum()
+        rate[prefetch, kept] = envs * len(t) / t.sum()
         q = np.percentile(t, [50, 90, 99]) * 1e3
-        print(f"  env.prefetch_scenes={str(prefetch).lower():5s} {rate[prefetch]:7.0f} env steps/s "
-              f"({rate[prefetch] / processes:.0f} per process); batched step median {q[0]:.1f} ms, "
-              f"90th {q[1]:.1f} ms, 99th {q[2]:.1f} ms, slowest {1e3 * t.max():.0f} ms")
-    print(f"  prefetch: x{rate[True] / rate[False]:.2f} the env steps/s without it")
+        print(f"  env.prefetch_scenes={str(prefetch).lower():5s} pools {'read back' if kept else 'solved':9s} "
+              f"{rate[prefetch, kept]:7.0f} env steps/s ({rate[prefetch, kept] / processes:.0f} per process); batched "
+              f"step median {q[0]:.1f} ms, 90th {q[1]:.1f} ms, 99th {q[2]:.1f} ms, slowest {1e3 * t.max():.0f} ms")
+    for kept in (False, True):
+        print(f"  prefetch, pools {'read back' if kept else 'solved':9s}: x{rate[True, kept] / rate[False, kept]:.2f} "
+              "the env steps/s without it")
+    for prefetch in (False, True):
+        ratio = rate[prefetch, True] / rate[prefetch, False]
+        print(f"  pools read back, prefetch {'on ' if prefetch else 'off'}: x{ratio:.2f} the env steps/s with them "
+              "solved at each visit")
 
 
 if __name__ == "__main__":

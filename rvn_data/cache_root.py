@@ -11,7 +11,7 @@ Resolution, first that applies:
    system's temporary directory, and a warning saying so.
 
 Input datasets, the package and the home folder are never written to. Inside the root every
-cache has its own folder (``packed/``, ``episodes/``, ``navmesh/``, ``clips/``), and below that a key
+cache has its own folder (``packed/``, ``episodes/``, ``navmesh/``, ``goal_pools/``, ``clips/``), and below that a key
 (`settings_key`) of whatever its content depends on, so runs with different settings never
 share, or fight over, a file. torch.compile's kernels (``policy.compile``, ``train.compile``) go
 to ``<root>/compiled`` (`keep_compiled_kernels`), unless ``TORCHINDUCTOR_CACHE_DIR`` is set.

@@ -27,10 +27,10 @@ class EnvSettings:
     size: int = 256  # observation side (camera width = height), pixels
     num_scenes: int | None = None  # train scenes (null = all 800)
     scene_switch_every: int = 8  # resets of an env before it draws another scene
-    # train goals from a fixed pool of this many per scene, distance fields computed once per process
-    # (0: a fresh goal and two Dijkstra solves per draw). A pool costs one solve per goal at each scene its process has
-    # not kept (a cache of ~20 pools): over many scenes fresh goals step faster (2-core CPU, 4 envs, random actions:
-    # ~510-560 against ~375-415 env steps/s on 50 scenes, ~500 against ~410 on 200)
+    # train goals from a fixed pool of this many per scene (0: a fresh goal and two Dijkstra solves per draw). A pool
+    # costs one solve per goal the first time a cache root sees its scene, then ~20 ms to read back
+    # (<cache root>/goal_pools, rvn_data.benchmark.pool_cache): 2-core CPU, 2 workers x 2 envs, 200 scenes, random
+    # actions, prefetch: 315 env steps/s with pools solved at each visit, 418 read back (benchmarks/scene_prefetch.py)
     goal_pool: int = 64
     scene_cache: int = 2  # scenes each env keeps loaded besides the current one
     # each env has the scene of its next switch (navmesh, goal pool) prepared in a helper process of its own while it

@@ -29,7 +29,7 @@ def test_quick_run_lists_every_row(tmp_path):
     rows = {r["key"]: r for r in doc["rows"]}
     cpus = doc["cpu_count"]
     expected = {"gen", "train_nomad_pointgoal", "train_vint_pointgoal", "decision_gpu", "decision_cpu", "rl", "rl_envs",
-                "rl_envs_no_prefetch", "rl_envs_1", "rl_envs_fresh_goals", "render_gl_4scenes"}
+                "rl_envs_no_prefetch", "rl_envs_1", "rl_envs_fresh_goals", "rl_envs_first_pass", "render_gl_4scenes"}
     expected |= {f"render_{b}_{n}p" for b in ("gl", "raycast") for n in {1, 2, cpus}}
     assert expected <= set(rows), sorted(expected - set(rows))
     assert {r["group"] for r in doc["rows"]} == set(GROUPS.values())
@@ -38,7 +38,12 @@ def test_quick_run_lists_every_row(tmp_path):
     assert "env.goal_pool=0" in rows["rl_envs_fresh_goals"]["label"]
     assert "goal pool 0" in rows["rl_envs_fresh_goals"]["settings"]
     assert "with the goal pool of 64 (rl_envs): x" in rows["rl_envs_fresh_goals"]["settings"]
-    for name in ("rl_envs", "rl_envs_no_prefetch", "rl_envs_1", "rl_envs_fresh_goals"):  # switch waits show in the tail
+    assert "over an empty cache root" in rows["rl_envs_first_pass"]["settings"]
+    assert "over the kept caches (rl_envs): x" in rows["rl_envs_first_pass"]["settings"]
+    for name in ("rl", "rl_envs", "rl_envs_1"):  # the scenes' navmeshes and pools made before the rows
+        assert re.search(r"over a cache root holding the \d+ scenes' navmeshes and goal pools", rows[name]["settings"])
+    # switch waits show in the tail
+    for name in ("rl_envs", "rl_envs_no_prefetch", "rl_envs_1", "rl_envs_fresh_goals", "rl_envs_first_pass"):
         assert re.search(r"batched step median [\d.]+ ms, 90th [\d.]+, 99th [\d.]+, slowest \d+", rows[name]["settings"])
     for r in doc["rows"]:
         assert f"| {r['group']} | {r['label']} |" in table

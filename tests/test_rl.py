@@ -50,6 +50,7 @@ def test_ppo_trains_writes_a_checkpoint_and_a_curve(ppo_run):
     assert list((out / "tb").glob("events.out.tfevents.*"))
     assert "rvn-rl ppo: 32 env steps" in proc.stdout
     assert list((out / "cache" / "navmesh").glob("*.npz")) and "no cache folder given" not in proc.stderr
+    assert list((out / "cache" / "goal_pools").glob("*.npz"))  # env.goal_pool: each scene's pool kept
 
 
 def test_rvn_eval_loads_the_rl_checkpoint(ppo_run, tmp_path):

@@ -148,6 +148,10 @@ class EnvConfig(EpisodeRules):
         """The cache root: ``cache_dir``, else ``$RVN_CACHE_DIR``, else a temporary folder (with a warning)."""
         return cache_root(self.cache_dir)
 
+    def pool_folder(self):
+        """Where train-mode goal pools are kept (`rvn_data.benchmark.pool_cache`): the cache root's ``goal_pools``."""
+        return self.cache_folder() / "goal_pools"
+
     def with_(self, **changes) -> "EnvConfig":
         return replace(self, **changes)
 
@@ -193,7 +197,9 @@ class SceneSlot:
         from rvn_data.benchmark.goal_pool import GoalPool
 
         scene, navmesh = cls.scene_and_navmesh(config, slot)
-        pool = GoalPool.build(navmesh, config.goal_pool, config.split_code, slot[1]) if with_pool else None
+        pool = None
+        if with_pool:
+            pool = GoalPool.build(navmesh, config.goal_pool, config.split_code, slot[1], config.pool_folder())
         return scene, navmesh, pool
 
     def with_renderer(self, config: EnvConfig) -> "SceneSlot":
@@ -216,7 +222,7 @@ class SceneSlot:
         cache of pools or built (``pool``: built elsewhere, which the cache then keeps)."""
         if self._goal_sampler is None:
             from rvn_data.benchmark.goal_pool import PoolSampler, pool_for
-            pool = pool_for(self.navmesh, pool_key(config, (self.spec, self.scene_index)), pool)
+            pool = pool_for(self.navmesh, pool_key(config, (self.spec, self.scene_index)), pool, config.pool_folder())
             self._goal_sampler = PoolSampler(self.navmesh, pool)
         return self._goal_sampler
 

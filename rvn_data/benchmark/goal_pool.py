@@ -17,7 +17,9 @@ apartment's 13-25k nodes); values read are float32, as when pools held whole fie
 (`rvn_data.navmesh.field_sets.FieldTrees`), so a draw reads them all in one call (0.04-1.0 ms for 64 against
 0.6-1.6 field by field, benchmarks/goal_pool.py); rvn-rl's scene prefetch has a scene's pool made with the scene in
 a helper process (`rvn_data.helper_process`), which sends it without the smoothing state (`FieldTrees` pickles its
-trees alone)."""
+trees alone). Given the cache root's ``goal_pools`` folder (`EnvConfig.pool_folder`, as every env passes), a pool is
+solved once per cache root and read back after (`rvn_data.benchmark.pool_cache`: ~20 ms against ~0.3 s for 64), so
+the processes of a node or cluster that share the root solve each scene's pool once."""
 from __future__ import annotations
 
 import threading
@@ -60,10 +62,17 @@ class GoalPool:
         return self.stack.nbytes
 
     @classmethod
-    def build(cls, navmesh, size: int, split_code: int, scene_index: int) -> "GoalPool":
-        """The pool's goals and fields, their solves in one call (`FieldTrees`)."""
-        rng = np.random.default_rng([0x600A1, int(split_code), int(scene_index), int(size)])
-        return cls(FieldTrees(navmesh, [navmesh.sample(rng, island=0) for _ in range(size)]))
+    def build(cls, navmesh, size: int, split_code: int, scene_index: int, folder=None) -> "GoalPool":
+        """The pool's goals and fields, their solves in one call (`FieldTrees`); with ``folder`` (the cache root's
+        ``goal_pools``), read from there when kept, else built and kept there (`rvn_data.benchmark.pool_cache`)."""
+        def goals():
+            rng = np.random.default_rng([0x600A1, int(split_code), int(scene_index), int(size)])
+            return [navmesh.sample(rng, island=0) for _ in range(size)]
+
+        if folder is None:
+            return cls(FieldTrees(navmesh, goals()))
+        from rvn_data.benchmark.pool_cache import cached_stack
+        return cls(cached_stack(navmesh, goals, size, split_code, scene_index, folder))
 
     def fields(self, navmesh) -> list[GeodesicField]:
         """The pool's fields bound to ``navmesh`` (an env's own build of the same scene)."""
@@ -71,15 +80,16 @@ class GoalPool:
         return [GeodesicField(navmesh, g, v, t) for g, v, t in zip(s.goals, s.values, s.trees)]
 
 
-def pool_for(navmesh, key: PoolKey, pool: GoalPool | None = None) -> GoalPool:
+def pool_for(navmesh, key: PoolKey, pool: GoalPool | None = None, folder=None) -> GoalPool:
     """The pool named ``key`` from this process's cache, else ``pool`` (built elsewhere, the same: a helper
-    process's), else built; kept in the cache as its most recently used."""
+    process's), else built (read from ``folder`` when kept there, `GoalPool.build`); kept in the cache as its most
+    recently used."""
     with _LOCK:
         cached = _POOLS.pop(key, None)
     if cached is not None:
         pool = cached
     elif pool is None:  # built outside the lock: two threads may both build a pool, the same one
-        pool = GoalPool.build(navmesh, key.size, key.split_code, key.scene_index)
+        pool = GoalPool.build(navmesh, key.size, key.split_code, key.scene_index, folder)
     with _LOCK:
         _POOLS[key] = pool
         while len(_POOLS) > 1 and sum(p.nbytes for p in _POOLS.values()) > MAX_BYTES:
