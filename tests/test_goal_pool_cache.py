@@ -84,6 +84,12 @@ def test_an_unreadable_file_is_rebuilt_and_an_unwritable_folder_only_warned_abou
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert_same(GoalPool.build(navmesh, 8, 2, 0, tmp_path), plain)  # replaced by a whole file
+    data = bytearray(path.read_bytes())
+    for k in range(len(data) // 3, len(data) // 3 + 64):
+        data[k] ^= 0xFF  # bytes flipped inside the compressed predecessors
+    path.write_bytes(bytes(data))
+    with pytest.warns(UserWarning, match=rf"goal pool cache file {path} is unreadable"):
+        assert_same(GoalPool.build(navmesh, 8, 2, 0, tmp_path), plain)
     blocked = tmp_path / "blocked"
     blocked.write_text("a file where the folder would go")
     with pytest.warns(UserWarning, match=r"cannot keep goal pools in .*blocked.*RVN_CACHE_DIR"):

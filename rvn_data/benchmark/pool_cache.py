@@ -1,15 +1,17 @@
 """Train-mode goal pools kept on disk (``<cache root>/goal_pools``, `rvn_data.cache_root`), so a scene's pool is
 solved once per cache root instead of at every visit of every process. An RL env over 800 train scenes switches
 scene every 8 resets and a process keeps ~20 pools, so nearly every visit used to solve its 64 Dijkstra fields again
-(0.27-0.36 s a procedural scene on the development CPU), a third of the envs' CPU with random actions; the node's
-15 env workers and the nodes of a cluster that share a root now solve each scene's pool once between them.
+(0.27-0.36 s a procedural scene on the development CPU); read back instead, 2 workers x 2 envs on 200 scenes
+stepped x1.33 faster with `env.prefetch_scenes`, x1.98 without (benchmarks/scene_prefetch.py). The node's env workers
+and the nodes of a cluster that share a root solve each scene's pool once between them.
 
 A file is ``<scene>-<key>.npz``: the pool's arrays (`FieldTrees`' pickled state: goals, their graph nodes and
 cells, the predecessors) and a JSON record (`FORMAT`). The predecessors are stored as each node's offset to its
 predecessor (0 for none: a node is never its own predecessor) beside the roots' and unreached nodes' markers, which
-compress to ~0.4-0.6 MB for 64 goals against 3-4 MB raw; reading one back takes ~10 ms. The key hashes everything a pool depends on: the navmesh's content
-(`navmesh_digest`: its layers, links and settings, whether built or read from a file), the pool's size, split code
-and scene index (its goals' seed), the navmesh package's and this module's sources and numpy's and scipy's versions.
+compress to ~0.3-0.5 MB for 64 goals against 3-4 MB raw; reading one back takes ~20-27 ms. The key hashes
+everything a pool depends on: the navmesh's content (`navmesh_digest`: its layers, links and settings, whether built
+or read from a file), the pool's size, split code and scene index (its goals' seed), the navmesh package's and this
+module's sources and numpy's and scipy's versions.
 Changing any of them makes a new file; the old one is never read again (the folder is safe to delete). A pool read
 back equals the built one array for array, so every goal draw and episode is unchanged.
 
@@ -24,6 +26,7 @@ import io
 import json
 import warnings
 import zipfile
+import zlib
 from dataclasses import asdict
 from functools import lru_cache
 from pathlib import Path
@@ -62,7 +65,8 @@ def navmesh_digest(navmesh) -> str:
     return h.hexdigest()
 
 
-def pool_key(navmesh, size: int, split_code: int, scene_index: int) -> str:
+def file_key(navmesh, size: int, split_code: int, scene_index: int) -> str:
+    """The key of a pool's file: its navmesh's content, size, split code, scene index and `code_digest`."""
     text = json.dumps([FORMAT, code_digest(), navmesh_digest(navmesh), int(size), int(split_code), int(scene_index)])
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 
@@ -101,12 +105,13 @@ def from_file(path: Path, key: str) -> FieldTrees:
 def cached_stack(navmesh, goals_of, size: int, split_code: int, scene_index: int, folder: str | Path) -> FieldTrees:
     """A goal pool's `FieldTrees`: read from ``folder`` when an earlier build left it there, else
     ``FieldTrees(navmesh, goals_of())`` (its Dijkstra solves) and written there."""
-    key = pool_key(navmesh, size, split_code, scene_index)
+    key = file_key(navmesh, size, split_code, scene_index)
     path = disk_cache.cache_file(folder, navmesh, key)
     if path.is_file():
         try:
             return from_file(path, key)
-        except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile) as err:
+        except (OSError, ValueError, KeyError, TypeError, AttributeError, EOFError, zipfile.BadZipFile,
+                zlib.error) as err:
             warnings.warn(f"goal pool cache file {path} is unreadable ({err}); rebuilding it", stacklevel=2)
     stack = FieldTrees(navmesh, goals_of())
     try:
