@@ -83,3 +83,22 @@ def settings_key(settings: Any, length: int = 12) -> str:
 def absolute(path: str | os.PathLike | None) -> str | None:
     """``path`` made absolute (``~`` expanded, symlinks resolved), for use in a key; None stays None."""
     return None if path in (None, "") else str(Path(path).expanduser().resolve())
+
+
+_unwritable: set[str] = set()  # cache folders already warned about
+
+
+def keep_cache_file(path: Path, data: bytes, what: str, instead: str) -> None:
+    """Write a cache file atomically; a folder that cannot be written is warned about once (``what`` it would keep,
+    what happens ``instead``) and the caller goes on without the file."""
+    import warnings
+
+    from rvn_data.atomic import write_bytes_atomic
+
+    try:
+        write_bytes_atomic(path, data)
+    except OSError as err:
+        if str(path.parent) not in _unwritable:
+            _unwritable.add(str(path.parent))
+            warnings.warn(f"cannot keep {what} in {path.parent} ({err.strerror or err}); {instead}: set cache_dir= or "
+                          f"{ENV} to a writable folder", stacklevel=3)

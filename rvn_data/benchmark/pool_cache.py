@@ -33,12 +33,11 @@ from pathlib import Path
 
 import numpy as np
 
-from rvn_data.atomic import write_bytes_atomic
+from rvn_data.cache_root import keep_cache_file
 from rvn_data.navmesh import disk_cache
 from rvn_data.navmesh.field_sets import FieldTrees
 
 FORMAT = "rvn-goal-pool/1"
-_unwritable: set[str] = set()
 
 
 @lru_cache(maxsize=1)
@@ -114,11 +113,5 @@ def cached_stack(navmesh, goals_of, size: int, split_code: int, scene_index: int
                 zlib.error) as err:
             warnings.warn(f"goal pool cache file {path} is unreadable ({err}); rebuilding it", stacklevel=2)
     stack = FieldTrees(navmesh, goals_of())
-    try:
-        write_bytes_atomic(path, to_bytes(stack, key))
-    except OSError as err:
-        if str(path.parent) not in _unwritable:
-            _unwritable.add(str(path.parent))
-            warnings.warn(f"cannot keep goal pools in {path.parent} ({err.strerror or err}); solving each scene's "
-                          "pool at every visit: set cache_dir= or RVN_CACHE_DIR to a writable folder", stacklevel=2)
+    keep_cache_file(path, to_bytes(stack, key), "goal pools", "solving each scene's pool at every visit")
     return stack

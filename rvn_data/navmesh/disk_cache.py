@@ -27,14 +27,13 @@ from pathlib import Path
 
 import numpy as np
 
-from rvn_data.atomic import write_bytes_atomic
+from rvn_data.cache_root import keep_cache_file
 from rvn_data.navmesh.grid import NavGrid
 from rvn_data.navmesh.settings import NavMeshSettings
 
 FORMAT = "rvn-navmesh/1"
 LAYER_ARRAYS = ("free", "height", "clearance", "island")
 LAYER_SCALARS = ("x0", "z0", "cs", "r0", "c0")
-_unwritable: set[str] = set()
 
 
 @lru_cache(maxsize=1)
@@ -98,11 +97,5 @@ def cached_build(scene, settings: NavMeshSettings, folder: str | Path):
         except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile) as err:
             warnings.warn(f"navmesh cache file {path} is unreadable ({err}); rebuilding it", stacklevel=2)
     navmesh = NavMesh.build(scene, settings)
-    try:
-        write_bytes_atomic(path, to_bytes(navmesh, key))
-    except OSError as err:
-        if str(path.parent) not in _unwritable:
-            _unwritable.add(str(path.parent))
-            warnings.warn(f"cannot keep built navmeshes in {path.parent} ({err.strerror or err}); building each "
-                          "scene every time: set cache_dir= or RVN_CACHE_DIR to a writable folder", stacklevel=2)
+    keep_cache_file(path, to_bytes(navmesh, key), "built navmeshes", "building each scene every time")
     return navmesh
