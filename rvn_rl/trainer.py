@@ -9,6 +9,7 @@ and checkpoints."""
 from __future__ import annotations
 
 import logging
+import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -17,6 +18,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from rvn_data.cache_root import ENV as CACHE_ENV
 from rvn_data.cli.common import check_writable_dir, validating
 from rvn_data.numba_note import note_first_compile
 
@@ -101,6 +103,8 @@ def train(cfg: RLConfig, on_checked=None) -> dict:
             # what the run takes from its settings: the network's and the environments' arguments, config.yaml's record
             policy_kwargs, env_kwargs, record = cfg.model_kwargs(), cfg.env_kwargs(), cfg.record()
             out_dir = check_writable_dir(Path(cfg.out_dir).expanduser())
+            if cfg.cache_dir or os.environ.get(CACHE_ENV):  # else <out_dir>/cache, checked with out_dir
+                check_writable_dir(env_kwargs["cache_dir"], "cache_dir=" if cfg.cache_dir else f"{CACHE_ENV}=")
             resume_from = ck.resume_point(out_dir, policy_kwargs, cfg.algo.name, cfg.train.resume)
         if on_checked is not None:
             on_checked()

@@ -130,6 +130,16 @@ def test_bad_input_one_line(tmp_path, args, words):
     assert len(err) == 1 and err[0].startswith("rvn-rl: error:") and words in err[0], proc.stderr
 
 
+def test_a_cache_dir_that_is_a_file_is_one_line(tmp_path):
+    """The cache root (navmeshes, goal pools) is checked with out_dir, before anything is written."""
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    proc = rvn_rl(f"out_dir={tmp_path / 'x'}", f"cache_dir={blocker}", "train.total_steps=8", *TINY, check=False)
+    assert proc.returncode == 2 and not (tmp_path / "x").exists()
+    err = [line for line in proc.stderr.splitlines() if line.strip() and "INFO" not in line]
+    assert err == [f"rvn-rl: error: cache_dir={blocker} is a file, not a folder; choose a folder for cache_dir="], err
+
+
 def test_checkpoint_of_another_kind_is_refused(tmp_path):
     from rvn_rl.policy import load_rl_policy
 
