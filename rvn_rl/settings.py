@@ -30,7 +30,8 @@ class EnvSettings:
     # train goals from a fixed pool of this many per scene (0: a fresh goal and two Dijkstra solves per draw). A pool
     # costs one solve per goal the first time a cache root sees its scene, then ~20 ms to read back
     # (<cache root>/goal_pools, rvn_data.benchmark.pool_cache): 2-core CPU, 2 workers x 2 envs, 200 scenes, random
-    # actions, prefetch: 315 env steps/s with pools solved at each visit, 418 read back (benchmarks/scene_prefetch.py)
+    # actions, prefetch, 3,000 batched steps: 444 env steps/s with pools solved at each visit, 594 read back
+    # (benchmarks/scene_prefetch.py)
     goal_pool: int = 64
     scene_cache: int = 2  # scenes each env keeps loaded besides the current one
     # each env has the scene of its next switch (navmesh, goal pool) prepared in a helper process of its own while it
