@@ -69,13 +69,13 @@ def fill_scene_caches(plan, settings: dict, root: str) -> str:
     """The RL rows' scenes' navmeshes and goal pools of 64, made into the cache root ``root`` by ``plan.cpus``
     processes; what the rows' settings say about it."""
     import rl as rl_bench
-    from rvn_data.benchmark.env import RVNEnv
+    from rvn_data.benchmark.episodes_source import EnvConfig
     from rvn_rl.cli import compose
 
-    cfg = compose(rl_bench.overrides(_rl_args(plan, settings, updates=1), f"{root}/run") + [f"cache_dir={root}"])
-    env = RVNEnv(**cfg.env_kwargs())
-    config, slots = env.config, list(env._slots)
-    env.close()
+    args = _rl_args(plan, settings, updates=1)
+    args.cache_dir = root
+    config = EnvConfig.from_kwargs(**compose(rl_bench.overrides(args, f"{root}/run")).env_kwargs())
+    slots = config.scene_slots()
     t = time.perf_counter()
     with ProcessPoolExecutor(plan.cpus, mp_context=mp.get_context("spawn")) as pool:
         list(pool.map(_keep_scene, [config] * len(slots), slots))

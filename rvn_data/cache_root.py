@@ -88,17 +88,29 @@ def absolute(path: str | os.PathLike | None) -> str | None:
 _unwritable: set[str] = set()  # cache folders already warned about
 
 
-def keep_cache_file(path: Path, data: bytes, what: str, instead: str) -> None:
-    """Write a cache file atomically; a folder that cannot be written is warned about once (``what`` it would keep,
-    what happens ``instead``) and the caller goes on without the file."""
+def cached_file(path: Path, read, build, encode, label: str, what: str, instead: str):
+    """``read(path)`` when an earlier ``build()`` left its file there, else ``build()``, written there as
+    ``encode(value)`` (atomically: processes that write the same file at once each write it whole). A file that cannot
+    be read is rebuilt and replaced, with a warning naming it (``label``: what kind of cache file); a folder that cannot
+    be written is warned about once (``what`` it would keep, what happens ``instead``) and the value built each time."""
     import warnings
+    import zipfile
+    import zlib
 
     from rvn_data.atomic import write_bytes_atomic
 
+    if path.is_file():
+        try:
+            return read(path)
+        except (OSError, ValueError, KeyError, TypeError, AttributeError, EOFError, zipfile.BadZipFile,
+                zlib.error) as err:
+            warnings.warn(f"{label} cache file {path} is unreadable ({err}); rebuilding it", stacklevel=3)
+    value = build()
     try:
-        write_bytes_atomic(path, data)
+        write_bytes_atomic(path, encode(value))
     except OSError as err:
         if str(path.parent) not in _unwritable:
             _unwritable.add(str(path.parent))
             warnings.warn(f"cannot keep {what} in {path.parent} ({err.strerror or err}); {instead}: set cache_dir= or "
                           f"{ENV} to a writable folder", stacklevel=3)
+    return value

@@ -24,16 +24,13 @@ from __future__ import annotations
 import hashlib
 import io
 import json
-import warnings
-import zipfile
-import zlib
 from dataclasses import asdict
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
-from rvn_data.cache_root import keep_cache_file
+from rvn_data.cache_root import cached_file
 from rvn_data.navmesh import disk_cache
 from rvn_data.navmesh.field_sets import FieldTrees
 
@@ -105,13 +102,6 @@ def cached_stack(navmesh, goals_of, size: int, split_code: int, scene_index: int
     """A goal pool's `FieldTrees`: read from ``folder`` when an earlier build left it there, else
     ``FieldTrees(navmesh, goals_of())`` (its Dijkstra solves) and written there."""
     key = file_key(navmesh, size, split_code, scene_index)
-    path = disk_cache.cache_file(folder, navmesh, key)
-    if path.is_file():
-        try:
-            return from_file(path, key)
-        except (OSError, ValueError, KeyError, TypeError, AttributeError, EOFError, zipfile.BadZipFile,
-                zlib.error) as err:
-            warnings.warn(f"goal pool cache file {path} is unreadable ({err}); rebuilding it", stacklevel=2)
-    stack = FieldTrees(navmesh, goals_of())
-    keep_cache_file(path, to_bytes(stack, key), "goal pools", "solving each scene's pool at every visit")
-    return stack
+    return cached_file(disk_cache.cache_file(folder, navmesh, key), lambda path: from_file(path, key),
+                       lambda: FieldTrees(navmesh, goals_of()), lambda stack: to_bytes(stack, key), "goal pool",
+                       "goal pools", "solving each scene's pool at every visit")

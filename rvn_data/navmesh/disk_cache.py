@@ -19,15 +19,13 @@ import hashlib
 import io
 import json
 import re
-import warnings
-import zipfile
 from dataclasses import asdict
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
-from rvn_data.cache_root import keep_cache_file
+from rvn_data.cache_root import cached_file
 from rvn_data.navmesh.grid import NavGrid
 from rvn_data.navmesh.settings import NavMeshSettings
 
@@ -90,12 +88,7 @@ def cached_build(scene, settings: NavMeshSettings, folder: str | Path):
     from rvn_data.navmesh.navmesh import NavMesh
 
     key = build_key(scene, settings)
-    path = cache_file(folder, scene, key)
-    if path.is_file():
-        try:
-            return NavMesh(scene.scene_id, settings, *from_file(path, key))
-        except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile) as err:
-            warnings.warn(f"navmesh cache file {path} is unreadable ({err}); rebuilding it", stacklevel=2)
-    navmesh = NavMesh.build(scene, settings)
-    keep_cache_file(path, to_bytes(navmesh, key), "built navmeshes", "building each scene every time")
-    return navmesh
+    return cached_file(cache_file(folder, scene, key),
+                       lambda path: NavMesh(scene.scene_id, settings, *from_file(path, key)),
+                       lambda: NavMesh.build(scene, settings), lambda navmesh: to_bytes(navmesh, key), "navmesh",
+                       "built navmeshes", "building each scene every time")
