@@ -24,11 +24,13 @@ def rl_rows(plan) -> Iterator[dict]:
     ~160 frames/s per GPU), both with the same envs on ``plan.rl_scenes`` train scenes (200: envs keep loading
     scenes they have not seen, as a run over all 800 does). A first run of two updates (the first one loads scenes:
     not counted) times an update; when that left part of ``plan.seconds``, the run resumes for as many more updates as
-    fit (the first again not counted). With CUDA (and --quick), the envs alone (``rl_envs``): with env.prefetch_scenes
-    (the default), without it (``rl_envs_no_prefetch``: vectorised envs then wait for whichever env switches scene,
-    the bound of the third GPU run, docs/results/2026-11-27_gpu3) and in one worker (``rl_envs_1``). The second and
-    third GPU runs also timed renderer=raycast and gl under __GL_YIELD=USLEEP: the renderer is not the bound. Last, the
-    envs alone with fresh goals (``rl_envs_fresh_goals``, env.goal_pool=0) against the pool's 64 solves a scene.
+    fit (the first again not counted). ``rl_bf16``: the rl row with train.precision=bf16 (the visual encoder under
+    torch.autocast(bfloat16) in rollouts and updates), naming its ratio to the rl row. With CUDA (and --quick), the
+    envs alone (``rl_envs``): with env.prefetch_scenes (the default), without it (``rl_envs_no_prefetch``: vectorised
+    envs then wait for whichever env switches scene, the bound of the third GPU run, docs/results/2026-11-27_gpu3)
+    and in one worker (``rl_envs_1``). The second and third GPU runs also timed renderer=raycast and gl under
+    __GL_YIELD=USLEEP: the renderer is not the bound. Last, the envs alone with fresh goals (``rl_envs_fresh_goals``,
+    env.goal_pool=0) against the pool's 64 solves a scene.
 
     Every row but one runs over one cache root that holds the scenes' built navmeshes and goal pools
     (`fill_scene_caches`, before the rows): what a long run sees after its first pass over its scenes, since both are
@@ -42,7 +44,10 @@ def rl_rows(plan) -> Iterator[dict]:
     what, ddppo = "scale=paper network and PPO", "DD-PPO (Wijmans et al. 2020): ~160 frames/s per GPU (2.5B frames, 180 GPU-days)"
     with tempfile.TemporaryDirectory() as kept:
         plan = SimpleNamespace(**vars(plan), rl_cache=kept, rl_filled=fill_scene_caches(plan, small, kept))
-        yield _rl_row(plan, "rl", "scale=small", small, "rl", "")
+        plain = _rl_row(plan, "rl", "scale=small", small, "rl", "")
+        yield plain
+        yield _rl_row(plan, "rl_bf16", "scale=small, train.precision=bf16", {**small, "precision": "bf16"}, "rl", "",
+                      against=plain["value"])
         if plan.cuda or plan.quick:
             envs = _rl_envs_row(plan, small)
             yield envs
@@ -92,7 +97,10 @@ def _rl_args(plan, settings: dict, updates: int) -> SimpleNamespace:
                            **{"renderer": "auto", **settings})
 
 
-def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, baseline: str) -> dict:
+def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, baseline: str,
+            against: float | None = None) -> dict:
+    """rvn-rl's own loop (`rvn_rl.trainer.train`) with ``settings``; ``against``: the float32 row's rate, whose ratio
+    to this one the row names."""
     import rl as rl_bench
     from rvn_rl.cli import compose
     from rvn_rl.trainer import train
@@ -111,6 +119,8 @@ def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, bas
             train(compose(rl_bench.overrides(args, out)))
             counted += [_steps_seconds(r, envs) for r in _metrics(out)[seen + 1:]]
     steps, seconds = sum(n for n, _, _ in counted), sum(s for _, s, _ in counted)
+    if against is not None:
+        baseline = f"x{steps / seconds / against:.2f} the rl row's {against:.0f} (float32)"
     profile = None
     if plan.profile:  # the learner's side of an update, without the envs (rl.learner_profile)
         from rvn_il.policies.policy import intra_op_threads

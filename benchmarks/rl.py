@@ -34,7 +34,9 @@ def overrides(args, out_dir: str) -> list[str]:
             f"model.ngroups={min(16, args.base_planes // 2)}", f"ppo.num_steps={args.num_steps}",
             f"train.threads={args.threads}", "progress=false", f"renderer={args.renderer}", f"out_dir={out_dir}",
             f"train.total_steps={args.updates * args.num_steps * args.envs}", "train.checkpoint_every=1000",
-            f"env.goal_pool={args.goal_pool}", f"ppo.ppo_epoch={args.ppo_epoch}", f"ppo.num_mini_batch={args.mini_batches}"
+            f"env.goal_pool={args.goal_pool}", f"ppo.ppo_epoch={args.ppo_epoch}",
+            f"ppo.num_mini_batch={args.mini_batches}",
+            f"train.precision={getattr(args, 'precision', 'fp32')}",
             ] + ([f"cache_dir={args.cache_dir}"] if getattr(args, "cache_dir", None) else [])  # else <out_dir>/cache
 
 
@@ -48,6 +50,8 @@ def collection(cfg, steps: int, with_policy: bool, times: list | None = None) ->
     n = envs.num_envs
     rng = np.random.default_rng(0)
     net = PointNavResNetPolicy(**cfg.model_kwargs()).eval() if with_policy else None
+    if net is not None:
+        net.autocast_bf16 = cfg.train.precision == "bf16"
     state, prev, masks = (net.initial_state(n), torch.zeros(n, dtype=torch.long), torch.zeros(n)) if net else (0, 0, 0)
     try:
         obs = envs.reset()
@@ -93,6 +97,7 @@ def learner_profile(cfg, device: str = "cpu", rows: int = 30) -> str:
     dev, ppo, n, size = torch.device(device), cfg.ppo, cfg.env.num_envs, cfg.env.size
     torch.manual_seed(0)
     policy = PointNavResNetPolicy(**cfg.model_kwargs()).to(dev)
+    policy.autocast_bf16 = cfg.train.precision == "bf16"
     learner, optimizer = _Evaluate(policy), torch.optim.Adam(policy.parameters(), lr=ppo.lr, eps=ppo.eps)
     rng = np.random.default_rng(0)
 

@@ -92,11 +92,10 @@ def train_fps(args, baseline: bool) -> tuple[float, float]:
 
 
 def update_with_plans(args) -> None:
-    import numpy as np
-
+    from rl_learner import filled_rollouts
     from rvn_rl.model import PointNavResNetPolicy
     from rvn_rl.ppo import PPOConfig, ppo_update
-    from rvn_rl.rollout import DeviceRollouts, RolloutStorage
+    from rvn_rl.rollout import DeviceRollouts
     from rvn_rl.trainer import _Evaluate
 
     dev, T, N, size = torch.device(args.device), 64, args.envs, args.size
@@ -104,19 +103,7 @@ def update_with_plans(args) -> None:
     policy = PointNavResNetPolicy(obs_size=size, backbone="resnet18", base_planes=args.base_planes,
                                   ngroups=args.base_planes // 2).to(dev)
     learner, optimizer = _Evaluate(policy), torch.optim.Adam(policy.parameters(), lr=2.5e-4, eps=1e-5)
-    rng = np.random.default_rng(0)
-    space = {"rgb": ((size, size, 3), torch.uint8), "pointgoal": ((2,), torch.float32)}
-    rollouts = RolloutStorage(T, N, space, tuple(policy.initial_state(N).shape), 1)
-
-    def obs() -> dict:
-        return {"rgb": rng.integers(0, 256, (N, size, size, 3), dtype=np.uint8),
-                "pointgoal": rng.normal(size=(N, 2)).astype(np.float32)}
-
-    rollouts.set_first(obs(), policy.initial_state(N).cpu(), torch.zeros(N, dtype=torch.long), torch.ones(N))
-    for _ in range(T):
-        rollouts.insert(obs(), torch.randint(0, 4, (N,)), torch.randn(N), torch.randn(N, 1), rng.normal(size=(N, 1)),
-                        rng.random(N) < 1 / 25)
-    rollouts.compute_returns(torch.randn(N, 1), 0.99, 0.95)
+    rollouts = filled_rollouts(N, T, size, tuple(policy.initial_state(N).shape))
     cfg, gen = PPOConfig(ppo_epoch=4, num_mini_batch=4, num_steps=T), torch.Generator().manual_seed(0)
     planned = DeviceRollouts(rollouts, dev)
     variants = {"plans (now)": planned, "masks read on the host": DeviceRollouts(rollouts, dev, plans=False)}

@@ -2,7 +2,8 @@
 (optionally average-pooled, running mean/var normalised) RGB(-D) frame, compressed to 2048
 features and a 512-d layer, a 32-d previous-action embedding, a 32-d embedding of the goal
 as (rho, cos(-phi), sin(-phi)), a 2-layer LSTM (hidden 512), an actor, a critic and, for
-PPO-Lagrangian, a cost critic. Recurrent state is reset where ``masks`` is 0."""
+PPO-Lagrangian, a cost critic. Recurrent state is reset where ``masks`` is 0. With ``autocast_bf16`` set (rvn-rl's
+``train.precision=bf16``) the visual encoder and its layer run under torch.autocast(bfloat16), the rest in float32."""
 from __future__ import annotations
 
 import torch
@@ -115,6 +116,9 @@ class PointNavResNetPolicy(nn.Module):
         self.actor = self._head(NUM_ACTIONS, 0.01)
         self.critic = self._head(1, 1.0)
         self.cost_critic = self._head(1, 1.0) if cost_critic else None
+        # the visual encoder and visual_fc under torch.autocast(bfloat16) (train.precision=bf16): not a weight or an
+        # argument, so a checkpoint and its config are the same either way
+        self.autocast_bf16 = False
 
     def _head(self, n: int, gain: float) -> nn.Linear:
         head = nn.Linear(self.hidden_size, n)
@@ -133,7 +137,10 @@ class PointNavResNetPolicy(nn.Module):
         ``need_state=False`` when some env starts an episode after step 0, or with ``pieces``, the masks' plan for
         a PPO update (`recurrent.run_lstm`)."""
         n = state.size(1)
-        visual = self.visual_fc(self.visual_encoder(visual_input(obs, self.use_depth)))
+        x = visual_input(obs, self.use_depth)
+        with torch.autocast(x.device.type, dtype=torch.bfloat16, enabled=self.autocast_bf16):
+            visual = self.visual_fc(self.visual_encoder(x.contiguous() if self.autocast_bf16 else x))
+        visual = visual.float()
         prev = self.prev_action_embedding(((prev_actions.long() + 1) * masks.long()))
         x = torch.cat([visual, prev, self.goal_embedding(goal_input(obs["pointgoal"].float()))], dim=-1)
         x = x.view(-1, n, x.size(-1))

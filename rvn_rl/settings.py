@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Union
 
 ALGOS = ("ppo", "ppo_lag", "ddppo", "ddppo_depth")
+PRECISIONS = ("fp32", "bf16")  # train.precision
 
 
 def at_least(name: str, value, minimum: int = 1) -> None:
@@ -98,13 +99,19 @@ class DepthSettings:
 
 @dataclass
 class TrainSettings:
-    """``train``: how long, checkpoints, threads."""
+    """``train``: how long, checkpoints, threads, precision."""
 
     total_steps: Union[int, float] = 2_500_000_000  # env steps over all ranks (4e5 reads as a float: taken as 400000)
     checkpoint_every: int = 50  # updates between checkpoints
     keep_checkpoints: int = 2
     resume: bool = True  # continue from out_dir's latest checkpoint
     threads: int | None = None  # torch intra-op threads (null = torch's setting)
+    # fp32 | bf16: the visual encoder (ResNet, compression, visual_fc) under torch.autocast(bfloat16) in rollouts and
+    # updates; the LSTM, heads, losses, weights and optimiser stay float32. For GPUs with bf16 (Ampere on) and CPUs
+    # with native bf16 (AVX512-BF16, AMX): on the 2-core development CPU (AVX512-BF16) a scale=small update took 16.2 s
+    # in fp32 and 10.9 s in bf16 (benchmarks/rl_learner.py), the README's rvn-rl run 26 -> 36 env steps/s; a CPU
+    # without them emulates bf16, slower
+    precision: str = "fp32"
 
     def __post_init__(self) -> None:
         if isinstance(self.total_steps, float) and self.total_steps.is_integer():

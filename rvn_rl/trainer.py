@@ -4,8 +4,8 @@ latest checkpoint when there is one), the environments and the log, and runs `_l
 ``ppo.num_steps`` steps (DD-PPO ranks may stop early once ``ddppo.sync_frac`` of the ranks finished), GAE, the
 Lagrange multiplier for PPO-Lagrangian, a PPO update through a DistributedDataParallel replica when distributed,
 the log row and resumable checkpoints in ``out_dir``. Each setting group goes to where it acts: ``ppo`` to the
-rollout and the update, ``env`` to the environments, ``algo`` to the multiplier, ``train`` to the loop's length
-and checkpoints."""
+rollout and the update, ``env`` to the environments, ``algo`` to the multiplier, ``train`` to the loop's length,
+checkpoints and the visual encoder's precision."""
 from __future__ import annotations
 
 import logging
@@ -31,6 +31,21 @@ from .rollout import DeviceRollouts, RolloutStorage, to_device
 from .runlog import RunLog, episode_sums, plot_learning_curve, summary
 from .settings import AlgoConfig, PPOConfig
 from .vec_env import make_envs
+
+
+logger = logging.getLogger(__name__)
+
+
+def native_bf16_cpu() -> bool:
+    """Whether this CPU computes bfloat16 natively: on x86, AVX512-BF16 or AMX tiles (without them oneDNN emulates
+    it); True where torch cannot tell (other architectures, a torch without the probes)."""
+    import platform
+
+    if platform.machine().lower() not in ("x86_64", "amd64", "i386", "i686"):
+        return True
+    probes = [getattr(torch.cpu, name, None) for name in ("_is_avx512_bf16_supported", "_is_amx_tile_supported")]
+    probes = [probe for probe in probes if probe is not None]
+    return not probes or any(probe() for probe in probes)
 
 
 class _Evaluate(nn.Module):
@@ -100,6 +115,13 @@ def train(cfg: RLConfig, on_checked=None) -> dict:
         with validating():
             device = pick_device(cfg.device, d)
             cfg.validate(d.world_size)
+            if cfg.train.precision == "bf16" and device.type == "cuda" and not torch.cuda.is_bf16_supported():
+                raise ValueError(f"train.precision=bf16: {torch.cuda.get_device_name(device)} has no bfloat16 "
+                                 "(GPUs from Ampere on); use train.precision=fp32")
+            if cfg.train.precision == "bf16" and device.type == "cpu" and not native_bf16_cpu():
+                logger.warning("train.precision=bf16 on a CPU without native bfloat16 (AVX512-BF16 or AMX): its "
+                               "convolutions are emulated, 16x slower than float32 in a measurement "
+                               "(rvn_rl/README.md); use train.precision=fp32")
             # what the run takes from its settings: the network's and the environments' arguments, config.yaml's record
             policy_kwargs, env_kwargs, record = cfg.model_kwargs(), cfg.env_kwargs(), cfg.record()
             out_dir = check_writable_dir(Path(cfg.out_dir).expanduser())
@@ -113,6 +135,7 @@ def train(cfg: RLConfig, on_checked=None) -> dict:
         if cfg.train.threads:
             torch.set_num_threads(cfg.train.threads)
         run = Run.start(cfg.seed, policy_kwargs, cfg.ppo, cfg.algo, d, device, resume_from)
+        run.policy.autocast_bf16 = cfg.train.precision == "bf16"  # rollouts and updates alike
         if d.rank == 0:
             note_first_compile("rvn-rl")
         depth_fn = None

@@ -86,8 +86,10 @@ def test_resume_continues_from_the_latest_checkpoint(ppo_run, tmp_path):
     src, _ = ppo_run
     out = tmp_path / "ppo"
     shutil.copytree(src, out)
-    rvn_rl("algo=ppo", f"out_dir={out}", "train.total_steps=48", *TINY)
+    # a float32 run continued with its visual encoder in bfloat16 (test_rl_precision: the update itself)
+    rvn_rl("algo=ppo", f"out_dir={out}", "train.total_steps=48", "train.precision=bf16", *TINY)
     assert [x["env_steps"] for x in rows(out)] == [16, 32, 48]
+    assert yaml.safe_load((out / "config.yaml").read_text())["train"]["precision"] == "bf16"
     assert (out / "checkpoints" / "latest").read_text().strip() == "ckpt_000000000048"
     import torch
     state = torch.load(out / "checkpoints" / "ckpt_000000000048" / "state.pt", weights_only=False)
@@ -117,6 +119,7 @@ def test_ppo_lag_logs_lambda_and_episode_cost(tmp_path):
     (["ppo.gamma=1.5"], "ppo.gamma=1.5 must be in [0, 1]"),
     (["seed=-1"], "seed=-1 must be an integer >= 0"),
     (["train.threads=0"], "train.threads=0 must be a positive integer"),
+    (["train.precision=fp16"], "train.precision='fp16'; choose one of fp32, bf16"),
     (["model.backbone=vgg"], "model.backbone='vgg'"),
     (["algo=ddppo_depth"], "depth.model_path"),
     (["env.num_envs=1"], "ppo.num_mini_batch"),

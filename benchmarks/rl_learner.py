@@ -1,0 +1,96 @@
+"""rvn-rl's learner alone (issue 32's RL row): one PPO update in float32 and with ``train.precision=bf16`` (the
+visual encoder under torch.autocast(bfloat16)), as rvn-rl runs it (`ppo_update` over `DeviceRollouts`) on a rollout of
+random frames with ~25-step episodes; alternated rounds after a warm-up one, best of ``--repeats``. Prints each
+update's ms, the env steps/s that learning alone would allow (rollout steps / update seconds), the ratio, and how far
+the first update's losses from the same weights differ between the two.
+
+On the 2-core development CPU an update of scale=small (8 envs x 64 steps, 128², ResNet-18 base 32, 4 x 4
+mini-batches) takes ~15 s in float32, the bound of rvn-rl's README recipe there (collection alone runs at ~150 env
+steps/s); on the third GPU run (H200, 30 envs) the update was 1.1 s of every 1,920 env steps.
+Run: python benchmarks/rl_learner.py [--device cuda --envs 30] [--size 128] [--threads 2] [--repeats 2]
+"""
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+import torch
+
+
+def filled_rollouts(n: int, steps: int, size: int, state_shape: tuple, seed: int = 0, episode: int = 25):
+    """A `RolloutStorage` of ``steps`` x ``n`` random RGB frames, goals, actions, values and rewards, episodes ending
+    with probability 1/``episode`` a step, returns computed."""
+    from rvn_rl.rollout import RolloutStorage
+
+    rng = np.random.default_rng(seed)
+    space = {"rgb": ((size, size, 3), torch.uint8), "pointgoal": ((2,), torch.float32)}
+    rollouts = RolloutStorage(steps, n, space, state_shape, 1)
+
+    def obs() -> dict:
+        return {"rgb": rng.integers(0, 256, (n, size, size, 3), dtype=np.uint8),
+                "pointgoal": rng.normal(size=(n, 2)).astype(np.float32)}
+
+    rollouts.set_first(obs(), torch.zeros(state_shape), torch.zeros(n, dtype=torch.long), torch.ones(n))
+    for _ in range(steps):
+        rollouts.insert(obs(), torch.as_tensor(rng.integers(0, 4, n)), torch.as_tensor(rng.normal(size=n) - 1.4),
+                        torch.as_tensor(rng.normal(size=(n, 1))), rng.normal(size=(n, 1)), rng.random(n) < 1 / episode)
+    rollouts.compute_returns(torch.as_tensor(rng.normal(size=(n, 1)), dtype=torch.float32), 0.99, 0.95)
+    return rollouts
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--device", default="cpu")
+    p.add_argument("--envs", type=int, default=8)
+    p.add_argument("--steps", type=int, default=64, help="rollout length (ppo.num_steps)")
+    p.add_argument("--size", type=int, default=128)
+    p.add_argument("--backbone", default="resnet18")
+    p.add_argument("--base-planes", type=int, default=32)
+    p.add_argument("--epochs", type=int, default=4, help="ppo.ppo_epoch (scale=small: 4)")
+    p.add_argument("--mini-batches", type=int, default=4, help="ppo.num_mini_batch (scale=small: 4)")
+    p.add_argument("--threads", type=int, default=2)
+    p.add_argument("--repeats", type=int, default=2, help="timed rounds of each precision")
+    args = p.parse_args()
+    torch.set_num_threads(args.threads)
+    from rvn_rl.model import PointNavResNetPolicy
+    from rvn_rl.ppo import PPOConfig, ppo_update
+    from rvn_rl.rollout import DeviceRollouts
+    from rvn_rl.trainer import _Evaluate
+
+    dev, n, T = torch.device(args.device), args.envs, args.steps
+    cfg = PPOConfig(ppo_epoch=args.epochs, num_mini_batch=args.mini_batches, num_steps=T)
+
+    def learner() -> tuple:
+        torch.manual_seed(0)
+        policy = PointNavResNetPolicy(obs_size=args.size, backbone=args.backbone, base_planes=args.base_planes,
+                                      ngroups=min(16, args.base_planes // 2)).to(dev).train()
+        return policy, _Evaluate(policy), torch.optim.Adam(policy.parameters(), lr=cfg.lr, eps=cfg.eps)
+
+    policy, evaluate, optimizer = learner()
+    batches = DeviceRollouts(filled_rollouts(n, T, args.size, tuple(policy.initial_state(n).shape)), dev)
+    losses = {}
+    for name, bf16 in (("fp32", False), ("bf16", True)):  # the first update from the same weights, each precision
+        fresh, fresh_eval, fresh_opt = learner()
+        fresh.autocast_bf16 = bf16
+        losses[name] = ppo_update(fresh_eval, fresh_opt, batches, cfg, torch.Generator().manual_seed(0))
+    best = {"fp32": float("inf"), "bf16": float("inf")}
+    for i in range(args.repeats + 1):  # round 0 warms up (cuDNN's choices, oneDNN's kernels, the allocator)
+        for name in best:
+            policy.autocast_bf16 = name == "bf16"
+            t = time.perf_counter()
+            ppo_update(evaluate, optimizer, batches, cfg, torch.Generator().manual_seed(i))  # ends on a host read
+            if i:
+                best[name] = min(best[name], time.perf_counter() - t)
+    where = torch.cuda.get_device_name(dev) if dev.type == "cuda" else f"cpu, {args.threads} threads"
+    print(f"One PPO update ({where}; {n} envs x {T} steps, {args.size}², {args.backbone} base {args.base_planes}, "
+          f"{args.epochs} epochs x {args.mini_batches} mini-batches; best of {args.repeats}):")
+    for name, sec in best.items():
+        print(f"  {name}  {1000 * sec:9.1f} ms   learning alone allows {n * T / sec:8.0f} env steps/s   "
+              f"x{best['fp32'] / sec:.2f}")
+    diff = ", ".join(f"{k} {losses['fp32'][k]:.4g} / {losses['bf16'][k]:.4g}" for k in losses["fp32"])
+    print(f"  first update's mean losses from the same weights, fp32 / bf16: {diff}")
+
+
+if __name__ == "__main__":
+    main()
