@@ -25,7 +25,9 @@ def rl_rows(plan) -> Iterator[dict]:
     scenes they have not seen, as a run over all 800 does). A first run of two updates (the first one loads scenes:
     not counted) times an update; when that left part of ``plan.seconds``, the run resumes for as many more updates as
     fit (the first again not counted). ``rl_bf16``: the rl row with train.precision=bf16 (the visual encoder under
-    torch.autocast(bfloat16) in rollouts and updates), naming its ratio to the rl row. With CUDA (and --quick), the
+    torch.autocast(bfloat16) in rollouts and updates), naming its ratio to the rl row; with CUDA, after the envs-alone
+    rows, ``rl_compiled``: with train.compile=true (the visual trunk's forward and backward as CUDA graphs; its
+    compiling falls in the first, uncounted update), naming its ratio too. With CUDA (and --quick), the
     envs alone (``rl_envs``): with env.prefetch_scenes (the default), without it (``rl_envs_no_prefetch``: vectorised
     envs then wait for whichever env switches scene, the bound of the third GPU run, docs/results/2026-11-27_gpu3)
     and in one worker (``rl_envs_1``). The second and third GPU runs also timed renderer=raycast and gl under
@@ -55,6 +57,13 @@ def rl_rows(plan) -> Iterator[dict]:
             yield _rl_envs_row(plan, small, prefetch=False, with_prefetch=envs["value"])
             if plan.rl_workers > 1 or plan.quick:  # a per-worker rate that drops with more workers: contention
                 yield _rl_envs_row(plan, small, workers=1)
+        if plan.cuda:  # the trunk's forward and backward as CUDA graphs (train.compile, reduce-overhead)
+            yield _rl_row(plan, "rl_compiled", "scale=small, train.compile=true (reduce-overhead)",
+                          {**small, "compile": True}, "rl", "", against=plain["value"])
+        else:
+            yield row(5, "rl_compiled", "rvn-rl PPO collection + learning, scale=small, train.compile=true",
+                      "env steps/s", skipped="CUDA graphs need a GPU (on a CPU the compiled trunk was not faster: "
+                      "rvn_rl/settings.py)")
         if not (plan.cuda or plan.quick):  # minutes per update on a few cores; --quick runs it small
             yield row(5, "rl_paper", f"rvn-rl PPO collection + learning, {what}", "env steps/s",
                       skipped="ResNet-50 at 256² is sized for a GPU (--quick runs it at 64²)")
@@ -120,7 +129,7 @@ def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, bas
             counted += [_steps_seconds(r, envs) for r in _metrics(out)[seen + 1:]]
     steps, seconds = sum(n for n, _, _ in counted), sum(s for _, s, _ in counted)
     if against is not None:
-        baseline = f"x{steps / seconds / against:.2f} the rl row's {against:.0f} (float32)"
+        baseline = f"x{steps / seconds / against:.2f} the rl row's {against:.0f} (float32, not compiled)"
     profile = None
     if plan.profile:  # the learner's side of an update, without the envs (rl.learner_profile)
         from rvn_il.policies.policy import intra_op_threads

@@ -37,6 +37,7 @@ def overrides(args, out_dir: str) -> list[str]:
             f"env.goal_pool={args.goal_pool}", f"ppo.ppo_epoch={args.ppo_epoch}",
             f"ppo.num_mini_batch={args.mini_batches}",
             f"train.precision={getattr(args, 'precision', 'fp32')}",
+            f"train.compile={str(getattr(args, 'compile', False)).lower()}",
             ] + ([f"cache_dir={args.cache_dir}"] if getattr(args, "cache_dir", None) else [])  # else <out_dir>/cache
 
 
@@ -98,6 +99,8 @@ def learner_profile(cfg, device: str = "cpu", rows: int = 30) -> str:
     torch.manual_seed(0)
     policy = PointNavResNetPolicy(**cfg.model_kwargs()).to(dev)
     policy.autocast_bf16 = cfg.train.precision == "bf16"
+    if cfg.train.compile:  # compiled in the warm-up update
+        policy.compile_visual(cfg.train.compile_mode)
     learner, optimizer = _Evaluate(policy), torch.optim.Adam(policy.parameters(), lr=ppo.lr, eps=ppo.eps)
     rng = np.random.default_rng(0)
 

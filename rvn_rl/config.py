@@ -18,7 +18,7 @@ from rvn_data.render.camera import CameraConfig
 from rvn_data.scenes.sets import ScenesConfig
 
 from .settings import (ALGOS, LAGRANGIAN, AlgoConfig, DDPPOSettings, DepthSettings, EnvSettings, ModelSettings,
-                       PPOConfig, PRECISIONS, TrainSettings, at_least)
+                       COMPILE_MODES, PPOConfig, PRECISIONS, TrainSettings, at_least)
 
 # the episode settings that act in train mode, in the order config.yaml records them (seed draws eval sets only)
 TRAIN_EPISODE_KEYS = ("n_goals", "d_min", "d_max", "max_tries", "max_restarts")
@@ -74,6 +74,9 @@ class RLConfig:
         at_least("train.total_steps", self.train.total_steps)
         if self.train.precision not in PRECISIONS:
             raise ValueError(f"train.precision={self.train.precision!r}; choose one of {', '.join(PRECISIONS)}")
+        if self.train.compile_mode not in COMPILE_MODES:
+            raise ValueError(f"train.compile_mode={self.train.compile_mode!r}; "
+                             f"choose one of {', '.join(COMPILE_MODES)}")
         at_least("train.checkpoint_every", self.train.checkpoint_every)
         if self.model.backbone not in ("resnet18", "resnet50"):
             raise ValueError(f"model.backbone={self.model.backbone!r}: choose resnet50 or resnet18")

@@ -73,11 +73,18 @@ class ResNetEncoder(nn.Module):
             nn.GroupNorm(1, channels), nn.ReLU(True))
         self.output_size = channels * spatial ** 2
 
-    def forward(self, x: torch.Tensor) -> torch.Tensor:
+    def normalised(self, x: torch.Tensor) -> torch.Tensor:
+        """The frame pooled to the input size and normalised by the running mean and variance."""
         if self.pool > 1:
             x = F.avg_pool2d(x, self.pool)
-        x = self.running_mean_and_var(x)
+        return self.running_mean_and_var(x)
+
+    def trunk(self, x: torch.Tensor) -> torch.Tensor:
+        """ResNet and compression, flattened (what train.compile compiles, with visual_fc)."""
         return torch.flatten(self.compression(self.backbone(x)), 1)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.trunk(self.normalised(x))
 
 
 def visual_input(obs: dict, use_depth: bool) -> torch.Tensor:
@@ -119,6 +126,20 @@ class PointNavResNetPolicy(nn.Module):
         # the visual encoder and visual_fc under torch.autocast(bfloat16) (train.precision=bf16): not a weight or an
         # argument, so a checkpoint and its config are the same either way
         self.autocast_bf16 = False
+        self._compiled_visual = None  # compile_visual's (train.compile)
+        self._cuda_graphs = False
+
+    def compile_visual(self, mode: str = "reduce-overhead") -> None:
+        """torch.compile of the visual trunk (ResNet, compression, visual_fc) for every later forward; parameters,
+        names and checkpoints are the plain ones. ``mode`` ``reduce-overhead`` replays its forward and backward as CUDA
+        graphs on a GPU (each forward then begins a new step for them); on a CPU it compiles as ``default``. The
+        running mean and variance stay outside (they update buffers and, in DD-PPO, all-reduce)."""
+        cuda = next(self.parameters()).is_cuda
+        self._cuda_graphs = cuda and mode == "reduce-overhead"
+        self._compiled_visual = torch.compile(self._visual, mode="reduce-overhead" if self._cuda_graphs else None)
+
+    def _visual(self, x: torch.Tensor) -> torch.Tensor:
+        return self.visual_fc(self.visual_encoder.trunk(x))
 
     def _head(self, n: int, gain: float) -> nn.Linear:
         head = nn.Linear(self.hidden_size, n)
@@ -139,7 +160,15 @@ class PointNavResNetPolicy(nn.Module):
         n = state.size(1)
         x = visual_input(obs, self.use_depth)
         with torch.autocast(x.device.type, dtype=torch.bfloat16, enabled=self.autocast_bf16):
-            visual = self.visual_fc(self.visual_encoder(x.contiguous() if self.autocast_bf16 else x))
+            # bf16 from a contiguous NCHW frame: GroupNorm's bf16 backward on the channels-last layout that the frame's
+            # permute gives took 6x float32's time on a CPU (rvn_rl/README.md, "Precision")
+            x = self.visual_encoder.normalised(x.contiguous() if self.autocast_bf16 else x)
+            if self._compiled_visual is None:
+                visual = self._visual(x)
+            else:
+                if self._cuda_graphs:  # the last replay's outputs were used: its buffers may be overwritten
+                    torch.compiler.cudagraph_mark_step_begin()
+                visual = self._compiled_visual(x)
         visual = visual.float()
         prev = self.prev_action_embedding(((prev_actions.long() + 1) * masks.long()))
         x = torch.cat([visual, prev, self.goal_embedding(goal_input(obs["pointgoal"].float()))], dim=-1)

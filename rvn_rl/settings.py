@@ -10,6 +10,7 @@ from typing import Union
 
 ALGOS = ("ppo", "ppo_lag", "ddppo", "ddppo_depth")
 PRECISIONS = ("fp32", "bf16")  # train.precision
+COMPILE_MODES = ("default", "reduce-overhead")  # train.compile_mode (torch.compile's modes)
 
 
 def at_least(name: str, value, minimum: int = 1) -> None:
@@ -112,6 +113,13 @@ class TrainSettings:
     # in fp32 and 10.9 s in bf16 (benchmarks/rl_learner.py), the README's rvn-rl run 26 -> 36 env steps/s; a CPU
     # without them emulates bf16, slower
     precision: str = "fp32"
+    # torch.compile of the visual trunk (ResNet, compression, visual_fc: `PointNavResNetPolicy.compile_visual`) in
+    # rollouts and updates: the same losses to float rounding (tests/test_rl_precision.py). For GPUs, with
+    # compile_mode=reduce-overhead (its forward and backward replayed as CUDA graphs: an update launches ~1,000 small
+    # kernels a mini-batch); on the 2-core development CPU it was not faster (the trunk's forward and backward on 128
+    # frames at 128²: 1,080 against 1,046 ms in float32, 773 against 549 in bf16). Kernels under <cache root>/compiled
+    compile: bool = False
+    compile_mode: str = "reduce-overhead"  # default | reduce-overhead (CUDA graphs on a GPU; on a CPU as default)
 
     def __post_init__(self) -> None:
         if isinstance(self.total_steps, float) and self.total_steps.is_integer():

@@ -5,7 +5,7 @@ latest checkpoint when there is one), the environments and the log, and runs `_l
 Lagrange multiplier for PPO-Lagrangian, a PPO update through a DistributedDataParallel replica when distributed,
 the log row and resumable checkpoints in ``out_dir``. Each setting group goes to where it acts: ``ppo`` to the
 rollout and the update, ``env`` to the environments, ``algo`` to the multiplier, ``train`` to the loop's length,
-checkpoints and the visual encoder's precision."""
+checkpoints and the visual trunk's precision and compilation."""
 from __future__ import annotations
 
 import logging
@@ -19,6 +19,7 @@ import torch
 from torch import nn
 
 from rvn_data.cache_root import ENV as CACHE_ENV
+from rvn_data.cache_root import keep_compiled_kernels
 from rvn_data.cli.common import check_writable_dir, validating
 from rvn_data.numba_note import note_first_compile
 
@@ -136,6 +137,9 @@ def train(cfg: RLConfig, on_checked=None) -> dict:
             torch.set_num_threads(cfg.train.threads)
         run = Run.start(cfg.seed, policy_kwargs, cfg.ppo, cfg.algo, d, device, resume_from)
         run.policy.autocast_bf16 = cfg.train.precision == "bf16"  # rollouts and updates alike
+        if cfg.train.compile:  # kernels under the cache root, beside the navmeshes and goal pools
+            keep_compiled_kernels(env_kwargs["cache_dir"])
+            run.policy.compile_visual(cfg.train.compile_mode)
         if d.rank == 0:
             note_first_compile("rvn-rl")
         depth_fn = None

@@ -18,9 +18,9 @@ TINY = ["env.size=32", "env.num_envs=2", "env.num_scenes=2", "ppo.num_steps=8", 
 ENV = {**os.environ, "OMP_NUM_THREADS": "1"}
 
 
-def rvn_rl(*args, check=True):
-    proc = subprocess.run([sys.executable, "-m", "rvn_rl.cli", *args], capture_output=True, text=True, env=ENV,
-                          timeout=600)
+def rvn_rl(*args, check=True, env=None):
+    proc = subprocess.run([sys.executable, "-m", "rvn_rl.cli", *args], capture_output=True, text=True,
+                          env={**ENV, **(env or {})}, timeout=600)
     if check:
         assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-3000:]
     return proc
@@ -96,6 +96,23 @@ def test_resume_continues_from_the_latest_checkpoint(ppo_run, tmp_path):
     assert state["updates"] == 3 and state["env_steps"] == 48
 
 
+def test_compiled_trunk_trains_as_the_plain_run(ppo_run, tmp_path):
+    """train.compile=true (the visual trunk under torch.compile, in rollouts and updates): the plain run's episodes
+    and losses to float rounding (fused GroupNorm reductions: ~1e-4 apart here), its kernels under the cache root.
+    Scalar C++ kernels, as tests/test_compiled.py's training step: what is checked is the wiring (~45 s compiling)."""
+    plain, _ = ppo_run
+    out = tmp_path / "compiled"
+    rvn_rl("algo=ppo", f"out_dir={out}", "train.total_steps=32", "train.compile=true", *TINY,
+           env={"TORCHINDUCTOR_VEC_ISA_OK": "0"})
+    a, b = rows(plain), rows(out)
+    assert [(x["env_steps"], x.get("episodes")) for x in a] == [(x["env_steps"], x.get("episodes")) for x in b]
+    for x, y in zip(a, b):
+        for key in ("value_loss", "action_loss", "entropy", "grad_norm"):
+            assert y[key] == pytest.approx(x[key], rel=2e-3, abs=1e-5), key
+    assert list((out / "cache" / "compiled").iterdir())
+    assert yaml.safe_load((out / "config.yaml").read_text())["train"]["compile"] is True
+
+
 def test_ppo_lag_logs_lambda_and_episode_cost(tmp_path):
     out = tmp_path / "lag"
     proc = rvn_rl("algo=ppo_lag", f"out_dir={out}", "train.total_steps=32", "algo.lambda_lr=0.5", *TINY)
@@ -120,6 +137,7 @@ def test_ppo_lag_logs_lambda_and_episode_cost(tmp_path):
     (["seed=-1"], "seed=-1 must be an integer >= 0"),
     (["train.threads=0"], "train.threads=0 must be a positive integer"),
     (["train.precision=fp16"], "train.precision='fp16'; choose one of fp32, bf16"),
+    (["train.compile_mode=max-autotune"], "train.compile_mode='max-autotune'; choose one of default, reduce-overhead"),
     (["model.backbone=vgg"], "model.backbone='vgg'"),
     (["algo=ddppo_depth"], "depth.model_path"),
     (["env.num_envs=1"], "ppo.num_mini_batch"),
