@@ -1,13 +1,15 @@
 """rvn-rl's learner alone (issue 32's RL row): one PPO update in float32 and with ``train.precision=bf16`` (the
-visual encoder under torch.autocast(bfloat16)), as rvn-rl runs it (`ppo_update` over `DeviceRollouts`) on a rollout of
-random frames with ~25-step episodes; alternated rounds after a warm-up one, best of ``--repeats``. Prints each
-update's ms, the env steps/s that learning alone would allow (rollout steps / update seconds), the ratio, and how far
-the first update's losses from the same weights differ between the two.
+visual encoder under torch.autocast(bfloat16)) and, with ``--compile``, both with ``train.compile`` (the visual trunk
+compiled; on a GPU its forward and backward as CUDA graphs), as rvn-rl runs it (`ppo_update` over `DeviceRollouts`)
+on a rollout of random frames with ~25-step episodes; alternated rounds after a warm-up one, best of ``--repeats``. Prints each
+update's ms, the env steps/s that learning alone would allow (rollout steps / update seconds), the ratio, the first
+update's seconds (compiling, for a compiled one) and how far each first update's losses from the same weights are
+from float32's.
 
 On the 2-core development CPU an update of scale=small (8 envs x 64 steps, 128², ResNet-18 base 32, 4 x 4
 mini-batches) takes ~15 s in float32, the bound of rvn-rl's README recipe there (collection alone runs at ~150 env
 steps/s); on the third GPU run (H200, 30 envs) the update was 1.1 s of every 1,920 env steps.
-Run: python benchmarks/rl_learner.py [--device cuda --envs 30] [--size 128] [--threads 2] [--repeats 2]
+Run: python benchmarks/rl_learner.py [--device cuda --envs 30 --compile] [--size 128] [--threads 2] [--repeats 2]
 """
 from __future__ import annotations
 
@@ -50,7 +52,8 @@ def main() -> None:
     p.add_argument("--epochs", type=int, default=4, help="ppo.ppo_epoch (scale=small: 4)")
     p.add_argument("--mini-batches", type=int, default=4, help="ppo.num_mini_batch (scale=small: 4)")
     p.add_argument("--threads", type=int, default=2)
-    p.add_argument("--repeats", type=int, default=2, help="timed rounds of each precision")
+    p.add_argument("--repeats", type=int, default=2, help="timed rounds of each variant")
+    p.add_argument("--compile", action="store_true", help="also with train.compile (the visual trunk compiled)")
     args = p.parse_args()
     torch.set_num_threads(args.threads)
     from rvn_rl.model import PointNavResNetPolicy
@@ -61,35 +64,38 @@ def main() -> None:
     dev, n, T = torch.device(args.device), args.envs, args.steps
     cfg = PPOConfig(ppo_epoch=args.epochs, num_mini_batch=args.mini_batches, num_steps=T)
 
-    def learner() -> tuple:
+    def learner(bf16: bool, compiled: bool) -> tuple:
         torch.manual_seed(0)
         policy = PointNavResNetPolicy(obs_size=args.size, backbone=args.backbone, base_planes=args.base_planes,
                                       ngroups=min(16, args.base_planes // 2)).to(dev).train()
-        return policy, _Evaluate(policy), torch.optim.Adam(policy.parameters(), lr=cfg.lr, eps=cfg.eps)
+        policy.autocast_bf16 = bf16
+        if compiled:  # train.compile (reduce-overhead: CUDA graphs on a GPU, torch.compile's default on a CPU)
+            policy.compile_visual("reduce-overhead")
+        return _Evaluate(policy), torch.optim.Adam(policy.parameters(), lr=cfg.lr, eps=cfg.eps)
 
-    policy, evaluate, optimizer = learner()
-    batches = DeviceRollouts(filled_rollouts(n, T, args.size, tuple(policy.initial_state(n).shape)), dev)
-    losses = {}
-    for name, bf16 in (("fp32", False), ("bf16", True)):  # the first update from the same weights, each precision
-        fresh, fresh_eval, fresh_opt = learner()
-        fresh.autocast_bf16 = bf16
-        losses[name] = ppo_update(fresh_eval, fresh_opt, batches, cfg, torch.Generator().manual_seed(0))
-    best = {"fp32": float("inf"), "bf16": float("inf")}
-    for i in range(args.repeats + 1):  # round 0 warms up (cuDNN's choices, oneDNN's kernels, the allocator)
-        for name in best:
-            policy.autocast_bf16 = name == "bf16"
+    names = ["fp32", "bf16"] + (["fp32 compiled", "bf16 compiled"] if args.compile else [])
+    learners = {name: learner("bf16" in name, "compiled" in name) for name in names}
+    state_shape = tuple(learners["fp32"][0].policy.initial_state(n).shape)
+    batches = DeviceRollouts(filled_rollouts(n, T, args.size, state_shape), dev)
+    losses, first, best = {}, {}, {name: float("inf") for name in names}
+    for i in range(args.repeats + 1):  # round 0: the same weights' first update (warm-up: compiling, cuDNN, allocator)
+        for name, (evaluate, optimizer) in learners.items():
             t = time.perf_counter()
-            ppo_update(evaluate, optimizer, batches, cfg, torch.Generator().manual_seed(i))  # ends on a host read
+            out = ppo_update(evaluate, optimizer, batches, cfg, torch.Generator().manual_seed(i))  # ends on a host read
             if i:
                 best[name] = min(best[name], time.perf_counter() - t)
+            else:  # said at once: a time limit that cuts a later compile keeps it
+                losses[name], first[name] = out, time.perf_counter() - t
+                print(f"  {name}: first update {first[name]:.1f} s", flush=True)
     where = torch.cuda.get_device_name(dev) if dev.type == "cuda" else f"cpu, {args.threads} threads"
     print(f"One PPO update ({where}; {n} envs x {T} steps, {args.size}², {args.backbone} base {args.base_planes}, "
           f"{args.epochs} epochs x {args.mini_batches} mini-batches; best of {args.repeats}):")
     for name, sec in best.items():
-        print(f"  {name}  {1000 * sec:9.1f} ms   learning alone allows {n * T / sec:8.0f} env steps/s   "
-              f"x{best['fp32'] / sec:.2f}")
-    diff = ", ".join(f"{k} {losses['fp32'][k]:.4g} / {losses['bf16'][k]:.4g}" for k in losses["fp32"])
-    print(f"  first update's mean losses from the same weights, fp32 / bf16: {diff}")
+        print(f"  {name:<14} {1000 * sec:9.1f} ms   learning alone allows {n * T / sec:8.0f} env steps/s   "
+              f"x{best['fp32'] / sec:.2f}   (first update {first[name]:.1f} s)")
+    for name in names[1:]:
+        diff = ", ".join(f"{k} {losses['fp32'][k]:.4g} / {losses[name][k]:.4g}" for k in losses["fp32"])
+        print(f"  first update's mean losses from the same weights, fp32 / {name}: {diff}")
 
 
 if __name__ == "__main__":
