@@ -108,8 +108,8 @@ def _rl_args(plan, settings: dict, updates: int) -> SimpleNamespace:
 
 def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, baseline: str,
             against: float | None = None) -> dict:
-    """rvn-rl's own loop (`rvn_rl.trainer.train`) with ``settings``; ``against``: the float32 row's rate, whose ratio
-    to this one the row names."""
+    """rvn-rl's own loop (`rvn_rl.trainer.train`) with ``settings``; ``against``: the rl row's rate (float32, not
+    compiled), whose ratio to this one the row names."""
     import rl as rl_bench
     from rvn_rl.cli import compose
     from rvn_rl.trainer import train

@@ -3,7 +3,8 @@
 features and a 512-d layer, a 32-d previous-action embedding, a 32-d embedding of the goal
 as (rho, cos(-phi), sin(-phi)), a 2-layer LSTM (hidden 512), an actor, a critic and, for
 PPO-Lagrangian, a cost critic. Recurrent state is reset where ``masks`` is 0. With ``autocast_bf16`` set (rvn-rl's
-``train.precision=bf16``) the visual encoder and its layer run under torch.autocast(bfloat16), the rest in float32."""
+``train.precision=bf16``) the visual encoder and its layer run under torch.autocast(bfloat16), the rest in float32;
+``compile_visual`` (``train.compile``) compiles the visual trunk."""
 from __future__ import annotations
 
 import torch

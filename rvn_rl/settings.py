@@ -100,7 +100,7 @@ class DepthSettings:
 
 @dataclass
 class TrainSettings:
-    """``train``: how long, checkpoints, threads, precision."""
+    """``train``: how long, checkpoints, threads, the visual trunk's precision and compilation."""
 
     total_steps: Union[int, float] = 2_500_000_000  # env steps over all ranks (4e5 reads as a float: taken as 400000)
     checkpoint_every: int = 50  # updates between checkpoints
@@ -114,10 +114,11 @@ class TrainSettings:
     # without them emulates bf16, slower
     precision: str = "fp32"
     # torch.compile of the visual trunk (ResNet, compression, visual_fc: `PointNavResNetPolicy.compile_visual`) in
-    # rollouts and updates: the same losses to float rounding (tests/test_rl_precision.py). For GPUs, with
-    # compile_mode=reduce-overhead (its forward and backward replayed as CUDA graphs: an update launches ~1,000 small
-    # kernels a mini-batch); on the 2-core development CPU it was not faster (the trunk's forward and backward on 128
-    # frames at 128²: 1,080 against 1,046 ms in float32, 773 against 549 in bf16). Kernels under <cache root>/compiled
+    # rollouts and updates: the same losses to float rounding (tests/test_rl.py). For GPUs, with
+    # compile_mode=reduce-overhead (its forward and backward replayed as CUDA graphs: on the third H200 run a mini-batch
+    # of 480 took 69 ms for 0.45 TFLOP); on the 2-core development CPU it was not faster (the trunk's forward and
+    # backward on 128 frames at 128²: 1,080 against 1,046 ms in float32, 773 against 549 in bf16). Kernels under
+    # <cache root>/compiled
     compile: bool = False
     compile_mode: str = "reduce-overhead"  # default | reduce-overhead (CUDA graphs on a GPU; on a CPU as default)
 

@@ -18,8 +18,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from rvn_data.cache_root import ENV as CACHE_ENV
-from rvn_data.cache_root import keep_compiled_kernels
+from rvn_data.cache_root import ENV as CACHE_ENV, keep_compiled_kernels
 from rvn_data.cli.common import check_writable_dir, validating
 from rvn_data.numba_note import note_first_compile
 
