@@ -45,6 +45,7 @@ def collection(cfg, steps: int, with_policy: bool, times: list | None = None) ->
     """Env steps/s of ``steps`` batched steps after 10 of warm-up: random actions, or ``with_policy`` the policy's
     act(); ``times`` (a list) receives each timed batched step's seconds."""
     from rvn_rl.model import PointNavResNetPolicy
+    from rvn_rl.trainer import set_trunk
     from rvn_rl.vec_env import make_envs
 
     envs = make_envs(cfg.env_kwargs(), cfg.env, seed=0)
@@ -52,7 +53,7 @@ def collection(cfg, steps: int, with_policy: bool, times: list | None = None) ->
     rng = np.random.default_rng(0)
     net = PointNavResNetPolicy(**cfg.model_kwargs()).eval() if with_policy else None
     if net is not None:
-        net.autocast_bf16 = cfg.train.precision == "bf16"
+        set_trunk(net, cfg.train)
     state, prev, masks = (net.initial_state(n), torch.zeros(n, dtype=torch.long), torch.zeros(n)) if net else (0, 0, 0)
     try:
         obs = envs.reset()
@@ -93,14 +94,12 @@ def learner_profile(cfg, device: str = "cpu", rows: int = 30) -> str:
     from rvn_rl.model import PointNavResNetPolicy
     from rvn_rl.ppo import ppo_update
     from rvn_rl.rollout import DeviceRollouts, RolloutStorage, to_device
-    from rvn_rl.trainer import _Evaluate
+    from rvn_rl.trainer import _Evaluate, set_trunk
 
     dev, ppo, n, size = torch.device(device), cfg.ppo, cfg.env.num_envs, cfg.env.size
     torch.manual_seed(0)
     policy = PointNavResNetPolicy(**cfg.model_kwargs()).to(dev)
-    policy.autocast_bf16 = cfg.train.precision == "bf16"
-    if cfg.train.compile:  # compiled in the warm-up update
-        policy.compile_visual(cfg.train.compile_mode)
+    set_trunk(policy, cfg.train)  # a compiled trunk compiles in the warm-up update
     learner, optimizer = _Evaluate(policy), torch.optim.Adam(policy.parameters(), lr=ppo.lr, eps=ppo.eps)
     rng = np.random.default_rng(0)
 

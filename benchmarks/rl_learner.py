@@ -59,7 +59,8 @@ def main() -> None:
     from rvn_rl.model import PointNavResNetPolicy
     from rvn_rl.ppo import PPOConfig, ppo_update
     from rvn_rl.rollout import DeviceRollouts
-    from rvn_rl.trainer import _Evaluate
+    from rvn_rl.settings import TrainSettings
+    from rvn_rl.trainer import _Evaluate, set_trunk
 
     dev, n, T = torch.device(args.device), args.envs, args.steps
     cfg = PPOConfig(ppo_epoch=args.epochs, num_mini_batch=args.mini_batches, num_steps=T)
@@ -68,9 +69,8 @@ def main() -> None:
         torch.manual_seed(0)
         policy = PointNavResNetPolicy(obs_size=args.size, backbone=args.backbone, base_planes=args.base_planes,
                                       ngroups=min(16, args.base_planes // 2)).to(dev).train()
-        policy.autocast_bf16 = bf16
-        if compiled:  # train.compile (reduce-overhead: CUDA graphs on a GPU, torch.compile's default on a CPU)
-            policy.compile_visual("reduce-overhead")
+        # train.compile's default mode, reduce-overhead: CUDA graphs on a GPU, torch.compile's default on a CPU
+        set_trunk(policy, TrainSettings(precision="bf16" if bf16 else "fp32", compile=compiled))
         return _Evaluate(policy), torch.optim.Adam(policy.parameters(), lr=cfg.lr, eps=cfg.eps)
 
     names = ["fp32", "bf16"] + (["fp32 compiled", "bf16 compiled"] if args.compile else [])

@@ -29,7 +29,7 @@ from .model import PointNavResNetPolicy
 from .ppo import Lagrange, ppo_update
 from .rollout import DeviceRollouts, RolloutStorage, to_device
 from .runlog import RunLog, episode_sums, plot_learning_curve, summary
-from .settings import AlgoConfig, PPOConfig
+from .settings import AlgoConfig, PPOConfig, TrainSettings
 from .vec_env import make_envs
 
 
@@ -46,6 +46,14 @@ def native_bf16_cpu() -> bool:
     probes = [getattr(torch.cpu, name, None) for name in ("_is_avx512_bf16_supported", "_is_amx_tile_supported")]
     probes = [probe for probe in probes if probe is not None]
     return not probes or any(probe() for probe in probes)
+
+
+def set_trunk(policy: PointNavResNetPolicy, train: TrainSettings) -> None:
+    """``train.precision`` and ``train.compile`` on ``policy``'s visual trunk, as rvn-rl's rollouts and updates run
+    it (the compiled kernels go where the process put inductor's cache)."""
+    policy.autocast_bf16 = train.precision == "bf16"
+    if train.compile:
+        policy.compile_visual(train.compile_mode)
 
 
 class _Evaluate(nn.Module):
@@ -135,10 +143,9 @@ def train(cfg: RLConfig, on_checked=None) -> dict:
         if cfg.train.threads:
             torch.set_num_threads(cfg.train.threads)
         run = Run.start(cfg.seed, policy_kwargs, cfg.ppo, cfg.algo, d, device, resume_from)
-        run.policy.autocast_bf16 = cfg.train.precision == "bf16"  # rollouts and updates alike
         if cfg.train.compile:  # kernels under the cache root, beside the navmeshes and goal pools
             keep_compiled_kernels(env_kwargs["cache_dir"])
-            run.policy.compile_visual(cfg.train.compile_mode)
+        set_trunk(run.policy, cfg.train)  # rollouts and updates alike
         if d.rank == 0:
             note_first_compile("rvn-rl")
         depth_fn = None
