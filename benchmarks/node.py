@@ -60,8 +60,8 @@ import node_warm  # noqa: E402
 from node_rl import rl_rows  # noqa: E402
 from node_rows import decision_rows, gen_rows, render_rows, row, train_rows  # noqa: E402
 
-# rvn_il.models.compiled.TRAIN_COMPILE_MODES (a test keeps them equal), not imported: node.py parses without torch
-COMPILE_MODES = ("default", "reduce-overhead")
+from rvn_il.train.choices import COMPILE_MODES  # noqa: E402  (torch-free: node.py parses without torch)
+
 GROUPS = {"render": render_rows, "gen": gen_rows, "train": train_rows, "decision": decision_rows, "rl": rl_rows}
 
 

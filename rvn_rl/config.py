@@ -16,9 +16,10 @@ from rvn_data.navmesh.settings import NavMeshSettings
 from rvn_data.render import RendererConfig
 from rvn_data.render.camera import CameraConfig
 from rvn_data.scenes.sets import ScenesConfig
+from rvn_il.train.choices import COMPILE_MODES, PRECISIONS  # rvn-train's train.precision and train.compile_mode
 
-from .settings import (ALGOS, LAGRANGIAN, AlgoConfig, DDPPOSettings, DepthSettings, EnvSettings, ModelSettings,
-                       COMPILE_MODES, PPOConfig, PRECISIONS, TrainSettings, at_least)
+from .settings import (ALGOS, LAGRANGIAN, AlgoConfig, DDPPOSettings, DepthSettings, EnvSettings, ModelSettings, PPOConfig,
+                       TrainSettings, at_least)
 
 # the episode settings that act in train mode, in the order config.yaml records them (seed draws eval sets only)
 TRAIN_EPISODE_KEYS = ("n_goals", "d_min", "d_max", "max_tries", "max_restarts")

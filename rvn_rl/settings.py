@@ -9,8 +9,6 @@ from pathlib import Path
 from typing import Union
 
 ALGOS = ("ppo", "ppo_lag", "ddppo", "ddppo_depth")
-PRECISIONS = ("fp32", "bf16")  # train.precision
-COMPILE_MODES = ("default", "reduce-overhead")  # train.compile_mode (torch.compile's modes)
 
 
 def at_least(name: str, value, minimum: int = 1) -> None:

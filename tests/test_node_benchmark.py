@@ -216,9 +216,6 @@ def test_warm_compiles_each_row_in_a_process_of_its_own(monkeypatch):
     assert node_warm.jobs(plan, ["train", "decision", "rl"]) == [
         "train_nomad_pointgoal", "train_vint_pointgoal", "decision_cpu"]
     assert node_warm.jobs(node.make_plan(node.parse(["--quick", "--compile", "off"]), False, 2), ["train"]) == []
-    from rvn_il.models.compiled import TRAIN_COMPILE_MODES
-
-    assert node.COMPILE_MODES == TRAIN_COMPILE_MODES  # --compile-mode's choices, written out in node.py
     both = node.make_plan(node.parse(["--quick", "--compile", "on", "--compile-mode", "default", "reduce-overhead"]),
                           False, 2)
     assert node_warm.jobs(both, ["train"]) == ["train_nomad_pointgoal", "train_vint_pointgoal",

@@ -33,6 +33,8 @@ from torch import nn
 
 from rvn_data.cache_root import cache_root, keep_compiled_kernels, kernels_placed
 
+from ..train.choices import COMPILE_MODES
+
 
 class CompiledCall:
     """``fn`` compiled for fixed shapes; on CUDA as CUDA graphs (``reduce-overhead``), whose output
@@ -205,7 +207,6 @@ class _Slot:
         self.index = index
 
 
-TRAIN_COMPILE_MODES = ("default", "reduce-overhead")
 
 
 def compile_for_training(model: torch.nn.Module, mode: str = "default") -> torch.nn.Module:
@@ -221,8 +222,8 @@ def compile_for_training(model: torch.nn.Module, mode: str = "default") -> torch
     kernels, and 51 ms with it (docs/results/2026-11-27_gpu3). rvn-train: ``train.compile_mode``."""
     from torch._inductor import config  # imported here: inductor adds a second to every rvn-train and rvn-eval start
 
-    if mode not in TRAIN_COMPILE_MODES:
-        raise ValueError(f"compile mode {mode!r}: choose one of {', '.join(TRAIN_COMPILE_MODES)}")
+    if mode not in COMPILE_MODES:
+        raise ValueError(f"compile mode {mode!r}: choose one of {', '.join(COMPILE_MODES)}")
     _kernel_cache()
     config.fallback_random = True
     _share_compile_pool(config)

@@ -30,13 +30,12 @@ from ..data.sources import dataset_entries, single_entry
 from ..data.depth import REGENERATE, has_depth
 from ..models import resolve_size
 from ..models.checkpoint import members_of, read_config
-from ..models.compiled import TRAIN_COMPILE_MODES
 from ..models.nomad import check_prediction_type
 from ..policies.loader import resolve_device
 from .adopt import expert_source
+from .choices import COMPILE_MODES, PRECISIONS
 
 log = logging.getLogger(__name__)
-PRECISIONS = ("fp32", "bf16")
 
 def data_roots(cfg: Mapping) -> dict[str, str]:
     """Member → dataset folder: ``data.root`` (expert) and, for nomad_neg, ``data.negative_root``."""
@@ -126,8 +125,8 @@ def check_settings(cfg: Mapping) -> None:
     check_waypoint_frames(data["waypoint_frames"])
     if tcfg["precision"] not in PRECISIONS:
         raise ValueError(f"train.precision={tcfg['precision']!r}; choose one of {', '.join(PRECISIONS)}")
-    if tcfg["compile_mode"] not in TRAIN_COMPILE_MODES:
-        raise ValueError(f"train.compile_mode={tcfg['compile_mode']!r}; choose one of {', '.join(TRAIN_COMPILE_MODES)}")
+    if tcfg["compile_mode"] not in COMPILE_MODES:
+        raise ValueError(f"train.compile_mode={tcfg['compile_mode']!r}; choose one of {', '.join(COMPILE_MODES)}")
     val_root = data["val_root"]
     if val_root and not Path(val_root).expanduser().is_dir():
         raise ValueError(f"data.val_root={val_root} does not exist; generate an expert dataset on other scenes "

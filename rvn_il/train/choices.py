@@ -1,0 +1,7 @@
+"""The choices of the training settings rvn-train and rvn-rl share, in one place and without torch, so that
+rvn-rl's settings schema (`rvn_rl.settings`, torch-free) and benchmarks/node.py's parser import them as rvn-train's
+checks do (`rvn_il.train.preflight`)."""
+from __future__ import annotations
+
+PRECISIONS = ("fp32", "bf16")  # train.precision: float32, or bfloat16 autocast (weights and optimiser float32)
+COMPILE_MODES = ("default", "reduce-overhead")  # train.compile_mode: torch.compile's modes
