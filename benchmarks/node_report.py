@@ -86,7 +86,7 @@ class GpuBusy:
 
     def share_in(self, window: list | tuple | None) -> float | None:
         """Mean utilization in [0, 1] of the samples taken in ``window`` ([start, end], perf_counter seconds, as
-        `train.steady_train_rate` and `train.decision_ms` fill it); ``share`` when there is no window or no sample
+        `train.steady_train_rate` and `decision.decision_ms` fill it); ``share`` when there is no window or no sample
         in it (a window shorter than the sampling interval)."""
         inside = [v for t, v in self.samples if window and window[0] <= t <= window[1]]
         return _mean_share(inside) if inside else self.share

@@ -259,7 +259,7 @@ def train_rows(plan) -> Iterator[dict]:
 def decision_rows(plan) -> Iterator[dict]:
     """4. one act() of a NoMaD-PointGoal policy (8 samples x its diffusion steps): median ms, GPU and one CPU
     thread; the plain path first, then with ``plan.compile`` policy.compile (row ``decision_<where>_compiled``)."""
-    import train as train_bench
+    import decision as decision_bench
     from rvn_il.models import load_model_config
 
     for where, size in decision_sizes(plan).items():
@@ -272,7 +272,7 @@ def decision_rows(plan) -> Iterator[dict]:
         def measure(compiled: bool):  # each path alone, as in a process of its own
             profiles, window = ({} if plan.profile else None), []
             with GpuBusy() as busy:
-                ms, _ = train_bench.decision_ms("nomad_pointgoal", size, 5, threads=1, reference=False,
+                ms, _ = decision_bench.decision_ms("nomad_pointgoal", size, 5, threads=1, reference=False,
                                                 seconds=plan.seconds, device="cuda" if where == "gpu" else "cpu",
                                                 compile=compiled, profiles=profiles, window=window)
             return ms, busy.share_in(window) if where == "gpu" else None, (profiles or {}).get("decision")

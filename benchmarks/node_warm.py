@@ -94,13 +94,14 @@ def numba_kernels(groups: list[str]) -> str | None:
 def run_job(job: str, plan) -> None:
     """One job: the compiled path of one row, at its sizes, through its first steps."""
     sys.path.insert(0, str(HERE))
+    import decision as decision_bench
     import train as train_bench
     from node_rows import decision_sizes, train_settings, write_train_data
     from rvn_il.models import load_model_config
 
     if job.startswith("decision_"):
         where = job.removeprefix("decision_")
-        train_bench.decision_ms("nomad_pointgoal", decision_sizes(plan)[where], 1, threads=1, reference=False,
+        decision_bench.decision_ms("nomad_pointgoal", decision_sizes(plan)[where], 1, threads=1, reference=False,
                                 device="cuda" if where == "gpu" else "cpu", compile=True)
         return
     from rvn_il.policies.policy import intra_op_threads

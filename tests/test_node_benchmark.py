@@ -284,6 +284,7 @@ def test_gpu_busy_of_a_row_is_that_of_its_timed_steps(monkeypatch, tmp_path):
     import time
 
     monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
+    import decision as decision_bench
     import train as train_bench
     from node_report import GpuBusy
 
@@ -300,7 +301,7 @@ def test_gpu_busy_of_a_row_is_that_of_its_timed_steps(monkeypatch, tmp_path):
                                                    cache_dir=str(tmp_path / "cache"), window=window)
     assert rate > 0 and steps > 0 and before < window[0] < window[1] <= time.perf_counter()
     before, window = time.perf_counter(), []
-    ms, _ = train_bench.decision_ms("nomad_pointgoal", "small", 3, reference=False, window=window)
+    ms, _ = decision_bench.decision_ms("nomad_pointgoal", "small", 3, reference=False, window=window)
     assert ms > 0 and before < window[0] < window[1] <= time.perf_counter()
 
 

@@ -20,7 +20,7 @@ rounding (same test file).
 
 Compiled kernels are cached under the cache root (`rvn_data.cache_root.keep_compiled_kernels`):
 the first run compiles (NoMaD full: about 3 minutes, 170 s, on the 2-core development machine), later runs load
-(benchmarks/train.py's compiled NoMaD full decisions, from the process's start to 40 timed decisions: 166 s with an
+(benchmarks/decision.py's compiled NoMaD full decisions, from the process's start to 40 timed decisions: 166 s with an
 empty cache, 17 s with the first run's; 32.6-32.9 ms a decision either way, the plain path ~42 ms).
 """
 from __future__ import annotations
