@@ -4,9 +4,12 @@
 path; one frame through each encoder's inference form; what ``policy.depth_veto`` adds to a forward decision.
 ``benchmarks/train.py`` prints these figures after its training ones (``--latency-only``: these alone); node.py's
 decision rows and its ``--warm`` jobs call :func:`decision_ms`.
+
+    python benchmarks/decision.py [--threads N] [--policy-threads 1] [--quick] [--sampler ddpm|ddim] [--compile]
 """
 from __future__ import annotations
 
+import argparse
 import statistics
 import time
 
@@ -171,3 +174,29 @@ def latency_figures(reps: int, policy_threads: int | None, threads: int, sampler
         print(f"  {'nomad_pointgoal':16s} {size:5s} {'+ depth veto check (swept)':26s}: "
               f"{veto_check_ms(size, DepthVeto(0.5, 'swept', 90.0)):7.3f} ms per MOVE_FORWARD")
 
+
+def latency_arguments(ap: argparse.ArgumentParser) -> None:
+    """The options of :func:`latency_figures` (benchmarks/train.py's too)."""
+    ap.add_argument("--threads", type=int, default=1,
+                    help="torch intra-op threads (default 1: on a shared machine more threads spin-wait on each other)")
+    ap.add_argument("--policy-threads", type=int, default=1,
+                    help="intra-op threads of a policy decision (the policies' threads setting; 0: as --threads)")
+    ap.add_argument("--quick", action="store_true", help="fewer repetitions")
+    ap.add_argument("--sampler", choices=("ddpm", "ddim"), default="ddpm",
+                    help="NoMaD's reverse process (policy.sampler)")
+    ap.add_argument("--compile", action="store_true",
+                    help="also time policy.compile=true decisions beside the plain path (each model compiles first: "
+                         "about a minute per network on one core)")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    latency_arguments(ap)
+    args = ap.parse_args()
+    torch.set_num_threads(args.threads)
+    print(f"torch {torch.__version__}, {args.threads} thread(s)")
+    latency_figures(3 if args.quick else 10, args.policy_threads or None, args.threads, args.sampler, args.compile)
+
+
+if __name__ == "__main__":
+    main()

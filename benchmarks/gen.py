@@ -19,8 +19,6 @@ import os
 import tempfile
 from pathlib import Path
 
-from omegaconf import OmegaConf
-
 from rvn_data.config import load_config
 from rvn_data.dataset.scene_job import TIMERS
 from rvn_data.gen.run import generate

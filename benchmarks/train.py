@@ -31,7 +31,7 @@ from rvn_il.data.synthetic import write_synthetic_gnm
 from rvn_il.models import build_model, load_model_config
 from rvn_il.models.compiled import compile_for_training
 
-from decision import compile_alone, in_turns, latency_figures
+from decision import compile_alone, in_turns, latency_arguments, latency_figures
 
 
 def loader_rate(root: Path, cfg: dict, workers: int, batch: int, batches: int) -> float:
@@ -156,7 +156,7 @@ def steady_train_rate(root: Path, cfg: dict, batch: int, seconds: float, device:
         window[:] = [t_start, t_start + wall]
     if profiles is not None:
         profiles["train"] = op_table(lambda: [step() for _ in range(3)], dev.type == "cuda")
-    del batches, loader
+    batches = loader = None  # the loader's workers end here (step() closes over batches)
     return steps * batch / wall, steps, waited / wall
 
 
@@ -208,18 +208,10 @@ def ema_ms(reps: int) -> tuple[float, float]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--threads", type=int, default=1,
-                    help="torch intra-op threads (default 1: on a shared machine more threads spin-wait on each other)")
-    ap.add_argument("--policy-threads", type=int, default=1,
-                    help="intra-op threads of a policy decision (the policies' threads setting; 0: as --threads)")
+    latency_arguments(ap)
     ap.add_argument("--workers", type=int, default=2, help="DataLoader workers for the loader figure")
-    ap.add_argument("--quick", action="store_true", help="fewer repetitions")
-    ap.add_argument("--latency-only", action="store_true", help="only the per-decision latency figures")
-    ap.add_argument("--sampler", choices=("ddpm", "ddim"), default="ddpm",
-                    help="NoMaD's reverse process (policy.sampler)")
-    ap.add_argument("--compile", action="store_true",
-                    help="also time policy.compile=true decisions beside the plain path (each model compiles first: "
-                         "about a minute per network on one core)")
+    ap.add_argument("--latency-only", action="store_true",
+                    help="only the per-decision latency figures (as benchmarks/decision.py)")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
     reps = 3 if args.quick else 10
@@ -227,6 +219,7 @@ def main() -> None:
     if not args.latency_only:
         data_figures(args.workers, reps)
     latency_figures(reps, args.policy_threads or None, args.threads, args.sampler, args.compile)
+
 
 if __name__ == "__main__":
     main()

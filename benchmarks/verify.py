@@ -22,8 +22,6 @@ import tempfile
 import time
 from pathlib import Path
 
-from omegaconf import OmegaConf
-
 from rvn_data.config import load_config
 from rvn_data.dataset.verify import Expect, damaged
 from rvn_data.gen.run import generate
