@@ -207,8 +207,6 @@ class _Slot:
         self.index = index
 
 
-
-
 def compile_for_training(model: torch.nn.Module, mode: str = "default") -> torch.nn.Module:
     """``model`` with its encoder, Transformer and decoder compiled in place (``nn.Module.compile``:
     same parameters and state_dict keys). Training batches have one size (drop_last), so they compile once;

@@ -37,6 +37,7 @@ from .choices import COMPILE_MODES, PRECISIONS
 
 log = logging.getLogger(__name__)
 
+
 def data_roots(cfg: Mapping) -> dict[str, str]:
     """Member → dataset folder: ``data.root`` (expert) and, for nomad_neg, ``data.negative_root``."""
     members = members_of(cfg["model"]["name"])
