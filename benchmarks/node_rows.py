@@ -273,8 +273,8 @@ def decision_rows(plan) -> Iterator[dict]:
             profiles, window = ({} if plan.profile else None), []
             with GpuBusy() as busy:
                 ms, _ = decision_bench.decision_ms("nomad_pointgoal", size, 5, threads=1, reference=False,
-                                                seconds=plan.seconds, device="cuda" if where == "gpu" else "cpu",
-                                                compile=compiled, profiles=profiles, window=window)
+                                                   seconds=plan.seconds, device="cuda" if where == "gpu" else "cpu",
+                                                   compile=compiled, profiles=profiles, window=window)
             return ms, busy.share_in(window) if where == "gpu" else None, (profiles or {}).get("decision")
 
         plain = None

@@ -102,7 +102,7 @@ def run_job(job: str, plan) -> None:
     if job.startswith("decision_"):
         where = job.removeprefix("decision_")
         decision_bench.decision_ms("nomad_pointgoal", decision_sizes(plan)[where], 1, threads=1, reference=False,
-                                device="cuda" if where == "gpu" else "cpu", compile=True)
+                                   device="cuda" if where == "gpu" else "cpu", compile=True)
         return
     from rvn_il.policies.policy import intra_op_threads
 
