@@ -16,7 +16,7 @@ from rvn_data.navmesh.settings import NavMeshSettings
 from rvn_data.render import RendererConfig
 from rvn_data.render.camera import CameraConfig
 from rvn_data.scenes.sets import ScenesConfig
-from rvn_il.train.choices import COMPILE_MODES, PRECISIONS  # rvn-train's train.precision and train.compile_mode
+from rvn_il.train.choices import check_compile_mode, check_precision  # rvn-train's, for the same settings
 
 from .settings import (ALGOS, LAGRANGIAN, AlgoConfig, DDPPOSettings, DepthSettings, EnvSettings, ModelSettings, PPOConfig,
                        TrainSettings, at_least)
@@ -73,11 +73,8 @@ class RLConfig:
         if self.train.threads is not None:  # null: torch's setting
             at_least("train.threads", self.train.threads)
         at_least("train.total_steps", self.train.total_steps)
-        if self.train.precision not in PRECISIONS:
-            raise ValueError(f"train.precision={self.train.precision!r}; choose one of {', '.join(PRECISIONS)}")
-        if self.train.compile_mode not in COMPILE_MODES:
-            raise ValueError(f"train.compile_mode={self.train.compile_mode!r}; "
-                             f"choose one of {', '.join(COMPILE_MODES)}")
+        check_precision(self.train.precision)
+        check_compile_mode(self.train.compile_mode)
         at_least("train.checkpoint_every", self.train.checkpoint_every)
         if self.model.backbone not in ("resnet18", "resnet50"):
             raise ValueError(f"model.backbone={self.model.backbone!r}: choose resnet50 or resnet18")

@@ -33,7 +33,7 @@ from ..models.checkpoint import members_of, read_config
 from ..models.nomad import check_prediction_type
 from ..policies.loader import resolve_device
 from .adopt import expert_source
-from .choices import COMPILE_MODES, PRECISIONS
+from .choices import check_compile_mode, check_precision
 
 log = logging.getLogger(__name__)
 
@@ -124,10 +124,8 @@ def check_settings(cfg: Mapping) -> None:
     if "prediction_type" in model:
         check_prediction_type(model["prediction_type"])
     check_waypoint_frames(data["waypoint_frames"])
-    if tcfg["precision"] not in PRECISIONS:
-        raise ValueError(f"train.precision={tcfg['precision']!r}; choose one of {', '.join(PRECISIONS)}")
-    if tcfg["compile_mode"] not in COMPILE_MODES:
-        raise ValueError(f"train.compile_mode={tcfg['compile_mode']!r}; choose one of {', '.join(COMPILE_MODES)}")
+    check_precision(tcfg["precision"])
+    check_compile_mode(tcfg["compile_mode"])
     val_root = data["val_root"]
     if val_root and not Path(val_root).expanduser().is_dir():
         raise ValueError(f"data.val_root={val_root} does not exist; generate an expert dataset on other scenes "
@@ -214,5 +212,5 @@ def check_depth_root(data: Mapping, depth: bool) -> None:
                           "dataset.save_depth=true (e.g. dataset=negative on the train scenes) or set data.depth_root=null")
 
 
-__all__ = ["PRECISIONS", "check_datasets", "check_depth_root", "check_out_dir", "check_settings", "data_roots", "preflight",
+__all__ = ["check_datasets", "check_depth_root", "check_out_dir", "check_settings", "data_roots", "preflight",
            "whole_split"]
