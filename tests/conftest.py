@@ -17,12 +17,17 @@ DREAM_APARTMENT = Path(os.environ.get(
     "RVN_TEST_SCENE", Path(__file__).resolve().parents[2] / "shared" / "scenes" / "dream_apartment.glb"))
 
 
-# The files whose tests take longest on 2 cores (--durations, slowest first: test_compiled's two tests ~180 s,
-# test_experiment_smoke ~160, test_rl_ddppo ~95, test_real_sim_smoke ~80, test_node_benchmark ~85, the README block
-# ~40). xdist's loadfile hands files out in queue order, by default the files with the most tests first, which put
-# test_rl_ddppo last: one worker ran it alone for about two minutes. These go first, the short files fill in behind.
-LONGEST_FIRST = ("test_compiled.py", "test_experiment_smoke.py", "test_rl_ddppo.py", "test_real_sim_smoke.py",
-                 "test_node_benchmark.py", "test_readme_block.py")
+# The files whose tests take longest on 2 cores, slowest first (each file's time under `-n auto --dist loadfile`,
+# 2026-11-29: test_rl ~165 s, test_experiment_smoke ~135, test_compiled ~125, test_real_sim_smoke ~115,
+# test_node_benchmark ~105, test_rl_ddppo ~90, then ten files of 25-40 s). xdist's loadfile hands files out in queue
+# order, by default the files with the most tests first, which left one worker running a long file alone at the end
+# (test_rl_ddppo, later test_rl: 75 s of one idle core). Longest first, the short files fill in behind, and the two
+# workers end within seconds of each other.
+LONGEST_FIRST = ("test_rl.py", "test_experiment_smoke.py", "test_compiled.py", "test_real_sim_smoke.py",
+                 "test_node_benchmark.py", "test_rl_ddppo.py", "test_eval.py", "test_il_train.py", "test_agreement.py",
+                 "test_embodiment.py", "test_depth_aux.py", "test_rl_depth.py", "test_il_datasets.py",
+                 "test_readme_block.py", "test_gen_readback.py", "test_worker_threads.py", "test_cli_errors.py",
+                 "test_gen_repair.py")
 
 
 def pytest_collection_modifyitems(config, items):

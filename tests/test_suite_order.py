@@ -1,0 +1,24 @@
+"""The suite's own scheduling (tests/conftest.py): the longest files, which xdist hands out first, exist by those
+names, so a renamed file cannot quietly fall back to the end of the queue and leave one core running it alone."""
+from __future__ import annotations
+
+from pathlib import Path
+from types import SimpleNamespace
+
+from conftest import LONGEST_FIRST, pytest_collection_modifyitems
+
+HERE = Path(__file__).resolve().parent
+
+
+def test_longest_first_names_test_files_of_this_suite_once():
+    assert len(set(LONGEST_FIRST)) == len(LONGEST_FIRST)
+    missing = [name for name in LONGEST_FIRST if not (HERE / name).is_file()]
+    assert not missing, f"tests/conftest.py LONGEST_FIRST names files that are not in tests/: {missing}"
+
+
+def test_collection_puts_them_first_in_their_order_and_keeps_the_rest_stable():
+    names = ["test_a.py", LONGEST_FIRST[2], "test_b.py", LONGEST_FIRST[0], "test_a.py"]
+    items = [SimpleNamespace(path=HERE / n, tag=i) for i, n in enumerate(names)]
+    pytest_collection_modifyitems(None, items)
+    assert [(i.path.name, i.tag) for i in items] == [(LONGEST_FIRST[0], 3), (LONGEST_FIRST[2], 1), ("test_a.py", 0),
+                                                     ("test_b.py", 2), ("test_a.py", 4)]
