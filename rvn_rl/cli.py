@@ -14,7 +14,7 @@ import hydra
 from hydra.core.config_store import ConfigStore
 from omegaconf import DictConfig, OmegaConf
 
-from .config import RLConfig, register_schema, settings_of
+from .config import RLConfig, register_schema, settings_of, world_size_from_env
 from .settings import CONF_RL
 
 CONF_DIR = str(CONF_RL.parent)
@@ -60,11 +60,13 @@ def run(cfg: RLConfig, on_checked=None) -> dict:
 
 @hydra.main(config_path=CONF_DIR, config_name="rl", version_base="1.3")
 def _main(cfg: DictConfig) -> None:
-    from rvn_data.cli.common import ConfigError, entered_task, fail, record_run
+    from rvn_data.cli.common import ConfigError, entered_task, fail, record_run, validating
 
     entered_task()
     try:
         settings = settings_of(cfg)
+        with validating():  # every settings rule before torch loads (~2 s): bad input is answered at once
+            settings.validate(world_size_from_env())
     except ConfigError as err:
         fail("rvn-rl", err)
     try:

@@ -5,6 +5,7 @@ in one place (`RLConfig.validate`: types come from the schema, ranges and cross-
 the environments' and the network's keyword arguments and the record config.yaml keeps from it."""
 from __future__ import annotations
 
+import os
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -175,6 +176,11 @@ def check_env(env: EnvSettings) -> None:
     at_least("env.goal_pool", env.goal_pool, minimum=0)  # else the envs refuse these after out_dir is written
     if env.num_scenes is not None:  # null: all of the split's scenes
         at_least("env.num_scenes", env.num_scenes)
+
+
+def world_size_from_env() -> int:
+    """The number of processes of this run: torchrun's ``WORLD_SIZE``, else 1."""
+    return int(os.environ.get("WORLD_SIZE", "1"))
 
 
 def settings_of(cfg) -> RLConfig:

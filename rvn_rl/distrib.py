@@ -10,6 +10,8 @@ from dataclasses import dataclass
 import torch
 import torch.distributed as dist
 
+from .config import world_size_from_env
+
 SHORT_ROLLOUT_THRESHOLD = 0.25  # a rank collects at least this fraction of a rollout before it may stop
 
 
@@ -32,10 +34,6 @@ class Dist:
     def rollout_done(self, update: int) -> None:
         if self.enabled:
             self.store.add(f"done_{update}", 1)
-
-
-def world_size_from_env() -> int:
-    return int(os.environ.get("WORLD_SIZE", "1"))
 
 
 def init(backend: str, device: str) -> Dist:

@@ -90,3 +90,23 @@ def test_group_dataclasses_check_their_values_at_conversion():
         compose(TINY + ["camera.hfov_deg=200"])
     with pytest.raises(ConfigError, match="d_min=9.0, d_max=8.0 must satisfy"):
         compose(TINY + ["episodes.d_min=9"])
+
+
+@pytest.mark.parametrize("world, args, line", [
+    ("1", ["ppo.gamma=1.5"], "rvn-rl: error: ppo.gamma=1.5 must be in [0, 1]"),
+    ("2", ["algo=ppo"], "rvn-rl: error: algo=ppo runs in one process; use algo=ddppo"),  # torchrun's WORLD_SIZE
+])
+def test_the_command_answers_bad_settings_before_loading_torch(tmp_path, world, args, line):
+    """rvn-rl checks every settings rule (`RLConfig.validate`, at torchrun's world size) before it imports the
+    trainer: one line and status 2 in about a second instead of after torch's ~2 s import; nothing written."""
+    import os
+    import subprocess
+    import sys
+
+    code = ("import sys, rvn_rl.cli\nsys.argv = ['rvn-rl', *sys.argv[1:]]\ntry:\n    rvn_rl.cli.main()\n"
+            "except SystemExit as e:\n    print(e.code, 'torch' in sys.modules)")
+    proc = subprocess.run([sys.executable, "-c", code, f"out_dir={tmp_path / 'x'}", *TINY, *args], capture_output=True,
+                          text=True, timeout=120, env={**os.environ, "WORLD_SIZE": world})
+    assert proc.stdout.split() == ["2", "False"], proc.stdout + proc.stderr[-2000:]
+    assert proc.stderr.strip().startswith(line), proc.stderr
+    assert not (tmp_path / "x").exists()
