@@ -142,6 +142,20 @@ def _explain(err: BaseException, prog: str, config_dir: str, config_name: str, c
     return msg
 
 
+def _untyped(cfg, key: str) -> bool:
+    """Whether the composed setting ``key`` has no type of its own (a key of a group without a schema, as rvn-eval's
+    ``policy``): composition took any value there. A schema's typed settings were converted or refused already."""
+    from omegaconf import AnyNode, DictConfig, OmegaConf
+
+    parent, _, leaf = key.rpartition(".")
+    try:
+        node = OmegaConf.select(cfg, parent, throw_on_missing=False) if parent else cfg
+        child = node._get_node(leaf) if isinstance(node, DictConfig) else None
+    except Exception:  # noqa: BLE001 - not a plain setting: compare it as before
+        return True
+    return child is None or isinstance(child, AnyNode)
+
+
 def _check_types(cfg, parsed: list, config_dir: str, config_name: str, composed: list[str]) -> None:
     """Settings without a schema (rvn-eval's ``policy`` group: keyword arguments of the chosen class) take any value
     at composition: a number or a boolean given as text (``policy.turn_cost=abc``) is refused here, against the type
@@ -150,7 +164,8 @@ def _check_types(cfg, parsed: list, config_dir: str, config_name: str, composed:
 
     given = {ov.get_key_element(): ov for ov in parsed if "/" not in ov.get_key_element()
              and not ov.get_key_element().startswith(("+", "~")) and "." in ov.get_key_element()}
-    if not given:
+    given = {key: ov for key, ov in given.items() if _untyped(cfg, key)}  # a schema's types checked at composition
+    if not given:  # nothing to compare: spare the second composition (a quarter of a second)
         return
     defaults = _compose(config_dir, config_name, [o for o in composed if "." not in o.split("=", 1)[0]])
     for key, ov in given.items():
@@ -198,13 +213,14 @@ def check(prog: str, config_name: str, config_dir: str, argv: Sequence[str],
     if not added:
         return
     keys = {ov.get_key_element().lstrip("+") for ov in added}
+    keys = {key for key in keys if key.split(".")[0] not in open_groups}  # the chosen class checks its own
+    if not keys:
+        return
     base = [o for o in composed if o.split("=", 1)[0].lstrip("+") not in keys or o.startswith("++")]
     try:
         base_cfg = _compose(config_dir, config_name, base)
     except Exception:  # noqa: BLE001 - the full composition worked; judge against it
         base_cfg = cfg
     for key in sorted(keys):
-        if key.split(".")[0] in open_groups:
-            continue
         if OmegaConf.select(base_cfg, key, default="__missing__", throw_on_missing=False) == "__missing__":
             raise ConfigError(nearest(key, base_cfg, prog))
