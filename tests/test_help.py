@@ -33,6 +33,15 @@ def test_commands_load_torchs_compiler_only_when_asked():
     assert r.returncode == 0, r.stderr
     assert r.stdout.strip() == "[]", r.stdout[:300]
 
+
+def test_command_modules_load_torch_only_to_work():
+    """torch (~2 s to import) loads after the override check and --help: a typo'd setting is answered in about a
+    second by every Hydra command (rvn-train and rvn-rl import their trainers when they start training)."""
+    code = ("import sys, rvn_data.gen.cli, rvn_data.benchmark.cli, rvn_il.train.cli, rvn_rl.cli; "
+            "print('torch' in sys.modules)")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0 and r.stdout.strip() == "False", r.stdout + r.stderr[-2000:]
+
 def test_scene_info_works_without_an_argument():
     r = subprocess.run([sys.executable, "-m", "rvn_data.cli.scene", "info", "--json"], capture_output=True,
                        text=True, timeout=300)

@@ -21,11 +21,12 @@ from rvn_data.config import CONF_DIR, load_config
 from rvn_data.cli.common import entered_task, fail, record_run, run_hydra
 
 from .settings import register_schema
-from .trainer import run_training
 
 register_schema()
 
 def _run(cfg: DictConfig, record: bool = False) -> Path:
+    from .trainer import run_training  # torch and the trainer (~2.5 s) after the override check: a typo answers at once
+
     container = OmegaConf.to_container(cfg, resolve=True)
     container.pop("hydra", None)
     on_checked = (lambda checked: record_run(cfg, Path(checked["out_dir"]).expanduser(), "rvn-train")) if record else None
