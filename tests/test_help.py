@@ -42,6 +42,7 @@ def test_command_modules_load_torch_only_to_work():
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert r.returncode == 0 and r.stdout.strip() == "False", r.stdout + r.stderr[-2000:]
 
+
 def test_scene_info_works_without_an_argument():
     r = subprocess.run([sys.executable, "-m", "rvn_data.cli.scene", "info", "--json"], capture_output=True,
                        text=True, timeout=300)

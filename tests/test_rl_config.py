@@ -3,6 +3,9 @@
 and config.yaml records the settings in the layout rvn-rl has always written (rvn-eval's loader reads it)."""
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 from dataclasses import asdict, fields
 from pathlib import Path
 
@@ -99,10 +102,6 @@ def test_group_dataclasses_check_their_values_at_conversion():
 def test_the_command_answers_bad_settings_before_loading_torch(tmp_path, world, args, line):
     """rvn-rl checks every settings rule (`RLConfig.validate`, at torchrun's world size) before it imports the
     trainer: one line and status 2 in about a second instead of after torch's ~2 s import; nothing written."""
-    import os
-    import subprocess
-    import sys
-
     code = ("import sys, rvn_rl.cli\nsys.argv = ['rvn-rl', *sys.argv[1:]]\ntry:\n    rvn_rl.cli.main()\n"
             "except SystemExit as e:\n    print(e.code, 'torch' in sys.modules)")
     proc = subprocess.run([sys.executable, "-c", code, f"out_dir={tmp_path / 'x'}", *TINY, *args], capture_output=True,
