@@ -21,6 +21,7 @@ from torch import nn
 from rvn_data.cache_root import ENV as CACHE_ENV, keep_compiled_kernels
 from rvn_data.cli.common import check_writable_dir, validating
 from rvn_data.numba_note import note_first_compile
+from rvn_il.train.choices import check_precision_on
 
 from . import checkpoint as ck
 from .config import RLConfig
@@ -123,9 +124,7 @@ def train(cfg: RLConfig, on_checked=None) -> dict:
         with validating():
             device = pick_device(cfg.device, d)
             cfg.validate(d.world_size)
-            if cfg.train.precision == "bf16" and device.type == "cuda" and not torch.cuda.is_bf16_supported():
-                raise ValueError(f"train.precision=bf16: {torch.cuda.get_device_name(device)} has no bfloat16 "
-                                 "(GPUs from Ampere on); use train.precision=fp32")
+            check_precision_on(cfg.train.precision, device)  # rvn-train's: a GPU without bfloat16
             if cfg.train.precision == "bf16" and device.type == "cpu" and not native_bf16_cpu():
                 logger.warning("train.precision=bf16 on a CPU without native bfloat16 (AVX512-BF16 or AMX): its "
                                "convolutions are emulated, 16x slower than float32 in a measurement "

@@ -264,3 +264,22 @@ def test_a_current_packed_cache_spares_the_frame_check(runs, data):
     os.utime(frame, ns=(frame.stat().st_atime_ns, frame.stat().st_mtime_ns + 1_000_000))
     r = rvn_train(*args)
     assert r.returncode == 0 and "unchanged since their packed cache" not in r.stdout + r.stderr
+
+
+def test_bf16_on_a_gpu_without_bfloat16_is_one_line_before_any_work(data, tmp_path, monkeypatch):
+    """train.precision=bf16 on a GPU before Ampere (no bfloat16) would fail inside autocast at the first step:
+    rvn-train's preflight names the GPU and the setting instead, nothing written (rvn-rl's trainer runs the same
+    check, rvn_il.train.choices.check_precision_on). The GPU is stood in for: this machine may have none."""
+    import rvn_il.train.preflight as preflight
+    from rvn_il.train.choices import check_precision_on
+
+    monkeypatch.setattr(preflight, "resolve_device", lambda setting, *a: torch.device("cuda"))
+    monkeypatch.setattr(torch.cuda, "is_bf16_supported", lambda *a, **k: False)
+    monkeypatch.setattr(torch.cuda, "get_device_name", lambda *a: "Tesla V100-SXM2-16GB")
+    with pytest.raises(ValueError, match=r"^train.precision=bf16: Tesla V100-SXM2-16GB has no bfloat16 \(GPUs from "
+                                         r"Ampere on\); use train.precision=fp32$"):
+        train(["model=vint_pointgoal", f"data.root={data / 'expert'}", f"out_dir={tmp_path / 'o'}", "device=cuda",
+               "train.precision=bf16", *SMALL])
+    assert not (tmp_path / "o").exists()
+    check_precision_on("fp32", torch.device("cuda"))  # float32 runs anywhere; bf16 on a CPU too (slow if emulated)
+    check_precision_on("bf16", torch.device("cpu"))

@@ -33,7 +33,7 @@ from ..models.checkpoint import members_of, read_config
 from ..models.nomad import check_prediction_type
 from ..policies.loader import resolve_device
 from .adopt import expert_source
-from .choices import check_compile_mode, check_precision
+from .choices import check_compile_mode, check_precision, check_precision_on
 
 log = logging.getLogger(__name__)
 
@@ -58,6 +58,7 @@ def preflight(cfg: Mapping) -> tuple[torch.device, dict | None, dict, list[dict]
         device = resolve_device(cfg["device"])
         name = resolve_size(cfg["model"])["name"]  # validates model.size
         check_settings(cfg)
+        check_precision_on(cfg["train"]["precision"], device)
         check_datasets(cfg)
         check_out_dir(cfg, name)
         record = data_embodiment(cfg)
