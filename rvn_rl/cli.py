@@ -65,7 +65,7 @@ def _main(cfg: DictConfig) -> None:
     entered_task()
     try:
         settings = settings_of(cfg)
-        with validating():  # every settings rule before torch loads (~2 s): bad input is answered at once
+        with validating():  # every settings rule before torch loads (benchmarks/cli_start.py)
             settings.validate(world_size_from_env())
     except ConfigError as err:
         fail("rvn-rl", err)

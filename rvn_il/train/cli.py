@@ -25,7 +25,7 @@ from .settings import register_schema
 register_schema()
 
 def _run(cfg: DictConfig, record: bool = False) -> Path:
-    from .trainer import run_training  # torch and the trainer (~2.5 s) after the override check: a typo answers at once
+    from .trainer import run_training  # torch with it, after the override check (benchmarks/cli_start.py)
 
     container = OmegaConf.to_container(cfg, resolve=True)
     container.pop("hydra", None)
