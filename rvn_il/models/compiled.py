@@ -19,9 +19,11 @@ of the plain model; random draws are torch's, so losses agree with the plain fp3
 rounding (same test file).
 
 Compiled kernels are cached under the cache root (`rvn_data.cache_root.keep_compiled_kernels`):
-the first run compiles (NoMaD full: about 3 minutes, 170 s, on the 2-core development machine), later runs load
-(benchmarks/decision.py's compiled NoMaD full decisions, from the process's start to 40 timed decisions: 166 s with an
-empty cache, 17 s with the first run's; 32.6-32.9 ms a decision either way, the plain path ~42 ms).
+the first run compiles (NoMaD full: 170 s on the 2-core development machine on 2026-11-28, 356 and 409 s on
+2026-11-29, where inductor's own Python (lowering, scheduling, code generation) took ~300 s and waiting for its C++
+compile processes ~50), later runs load (benchmarks/decision.py's compiled NoMaD full decisions, from the process's
+start to 40 timed decisions: 166 s with an empty cache, 17 s with the first run's; 32.6-32.9 ms a decision either way,
+the plain path ~42 ms; on 2026-11-29, 36.5-37.3 against 48.2-50.1 ms, 31 s from start with the cache).
 """
 from __future__ import annotations
 
