@@ -1,7 +1,8 @@
 """Per-decision latency on CPU (and, for node.py's rows, a GPU) of the point-goal policies (issues 15, 32): one
 ``act`` of ViNT, NoMaD (8 samples x 10 steps) and NoMaD-Neg (2 x 8), NoMaD's beside its reference sampling path
 (``predict(fast=False)``: module forward and diffusers' ``DDPMScheduler.step``) or, compiled, beside the plain fast
-path; one frame through each encoder's inference form; what ``policy.depth_veto`` adds to a forward decision.
+path; a NoMaD decision's parts (:func:`decision_parts`); one frame through each encoder's inference form; what
+``policy.depth_veto`` adds to a forward decision.
 ``benchmarks/train.py`` prints these figures after its training ones (``--latency-only``: these alone); node.py's
 decision rows and its ``--warm`` jobs call :func:`decision_ms`.
 
@@ -134,6 +135,53 @@ def encoder_ms(name: str, size: str, reps: int = 60) -> tuple[float, float]:
         return in_turns(lambda: model.encode_frames(frame, fast=True), lambda: model.encode_frames(frame), reps, 5)
 
 
+def decision_parts(size: str, reps: int = 20) -> dict[str, float]:
+    """Where a plain NoMaD-PointGoal decision's time goes on this thread (issue 32: what bounds the CPU figure): median
+    ms of its parts as :meth:`NoMaDPointGoal.predict`'s fast path runs them, each timed alone over the same inputs
+    (``encoder``: one frame; ``condition``: the Transformer's condition and every step's FiLM biases; ``denoise``:
+    the 8 samples' denoising steps with their updates), and, from torch.profiler over one ``denoise``, the share of
+    its operator time in matrix products (``matmul_share``) and their rate (``matmul_gflops``, from the profiler's
+    FLOP counts). A decision is about the three parts' sum plus the action adapter."""
+    from torch.profiler import ProfilerActivity, profile
+
+    from rvn_il.models.sampling_plan import draw_noise
+
+    torch.manual_seed(0)
+    model = build_model(load_model_config("nomad_pointgoal", size)).eval()
+    w, h = model.image_size
+    g = torch.Generator().manual_seed(0)
+    frame = torch.rand(1, 3, h, w, generator=g)
+    tokens = torch.randn(1, model.context_size + 1, model.encoding_size, generator=g)
+    goal, samples = torch.tensor([[4.0, 1.0]]), 8
+    with torch.inference_mode():
+        packed = model.noise_pred_net.packed_weights()
+        part_t = model.plan_film_part(packed)
+        x, noise = draw_noise(model._plan(), (samples, model.len_traj_pred, 2), g, torch.device("cpu"))
+        biases = model.step_biases(tokens, goal, None, samples, packed, part_t)
+        parts = {"encoder": lambda: model.encode_frames(frame, fast=True),
+                 "condition": lambda: model.step_biases(tokens, goal, None, samples, packed, part_t),
+                 "denoise": lambda: model.denoise_packed(x, noise, biases, packed)}
+        out = {}
+        for name, fn in parts.items():
+            times = []
+            for k in range(reps + 3):
+                t = time.perf_counter()
+                fn()
+                if k >= 3:
+                    times.append(1e3 * (time.perf_counter() - t))
+            out[name] = statistics.median(times)
+        with profile(activities=[ProfilerActivity.CPU], with_flops=True) as prof:
+            parts["denoise"]()
+    events = [e for e in prof.key_averages() if e.self_cpu_time_total > 0]
+    total = sum(e.self_cpu_time_total for e in events)
+    mm = [e for e in events if e.key in ("aten::addmm", "aten::mm", "aten::bmm")]
+    mm_us = sum(e.self_cpu_time_total for e in mm)
+    out["matmul_share"] = mm_us / total
+    out["matmul_gflops"] = sum(e.flops for e in mm) / (mm_us * 1e3)
+    out["steps"] = len(model._plan())
+    return out
+
+
 def veto_check_ms(size: str, veto: DepthVeto, reps: int = 200) -> float:
     """Median ms that ``policy.depth_veto`` adds to a MOVE_FORWARD decision of NoMaD-PointGoal: the depth
     head on the current frame's token (already encoded by the policy) and the rule on its grid."""
@@ -164,6 +212,13 @@ def latency_figures(reps: int, policy_threads: int | None, threads: int, sampler
                 compiled, plain = decision_ms(name, size, reps * 2, policy_threads, sampler, compile=True)
                 print(f"  {name:16s} {size:5s} {'  policy.compile=true':26s}: {compiled:7.1f} ms; plain path "
                       f"{plain:7.1f} ms, x{plain / compiled:.2f}")
+    for size in ("full", "small"):
+        with intra_op_threads(policy_threads):
+            parts = decision_parts(size, reps * 4)
+        print(f"  {'nomad_pointgoal':16s} {size:5s} {'its parts':26s}: frame encoder {parts['encoder']:.1f} ms, condition "
+              f"and FiLM biases {parts['condition']:.1f}, {parts['steps']} denoising steps {parts['denoise']:.1f} "
+              f"(in torch.profiler: matrix products {100 * parts['matmul_share']:.0f} % of their operator time, at "
+              f"{parts['matmul_gflops']:.0f} GFLOP/s)")
     for name in ("vint_pointgoal", "nomad_pointgoal"):
         for size in ("full", "small"):
             with intra_op_threads(policy_threads):
