@@ -141,7 +141,7 @@ def decision_parts(size: str, reps: int = 20) -> dict[str, float]:
     (``encoder``: one frame; ``condition``: the Transformer's condition and every step's FiLM biases; ``denoise``:
     the 8 samples' denoising steps with their updates), and, from torch.profiler over one ``denoise``, the share of
     its operator time in matrix products (``matmul_share``) and their rate (``matmul_gflops``, from the profiler's
-    FLOP counts). A decision is about the three parts' sum plus the action adapter."""
+    FLOP counts). A decision is about the three parts' sum plus the frame's preprocessing and the action adapter."""
     from torch.profiler import ProfilerActivity, profile
 
     from rvn_il.models.sampling_plan import draw_noise
