@@ -111,17 +111,17 @@ def decision_ms(name: str, size: str, decisions: int, threads: int | None = 1,
     return ms[0], ms[1] if len(ms) > 1 else None
 
 
-def in_turns(first, second, reps: int, warm: int) -> tuple[float, float]:
-    """Median ms of ``first()`` and of ``second()``, called in turns ``reps`` times each after ``warm`` untimed turns,
-    so that both see the same load over time."""
-    times: tuple[list, list] = ([], [])
+def in_turns(*fns, reps: int, warm: int) -> tuple[float, ...]:
+    """Median ms of each of ``fns``, called in turns ``reps`` times each after ``warm`` untimed turns, so that all
+    see the same load over time."""
+    times: tuple[list, ...] = tuple([] for _ in fns)
     for k in range(warm + reps):
-        for fn, ts in zip((first, second), times):
+        for fn, ts in zip(fns, times):
             t = time.perf_counter()
             fn()
             if k >= warm:
                 ts.append(1e3 * (time.perf_counter() - t))
-    return statistics.median(times[0]), statistics.median(times[1])
+    return tuple(statistics.median(ts) for ts in times)
 
 
 def encoder_ms(name: str, size: str, reps: int = 60) -> tuple[float, float]:
@@ -132,16 +132,18 @@ def encoder_ms(name: str, size: str, reps: int = 60) -> tuple[float, float]:
     w, h = model.image_size
     frame = torch.rand(1, 3, h, w, generator=torch.Generator().manual_seed(0))
     with torch.inference_mode():
-        return in_turns(lambda: model.encode_frames(frame, fast=True), lambda: model.encode_frames(frame), reps, 5)
+        return in_turns(lambda: model.encode_frames(frame, fast=True), lambda: model.encode_frames(frame),
+                        reps=reps, warm=5)
 
 
 def decision_parts(size: str, reps: int = 20) -> dict[str, float]:
     """Where a plain NoMaD-PointGoal decision's time goes on this thread (issue 32: what bounds the CPU figure): median
-    ms of its parts as :meth:`NoMaDPointGoal.predict`'s fast path runs them, each timed alone over the same inputs
-    (``encoder``: one frame; ``condition``: the Transformer's condition and every step's FiLM biases; ``denoise``:
-    the 8 samples' denoising steps with their updates), and, from torch.profiler over one ``denoise``, the share of
-    its operator time in matrix products (``matmul_share``) and their rate (``matmul_gflops``, from the profiler's
-    FLOP counts). A decision is about the three parts' sum plus the frame's preprocessing and the action adapter."""
+    ms of its parts as :meth:`NoMaDPointGoal.predict`'s fast path runs them, timed in turns over the same inputs
+    (:func:`in_turns`; ``encoder``: one frame; ``condition``: the Transformer's condition and every step's FiLM
+    biases; ``denoise``: the 8 samples' denoising steps with their updates), and, from torch.profiler over one
+    ``denoise``, the share of its operator time in matrix products (``matmul_share``) and their rate
+    (``matmul_gflops``, from the profiler's FLOP counts). A decision is about the three parts' sum plus the frame's
+    preprocessing and the action adapter."""
     from torch.profiler import ProfilerActivity, profile
 
     from rvn_il.models.sampling_plan import draw_noise
@@ -161,15 +163,7 @@ def decision_parts(size: str, reps: int = 20) -> dict[str, float]:
         parts = {"encoder": lambda: model.encode_frames(frame, fast=True),
                  "condition": lambda: model.step_biases(tokens, goal, None, samples, packed, part_t),
                  "denoise": lambda: model.denoise_packed(x, noise, biases, packed)}
-        out = {}
-        for name, fn in parts.items():
-            times = []
-            for k in range(reps + 3):
-                t = time.perf_counter()
-                fn()
-                if k >= 3:
-                    times.append(1e3 * (time.perf_counter() - t))
-            out[name] = statistics.median(times)
+        out = dict(zip(parts, in_turns(*parts.values(), reps=reps, warm=3)))
         with profile(activities=[ProfilerActivity.CPU], with_flops=True) as prof:
             parts["denoise"]()
     events = [e for e in prof.key_averages() if e.self_cpu_time_total > 0]

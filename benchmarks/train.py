@@ -203,7 +203,7 @@ def ema_ms(reps: int) -> tuple[float, float]:
                 old.shadow[k].copy_(v)
         torch._foreach_lerp_(floats_s, floats_m, 1.0 - d)
 
-    return in_turns(lambda: ema.update(model), by_state_dict, reps, 1)
+    return in_turns(lambda: ema.update(model), by_state_dict, reps=reps, warm=1)
 
 
 def main() -> None:
