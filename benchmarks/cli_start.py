@@ -19,10 +19,10 @@ import subprocess
 import sys
 import tempfile
 import time
+import tomllib
 from pathlib import Path
 
-MODULES = {"rvn-gen": "rvn_data.gen.cli", "rvn-eval": "rvn_data.benchmark.cli", "rvn-train": "rvn_il.train.cli",
-           "rvn-rl": "rvn_rl.cli"}
+SCRIPTS = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml").read_text())["project"]["scripts"]
 CASES = [  # (command, what is wrong, the override)
     ("rvn-gen", "typo", "trajectories_per_scen=4"),
     ("rvn-eval", "typo", "episodes.per_scen=4"),
@@ -36,7 +36,7 @@ CHILD = ("import sys, runpy\nif {baseline}:\n    import torch\nsys.argv = sys.ar
 
 def answer_s(command: str, override: str, out_dir: Path, baseline: bool) -> float:
     """Seconds until the command exits; asserts it answered with status 2, one line naming the setting."""
-    code = CHILD.format(baseline=baseline, module=MODULES[command])
+    code = CHILD.format(baseline=baseline, module=SCRIPTS[command].split(":")[0])  # the console script's module
     key = override.split("=", 1)[0]
     t0 = time.perf_counter()
     proc = subprocess.run([sys.executable, "-c", code, command, f"out_dir={out_dir}", override], capture_output=True,
