@@ -24,6 +24,10 @@ the first run compiles (NoMaD full: 170 s on the 2-core development machine on 2
 compile processes ~50), later runs load (benchmarks/decision.py's compiled NoMaD full decisions, from the process's
 start to 40 timed decisions: 166 s with an empty cache, 17 s with the first run's; 32.6-32.9 ms a decision either way,
 the plain path ~42 ms; on 2026-11-29, 36.5-37.3 against 48.2-50.1 ms, 31 s from start with the cache).
+Most of that Python is the C++ kernels' code generation, node by node (NoMaD small's denoising graph: ~1,560 nodes,
+its vector tiling analysis in sympy the largest part). Inductor's settings do not shorten it at no cost there:
+``cpp.enable_tiling_heuristics=False`` 134 against 138 s (8.3 against 7.7 ms a call), scalar kernels
+(``cpp.vec_isa_ok=False``) 91 s but 27 ms a call (2026-11-29).
 """
 from __future__ import annotations
 
