@@ -13,6 +13,10 @@ import torch
 from safetensors.torch import load_file
 
 from rvn_il.data.synthetic import render_frame, write_synthetic_gnm
+from rvn_il.models import build_model, load_model_config
+from rvn_il.models.compiled import compile_for_inference
+from rvn_il.models.graph_calls import STRUCTURES, KeyedCall, as_buffers, register_structure
+from rvn_il.models.sampling_plan import draw_noise
 from rvn_il.policies import load_policy
 
 pytestmark = pytest.mark.slow  # torch.compile builds its kernels: about two minutes on one core
@@ -84,6 +88,77 @@ def test_compiled_policy_acts_as_the_plain_one(runs, tmp_path, monkeypatch):
     with pytest.raises(ValueError, match=r"policy.compile='yes': give true or false"):
         load_policy(runs / "plain", compile="yes")
 
+
+def tiny_nomad(seed: int, down_dims: list[int]) -> torch.nn.Module:
+    """A NoMaD-PointGoal network like the runs' (FEWER_LAYERS, 2 denoising steps), with its own weights."""
+    cfg = load_model_config("nomad_pointgoal", "small")
+    cfg.update(num_layers=1, down_dims=down_dims, depth_coefficient=0.3, num_diffusion_iters=2)
+    torch.manual_seed(seed)
+    return build_model(cfg).eval()
+
+
+def test_compiled_networks_of_other_structures_share_no_graph(tmp_path, monkeypatch):
+    """policy.compile on a CPU compiles the encoder and one denoising step as graphs that check only their inputs'
+    guards and a structure number (rvn_il.models.compiled.KeyedCall): networks of the same structure share them, each
+    with its own weights, and one of another U-Net gets graphs of its own. Each gives its own network's plain outputs.
+    (After the policy test, the first two networks reuse its graphs: same structure.)"""
+    from torch._dynamo.utils import counters
+
+    monkeypatch.setenv("TORCHINDUCTOR_CACHE_DIR", str(tmp_path / "kernels"))
+    nets = [tiny_nomad(0, [32, 64]), tiny_nomad(1, [32, 64]), tiny_nomad(0, [16, 32])]
+    g = torch.Generator().manual_seed(0)
+    frames = torch.rand(4, 1, 3, 64, 64, generator=g)  # one at a time, as a policy encodes them
+    x, noise = draw_noise(nets[0]._plan(), (8, 8, 2), g, torch.device("cpu"))
+    goal = torch.tensor([[3.0, 1.0]])
+    results, graphs = [], []
+    with torch.inference_mode():
+        for net in nets:
+            compile_for_inference(net, "cpu")
+            graphs.append(counters["stats"]["unique_graphs"])
+            tokens = torch.cat([net.frame_encoder(frame) for frame in frames])
+            torch.testing.assert_close(tokens, net.obs_encoder.forward_packed(frames[:, 0]), rtol=0, atol=1e-4)
+            tokens = tokens.unsqueeze(0)
+            results.append(net.sampling_graph(tokens, goal, None, x, noise))
+            torch.testing.assert_close(results[-1], net.sample_packed(tokens, goal, None, x, noise), rtol=0, atol=1e-4)
+    a, b, c = (net.sampling_graph.structure for net in nets)
+    assert a == b != c and len({net.frame_encoder.structure for net in nets}) == 1
+    assert not torch.allclose(results[0], results[1])  # the same graphs, each network's own weights
+    assert graphs[1] == graphs[2] < counters["stats"]["unique_graphs"]  # the second compiled nothing, the third did
+
+
+def test_keyed_call_checks_its_inputs_and_structure_not_its_weights(tmp_path, monkeypatch):
+    """KeyedCall on a small function: the same structure with other weights reuses the graph and reads those weights
+    (also after an in-place change); another structure or another input shape compiles anew."""
+    from torch._dynamo.utils import counters
+
+    monkeypatch.setenv("TORCHINDUCTOR_CACHE_DIR", str(tmp_path / "kernels"))
+
+    def scaled(structure, weights, x):
+        _, scale = STRUCTURES[structure]
+        return torch.relu(x @ weights.packed_0) * scale
+
+    def holder(seed: int, n: int = 4):
+        return as_buffers({"w": torch.randn(n, n, generator=torch.Generator().manual_seed(seed))})
+
+    call = KeyedCall(scaled, torch.device("cpu"))
+    (wa, la), (wb, lb), (wc, lc) = holder(0), holder(1), holder(2, 3)
+    sa, sb = register_structure((2.0,), wa, la), register_structure((2.0,), wb, lb)
+    s3, sc = register_structure((3.0,), wa, la), register_structure((2.0,), wc, lc)
+    assert sa == sb and len({sa, s3, sc}) == 3
+    x = torch.rand(2, 4)
+    graphs = counters["stats"]["unique_graphs"]
+
+    def check(structure, weights, x, scale, compiled: int):
+        torch.testing.assert_close(call(structure, weights, x), torch.relu(x @ weights.packed_0) * scale)
+        assert counters["stats"]["unique_graphs"] - graphs == compiled
+
+    check(sa, wa, x, 2.0, 1)
+    check(sb, wb, x, 2.0, 1)  # the same structure: the same graph, wb's weights
+    wb.packed_0.mul_(-1)
+    check(sb, wb, x, 2.0, 1)
+    check(s3, wa, x, 3.0, 2)  # the scale is part of the structure
+    check(sa, wa, torch.rand(5, 4), 2.0, 3)  # the input's shape is guarded
+    check(sc, wc, torch.rand(2, 3), 2.0, 4)
 
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="CUDA graphs need a GPU (run on a GPU node: issue 32)")
 def test_reduce_overhead_training_on_cuda_gives_the_plain_losses_and_checkpoint(tmp_path):

@@ -11,7 +11,7 @@ import torch
 from rvn_data.conventions import AgentConfig
 from rvn_il.models import build_model, load_model_config
 from rvn_il.models.nomad import PREDICTION_TYPES, SAMPLERS
-from rvn_il.models.sampling_plan import NoiseSchedule, ddim_plan, ddpm_plan
+from rvn_il.models.sampling_plan import NoiseSchedule, coefficient_update, ddim_plan, ddpm_plan, plan_coefficients
 from rvn_il.policies import ControlConfig, Member, PointGoalPolicy
 
 torch.set_num_threads(1)
@@ -68,6 +68,25 @@ def test_ddim_plan_matches_diffusers_step(prediction_type):
             xb = step.update(model.noise_pred_net(xb, step.t, cond), xb, gb)
             torch.testing.assert_close(xb, xa, rtol=0, atol=0)
     assert torch.equal(ga.get_state(), torch.Generator().manual_seed(3).get_state())  # eta 0: no draws
+
+
+@pytest.mark.parametrize("prediction_type", PREDICTION_TYPES)
+@pytest.mark.parametrize("make_plan", [ddpm_plan, ddim_plan])
+@pytest.mark.parametrize("clip", [1.0, None])
+def test_coefficient_update_is_the_steps_update(make_plan, prediction_type, clip):
+    """The compiled CPU sampler's update (one graph for every step: the step's numbers a row of a tensor, the noise
+    always added, zeros where a DDPM step draws none) gives each plan step's own update, the same floats."""
+    plan = make_plan(NoiseSchedule(100, prediction_type, clip), 10)
+    rows = plan_coefficients(plan)
+    assert rows.shape == (10, 5) and rows.dtype == torch.float32
+    g = torch.Generator().manual_seed(0)
+    x = torch.randn(8, 8, 2, generator=g)
+    for step, row in zip(plan, rows):
+        out, noise = torch.randn(8, 8, 2, generator=g), torch.randn(8, 8, 2, generator=g)
+        given = noise if step.std else torch.zeros_like(x)
+        ours = coefficient_update(plan[0], row, out, x, given)  # the plan's first step: kind, prediction type, clip
+        assert torch.equal(ours, step.update(out, x, noise=noise)), step
+        x = ours
 
 
 @pytest.mark.parametrize("num_train, num_steps", [(10, 10), (2, 2), (16, 16), (100, 100), (100, 10), (10, 3)])

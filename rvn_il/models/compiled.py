@@ -2,10 +2,11 @@
 ``train.compile`` for rvn-train's step, both off by default.
 
 Inference (:func:`compile_for_inference`): torch.compile (inductor) of the per-frame image encoder (on a CPU its
-inference form, :class:`PackedEncoder`) and, for NoMaD, of the whole sampling after it (:meth:`NoMaDPointGoal.sample_packed`: the context
-Transformer's condition, the FiLM biases and all denoising steps with their updates, unrolled: see
-:class:`PackedSampler`), each with fixed shapes, so a decision is three compiled calls on a CPU and
-two CUDA graphs on a GPU. On a CPU inductor fuses the many small
+inference form, :class:`PackedEncoder`) and, for NoMaD, of the sampling after it
+(:meth:`NoMaDPointGoal.sample_packed`: the context Transformer's condition and the FiLM biases, then the denoising
+steps with their updates: see :class:`PackedSampler`), each with fixed shapes: on a CPU the encoder, the condition and
+one denoising step are graphs (the step's called once a step), on a GPU a decision is two CUDA graphs (the encoder; the
+whole sampling, its steps unrolled). On a CPU inductor fuses the many small
 operations of a one-frame / eight-sample decision into C++ kernels; on CUDA the mode is
 ``reduce-overhead``, which replays each compiled call as one CUDA graph, so a decision is no longer
 bound by launching a few thousand small kernels. The noise is drawn before the sampling call
@@ -18,50 +19,30 @@ the decoder (U-Net or ViNT's MLP) in place, so parameter names, checkpoints and 
 of the plain model; random draws are torch's, so losses agree with the plain fp32 step to float
 rounding (same test file).
 
-Compiled kernels are cached under the cache root (`rvn_data.cache_root.keep_compiled_kernels`):
-the first run compiles (NoMaD full: 170 s on the 2-core development machine on 2026-11-28, 356 and 409 s on
-2026-11-29, where inductor's own Python (lowering, scheduling, code generation) took ~300 s and waiting for its C++
-compile processes ~50), later runs load (benchmarks/decision.py's compiled NoMaD full decisions, from the process's
-start to 40 timed decisions: 166 s with an empty cache, 17 s with the first run's; 32.6-32.9 ms a decision either way,
-the plain path ~42 ms; on 2026-11-29, 36.5-37.3 against 48.2-50.1 ms, 31 s from start with the cache).
-Most of that Python is the C++ kernels' code generation, node by node (NoMaD small's denoising graph: ~1,560 nodes,
-its vector tiling analysis in sympy the largest part). Inductor's settings do not shorten it at no cost there:
-``cpp.enable_tiling_heuristics=False`` 134 against 138 s (8.3 against 7.7 ms a call), scalar kernels
-(``cpp.vec_isa_ok=False``) 91 s but 27 ms a call (2026-11-29).
+Compiled kernels are cached under the cache root (`rvn_data.cache_root.keep_compiled_kernels`): the first run
+compiles, later runs load. A CPU's first compile is mostly inductor's own Python, above all the C++ kernels' code
+generation node by node (its vector tiling analysis in sympy the largest part), so it grows with the graphs' nodes;
+inductor's settings do not shorten it at no cost (``cpp.enable_tiling_heuristics=False``: 134 against 138 s for NoMaD
+small's ten unrolled steps; scalar kernels, ``cpp.vec_isa_ok=False``: 91 s but 27 against 7.7 ms a call). One
+denoising step's graph instead of ten unrolled (:class:`PackedSampler`, 2026-12-01): NoMaD full's first decision, cold
+cache, one thread of the 2-core development machine (an Intel Xeon that day), 107 s against 241 s (the encoder's graph
+included), at the same speed a decision after it (in turns: 37.1, 31.9, 44.2 against 37.1, 31.5, 42.5 ms);
+``benchmarks/node.py --rows decision --compile on`` from a cold cache: 132 s for its three rows, compiled 34.2 ms
+against 40.6 plain.
 """
 from __future__ import annotations
 
 import os
-from typing import Callable
 
 import torch
 from torch import nn
 
-from rvn_data.cache_root import cache_root, keep_compiled_kernels, kernels_placed
-
 from ..train.choices import COMPILE_MODES
-
-
-class CompiledCall:
-    """``fn`` compiled for fixed shapes; on CUDA as CUDA graphs (``reduce-overhead``), whose output
-    buffers are reused by the next replay, so the output is cloned there before it is returned (a
-    policy keeps encoder tokens across decisions). Where the kernels are cached is settled at the first call,
-    which compiles: a command (rvn-eval) places them under its cache root after its checks, once the policy
-    is built."""
-
-    def __init__(self, fn: Callable, device: torch.device):
-        self.cuda = torch.device(device).type == "cuda"
-        self.fn = torch.compile(fn, dynamic=False, mode="reduce-overhead" if self.cuda else None)
-        self.called = False
-
-    def __call__(self, *args):
-        if not self.called:
-            _kernel_cache()
-            self.called = True
-        if not self.cuda:
-            return self.fn(*args)
-        torch.compiler.cudagraph_mark_step_begin()
-        return self.fn(*args).clone()
+from .encoder_packed import encode_packed
+from .graph_calls import (STRUCTURES, CompiledCall, KeyedCall, as_buffers, from_buffers, place_kernel_cache,
+                          register_structure)
+from .sampling_plan import coefficient_update, plan_coefficients
+from .unet1d import unet_packed
 
 
 def check_compile(value: object, setting: str) -> bool:
@@ -69,12 +50,6 @@ def check_compile(value: object, setting: str) -> bool:
     if not isinstance(value, bool):
         raise ValueError(f"{setting}={value!r}: give true or false")
     return value
-
-
-def _kernel_cache() -> None:
-    """Inductor's kernel cache under RVN's cache root, unless a command already put it somewhere."""
-    if not kernels_placed():
-        keep_compiled_kernels(cache_root())
 
 
 def compile_for_inference(model: torch.nn.Module, device: torch.device | str) -> torch.nn.Module:
@@ -98,43 +73,43 @@ class PackedEncoder:
     :class:`PackedSampler`'s; built from the encoder's current weights."""
 
     def __init__(self, encoder: nn.Module, device: torch.device):
-        from .encoder_packed import encode_packed
-
-        self.weights, self.layout = _as_buffers(encoder.packed_weights())
-        self.call = CompiledCall(lambda images: encode_packed(_from_buffers(self.weights, self.layout), images), device)
+        self.weights, self.layout = as_buffers(encoder.packed_weights())
+        self.structure = register_structure(("encode_packed",), self.weights, self.layout)
+        self.call = KeyedCall(_encode, device)
 
     def __call__(self, images: torch.Tensor) -> torch.Tensor:
-        return self.call(images)
+        return self.call(self.structure, self.weights, images)
+
+
+def _encode(structure: int, weights: nn.Module, images: torch.Tensor) -> torch.Tensor:
+    """:class:`PackedEncoder`'s graph (a :class:`KeyedCall`)."""
+    layout, _ = STRUCTURES[structure]
+    return encode_packed(from_buffers(weights, layout), images)
 
 
 class PackedSampler:
     """:meth:`NoMaDPointGoal.sample_packed` compiled: :meth:`NoMaDPointGoal.step_biases` (the condition
-    and every step's FiLM biases), then :meth:`NoMaDPointGoal.denoise_packed` (every step and its
-    update, unrolled).
+    and every step's FiLM biases), then the denoising steps and their updates.
 
     - The U-Net's repacked weights and the plan's FiLM timestep part are held as buffers, so that
-      torch.compile sees them as a module's constants (guards and CUDA graphs treat them as fixed
-      addresses) rather than as a nested dict of inputs to check at every call.
-    - On a CPU the two parts are two compiled calls, and the biases enter the denoising graph as
-      inputs, one tensor per step and block, so that every step's U-Net compiles to the same C++
-      kernels. In one graph each step got kernels of its own, indexed into one tensor of all steps:
-      157 kernels instead of 52 and 236 s of compiling instead of 172 (NoMaD small, 2-core development CPU).
-    - On CUDA they are one call, one CUDA graph a decision, with four inputs to copy in (and more
-      kernels to compile): as two graphs, each of the 150 bias tensors would be copied into the
-      second graph's inputs.
-    - All steps in one graph against one graph per step called ten times (its step's numbers given as a
-      tensor), NoMaD full on one CPU core, same process: 36.7 ms against 40.3 ms a decision (plain
-      55.9), for about two minutes more compiling, once per cache root. Measured again on 2026-11-29: the denoising
-      steps compiled in 142 s as one graph and in 42 s as one step's (its weights one flat buffer), but the ten calls
-      took 4.4-4.6 ms more a decision, timed in turns: each call checks its guards first (1,185 for one step, 0.36 ms).
-    - What a compiled call checks before its kernels (NoMaD full, one thread of the development CPU): ~4,700 guards
-      over a decision's three calls, 0.55-0.6 ms a call. The weights' and biases' tensors (125 buffers a part, 120
-      bias inputs) cost the most: the layout's numbers as constants of generated code removed 2,500 guards but only
-      ~0.1 ms a call; one flat weight buffer and one bias table, 0.25 ms a call, but a kernel per offset (162
-      instead of 46 for the denoising steps) and a first compile of 290 s instead of 193. Left as it is.
+      torch.compile sees them as a module's tensors rather than as a nested dict of inputs.
+    - On a CPU the condition is one compiled call and every denoising step another call of one graph
+      (:func:`_denoise_step`, a :class:`KeyedCall`): the step's coefficients (:func:`plan_coefficients`), noise and
+      FiLM biases are its inputs. NoMaD full, cold cache, one thread of the 2-core development CPU (2026-12-01): the
+      first decision 107 s against 241 s with the ten steps unrolled in one graph, the same ms a decision after it.
+      With every guard checked (1,185 a step, 0.36 ms) and the kernels' size checks, the ten calls had cost 4.4-4.6 ms
+      more a decision than one unrolled graph (2026-11-29), which this sampler used from 2026-11-27 to 2026-12-01.
+    - The biases enter the steps as inputs, one tensor per block, so that every step runs the same C++ kernels (indexed
+      into one tensor of all steps, each step got kernels of its own: 157 instead of 52, NoMaD small).
+    - On CUDA it is one call, one CUDA graph a decision (:meth:`NoMaDPointGoal.denoise_packed`'s steps unrolled), with
+      four inputs to copy in: as two graphs, each of the 150 bias tensors would be copied into the second's inputs.
+    - Guards: checking them took 0.55-0.6 ms a call with ~4,700 over a decision (2026-11-29), most for the weights and
+      biases; the layout's numbers as constants of generated code removed 2,500 of them for ~0.1 ms a call, one flat
+      weight buffer cost a kernel per offset (162 instead of 46) and a longer first compile. A :class:`KeyedCall`
+      checks only its inputs' and a structure number's.
 
-    Built from the model's current weights: compile after loading them. Not a module itself, so that
-    the model can hold it (as ``sampling_graph``) without becoming its own child."""
+    Built from the model's current weights and sampling plan (``model.sampler``): compile after setting them. Not a
+    module itself, so that the model can hold it (as ``sampling_graph``) without becoming its own child."""
 
     def __init__(self, model: torch.nn.Module, device: torch.device):
         self.model = model
@@ -142,7 +117,7 @@ class PackedSampler:
             packed = model.noise_pred_net.packed_weights()
             part_t = model.plan_film_part(packed)
         # not film_timestep_part's cache (tuple keys)
-        self.weights, self.layout = _as_buffers({k: v for k, v in packed.items() if isinstance(k, str)})
+        self.weights, self.layout = as_buffers({k: v for k, v in packed.items() if isinstance(k, str)})
         self.weights.register_buffer("part_t", part_t, persistent=False)
         if device.type == "cuda":  # the weights stay where they are: CUDA graphs need not copy them in
             from torch._dynamo import mark_static_address
@@ -150,11 +125,15 @@ class PackedSampler:
             for t in self.weights.buffers():
                 mark_static_address(t)
             self.whole = CompiledCall(self._whole, device)
-        else:
-            self.biases, self.denoise, self.whole = CompiledCall(self._biases, device), CompiledCall(self._denoise, device), None
+            return
+        self.biases, self.step, self.whole = CompiledCall(self._biases, device), KeyedCall(_denoise_step, device), None
+        self.plan = model._plan()
+        self.rows = [row.clone() for row in plan_coefficients(self.plan)]  # each its own tensor, as the graph's input
+        # what the graph reads of the plan: its kind (DDPM, DDIM), prediction type and clipping, the same for every step
+        self.structure = register_structure((self.plan[0],), self.weights, self.layout)
 
     def _packed(self) -> dict:
-        return _from_buffers(self.weights, self.layout)
+        return from_buffers(self.weights, self.layout)
 
     def _biases(self, tokens: torch.Tensor, goal: torch.Tensor, goal_mask: torch.Tensor | None, rows: int):
         return self.model.step_biases(tokens, goal, goal_mask, rows, self._packed(), self.weights.part_t)
@@ -171,53 +150,29 @@ class PackedSampler:
         """:meth:`NoMaDPointGoal.sample_packed`'s result for the same inputs, to float rounding."""
         if self.whole is not None:
             return self.whole(tokens, goal, goal_mask, x, noise)
-        return self.denoise(x, noise, self.biases(tokens, goal, goal_mask, x.shape[0]))
+        x, noise = _in_this_mode(x), _in_this_mode(noise)  # as the steps' outputs and zeros: one graph, not two
+        k, none = 0, None
+        for row, step, biases in zip(self.rows, self.plan, self.biases(tokens, goal, goal_mask, x.shape[0])):
+            if step.std:
+                drawn, k = noise[k], k + 1
+            else:
+                drawn = none = torch.zeros_like(x) if none is None else none
+            x = self.step(self.structure, self.weights, x, drawn, row, biases)
+        return x
 
 
-def _as_buffers(tree) -> tuple[nn.Module, object]:
-    """A module holding ``tree``'s tensors as its buffers, and ``tree``'s layout (:func:`_flatten`), so that
-    torch.compile sees packed weights as a module's constants, not as a nested dict of inputs to guard at every call."""
-    weights, flat = nn.Module(), []
-    layout = _flatten(tree, flat)
-    for i, t in enumerate(flat):
-        weights.register_buffer(f"packed_{i}", t, persistent=False)
-    return weights, layout
+def _in_this_mode(t: torch.Tensor) -> torch.Tensor:
+    """``t``, copied where it is not of the current mode's kind (an inference tensor inside ``torch.inference_mode``, a
+    normal one outside): dynamo guards the kind, and the steps' own tensors are of that mode."""
+    return t.clone() if t.is_inference() != torch.is_inference_mode_enabled() else t
 
 
-def _from_buffers(weights: nn.Module, layout):
-    """The tree :func:`_as_buffers` took apart, from the module's buffers."""
-    return _unflatten(layout, lambda i: getattr(weights, f"packed_{i}"))
-
-
-def _flatten(tree, flat: list[torch.Tensor]):
-    """``tree`` (dicts, lists, tuples of tensors and plain values) with each tensor replaced by its
-    index in ``flat``, where it is appended."""
-    if isinstance(tree, torch.Tensor):
-        flat.append(tree)
-        return _Slot(len(flat) - 1)
-    if isinstance(tree, dict):
-        return {k: _flatten(v, flat) for k, v in tree.items()}
-    if isinstance(tree, (list, tuple)):
-        return type(tree)(_flatten(v, flat) for v in tree)
-    return tree
-
-
-def _unflatten(tree, tensor: Callable[[int], torch.Tensor]):
-    """The inverse of :func:`_flatten`: each slot replaced by ``tensor(index)``."""
-    if isinstance(tree, _Slot):
-        return tensor(tree.index)
-    if isinstance(tree, dict):
-        return {k: _unflatten(v, tensor) for k, v in tree.items()}
-    if isinstance(tree, (list, tuple)):
-        return type(tree)(_unflatten(v, tensor) for v in tree)
-    return tree
-
-
-class _Slot:
-    """A tensor's place in a flattened tree."""
-
-    def __init__(self, index: int):
-        self.index = index
+def _denoise_step(structure: int, weights: nn.Module, x: torch.Tensor, noise: torch.Tensor, row: torch.Tensor,
+                  biases: list[torch.Tensor]) -> torch.Tensor:
+    """One denoising step of :class:`PackedSampler` on a CPU (a :class:`KeyedCall`): the packed U-Net with the step's
+    FiLM ``biases``, then its update with its coefficients ``row`` and ``noise`` (:func:`coefficient_update`)."""
+    layout, step = STRUCTURES[structure]
+    return coefficient_update(step, row, unet_packed(from_buffers(weights, layout), x, biases), x, noise)
 
 
 def compile_for_training(model: torch.nn.Module, mode: str = "default") -> torch.nn.Module:
@@ -235,7 +190,7 @@ def compile_for_training(model: torch.nn.Module, mode: str = "default") -> torch
 
     if mode not in COMPILE_MODES:
         raise ValueError(f"compile mode {mode!r}: choose one of {', '.join(COMPILE_MODES)}")
-    _kernel_cache()
+    place_kernel_cache()
     config.fallback_random = True
     _share_compile_pool(config)
     for name in ("obs_encoder", "transformer", "noise_pred_net", "decoder"):

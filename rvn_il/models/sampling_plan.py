@@ -63,12 +63,7 @@ class DDPMStep(NamedTuple):
         """x_{t-1} from the model output ``out`` and x_t, in the operation order of
         ``DDPMScheduler.step`` (so the floats match it); the step's ``noise`` is drawn from
         ``generator`` as that draws it unless given (:func:`draw_noise` drew it before the loop)."""
-        if self.kind == "epsilon":
-            x0 = (x - self.sqrt_b * out) / self.sqrt_a
-        elif self.kind == "sample":
-            x0 = out
-        else:  # v_prediction
-            x0 = self.sqrt_a * x - self.sqrt_b * out
+        x0 = predicted_x0(self.kind, self.sqrt_a, self.sqrt_b, out, x)
         if self.clip is not None:
             x0 = x0.clamp(-self.clip, self.clip)
         prev = self.c_x0 * x0 + self.c_xt * x
@@ -77,6 +72,48 @@ class DDPMStep(NamedTuple):
                 noise = step_noise(out.shape, generator, out.device, out.dtype)
             prev = prev + self.std * noise
         return prev
+
+
+def predicted_x0(kind: str, sqrt_a, sqrt_b, out: torch.Tensor, x: torch.Tensor) -> torch.Tensor:
+    """x0 predicted from the model output ``out`` at x_t (unclipped), for the prediction type ``kind``;
+    ``sqrt_a`` = √ᾱ_t and ``sqrt_b`` = √(1-ᾱ_t) as Python floats or 0-d tensors."""
+    if kind == "epsilon":
+        return (x - sqrt_b * out) / sqrt_a
+    if kind == "sample":
+        return out
+    return sqrt_a * x - sqrt_b * out  # v_prediction
+
+
+def predicted_eps(kind: str, sqrt_a, sqrt_b, out: torch.Tensor, x: torch.Tensor, x0: torch.Tensor) -> torch.Tensor:
+    """The noise ε predicted from ``out`` at x_t, given the unclipped ``x0`` (:func:`predicted_x0`)."""
+    if kind == "epsilon":
+        return out
+    if kind == "sample":
+        return (x - sqrt_a * x0) / sqrt_b
+    return sqrt_a * out + sqrt_b * x  # v_prediction
+
+
+def plan_coefficients(plan: list) -> torch.Tensor:
+    """Every step's numbers as rows [S, 5] float32 for :func:`coefficient_update`: √ᾱ_t, √(1-ᾱ_t), then
+    ``c_x0``, ``c_xt``, ``std`` (DDPM) or ``c_x0``, ``c_eps``, 0 (DDIM); exact, as the plans' floats are float32 values."""
+    return torch.tensor([[s.sqrt_a, s.sqrt_b, s.c_x0, s.c_eps if isinstance(s, DDIMStep) else s.c_xt, s.std]
+                         for s in plan], dtype=torch.float32)
+
+
+def coefficient_update(step, coeffs: torch.Tensor, out: torch.Tensor, x: torch.Tensor,
+                       noise: torch.Tensor) -> torch.Tensor:
+    """``step.update(out, x, noise=noise)`` with the step's numbers read from ``coeffs`` (its row of
+    :func:`plan_coefficients`), the same operations in the same order, and ``noise`` always added, times the row's
+    ``std`` (give zeros where a DDPM step draws none; DDIM ignores it), so that one compiled graph serves every step of
+    a plan (rvn_il.models.compiled). ``step`` gives the prediction type, the clipping and the kind of plan only."""
+    sqrt_a, sqrt_b, c_x0, c_1, std = coeffs.unbind()
+    x0 = predicted_x0(step.kind, sqrt_a, sqrt_b, out, x)
+    eps = predicted_eps(step.kind, sqrt_a, sqrt_b, out, x, x0) if isinstance(step, DDIMStep) else None
+    if step.clip is not None:
+        x0 = x0.clamp(-step.clip, step.clip)
+    if eps is not None:
+        return c_x0 * x0 + c_1 * eps
+    return c_x0 * x0 + c_1 * x + std * noise
 
 
 def step_noise(shape: tuple, generator: torch.Generator | None, device: torch.device,
@@ -132,14 +169,8 @@ class DDIMStep(NamedTuple):
                noise: torch.Tensor | None = None) -> torch.Tensor:
         """x_{t-1} from the model output ``out`` and x_t, in the operation order of
         ``DDIMScheduler.step`` (ε from the unclipped x0, as its default ``use_clipped_model_output=False``)."""
-        if self.kind == "epsilon":
-            x0, eps = (x - self.sqrt_b * out) / self.sqrt_a, out
-        elif self.kind == "sample":
-            x0 = out
-            eps = (x - self.sqrt_a * x0) / self.sqrt_b
-        else:  # v_prediction
-            x0 = self.sqrt_a * x - self.sqrt_b * out
-            eps = self.sqrt_a * out + self.sqrt_b * x
+        x0 = predicted_x0(self.kind, self.sqrt_a, self.sqrt_b, out, x)
+        eps = predicted_eps(self.kind, self.sqrt_a, self.sqrt_b, out, x, x0)
         if self.clip is not None:
             x0 = x0.clamp(-self.clip, self.clip)
         return self.c_x0 * x0 + self.c_eps * eps

@@ -228,24 +228,29 @@ class ConditionalUnet1D(nn.Module):
                        packed: dict | None = None) -> torch.Tensor:
         """``forward(sample, biases=biases)`` for inference (no autograd), each convolution as one
         matrix product over the rows [B·horizon, C]; ``packed``: :meth:`packed_weights`."""
-        packed = self.packed_weights() if packed is None else packed
-        it = iter(biases)
+        return unet_packed(self.packed_weights() if packed is None else packed, sample, biases)
 
-        def res_block(x: torch.Tensor, blk: tuple) -> torch.Tensor:
-            c0, g0, c1, g1, res = blk
-            h = _norm_act(_conv_rows(x, c0), g0).add_(next(it).transpose(1, 2))  # rows [B,T,C]; the bias [B,C,1] as [B,1,C]
-            h = _norm_act(_conv_rows(h, c1), g1)
-            return h.add_(x if res is None else _conv_rows(x, res))
 
-        x, skips = sample, []
-        for blk1, blk2, down in packed["down"]:
-            x = res_block(res_block(x, blk1), blk2)
-            skips.append(x)
-            x = x if down is None else _conv_rows(x, down)
-        for blk in packed["mid"]:
-            x = res_block(x, blk)
-        for blk1, blk2, up in packed["up"]:
-            x = res_block(res_block(torch.cat([x, skips.pop()], dim=-1), blk1), blk2)
-            x = _conv_transpose_rows(x, up)
-        conv, norm, out = packed["final"]
-        return _conv_rows(_norm_act(_conv_rows(x, conv), norm), out)
+def unet_packed(packed: dict, sample: torch.Tensor, biases: list[torch.Tensor]) -> torch.Tensor:
+    """:meth:`ConditionalUnet1D.forward_packed` of the weights ``packed`` (:meth:`ConditionalUnet1D.packed_weights`)
+    alone, so that a compiled step (rvn_il.models.compiled) reads nothing of the module."""
+    it = iter(biases)
+
+    def res_block(x: torch.Tensor, blk: tuple) -> torch.Tensor:
+        c0, g0, c1, g1, res = blk
+        h = _norm_act(_conv_rows(x, c0), g0).add_(next(it).transpose(1, 2))  # rows [B,T,C]; the bias [B,C,1] as [B,1,C]
+        h = _norm_act(_conv_rows(h, c1), g1)
+        return h.add_(x if res is None else _conv_rows(x, res))
+
+    x, skips = sample, []
+    for blk1, blk2, down in packed["down"]:
+        x = res_block(res_block(x, blk1), blk2)
+        skips.append(x)
+        x = x if down is None else _conv_rows(x, down)
+    for blk in packed["mid"]:
+        x = res_block(x, blk)
+    for blk1, blk2, up in packed["up"]:
+        x = res_block(res_block(torch.cat([x, skips.pop()], dim=-1), blk1), blk2)
+        x = _conv_transpose_rows(x, up)
+    conv, norm, out = packed["final"]
+    return _conv_rows(_norm_act(_conv_rows(x, conv), norm), out)
