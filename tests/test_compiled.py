@@ -160,6 +160,29 @@ def test_keyed_call_checks_its_inputs_and_structure_not_its_weights(tmp_path, mo
     check(sa, wa, torch.rand(5, 4), 2.0, 3)  # the input's shape is guarded
     check(sc, wc, torch.rand(2, 3), 2.0, 4)
 
+
+def test_keyed_call_without_guard_filters_checks_every_guard(tmp_path, monkeypatch):
+    """On a torch before guard_filter_fn (2.8) a KeyedCall compiles with every guard: the same results, and a change
+    that only the dropped guards would see (the structure's entry, a global) compiles anew."""
+    import rvn_il.models.graph_calls as graph_calls
+
+    monkeypatch.setenv("TORCHINDUCTOR_CACHE_DIR", str(tmp_path / "kernels"))
+    monkeypatch.setattr(graph_calls, "GUARD_FILTER", False)
+    weights, layout = as_buffers({"w": torch.randn(4, 4, generator=torch.Generator().manual_seed(0))})
+    structure = register_structure((0.5,), weights, layout)
+
+    def halved(structure, weights, x):
+        return torch.relu(x @ weights.packed_0) * STRUCTURES[structure][1]
+
+    call = KeyedCall(halved, torch.device("cpu"))
+    x = torch.rand(3, 4)
+    torch.testing.assert_close(call(structure, weights, x), torch.relu(x @ weights.packed_0) * 0.5)
+    STRUCTURES[structure] = (layout, 0.25)  # what the filter leaves unchecked (a global) is checked: compiled anew
+    try:
+        torch.testing.assert_close(call(structure, weights, x), torch.relu(x @ weights.packed_0) * 0.25)
+    finally:
+        STRUCTURES[structure] = (layout, 0.5)
+
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="CUDA graphs need a GPU (run on a GPU node: issue 32)")
 def test_reduce_overhead_training_on_cuda_gives_the_plain_losses_and_checkpoint(tmp_path):
     """train.compile_mode=reduce-overhead on a GPU: each compiled part's forward and backward replays as a CUDA

@@ -59,8 +59,22 @@ class KeyedCall(CompiledCall):
         names = [n for n in inspect.signature(fn).parameters if n != "weights"]
 
         def own_guards(entries) -> list[bool]:
-            return [not e.is_global and (e.name == "" or re.match(r"\w*", e.name).group(0) in names) for e in entries]
-        super().__init__(fn, device, {"guard_filter_fn": own_guards})
+            return [_kept(e, names) for e in entries]
+        super().__init__(fn, device, {"guard_filter_fn": own_guards} if GUARD_FILTER else None)
+
+
+# torch.compile's guard_filter_fn came with torch 2.8 (as these helpers did); before it a KeyedCall checks every guard
+GUARD_FILTER = hasattr(torch.compiler, "skip_guard_on_globals_unsafe")
+
+
+def _kept(entry, names: list[str]) -> bool:
+    """Whether a KeyedCall keeps the guard ``entry``: torch's global state ("" names) and its own arguments' guards
+    (names rooted in one of ``names``), not globals; any guard that does not read as torch 2.13's entries do is kept
+    (torch gives no compatibility promise for them)."""
+    name, is_global = getattr(entry, "name", None), getattr(entry, "is_global", None)
+    if not isinstance(name, str) or not isinstance(is_global, bool):
+        return True
+    return not is_global and (name == "" or re.match(r"\w*", name).group(0) in names)
 
 
 STRUCTURES: dict[int, tuple] = {}  # what a KeyedCall's graph holds fixed, by its structure number
