@@ -151,12 +151,9 @@ class PackedSampler:
         if self.whole is not None:
             return self.whole(tokens, goal, goal_mask, x, noise)
         x, noise = _in_this_mode(x), _in_this_mode(noise)  # as the steps' outputs and zeros: one graph, not two
-        k, none = 0, None
+        k, zeros = 0, torch.zeros_like(x)  # the noise of a step that draws none (DDPM's last, every DDIM step)
         for row, step, biases in zip(self.rows, self.plan, self.biases(tokens, goal, goal_mask, x.shape[0])):
-            if step.std:
-                drawn, k = noise[k], k + 1
-            else:
-                drawn = none = torch.zeros_like(x) if none is None else none
+            drawn, k = (noise[k], k + 1) if step.std else (zeros, k)
             x = self.step(self.structure, self.weights, x, drawn, row, biases)
         return x
 

@@ -40,6 +40,10 @@ class CompiledCall:
         return self.fn(*args).clone()
 
 
+# torch.compile's guard_filter_fn came with torch 2.8 (as these helpers did); before it a KeyedCall checks every guard
+GUARD_FILTER = hasattr(torch.compiler, "skip_guard_on_globals_unsafe")
+
+
 class KeyedCall(CompiledCall):
     """``fn(structure, weights, *inputs)`` compiled on a CPU, checking at each call only the guards of its own
     arguments but ``weights`` (the inputs' shapes and strides, the number ``structure``) and torch's global state.
@@ -63,10 +67,6 @@ class KeyedCall(CompiledCall):
         super().__init__(fn, device, {"guard_filter_fn": own_guards} if GUARD_FILTER else None)
 
 
-# torch.compile's guard_filter_fn came with torch 2.8 (as these helpers did); before it a KeyedCall checks every guard
-GUARD_FILTER = hasattr(torch.compiler, "skip_guard_on_globals_unsafe")
-
-
 def _kept(entry, names: list[str]) -> bool:
     """Whether a KeyedCall keeps the guard ``entry``: torch's global state ("" names) and its own arguments' guards
     (names rooted in one of ``names``), not globals; any guard that does not read as torch 2.13's entries do is kept
@@ -87,23 +87,12 @@ def register_structure(static: tuple, weights: nn.Module, layout) -> int:
     and of every weight's shape, stride and dtype, the next free number where another structure has it;
     ``STRUCTURES[number]`` is then ``(layout, *static)``."""
     shapes = tuple((tuple(t.shape), t.stride(), str(t.dtype), t.device.type) for t in weights.buffers())
-    description = repr((_describe(layout), static, shapes))
+    description = repr((layout, static, shapes))  # a layout's repr is its plain values and slots
     number = zlib.crc32(description.encode())
     while _DESCRIPTIONS.setdefault(number, description) != description:
         number += 1
     STRUCTURES[number] = (layout, *static)
     return number
-
-
-def _describe(tree):
-    """``tree`` (a layout) as plain values, its slots as ("slot", index): the same for the same layout in any process."""
-    if isinstance(tree, _Slot):
-        return "slot", tree.index
-    if isinstance(tree, dict):
-        return tuple((k, _describe(v)) for k, v in tree.items())
-    if isinstance(tree, (list, tuple)):
-        return type(tree).__name__, tuple(_describe(v) for v in tree)
-    return tree
 
 
 def place_kernel_cache() -> None:
@@ -156,3 +145,6 @@ class _Slot:
 
     def __init__(self, index: int):
         self.index = index
+
+    def __repr__(self) -> str:  # the same in any process (register_structure describes layouts by their repr)
+        return f"_Slot({self.index})"
