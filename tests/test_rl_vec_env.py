@@ -170,7 +170,8 @@ def test_prefetched_scenes_give_the_same_episodes(monkeypatch):
 
 def test_a_prepared_scene_takes_the_pool_this_process_keeps(tmp_path, monkeypatch):
     """`CachedSceneEnv._prepare` has its helper process make a scene's goal pool only when this process keeps none:
-    the same pool either way (its goals and draws), kept by the process after."""
+    the same pool either way (its goals and draws), kept by the process after. Its navmesh comes with its geodesic
+    graph built either way (the first goal draw's, which the env's own thread had built when the pool was kept)."""
     from rvn_data.benchmark.episodes_source import pool_key
     from rvn_data.benchmark.goal_pool import cached_pool
     from rvn_data.helper_process import HelperProcess
@@ -185,6 +186,7 @@ def test_a_prepared_scene_takes_the_pool_this_process_keeps(tmp_path, monkeypatc
         kept = cached_pool(pool_key(env.config, env._slots[pos]))
         again = env._prepare(pos)
         assert sent[-2:] == [True, False] and kept is not None
+        assert made.navmesh._graph is not None and again.navmesh._graph is not None
         assert again.goal_sampler(env.config).stack is kept.stack is made.goal_sampler(env.config).stack
         rng = np.random.default_rng(0)
         start = made.navmesh.sample(rng, island=0)

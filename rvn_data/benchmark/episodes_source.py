@@ -193,10 +193,14 @@ class SceneSlot:
     @classmethod
     def prepared_parts(cls, config: EnvConfig, slot: tuple[str, int], with_pool: bool) -> tuple:
         """(scene, navmesh, goal pool or None) of a slot, as `load` and `goal_sampler` make them: what rvn-rl's scene
-        prefetch has a helper process prepare (`rvn_data.helper_process`) and send back; the pool only ``with_pool``."""
+        prefetch has a helper process prepare (`rvn_data.helper_process`) and send back; the pool only ``with_pool``.
+        The navmesh comes with its geodesic graph built (5-10 MB more to send, ~2 ms to read back), which a pool's
+        solves make and the env's first goal draw needs: where this process keeps the pool (``with_pool`` false), the
+        env's own thread built it at that draw, 26-110 ms a procedural scene in the middle of a batched step."""
         from rvn_data.benchmark.goal_pool import GoalPool
 
         scene, navmesh = cls.scene_and_navmesh(config, slot)
+        navmesh._ensure_graph()
         pool = None
         if with_pool:
             pool = GoalPool.build(navmesh, config.goal_pool, config.split_code, slot[1], config.pool_folder())
