@@ -37,8 +37,8 @@ def rl_rows(plan) -> Iterator[dict]:
     Every row but one runs over one cache root that holds the scenes' built navmeshes and goal pools
     (`fill_scene_caches`, before the rows): what a long run sees after its first pass over its scenes, since both are
     kept on disk (`rvn_data.navmesh.disk_cache`, `rvn_data.benchmark.pool_cache`). ``rl_envs_first_pass`` times the
-    envs alone over an empty root (each scene's navmesh built and pool solved at its first visit, as every row of the
-    first three GPU runs did)."""
+    envs alone over an empty root (each scene's navmesh built and pool solved and smoothed at its first visit, as every
+    row of the first three GPU runs did, the smoothing since 2026-12-02)."""
     small = dict(size=plan.rl_size, backbone="resnet18", num_steps=plan.rl_num_steps, ppo_epoch=4,
                  mini_batches=min(4, plan.rl_envs))
     paper = dict(size=plan.rl_paper_size, backbone="resnet50", num_steps=2 * plan.rl_num_steps, ppo_epoch=2,
@@ -163,9 +163,9 @@ def _rl_envs_row(plan, settings: dict, workers: int | None = None, prefetch: boo
     of ``with_pool``, the rate with the recipe's pool of 64, to its own): two Dijkstra solves a goal instead of the pool's
     64 at each scene a worker has not kept (on the 2-core development CPU, 200 scenes: ~500 env steps/s against ~410
     with the pool and prefetch). ``first_pass`` (row ``rl_envs_first_pass``, naming the ratio of ``kept_caches``, the
-    rate over the kept caches, to its own): over an empty cache root, each scene's navmesh built and pool solved at its
-    first visit. The settings give each batched step's median, 90th and 99th percentile and slowest: vectorised envs
-    step together, so an env whose scene switch waits holds up the batch, in the tail."""
+    rate over the kept caches, to its own): over an empty cache root, each scene's navmesh built and pool solved and
+    smoothed at its first visit. The settings give each batched step's median, 90th and 99th percentile and slowest:
+    vectorised envs step together, so an env whose scene switch waits holds up the batch, in the tail."""
     import rl as rl_bench
     from rvn_rl.cli import compose
 
@@ -184,8 +184,8 @@ def _rl_envs_row(plan, settings: dict, workers: int | None = None, prefetch: boo
     ratio = "" if with_prefetch is None else f"; with env.prefetch_scenes (rl_envs): x{with_prefetch / rate:.2f} this"
     ratio += "" if with_pool is None else f"; with the goal pool of 64 (rl_envs): x{with_pool / rate:.2f} this"
     ratio += "" if kept_caches is None else f"; over the kept caches (rl_envs): x{kept_caches / rate:.2f} this"
-    caches = ("over an empty cache root (each scene's navmesh built and pool solved at its first visit)" if first_pass
-              else plan.rl_filled)
+    caches = ("over an empty cache root (each scene's navmesh built and pool solved and smoothed at its first visit)"
+              if first_pass else plan.rl_filled)
     return row(5, "rl_envs" + ("" if workers is None else f"_{workers}") + ("" if prefetch else "_no_prefetch")
                + ("" if goal_pool else "_fresh_goals") + ("_first_pass" if first_pass else ""),
                f"rvn-rl envs alone, scale=small's envs ({'cuda' if plan.cuda else 'cpu'})"

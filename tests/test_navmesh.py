@@ -249,11 +249,12 @@ def test_field_read_at_points_equals_the_whole_field():
     assert depth > 256 and field.distance(b) == _whole_field(nm, a).distance(b) == pytest.approx(19.4, abs=0.05)
 
 
-def test_field_sets_solve_together_and_pickle_without_their_smoothing_state():
+def test_field_sets_solve_together_smoothed_whole_and_pickle_with_their_values():
     """`FieldTrees` (a goal pool's fields, their solves in one call) holds the fields of `distance_field(goal,
-    keep=False)` one by one (trees, snapped goals; inf for a goal with no graph node). Pickled (a helper process sends
-    pools so), it leaves out its smoothing state, which lookups fill again: the same distances, before and after reads,
-    with each field's tree on its rows of the stack again."""
+    keep=False)` one by one (trees, snapped goals; inf for a goal with no graph node), smoothed whole: the distances
+    each field gives smoothed where it is read, bit for bit, and no read smooths again. Pickled (a helper process
+    sends pools so) with its values but not the rest of the smoothing state: the same distances. With
+    ``smooth=False`` lookups smooth where they read, as a single field does, and it pickles without values."""
     import pickle
 
     from rvn_data.navmesh.field_sets import FieldTrees, fields_distance
@@ -264,21 +265,30 @@ def test_field_sets_solve_together_and_pickle_without_their_smoothing_state():
     one_by_one = [nm.distance_field(g, keep=False) for g in goals]
     assert one_by_one[-1].tree is None and one_by_one[0].tree is not None
     stack = FieldTrees(nm, goals, dtype=np.float64)  # float64 values, as a field of its own
+    lazy = FieldTrees(nm, goals, dtype=np.float64, smooth=False)
     assert np.array_equal(stack.goals, [f.goal for f in one_by_one])
     for tree, ref in zip(stack.trees, one_by_one[:-1]):
         assert np.array_equal(tree.pred, ref.tree.pred) and tree.pred.dtype == ref.tree.pred.dtype
         assert (tree.root, tree.grid) == (ref.tree.root, ref.tree.grid)
     assert (stack.trees[-1].pred == -1).all() and stack.trees[-1].root == -1
+    reached = (stack.pred >= 0) | (np.arange(stack.pred.shape[1]) == stack.roots[:, None])
+    assert np.isfinite(stack.out[reached]).all() and np.isinf(stack.out[~reached]).all()
+    assert np.isinf(lazy.out).all()
     points = [nm.sample(rng) for _ in range(6)]
-    fresh = pickle.loads(pickle.dumps(stack))
-    for p in points[:3]:  # read before pickling: the smoothing state is left behind, refilled where read
-        assert np.array_equal(fields_distance(nm, stack, p), [f.distance(p) for f in one_by_one])
-        assert fields_distance(nm, stack, p)[-1] == np.inf
-    again = pickle.loads(pickle.dumps(stack))
-    assert len(pickle.dumps(stack)) < stack.pred.nbytes + 4096 < stack.nbytes  # the predecessors and the goals
-    for copy in (fresh, again):
-        assert copy.values.dtype == np.float64 and np.isinf(copy.out).all() and (copy.parent == -1).all()
+    fresh, done = pickle.loads(pickle.dumps(stack)), stack.out.copy()
+    for p in points[:3]:
+        for s in (stack, lazy):
+            assert np.array_equal(fields_distance(nm, s, p), [f.distance(p) for f in one_by_one])
+            assert fields_distance(nm, s, p)[-1] == np.inf
+    assert np.array_equal(stack.out, done)  # nothing smoothed at the reads
+    read = np.isfinite(lazy.out)
+    assert 0 < read.sum() < reached.sum() and np.array_equal(lazy.values[read], stack.values[read])
+    assert len(pickle.dumps(stack)) < stack.pred.nbytes + stack.values.nbytes + 4096 < stack.nbytes
+    assert len(pickle.dumps(lazy)) < lazy.pred.nbytes + 4096  # the predecessors and the goals
+    for copy in (fresh, pickle.loads(pickle.dumps(lazy))):
+        assert copy.values.dtype == np.float64 and (copy.parent == -1).all()
         assert all(np.shares_memory(t.out, copy.out) and np.shares_memory(t.pred, copy.pred) for t in copy.trees)
         for p in points:
             assert np.array_equal(fields_distance(nm, copy, p), [f.distance(p) for f in one_by_one])
         assert [t.grid for t in copy.trees] == [t.grid for t in stack.trees]
+    assert np.array_equal(fresh.values, stack.values) and np.array_equal(np.isfinite(fresh.out), reached)

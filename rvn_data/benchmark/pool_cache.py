@@ -6,9 +6,11 @@ stepped x1.33 faster with `env.prefetch_scenes`, x1.98 without (benchmarks/scene
 and the nodes of a cluster that share a root solve each scene's pool once between them.
 
 A file is ``<scene>-<key>.npz``: the pool's arrays (`FieldTrees`' pickled state: goals, their graph nodes and
-cells, the predecessors) and a JSON record (`FORMAT`). The predecessors are stored as each node's offset to its
-predecessor (0 for none: a node is never its own predecessor) beside the roots' and unreached nodes' markers, which
-compress to ~0.3-0.5 MB for 64 goals against 3-4 MB raw; reading one back takes ~20-27 ms. The key hashes
+cells, the predecessors, the smoothed float32 values) and a JSON record (`FORMAT`). The predecessors are stored as
+each node's offset to its predecessor (0 for none: a node is never its own predecessor) beside the roots' and
+unreached nodes' markers, which compress to ~0.3-0.5 MB for 64 goals against 3-4 MB raw; the values byte by byte
+(each value's first bytes, then its second, ...: 28 % smaller compressed than as floats), ~2-3.5 MB for 64 goals on a
+procedural apartment (3.4-6.3 MB raw), so a cache root holds ~2.5-4 MB a train scene. The key hashes
 everything a pool depends on: the navmesh's content (`navmesh_digest`: its layers, links and settings, whether built
 or read from a file), the pool's size, split code and scene index (its goals' seed), the navmesh package's and this
 module's sources and numpy's and scipy's versions.
@@ -34,7 +36,7 @@ from rvn_data.cache_root import cached_file
 from rvn_data.navmesh import disk_cache
 from rvn_data.navmesh.field_sets import FieldTrees
 
-FORMAT = "rvn-goal-pool/1"
+FORMAT = "rvn-goal-pool/2"  # /2: with the smoothed values
 
 
 @lru_cache(maxsize=1)
@@ -68,9 +70,13 @@ def file_key(navmesh, size: int, split_code: int, scene_index: int) -> str:
 
 
 def to_bytes(stack: FieldTrees, key: str) -> bytes:
-    """The .npz bytes of a pool's fields: their pickled state, the predecessors as offsets, and a JSON record."""
+    """The .npz bytes of a pool's fields: their pickled state, the predecessors as offsets, the values byte by byte,
+    and a JSON record."""
     state = stack.__getstate__()
-    pred = state.pop("pred")
+    if not state.get("smoothed"):
+        raise ValueError("a pool's file holds fields smoothed whole (FieldTrees(..., smooth=True))")
+    pred, values = state.pop("pred"), state.pop("values")
+    state["value_bytes"] = np.ascontiguousarray(np.moveaxis(values.view(np.uint8).reshape(values.shape + (-1,)), -1, 0))
     node = np.arange(pred.shape[1], dtype=pred.dtype)
     offsets = np.where(pred >= 0, pred - node, 0).astype(pred.dtype)  # never 0 for a predecessor
     arrays = {k: v for k, v in state.items() if isinstance(v, np.ndarray)}
@@ -93,6 +99,11 @@ def from_file(path: Path, key: str) -> FieldTrees:
         raise ValueError(f"its predecessor arrays disagree: {offsets.dtype}{offsets.shape}, {none.dtype}{none.shape}")
     node = np.arange(offsets.shape[1], dtype=offsets.dtype)
     state["pred"] = np.where(offsets != 0, offsets + node, none).astype(offsets.dtype, copy=False)
+    planes = state.pop("value_bytes")
+    dtype = np.dtype(record["scalars"]["dtype"])
+    if planes.shape != (dtype.itemsize, *offsets.shape) or planes.dtype != np.uint8:
+        raise ValueError(f"its values disagree with its predecessors: {planes.dtype}{planes.shape}")
+    state["values"] = np.ascontiguousarray(np.moveaxis(planes, 0, -1)).view(dtype)[..., 0]
     stack = FieldTrees.__new__(FieldTrees)
     stack.__setstate__({**state, **record["scalars"]})
     return stack

@@ -1,12 +1,19 @@
 """Many geodesic fields of one scene at once: a goal pool's (`rvn_data.benchmark.goal_pool`).
 
 - `FieldTrees(navmesh, goals)`: the fields of ``navmesh.distance_field(goal, keep=False)`` for every goal, their
-  Dijkstra solves in one call, their trees stacked row by row; pickled without their smoothing state (which lookups
-  fill again where they read), so that a helper process that builds a pool sends a few MB
-  (`rvn_data.helper_process`);
+  Dijkstra solves in one call, their trees stacked row by row, and smoothed whole (`smooth_trees`: every node the tree
+  reaches), so that reads smooth nothing; pickled with their values but without the rest of the smoothing state (a
+  helper process that builds or reads back a pool sends the predecessors and values: `rvn_data.helper_process`);
 - `fields_distance(navmesh, trees, p)`: every field's distance at points in one call, so that a goal draw (every pool
   field's distance at a start) costs one kernel call instead of one lookup per field (benchmarks/goal_pool.py). The
   same values as field by field, bit for bit (tests/test_env.py).
+
+Why whole: a field smoothed where it is read (as a single field is, `rvn_data.navmesh.geodesic.FieldTree`) gets the
+same values, but a read at a new start smooths that start's tree chain in every field: 5.7-9 ms a goal draw on
+average and up to ~35 ms in an RL env's first draws in a scene (2-core development CPU, 64 goals), in the middle of a
+batched step that every other env then waits for. A pool is built once per cache root and read back after
+(`rvn_data.benchmark.pool_cache`), so its smoothing is paid there once too (1.4-1.9 s for 64 goals on a 13.7k-node
+procedural apartment, up to ~4 s at 25k nodes), and a draw is a lookup (0.09-0.14 ms, benchmarks/goal_pool.py).
 """
 from __future__ import annotations
 
@@ -20,15 +27,16 @@ from rvn_data.navmesh.navmesh import MAX_Y_DELTA
 
 class FieldTrees:
     """The geodesic fields of several goals of one scene (a goal pool's), their trees stacked row by row and read
-    together by `fields_distance`; ``trees`` holds each field's `FieldTree`, working on its rows (a lookup through
-    either smooths the same state), and ``values`` each field's values in ``dtype`` (float32: a pool's).
+    together by `fields_distance`; ``trees`` holds each field's `FieldTree`, working on its rows (with ``smooth=False``
+    a lookup through either smooths the same state), and ``values`` each field's values in ``dtype`` (float32: a
+    pool's).
 
-    Each field is ``navmesh.distance_field(goal, keep=False)``'s (snapped goal, same tree; for a goal with no graph
-    node near it a tree that reaches nothing: inf everywhere), their Dijkstra solves in one call (scipy's). The
-    arrays are made whole, a few numpy calls in all."""
+    Each field is ``navmesh.distance_field(goal, keep=False)``'s (snapped goal, same tree, same values; for a goal with
+    no graph node near it a tree that reaches nothing: inf everywhere), their Dijkstra solves in one call (scipy's),
+    then every tree smoothed whole (``smooth``, the default) or left to be smoothed where lookups read it."""
 
-    def __init__(self, navmesh, goals, dtype=np.float32):
-        graph = navmesh._ensure_graph()[0]
+    def __init__(self, navmesh, goals, dtype=np.float32, smooth: bool = True):
+        graph, _, centres, cells = navmesh._ensure_graph()
         nodes, points = zip(*(navmesh._field_goal(goal) for goal in goals))
         self.goals, self.roots = np.stack(points), np.array(nodes, np.int64)
         solved = np.flatnonzero(self.roots >= 0)
@@ -39,6 +47,11 @@ class FieldTrees:
         self.gk = np.array([g[0] for g in grids], np.int64)
         self.gi, self.gj = (np.array([g[a] for g in grids], np.float64) for a in (1, 2))
         self._stack_trees(dtype)
+        self.smoothed = bool(smooth)  # False: lookups smooth where they read (benchmarks/goal_pool.py's baseline)
+        if smooth:
+            P = navmesh.packed
+            smooth_trees(self.pred, self.roots, cells, centres, P.meta, P.clearance, P.island, self.goals, self.gk,
+                         self.gi, self.gj, navmesh.settings.agent_radius - 1e-6, self.out, self.parent, self.values)
 
     def _stack_trees(self, dtype) -> None:
         """The smoothing state, none done yet (inf / -1), and each field's `FieldTree` on its rows."""
@@ -49,14 +62,21 @@ class FieldTrees:
                       zip(self.pred, self.roots, self.goals, self.gk, self.gi, self.gj, self.out, self.parent)]
 
     def __getstate__(self) -> dict:
-        """The trees without their smoothing state (3x the predecessors' bytes): lookups fill it again, the same."""
-        state = {k: v for k, v in self.__dict__.items() if k not in ("out", "parent", "values", "trees")}
+        """The trees and, smoothed whole, their values (the predecessors' bytes again for float32), without the
+        rest of the smoothing state (``out``, ``parent``: 3x the predecessors'); smoothed where read, without values
+        either: lookups fill them again, the same."""
+        drop = ("out", "parent", "trees") + (() if self.smoothed else ("values",))
+        state = {k: v for k, v in self.__dict__.items() if k not in drop}
         return {**state, "dtype": self.values.dtype.str}
 
     def __setstate__(self, state: dict) -> None:
-        dtype = np.dtype(state.pop("dtype"))
+        dtype, values = np.dtype(state.pop("dtype")), state.pop("values", None)
+        state.setdefault("smoothed", False)
         self.__dict__.update(state)
         self._stack_trees(dtype)
+        if values is not None:  # smoothed whole: a node is done where its value is finite, and no read smooths again
+            self.values[...] = values
+            self.out[...] = np.where(np.isfinite(values), values, np.inf)  # done-markers; nothing reads them as sums
 
     @property
     def nbytes(self) -> int:
@@ -74,6 +94,19 @@ def fields_distance(navmesh, trees: FieldTrees, p: np.ndarray) -> np.ndarray:
                        t.parent, t.values)
     out = navmesh._straight_near_goal(out, pts, t.goals)
     return out[:, 0] if np.ndim(p) == 1 else out
+
+
+@njit(cache=True)
+def smooth_trees(preds, roots, cells, centres, meta, clearance, island, goals, gks, gis, gjs, r, outs, parents, values):
+    """Every stacked tree (row g) smoothed at every node it reaches (`geodesic._fill_chain`): the values lookups would
+    give, read in any order."""
+    chain = np.empty(256, np.int64)
+    for g in range(preds.shape[0]):
+        pred, root = preds[g], roots[g]
+        for w in range(pred.shape[0]):
+            if outs[g, w] == np.inf and (pred[w] >= 0 or w == root):
+                chain = _fill_chain(w, chain, pred, root, cells, centres, meta, clearance, island, goals[g], gks[g],
+                                    gis[g], gjs[g], r, outs[g], parents[g], values[g])
 
 
 @njit(cache=True)
