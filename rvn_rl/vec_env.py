@@ -83,8 +83,9 @@ class CachedSceneEnv(RVNEnv):
         with_pool = bool(config.goal_pool) and cached_pool(pool_key(config, slot)) is None
         if self._helper is None:
             self._helper = HelperProcess()
-        scene, navmesh, pool = self._helper.call(SceneSlot.prepared_parts, config, slot, with_pool)
+        scene, navmesh, pool, gl_arrays = self._helper.call(SceneSlot.prepared_parts, config, slot, with_pool)
         prepared = SceneSlot.from_parts(config, slot, pos, scene, navmesh)
+        prepared.gl_arrays = gl_arrays  # the GL renderer's numpy work, done: the switch only uploads it
         if config.goal_pool:
             prepared.goal_sampler(config, pool)
         return prepared

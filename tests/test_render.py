@@ -147,6 +147,31 @@ def test_gl_renderers_in_one_process_share_one_context_and_draw_as_alone():
         b.render([0.0, 0.0, 0.0], 0.0)
 
 
+@needs_egl
+@pytest.mark.skipif(not DREAM.exists(), reason=f"{DREAM} not present")
+def test_gl_mesh_arrays_made_ahead_draw_the_same_bytes():
+    """A GL renderer given its scene's `gl.mesh_arrays` made ahead and pickled (as rvn-rl's scene prefetch has a
+    helper process make them) draws byte for byte what one that makes them itself draws: the dream apartment, a
+    procedural apartment and a room with a textured floor, RGB and depth."""
+    import pickle
+
+    from rvn_data.render import gl
+    from rvn_data.scenes.loader import load_scene
+    from rvn_data.scenes.procedural import make_apartment
+
+    cam = CameraConfig(width=48, height=40)
+    room = [([0.3, 0.0, 0.2], y) for y in np.linspace(-3.0, 3.0, 4)]
+    textured = 0
+    for scene, poses in ((load_scene(DREAM), None), (make_apartment("train", 1), None), (coloured_room(), room)):
+        arrays = pickle.loads(pickle.dumps(gl.mesh_arrays(scene)))
+        textured += any(p is not None and p[1] is not None for p in arrays.parts)
+        with make_renderer(scene, cam, "gl") as plain, make_renderer(scene, cam, "gl", gl_arrays=arrays) as ahead:
+            for pose in poses or navigable_poses(scene, 4):
+                (a, da), (b, db) = plain.render(*pose), ahead.render(*pose)
+                assert np.array_equal(a, b) and np.array_equal(da, db)
+    assert textured == 2  # the procedural apartment's and the room's textures
+
+
 def alone_frame(scene, cam, pose) -> np.ndarray:
     from rvn_data.render import gl
 

@@ -40,8 +40,9 @@ def _camera(camera) -> CameraConfig:
 
 
 def make_renderer(scene: Scene, camera: CameraConfig | Mapping | None = None, backend: str = "auto",
-                  device: int = 0) -> Renderer:
-    """A renderer for `scene`; `backend` is 'auto', 'gl' or 'raycast', `device` the EGL device."""
+                  device: int = 0, gl_arrays=None) -> Renderer:
+    """A renderer for `scene`; `backend` is 'auto', 'gl' or 'raycast', `device` the EGL device; ``gl_arrays``: the
+    scene's `gl.mesh_arrays` made ahead, which a gl renderer uploads instead of making them."""
     camera = _camera(camera)
     backend = str(backend).lower()
     if backend not in BACKENDS:
@@ -56,7 +57,7 @@ def make_renderer(scene: Scene, camera: CameraConfig | Mapping | None = None, ba
     from rvn_data.render import gl
 
     if backend == "gl":
-        return _picked(gl.GLRenderer(scene, camera, device=device), "requested backend=gl")
+        return _picked(gl.GLRenderer(scene, camera, device=device, arrays=gl_arrays), "requested backend=gl")
     try:
         ctx = gl.shared_context(device)
     except RuntimeError as e:
@@ -73,7 +74,7 @@ def make_renderer(scene: Scene, camera: CameraConfig | Mapping | None = None, ba
         return _picked(RaycastRenderer(scene, camera),
                        f"auto: software GL {name!r} only and {n} triangles > {SOFTWARE_GL_MAX_TRIANGLES}")
     try:
-        renderer = gl.GLRenderer(scene, camera, device=device, ctx=ctx)
+        renderer = gl.GLRenderer(scene, camera, device=device, ctx=ctx, arrays=gl_arrays)
     except Exception as e:  # moderngl.Error, RuntimeError: a broken GL stack
         log.warning("renderer auto: GL set-up failed (%s); falling back to the raycast back-end.", e)
         return _picked(RaycastRenderer(scene, camera), f"auto: GL set-up failed ({e}), raycast fallback")

@@ -16,12 +16,13 @@ depths differed), and moderngl has no layered depth attachment for array targets
 from __future__ import annotations
 
 import struct
+from typing import NamedTuple
 
 import numpy as np
 
 from rvn_data.render import base
 from rvn_data.render.camera import CameraConfig
-from rvn_data.render.chunks import build_chunks, order_faces, visible_runs
+from rvn_data.render.chunks import Chunks, build_chunks, order_faces, visible_runs
 from rvn_data.scenes.scene import Scene
 
 EGL_PACKAGES = "libegl1 libgl1-mesa-dri libegl-mesa0"
@@ -127,6 +128,41 @@ def renderer_name(ctx) -> str:
     return str(ctx.info.get("GL_RENDERER", "unknown"))
 
 
+class MeshArrays(NamedTuple):
+    """The CPU side of a `GLRenderer`'s build (`mesh_arrays`): per part None (no faces) or (vertex data bytes,
+    texture [H, W, 3] uint8 bottom row first or None, (base colour, texture flag) uniform bytes); the parts' faces in
+    spatial chunks for culling (`chunks.build_chunks`)."""
+
+    parts: list
+    chunks: Chunks
+
+
+def mesh_arrays(scene: Scene) -> MeshArrays:
+    """A scene's vertex data, textures and chunk spans, as a `GLRenderer` uploads them: numpy work with no GL context
+    (~9 ms of a procedural apartment's ~11 ms renderer build, 2-core development CPU), so rvn-rl's scene prefetch
+    has it made in its helper process beside the scene (`rvn_data.benchmark.episodes_source.SceneSlot`) and the
+    env's own thread only uploads it."""
+    parts, spans = [], []
+    for part in scene.parts:
+        if len(part.faces) == 0:
+            parts.append(None)
+            spans.append([])
+            continue
+        mat = base.prepare_material(scene, part)
+        faces, part_spans = order_faces(part.vertices, part.faces)
+        corners = faces.reshape(-1)
+        data = np.empty(len(corners), dtype=[("pos", "f4", 3), ("uv", "f4", 2), ("col", "u1", 4), ("shade", "f4")])
+        data["pos"] = part.vertices[corners]
+        data["uv"] = part.uv[corners] if part.uv is not None else 0.0
+        data["col"] = part.colors[corners] if part.colors is not None else 255
+        data["shade"] = np.repeat(base.face_shade(part.vertices, faces), 3)
+        texture = None if mat.texture is None else np.ascontiguousarray(mat.texture[::-1])
+        base_rgb = struct.pack("3f", *(float(c) for c in mat.base_rgb))  # the uniforms' bytes
+        parts.append((data.tobytes(), texture, (base_rgb, struct.pack("1i", texture is not None))))
+        spans.append(part_spans)
+    return MeshArrays(parts, build_chunks(spans))
+
+
 class GLRenderer(base.Renderer):
     """Rasterises the scene with OpenGL 3.3 on EGL; `info` names the GL renderer. It draws in the process's
     shared context (:func:`shared_context`) unless given ``ctx``, which it then owns; every draw sets the state
@@ -134,7 +170,9 @@ class GLRenderer(base.Renderer):
 
     backend = "gl"
 
-    def __init__(self, scene: Scene, camera: CameraConfig, device: int = 0, ctx=None) -> None:
+    def __init__(self, scene: Scene, camera: CameraConfig, device: int = 0, ctx=None,
+                 arrays: "MeshArrays | None" = None) -> None:
+        """``arrays``: the scene's `mesh_arrays`, made ahead (in a helper process or thread), else made here."""
         super().__init__(scene, camera)
         base.check_scene(scene)
         import moderngl
@@ -150,46 +188,36 @@ class GLRenderer(base.Renderer):
         self.batch_views = max(1, STAGING_BYTES // (camera.width * camera.height * 7))
         try:
             with self.ctx:  # make it current: other renderers may own other contexts
-                self._build(scene, camera)
+                self._build(scene, camera, arrays)
         except Exception:
             self.close()
             raise
 
-    def _build(self, scene: Scene, camera: CameraConfig) -> None:
+    def _build(self, scene: Scene, camera: CameraConfig, arrays: "MeshArrays | None") -> None:
         ctx, mgl = self.ctx, self._mgl
         self.prog = self._keep(ctx.program(vertex_shader=_VERTEX, fragment_shader=_FRAGMENT))
         self._set("tex", 0)
         self._uniforms = tuple(self.prog[name] for name in ("mvp", "eye", "axis", "base_rgb", "use_tex"))
         self._part_uniforms_now = None  # (base_rgb, use_tex) bytes in the program: only _draw writes them
         self._view = np.eye(4)  # _draw's view matrix: rows 0-2 rewritten per view
-        self.parts, spans = [], []
-        for part in scene.parts:
-            if len(part.faces) == 0:
+        self.parts = []
+        arrays = mesh_arrays(scene) if arrays is None else arrays
+        for part in arrays.parts:
+            if part is None:
                 self.parts.append(None)
-                spans.append([])
                 continue
-            mat = base.prepare_material(scene, part)
-            faces, part_spans = order_faces(part.vertices, part.faces)
-            corners = faces.reshape(-1)
-            data = np.empty(len(corners), dtype=[("pos", "f4", 3), ("uv", "f4", 2), ("col", "u1", 4),
-                                                 ("shade", "f4")])
-            data["pos"] = part.vertices[corners]
-            data["uv"] = part.uv[corners] if part.uv is not None else 0.0
-            data["col"] = part.colors[corners] if part.colors is not None else 255
-            data["shade"] = np.repeat(base.face_shade(part.vertices, faces), 3)
-            vbo = self._keep(ctx.buffer(data.tobytes()))
+            data, texture, uniforms = part
+            vbo = self._keep(ctx.buffer(data))
             vao = self._keep(ctx.vertex_array(
                 self.prog, [(vbo, "3f 2f 4f1 1f", "in_pos", "in_uv", "in_col", "in_shade")]))
             tex = None
-            if mat.texture is not None:
-                h, w = mat.texture.shape[:2]
-                tex = self._keep(ctx.texture((w, h), 3, np.ascontiguousarray(mat.texture[::-1]).tobytes()))
+            if texture is not None:
+                h, w = texture.shape[:2]
+                tex = self._keep(ctx.texture((w, h), 3, texture))
                 tex.filter = (mgl.NEAREST, mgl.NEAREST)
                 tex.repeat_x = tex.repeat_y = True
-            base_rgb = struct.pack("3f", *(float(c) for c in mat.base_rgb))  # the uniforms' bytes
-            self.parts.append((vao, tex, (base_rgb, struct.pack("1i", tex is not None))))
-            spans.append(part_spans)
-        self.chunks = build_chunks(spans)
+            self.parts.append((vao, tex, uniforms))
+        self.chunks = arrays.chunks
         size = (camera.width, camera.height)
         self.fbo = self._keep(ctx.framebuffer(
             color_attachments=[self._keep(ctx.renderbuffer(size, 4)),
