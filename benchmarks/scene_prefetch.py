@@ -1,6 +1,6 @@
 """Scene prefetch and kept goal pools (issue 32, RL row): env steps/s of rvn-rl's vectorised envs alone with
-``env.prefetch_scenes`` off and on, each with every scene's goal pool solved at its visit (a run's first pass over its
-scenes, and every visit before pools were kept) and read back from the cache root (a long run after its first pass),
+``env.prefetch_scenes`` off and on, each with every scene's goal pool built at its visit (solved and, since 2026-12-02,
+smoothed whole: a run's first pass over its scenes, and every visit before pools were kept) and read back from the cache root (a long run after its first pass),
 in worker processes that step together, and each batched step's time (median, 90th and 99th percentile); with
 ``--workers 0`` the envs step in this process (rvn-rl's default ``env.workers=0``).
 
@@ -12,11 +12,13 @@ helper process while it steps (`rvn_rl.vec_env.CachedSceneEnv._prepare`): the sa
 (tests/test_rl_vec_env.py), without the wait. A pool's 64 Dijkstra solves still cost the node's cores at every visit
 until pools were kept on disk (`rvn_data.benchmark.pool_cache`): read back in ~20 ms instead of ~0.3 s, the same pool.
 Short runs (``--steps`` a few hundred) also time each env's helper starting (~1 s, once a run): give ``--steps 1000``
-or more for a long run's rate.
+or more for a long run's rate. Each setting also prints what its batched steps' times predict for a node's 15 workers
+stepping together, each taking the slowest of 15 resampled times (as the first GPU run's analysis did: 45 env steps/s
+a worker predicted against the node's 28; a 2-core machine's own workers share its cores with the helpers).
 
 A first untimed run fills the cache root's navmeshes and pools of the scenes the runs visit (all runs draw the same
-scenes); then runs alternate over the four settings, those with pools solved after the root's ``goal_pools`` folder was
-emptied, so each timed run loads built navmeshes and either solves or reads its pools.
+scenes); then runs alternate over the four settings, those with pools built after the root's ``goal_pools`` folder was
+emptied, so each timed run loads built navmeshes and either builds or reads its pools.
 Run: python benchmarks/scene_prefetch.py [--workers CPUS] [--envs-per-worker 2] [--scenes 200] [--steps 200] [--rounds 2]
 """
 from __future__ import annotations
@@ -79,21 +81,23 @@ def main() -> None:
     print(f"rvn-rl envs alone: {envs} envs in {where}, {args.size}² RGB, renderer={args.renderer}, "
           f"{args.scenes} train scenes, goal pool {args.goal_pool}, random actions, {args.steps} batched steps a run, "
           f"{args.rounds} run(s) each, alternated:")
-    rate = {}
+    rate, rng = {}, np.random.default_rng(0)
     for (prefetch, kept), times in runs.items():
         t = np.concatenate(times)
         rate[prefetch, kept] = envs * len(t) / t.sum()
         q = np.percentile(t, [50, 90, 99]) * 1e3
-        print(f"  env.prefetch_scenes={str(prefetch).lower():5s} pools {'read back' if kept else 'solved':9s} "
+        lockstep = args.envs_per_worker / t[rng.integers(len(t), size=(20000, 15))].max(1).mean()
+        print(f"  env.prefetch_scenes={str(prefetch).lower():5s} pools {'read back' if kept else 'built':9s} "
               f"{rate[prefetch, kept]:7.0f} env steps/s ({rate[prefetch, kept] / processes:.0f} per process); batched "
-              f"step median {q[0]:.1f} ms, 90th {q[1]:.1f} ms, 99th {q[2]:.1f} ms, slowest {1e3 * t.max():.0f} ms")
+              f"step median {q[0]:.1f} ms, 90th {q[1]:.1f} ms, 99th {q[2]:.1f} ms, slowest {1e3 * t.max():.0f} ms; "
+              f"resampled for 15 workers stepping together: {lockstep:.0f} env steps/s a worker")
     for kept in (False, True):
-        print(f"  prefetch, pools {'read back' if kept else 'solved':9s}: x{rate[True, kept] / rate[False, kept]:.2f} "
+        print(f"  prefetch, pools {'read back' if kept else 'built':9s}: x{rate[True, kept] / rate[False, kept]:.2f} "
               "the env steps/s without it")
     for prefetch in (False, True):
         ratio = rate[prefetch, True] / rate[prefetch, False]
         print(f"  pools read back, prefetch {'on ' if prefetch else 'off'}: x{ratio:.2f} the env steps/s with them "
-              "solved at each visit")
+              "built at each visit")
 
 
 if __name__ == "__main__":
