@@ -56,3 +56,36 @@ def test_what_does_not_pickle_fails_whole_and_the_helper_goes_on(monkeypatch):
         assert helper.call(int, "7") == 7  # the same process goes on
     finally:
         helper.close()
+
+
+def big_arrays(n: int, fill: float):
+    return {"a": np.full(n, fill, np.float32), "b": np.arange(n, dtype=np.int64), "small": np.ones(3)}
+
+
+def test_large_answers_cross_in_shared_memory_and_leave_no_file(monkeypatch, tmp_path):
+    """An answer whose arrays come to `SHARED_BYTES` or more crosses in a file in the helper's shared folder, which the
+    caller reads and deletes: the same arrays, writable; smaller answers and errors come through the pipe, and so
+    does a large answer where the folder cannot be written."""
+    from pathlib import Path
+
+    import rvn_data.helper_process as hp
+
+    monkeypatch.setenv("PYTHONPATH", str(Path(__file__).parent))  # so that the helper imports this module
+    kinds = []
+    real = hp._receive
+    monkeypatch.setattr(hp, "_receive", lambda message: (kinds.append(message[0]), real(message))[1])
+    for folder in (tmp_path, tmp_path / "missing"):
+        helper = HelperProcess(shared_folder=str(folder))
+        try:
+            got = helper.call(big_arrays, 200_000, 2.5)  # 2.4 MB
+            assert np.array_equal(got["a"], np.full(200_000, 2.5, np.float32)) and got["b"][-1] == 199_999
+            assert got["a"].flags.writeable and got["small"].tolist() == [1.0, 1.0, 1.0]
+            got["a"][0] = 7.0
+            assert got["a"][0] == 7.0 and got["b"].flags.writeable
+            assert helper.call(big_arrays, 10, 1.0)["b"].tolist() == list(range(10))
+            with pytest.raises(ValueError, match="could not convert"):
+                helper.call(float, "ten")
+        finally:
+            helper.close()
+        assert list(tmp_path.glob("rvn-helper-*")) == []
+    assert kinds == ["shared", "inline", "inline", "inline", "inline", "inline"]
