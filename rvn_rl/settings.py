@@ -28,10 +28,10 @@ class EnvSettings:
     num_scenes: int | None = None  # train scenes (null = all 800)
     scene_switch_every: int = 8  # resets of an env before it draws another scene
     # train goals from a fixed pool of this many per scene (0: a fresh goal and two Dijkstra solves per draw). A pool
-    # costs one solve per goal the first time a cache root sees its scene, then ~20 ms to read back
-    # (<cache root>/goal_pools, rvn_data.benchmark.pool_cache): 2-core CPU, 2 workers x 2 envs, 200 scenes, random
-    # actions, prefetch, 3,000 batched steps: 444 env steps/s with pools solved at each visit, 594 read back
-    # (benchmarks/scene_prefetch.py)
+    # costs one solve per goal and its fields' smoothing (1.7-2.3 s for 64 on a procedural apartment) the first time a
+    # cache root sees its scene, then 50-85 ms to read back (<cache root>/goal_pools, rvn_data.benchmark.pool_cache),
+    # and a goal draw is a lookup (~0.1 ms): 2-core CPU, 2 envs in one process, 200 scenes, random actions, prefetch:
+    # 126 env steps/s with pools built at each visit, 362 read back (benchmarks/scene_prefetch.py)
     goal_pool: int = 64
     scene_cache: int = 2  # scenes each env keeps loaded besides the current one
     # each env has the scene of its next switch (navmesh, goal pool) prepared in a helper process of its own while it

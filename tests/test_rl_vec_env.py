@@ -124,20 +124,27 @@ def test_worker_processes_pass_the_same_observations_through_shared_memory():
             shared_memory.SharedMemory(name=name)
 
 
-def test_prefetched_scenes_give_the_same_episodes(monkeypatch):
+@pytest.mark.parametrize("backend", ["raycast", pytest.param("gl", marks=needs_egl)])
+def test_prefetched_scenes_give_the_same_episodes(monkeypatch, backend):
     """With env.prefetch_scenes each env draws its next scene ahead and has it prepared while it steps (scene, navmesh
-    and goal pool made in a helper process, the simulator in a thread): observations, rewards, episode records and
-    scene order equal the envs' without it, across scene switches at every reset and a reset with a seed, which starts
-    the scene stream again. A pool this process keeps is not made again."""
+    and goal pool made in a helper process, with the GL renderer's mesh arrays under gl, the simulator in a thread):
+    observations, rewards, episode records and scene order equal the envs' without it, across scene switches at every
+    reset and a reset with a seed, which starts the scene stream again. A pool this process keeps is not made
+    again."""
     import threading
 
     from rvn_data.helper_process import HelperProcess
 
+    import rvn_data.render as render
+
+    made, real_make = [], render.make_renderer  # whether each renderer came with mesh arrays made ahead
+    monkeypatch.setattr(render, "make_renderer", lambda *a, gl_arrays=None, **k: (
+        made.append(gl_arrays is not None), real_make(*a, gl_arrays=gl_arrays, **k))[1])
     threads, calls = [], []
     real_call = HelperProcess.call
     monkeypatch.setattr(HelperProcess, "call", lambda self, fn, *a: (
         threads.append(threading.current_thread().name), calls.append((self, a[-1])), real_call(self, fn, *a))[2])
-    kw = {**KW, "scenes": {"num_scenes": 6}, "scene_switch_every": 1, "goal_pool": 8}
+    kw = {**KW, "scenes": {"num_scenes": 6}, "scene_switch_every": 1, "goal_pool": 8, "renderer": {"backend": backend}}
     plain, ahead = BatchEnv(kw, 2, seed=7, prefetch=False), BatchEnv(kw, 2, seed=7)
     try:
         a, b = plain.reset(), ahead.reset()
@@ -160,6 +167,7 @@ def test_prefetched_scenes_give_the_same_episodes(monkeypatch):
         assert ended >= 6 and len({s for pair in scenes for s in pair}) >= 3
         assert sum(env.prefetched for env in ahead.envs) >= 4 and sum(env.prefetched for env in plain.envs) == 0
         assert calls and all(name.startswith("rvn-scene-prefetch") for name in threads)
+        assert (sum(made) >= 4) == (backend == "gl") and not all(made)  # the plain envs make their own
         helpers = [helper._proc for helper in {helper for helper, _ in calls}]
     finally:
         plain.close()

@@ -8,9 +8,9 @@ and the nodes of a cluster that share a root solve each scene's pool once betwee
 A file is ``<scene>-<key>.npz``: the pool's arrays (`FieldTrees`' pickled state: goals, their graph nodes and
 cells, the predecessors, the smoothed float32 values) and a JSON record (`FORMAT`). The predecessors are stored as
 each node's offset to its predecessor (0 for none: a node is never its own predecessor) beside the roots' and
-unreached nodes' markers, which compress to ~0.3-0.5 MB for 64 goals against 3-4 MB raw; the values byte by byte
-(each value's first bytes, then its second, ...: 28 % smaller compressed than as floats), ~2-3.5 MB for 64 goals on a
-procedural apartment (3.4-6.3 MB raw), so a cache root holds ~2.5-4 MB a train scene. The key hashes
+unreached nodes' markers, which compress to ~0.3-0.5 MB for 64 goals against 3-4 MB raw; the values as byte planes
+(every value's first byte, then every value's second, ...: 28 % smaller compressed than as floats), ~2-3.5 MB for 64
+goals on a procedural apartment (3.4-6.3 MB raw), so a cache root holds ~2.5-4 MB a train scene. The key hashes
 everything a pool depends on: the navmesh's content (`navmesh_digest`: its layers, links and settings, whether built
 or read from a file), the pool's size, split code and scene index (its goals' seed), the navmesh package's and this
 module's sources and numpy's and scipy's versions.
@@ -70,7 +70,7 @@ def file_key(navmesh, size: int, split_code: int, scene_index: int) -> str:
 
 
 def to_bytes(stack: FieldTrees, key: str) -> bytes:
-    """The .npz bytes of a pool's fields: their pickled state, the predecessors as offsets, the values byte by byte,
+    """The .npz bytes of a pool's fields: their pickled state, the predecessors as offsets, the values as byte planes,
     and a JSON record."""
     state = stack.__getstate__()
     if not state.get("smoothed"):

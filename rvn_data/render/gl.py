@@ -129,9 +129,9 @@ def renderer_name(ctx) -> str:
 
 
 class MeshArrays(NamedTuple):
-    """The CPU side of a `GLRenderer`'s build (`mesh_arrays`): per part None (no faces) or (vertex data bytes,
-    texture [H, W, 3] uint8 bottom row first or None, (base colour, texture flag) uniform bytes); the parts' faces in
-    spatial chunks for culling (`chunks.build_chunks`)."""
+    """The CPU side of a `GLRenderer`'s build (`mesh_arrays`): per part None (no faces) or (vertex data, the
+    interleaved vertices' bytes as a uint8 array; texture [H, W, 3] uint8 bottom row first or None; (base colour,
+    texture flag) uniform bytes); the parts' faces in spatial chunks for culling (`chunks.build_chunks`)."""
 
     parts: list
     chunks: Chunks
@@ -158,7 +158,8 @@ def mesh_arrays(scene: Scene) -> MeshArrays:
         data["shade"] = np.repeat(base.face_shade(part.vertices, faces), 3)
         texture = None if mat.texture is None else np.ascontiguousarray(mat.texture[::-1])
         base_rgb = struct.pack("3f", *(float(c) for c in mat.base_rgb))  # the uniforms' bytes
-        parts.append((data.tobytes(), texture, (base_rgb, struct.pack("1i", texture is not None))))
+        vertices = data.view(np.uint8)  # an array, not bytes: pickled out of band (`rvn_data.helper_process`)
+        parts.append((vertices, texture, (base_rgb, struct.pack("1i", texture is not None))))
         spans.append(part_spans)
     return MeshArrays(parts, build_chunks(spans))
 
