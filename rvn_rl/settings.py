@@ -28,7 +28,7 @@ class EnvSettings:
     num_scenes: int | None = None  # train scenes (null = all 800)
     scene_switch_every: int = 8  # resets of an env before it draws another scene
     # train goals from a fixed pool of this many per scene (0: a fresh goal and two Dijkstra solves per draw). A pool
-    # costs one solve per goal and its fields' smoothing (1.7-2.3 s for 64 on a procedural apartment) the first time a
+    # costs one solve per goal and its fields' smoothing (1.45-1.95 s for 64 on a procedural apartment) the first time a
     # cache root sees its scene, then 50-85 ms to read back (<cache root>/goal_pools, rvn_data.benchmark.pool_cache),
     # and a goal draw is a lookup (~0.1 ms): 2-core CPU, 2 envs in one process, 200 scenes, random actions, prefetch:
     # 126 env steps/s with pools built at each visit, 362 read back (benchmarks/scene_prefetch.py)

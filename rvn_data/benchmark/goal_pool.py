@@ -9,13 +9,13 @@ pool points whose geodesic distance from it lies in [d_min, d_max] (the benchmar
 none in range → the caller draws another start. G = 0 (the default) keeps the benchmark's
 sampler: a fresh uniform goal every time. Evaluation never uses a pool: its episodes are fixed.
 
-A pool's fields are solved and smoothed whole when it is built (`rvn_data.navmesh.field_sets.FieldTrees`): 1.7-2.3 s
-for 64 goals on procedural:train/3's 13.7k nodes (Dijkstra solves 0.28-0.37 s, smoothing 1.4-1.9 s; 2-core
+A pool's fields are solved and smoothed whole when it is built (`rvn_data.navmesh.field_sets.FieldTrees`): 1.45-1.95 s
+for 64 goals on procedural:train/3's 13.7k nodes (Dijkstra solves 0.28-0.37 s, smoothing 1.2-1.6 s; 2-core
 development CPU). Given the cache root's ``goal_pools`` folder (`EnvConfig.pool_folder`, as every env passes), a pool
 is built once per cache root and read back after (`rvn_data.benchmark.pool_cache`: 50-85 ms for 64, its file
 2.3 MB), so the processes of a node or cluster that share the root build each scene's pool once. The fields are
-stacked, so a draw reads them all in one call: a visit's draws took 0.09-0.14 ms each (99th percentile 0.3-1.0 ms)
-against 5.7-7.5 ms (14-25 ms) when pools were smoothed where read and every visit smoothed its starts' chains again
+stacked, so a draw reads them all in one call: a visit's draws took 0.08-0.14 ms each (99th percentile 0.2-1.0 ms)
+against 5.5-7.5 ms (14-25 ms) when pools were smoothed where read and every visit smoothed its starts' chains again
 (`benchmarks/goal_pool.py`). Pools live in one
 least-recently-used cache per process of at most ``MAX_BYTES`` (20 bytes per graph node and goal: 17-31 MB for 64
 goals on a procedural apartment's 13-25k nodes); values read are float32. rvn-rl's scene prefetch has a scene's pool

@@ -9,11 +9,11 @@
   same values as field by field, bit for bit (tests/test_env.py).
 
 Why whole: a field smoothed where it is read (as a single field is, `rvn_data.navmesh.geodesic.FieldTree`) gets the
-same values, but a read at a new start smooths that start's tree chain in every field: 5.7-9 ms a goal draw on
+same values, but a read at a new start smooths that start's tree chain in every field: 5.5-9 ms a goal draw on
 average and up to ~35 ms in an RL env's first draws in a scene (2-core development CPU, 64 goals), in the middle of a
 batched step that every other env then waits for. A pool is built once per cache root and read back after
-(`rvn_data.benchmark.pool_cache`), so its smoothing is paid there once too (1.4-1.9 s for 64 goals on a 13.7k-node
-procedural apartment, up to ~4 s at 25k nodes), and a draw is a lookup (0.09-0.14 ms, benchmarks/goal_pool.py).
+(`rvn_data.benchmark.pool_cache`), so its smoothing is paid there once too (1.2-1.6 s for 64 goals on a 13.7k-node
+procedural apartment, up to ~4 s at 25k nodes), and a draw is a lookup (0.08-0.14 ms, benchmarks/goal_pool.py).
 """
 from __future__ import annotations
 
