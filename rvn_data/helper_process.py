@@ -45,8 +45,8 @@ class HelperProcess:
 
     def call(self, fn, *args):
         """``fn(*args)`` run in the helper process: its result, or its exception raised here."""
-        request = pickle.dumps((fn, args, self.shared_folder), protocol=pickle.HIGHEST_PROTOCOL)  # what does not
-        # pickle fails here, whole
+        # what does not pickle fails here, whole; the folder: where the helper puts a large answer
+        request = pickle.dumps((fn, args, self.shared_folder), protocol=pickle.HIGHEST_PROTOCOL)
         with self._lock:
             proc = self._start()
             try:
