@@ -1,8 +1,9 @@
 """Scene prefetch and kept goal pools (issue 32, RL row): env steps/s of rvn-rl's vectorised envs alone with
 ``env.prefetch_scenes`` off and on, each with every scene's goal pool built at its visit (solved and, since 2026-12-02,
-smoothed whole: a run's first pass over its scenes, and every visit before pools were kept) and read back from the cache root (a long run after its first pass),
-in worker processes that step together, and each batched step's time (median, 90th and 99th percentile); with
-``--workers 0`` the envs step in this process (rvn-rl's default ``env.workers=0``).
+smoothed whole: a run's first pass over its scenes, and every visit before pools were kept) and read back from the
+cache root (a long run after its first pass), in worker processes that step together, and each batched step's time
+(median, 90th and 99th percentile); with ``--workers 0`` the envs step in this process (rvn-rl's default
+``env.workers=0``).
 
 Vectorised envs step together: a batched step lasts as long as its slowest worker. An env switching scene (every
 ``env.scene_switch_every`` resets; with random actions an episode lasts ~25 steps) waited for the scene (~0.1 s) and

@@ -113,14 +113,14 @@ def _shared_folder() -> str:
 
 
 def _answer(value, folder: str) -> tuple[bytes, str | None]:
-    """(what to write to the pipe, the shared-memory file it names or None): ``value`` pickled, its out-of-band buffers
-    of `SHARED_BYTES` or more in all written to a file in ``folder`` that the caller reads (``("shared", pickle, path,
-    size, spans)``), else in the pickle (``("inline", pickle)``)."""
+    """(what to write to the pipe, the shared-memory file it names or None): ``value`` pickled once, its out-of-band
+    buffers of `SHARED_BYTES` or more in all written to a file in ``folder`` that the caller reads (``("shared",
+    pickle, path, size, spans)``), else sent beside the pickle (``("inline", pickle, buffers)``)."""
     buffers: list[pickle.PickleBuffer] = []
     data = pickle.dumps(value, protocol=5, buffer_callback=buffers.append)
     views = [b.raw() for b in buffers]
     if sum(v.nbytes for v in views) < SHARED_BYTES:
-        return pickle.dumps(("inline", pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL))), None
+        return _inline(data, views), None
     path, spans, at = None, [], 0
     try:
         fd, path = tempfile.mkstemp(prefix=f"rvn-helper-{os.getpid()}-", dir=folder)
@@ -133,15 +133,20 @@ def _answer(value, folder: str) -> tuple[bytes, str | None]:
                 at += v.nbytes
     except OSError:  # no room there: through the pipe
         _delete(path)
-        return pickle.dumps(("inline", pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL))), None
+        return _inline(data, views), None
     return pickle.dumps(("shared", data, path, at, spans)), path
+
+
+def _inline(data: bytes, views: list[memoryview]) -> bytes:
+    """An answer's pickle with its out-of-band buffers beside it, all through the pipe."""
+    return pickle.dumps(("inline", data, [v.tobytes() for v in views]), protocol=pickle.HIGHEST_PROTOCOL)
 
 
 def _receive(message):
     """The answer `_answer` made: unpickled, its shared buffers read from their file in one call (then deleted) into
     one writable block the arrays share."""
-    if message[0] == "inline":
-        return pickle.loads(message[1])
+    if message[0] == "inline":  # buffers as bytes: made writable, as the shared block is
+        return pickle.loads(message[1], buffers=[bytearray(b) for b in message[2]])
     _, data, path, size, spans = message
     block = bytearray(size)
     try:

@@ -71,7 +71,6 @@ class FieldTrees:
 
     def __setstate__(self, state: dict) -> None:
         dtype, values = np.dtype(state.pop("dtype")), state.pop("values", None)
-        state.setdefault("smoothed", False)
         self.__dict__.update(state)
         self._stack_trees(dtype)
         if values is not None:  # smoothed whole: a node is done where its value is finite, and no read smooths again
