@@ -18,6 +18,7 @@ from rvn_il.models.compiled import compile_for_inference
 from rvn_il.models.graph_calls import STRUCTURES, KeyedCall, as_buffers, register_structure
 from rvn_il.models.sampling_plan import draw_noise
 from rvn_il.policies import load_policy
+from rvn_il.policies.policy import intra_op_threads
 
 pytestmark = pytest.mark.slow  # torch.compile builds its kernels: about two minutes on one core
 
@@ -35,11 +36,22 @@ def losses(out_dir) -> dict[str, list[float]]:
 # every kind of part, fewer of some (inductor's compile time grows with the graphs): one Transformer layer, a 2-level
 # U-Net, small's encoder with one repeated MBConv block (depth 0.3: 8 blocks instead of 10), which draws drop-connect
 FEWER_LAYERS = ["model.num_layers=1", "model.sizes.small.down_dims=[32,64]", "model.sizes.small.depth_coefficient=0.3"]
-# The training step compiles to scalar C++ kernels: what this file checks of it is RVN's wiring (in-place compile,
-# parameter names, random draws, the kernel cache's place), and compiling vectorised kernels took 164 s of its run's
-# 187 alone on the 2-core machine (the run: 101 s with scalar ones). The policy below compiles vectorised kernels, as
-# a CPU policy does in use.
+# Every compile here makes scalar C++ kernels: what this file checks is RVN's wiring (in-place compile, parameter
+# names, random draws, graphs shared by structure, the kernel cache's place), not inductor's vector code, and
+# vectorised kernels took about twice as long to compile on the 2-core machine: the training run 164 s of its 187
+# (101 s in all with scalar ones); the policy's encoder and sampling graph 102-125 s against 57. The training runs
+# get them through the environment, the compiles in this process through inductor's config (`scalar_kernels`).
 SCALAR = {"TORCHINDUCTOR_VEC_ISA_OK": "0"}
+
+
+@pytest.fixture(autouse=True)
+def scalar_kernels():
+    """Inductor's C++ kernels without vector instructions for the compiles in this process (cpp.simdlen 1: no vector
+    ISA of that width, so none is picked)."""
+    import torch._inductor.config as inductor
+
+    with inductor.patch({"cpp.simdlen": 1}):
+        yield
 
 
 @pytest.fixture(scope="module")
@@ -101,7 +113,8 @@ def test_compiled_networks_of_other_structures_share_no_graph(tmp_path, monkeypa
     """policy.compile on a CPU compiles the encoder and one denoising step as graphs that check only their inputs'
     guards and a structure number (rvn_il.models.compiled.KeyedCall): networks of the same structure share them, each
     with its own weights, and one of another U-Net gets graphs of its own. Each gives its own network's plain outputs.
-    (After the policy test, the first two networks reuse its graphs: same structure.)"""
+    On one thread, as a policy decides: after the policy test the first two networks reuse its graphs (same structure;
+    dynamo guards the thread count, so on the process's two threads they compiled every graph again)."""
     from torch._dynamo.utils import counters
 
     monkeypatch.setenv("TORCHINDUCTOR_CACHE_DIR", str(tmp_path / "kernels"))
@@ -111,7 +124,7 @@ def test_compiled_networks_of_other_structures_share_no_graph(tmp_path, monkeypa
     x, noise = draw_noise(nets[0]._plan(), (8, 8, 2), g, torch.device("cpu"))
     goal = torch.tensor([[3.0, 1.0]])
     results, graphs = [], []
-    with torch.inference_mode():
+    with torch.inference_mode(), intra_op_threads(1):
         for net in nets:
             compile_for_inference(net, "cpu")
             graphs.append(counters["stats"]["unique_graphs"])
