@@ -12,6 +12,7 @@
 # Rerunning resumes: rvn-rl continues from out_dir's latest checkpoint, rvn-eval skips finished episodes.
 set -euo pipefail
 OUT=${OUT:-/data/rvn_rl}
+export RVN_CACHE_DIR=${RVN_CACHE_DIR:-$OUT/cache}   # the 800 scenes' navmeshes and goal pools, built once for all jobs
 NODES=${NODES:-2}                 # DD-PPO nodes (the paper: 8 GPUs in all)
 GPUS=${GPUS:-4}                   # GPUs (ranks) per node
 STEPS=${STEPS:-2500000000}        # env steps (habitat-baselines' DD-PPO PointNav budget; the paper: "until convergence")
@@ -28,6 +29,7 @@ submit() {  # submit NAME NODES GPUS_PER_NODE COMMAND: one sbatch job, waited fo
 #SBATCH --job-name=rvn-rl-$name --nodes=$nodes --ntasks-per-node=1 --gpus-per-node=$gpus
 #SBATCH --cpus-per-task=$((gpus * 8)) --time=$TIME --output=$OUT/logs/$name-%j.log
 ${SETUP:-}
+export RVN_CACHE_DIR=$(printf %q "$RVN_CACHE_DIR")
 export MASTER_ADDR=\$(scontrol show hostnames \"\$SLURM_JOB_NODELIST\" | head -n 1) MASTER_PORT=\$((20000 + SLURM_JOB_ID % 20000))
 $cmd"
   echo "---- $name"; echo "$script"

@@ -73,6 +73,9 @@ mkdir -p "$OUT/logs" "$OUT/.done"
 OUT=$(cd "$OUT" && pwd)
 source "$(dirname "${BASH_SOURCE[0]}")/lib.sh"   # step NAME CMD...: skip if done, log, time
 export OMP_NUM_THREADS=$THREADS MKL_NUM_THREADS=$THREADS
+# one cache root for every step (README, Caches): each train scene's navmesh and goal pool is built once for the
+# trainings (the DD-PPO rows, the depth pairs) and each val scene's navmesh once for the evaluations, not once per run
+export RVN_CACHE_DIR=${RVN_CACHE_DIR:-$OUT/cache}
 CAMERA=("camera.width=$IMAGE" "camera.height=$IMAGE")
 RL=("scale=small" "env.size=$IMAGE" "env.num_scenes=$TRAIN_SCENES" "env.workers=$ENV_WORKERS"
     "model.backbone=$BACKBONE" "model.base_planes=$BASE_PLANES" "model.ngroups=$((BASE_PLANES / 2))"

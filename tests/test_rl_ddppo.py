@@ -67,3 +67,25 @@ def test_rl_small_recipe_smoke(tmp_path):
     for algo in ("ppo", "ppo_lag", "ddppo", "ddppo_depth"):
         assert (out / "train" / algo / "learning_curve.png").is_file()
         assert json.loads((out / "eval" / algo / "metrics.json").read_text())["episodes"] == 1
+    # one cache root for the recipe: the 2 train scenes' navmeshes and goal pools, the val scene's navmesh, kept once
+    assert len(list((out / "cache" / "goal_pools").rglob("*.npz"))) == 2
+    assert len(list((out / "cache" / "navmesh").rglob("*.npz"))) == 3
+    assert not list(out.glob("*/*/cache")), "a run kept caches of its own"
+
+
+def test_rl_paper_scale_jobs_share_one_cache_root(tmp_path):
+    """jobs/rl_paper_scale.sh (DRY_RUN): every sbatch job (and the evaluations after them) uses $OUT/cache, so the jobs
+    of the cluster build each scene's navmesh and goal pool once between them; a root the user set is kept."""
+    from pathlib import Path
+
+    script = Path(__file__).resolve().parents[1] / "jobs" / "rl_paper_scale.sh"
+    env = {k: v for k, v in os.environ.items() if k != "RVN_CACHE_DIR"}
+    for given, root in ((None, tmp_path / "out" / "cache"), (str(tmp_path / "scratch"), tmp_path / "scratch")):
+        run_env = {**env, "DRY_RUN": "1", "OUT": str(tmp_path / "out"), "DEPTH_SOURCE": "true",
+                   **({"RVN_CACHE_DIR": given} if given else {})}
+        proc = subprocess.run(["bash", str(script)], capture_output=True, text=True, timeout=60, env=run_env)
+        assert proc.returncode == 0, proc.stderr
+        scripts = proc.stdout.split("---- ")[1:]
+        assert [s.split("\n", 1)[0] for s in scripts] == ["ppo", "ppo_lag", "ddppo", "ddppo_depth"]
+        for text in scripts:
+            assert f"export RVN_CACHE_DIR={root}\n" in text, text
