@@ -5,6 +5,7 @@
 # trajectories and scenes are skipped, and the result is byte-identical.
 set -euo pipefail
 OUT=${OUT:-/data/rvn}
+export RVN_CACHE_DIR=${RVN_CACHE_DIR:-$OUT/cache}   # each scene's navmesh built once for both datasets (README, Caches)
 SHARDS=${SHARDS:-64}
 LAST=$((SHARDS - 1))
 
