@@ -73,9 +73,9 @@ mkdir -p "$OUT/logs" "$OUT/.done"
 OUT=$(cd "$OUT" && pwd)
 source "$(dirname "${BASH_SOURCE[0]}")/lib.sh"   # step NAME CMD...: skip if done, log, time
 export OMP_NUM_THREADS=$THREADS MKL_NUM_THREADS=$THREADS
-# one cache root for every step (README, Caches): each train scene's navmesh and goal pool, built by the first
-# trainings (PPO and PPO-Lagrangian, side by side, may both build one at once), are read by the DD-PPO rows, and each
-# val scene's navmesh is built once for all the evaluations: before, every run kept its own in <out_dir>/cache
+# one cache root for every step (README, Caches): each train scene's navmesh and goal pool is built once, by whichever
+# of PPO and PPO-Lagrangian (side by side, drawing the same scene stream) asks first while the other waits for it,
+# and read by the DD-PPO rows; each val scene's navmesh once for all the evaluations. Every run kept its own before.
 export RVN_CACHE_DIR=${RVN_CACHE_DIR:-$OUT/cache}
 CAMERA=("camera.width=$IMAGE" "camera.height=$IMAGE")
 RL=("scale=small" "env.size=$IMAGE" "env.num_scenes=$TRAIN_SCENES" "env.workers=$ENV_WORKERS"

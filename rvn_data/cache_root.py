@@ -24,6 +24,7 @@ import logging
 import os
 import sys
 import tempfile
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -90,27 +91,88 @@ _unwritable: set[str] = set()  # cache folders already warned about
 
 def cached_file(path: Path, read, build, encode, label: str, what: str, instead: str):
     """``read(path)`` when an earlier ``build()`` left its file there, else ``build()``, written there as
-    ``encode(value)`` (atomically: processes that write the same file at once each write it whole). A file that cannot
-    be read is rebuilt and replaced, with a warning naming it (``label``: what kind of cache file); a folder that cannot
-    be written is warned about once (``what`` it would keep, what happens ``instead``) and the value built each time."""
+    ``encode(value)`` (atomically: processes that write the same file at once each write it whole). A process that finds
+    the file missing builds it under `build_lock`, so processes asking for the same file at once (trainings side by side
+    on the same scenes, DD-PPO's ranks, an env's scene prefetch) build it once: the others wait, then read it. A file
+    that cannot be read is rebuilt and replaced, with a warning naming it (``label``: what kind of cache file); a folder
+    that cannot be written is warned about once (``what`` it would keep, what happens ``instead``) and the value built
+    each time."""
+    import warnings
+
+    from rvn_data.atomic import write_bytes_atomic
+
+    seen = _identity(path)
+    value = _read_kept(path, read, label)
+    if value is not _MISSING:
+        return value
+    with build_lock(path) as locked:
+        if locked and _identity(path) != seen:  # another process built it while this one waited
+            value = _read_kept(path, read, label)
+            if value is not _MISSING:
+                return value
+        value = build()
+        try:
+            write_bytes_atomic(path, encode(value))
+        except OSError as err:
+            if str(path.parent) not in _unwritable:
+                _unwritable.add(str(path.parent))
+                warnings.warn(f"cannot keep {what} in {path.parent} ({err.strerror or err}); {instead}: set cache_dir= "
+                              f"or {ENV} to a writable folder", stacklevel=3)
+    return value
+
+
+_MISSING = object()
+
+
+def _identity(path: Path) -> tuple | None:
+    """(inode, size, mtime) of the file at ``path``, None where there is none: whether it was replaced meanwhile."""
+    try:
+        st = path.stat()
+    except OSError:
+        return None
+    return st.st_ino, st.st_size, st.st_mtime_ns
+
+
+def _read_kept(path: Path, read, label: str):
+    """``read(path)``, or `_MISSING` when there is no file, or one that cannot be read (warned about: it is rebuilt)."""
     import warnings
     import zipfile
     import zlib
 
-    from rvn_data.atomic import write_bytes_atomic
-
-    if path.is_file():
-        try:
-            return read(path)
-        except (OSError, ValueError, KeyError, TypeError, AttributeError, EOFError, zipfile.BadZipFile,
-                zlib.error) as err:
-            warnings.warn(f"{label} cache file {path} is unreadable ({err}); rebuilding it", stacklevel=3)
-    value = build()
+    if not path.is_file():
+        return _MISSING
     try:
-        write_bytes_atomic(path, encode(value))
-    except OSError as err:
-        if str(path.parent) not in _unwritable:
-            _unwritable.add(str(path.parent))
-            warnings.warn(f"cannot keep {what} in {path.parent} ({err.strerror or err}); {instead}: set cache_dir= or "
-                          f"{ENV} to a writable folder", stacklevel=3)
-    return value
+        return read(path)
+    except (OSError, ValueError, KeyError, TypeError, AttributeError, EOFError, zipfile.BadZipFile, zlib.error) as err:
+        warnings.warn(f"{label} cache file {path} is unreadable ({err}); rebuilding it", stacklevel=4)
+        return _MISSING
+
+
+@contextmanager
+def build_lock(path: Path):
+    """An exclusive lock (``flock``) on ``<path>.lock`` while ``path`` is built; yields whether it holds one. The lock
+    file goes once the build is written. Where there is none to be had (no ``fcntl``, a folder that cannot be written,
+    a file system without ``flock``), it yields False at once and processes build side by side, as without it. The
+    kernel drops the lock of a process that dies, so a killed build never blocks the next."""
+    try:
+        import fcntl
+
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(f"{path}.lock", os.O_RDWR | os.O_CREAT, 0o666)
+    except (ImportError, OSError):
+        yield False
+        return
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX)
+            locked = True
+        except OSError:
+            locked = False
+        yield locked
+    finally:
+        if path.is_file():  # built: a process still waiting holds the old lock file's lock and finds the file
+            try:
+                os.unlink(f"{path}.lock")
+            except OSError:
+                pass
+        os.close(fd)

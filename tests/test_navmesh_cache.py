@@ -91,3 +91,49 @@ def test_an_unreadable_file_is_rebuilt_and_an_unwritable_folder_only_warned_abou
     with pytest.warns(UserWarning, match=r"cannot keep built navmeshes in .*blocked/navmesh.*RVN_CACHE_DIR"):
         nm = open_navmesh(scene, NavMeshSettings(), blocked)
     assert_same(nm, NavMesh.build(scene, NavMeshSettings()))
+
+
+ASK = """
+import sys, time
+from pathlib import Path
+from rvn_data.navmesh import NavMesh, NavMeshSettings
+from rvn_data.navmesh.source import open_navmesh
+from rvn_data.scenes import load_scene
+
+root, go, log = (Path(a) for a in sys.argv[1:4])
+scene = load_scene("procedural:train/3")
+build = NavMesh.build
+
+
+def counted(*args, **kwargs):
+    with open(log, "a") as f:
+        f.write("build\\n")
+    time.sleep(1.0)  # long enough for the other process to ask meanwhile
+    return build(*args, **kwargs)
+
+
+NavMesh.build = counted
+while not go.exists():
+    time.sleep(0.005)
+nm = open_navmesh(scene, NavMeshSettings(), root)
+print(len(nm.layers), sum(int(layer.free.sum()) for layer in nm.layers), nm.island_areas)
+"""
+
+
+def test_processes_asking_at_once_build_once(tmp_path):
+    """Two processes that find the same navmesh missing at the same moment (trainings side by side on the same
+    scenes, DD-PPO's ranks): one builds it under the file's lock, the other waits and reads it; no lock file stays."""
+    import subprocess
+    import sys
+    import time
+
+    go, log = tmp_path / "go", tmp_path / "builds.log"
+    procs = [subprocess.Popen([sys.executable, "-c", ASK, str(tmp_path), str(go), str(log)], stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True) for _ in range(2)]
+    time.sleep(3.0)  # both have loaded the scene and wait for the signal
+    go.touch()
+    outs = [p.communicate(timeout=120) for p in procs]
+    assert all(p.returncode == 0 for p in procs), [err[-2000:] for _, err in outs]
+    assert log.read_text().splitlines() == ["build"], "each process built the navmesh"
+    assert outs[0][0] == outs[1][0] and outs[0][0].strip()
+    assert len(files(tmp_path)) == 1 and not list((tmp_path / "navmesh").glob("*.lock"))

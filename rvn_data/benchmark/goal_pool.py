@@ -88,7 +88,7 @@ def pool_for(navmesh, key: PoolKey, pool: GoalPool | None = None, folder=None) -
         cached = _POOLS.pop(key, None)
     if cached is not None:
         pool = cached
-    elif pool is None:  # built outside the lock: two threads may both build a pool, the same one
+    elif pool is None:  # outside this lock; with ``folder``, the file's (`build_lock`) has a second thread wait
         pool = GoalPool.build(navmesh, key.size, key.split_code, key.scene_index, folder)
     with _LOCK:
         _POOLS[key] = pool
