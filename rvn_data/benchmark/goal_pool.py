@@ -88,7 +88,7 @@ def pool_for(navmesh, key: PoolKey, pool: GoalPool | None = None, folder=None) -
         cached = _POOLS.pop(key, None)
     if cached is not None:
         pool = cached
-    elif pool is None:  # outside this lock; with ``folder``, the file's (`build_lock`) has a second thread wait
+    elif pool is None:  # outside _LOCK; with ``folder`` a second thread waits on the file's `build_lock`, then reads
         pool = GoalPool.build(navmesh, key.size, key.split_code, key.scene_index, folder)
     with _LOCK:
         _POOLS[key] = pool
