@@ -10,6 +10,7 @@ import sys
 import numpy as np
 import pytest
 import torch
+from conftest import QUICK_COMPILE_ENV
 from safetensors.torch import load_file
 
 from rvn_il.data.synthetic import render_frame, write_synthetic_gnm
@@ -41,7 +42,13 @@ FEWER_LAYERS = ["model.num_layers=1", "model.sizes.small.down_dims=[32,64]", "mo
 # vectorised kernels took about twice as long to compile on the 2-core machine: the training run 164 s of its 187
 # (101 s in all with scalar ones); the policy's encoder and sampling graph 102-125 s against 57. The training runs
 # get them through the environment, the compiles in this process through inductor's config (`scalar_kernels`).
-SCALAR = {"TORCHINDUCTOR_VEC_ISA_OK": "0"}
+# The training runs also get inductor's C++ wrapper (TORCHINDUCTOR_CPP_WRAPPER=1), as policy.compile on a CPU has it
+# by default (rvn_il.models.graph_calls.cpp_wrapper): a graph's kernels and its wrapper in one translation unit, one
+# compiler call per graph instead of one per kernel, each of which loads inductor's 140 MB precompiled header (~0.75 s
+# a kernel). The same losses and checkpoint; the compiled run 111 s instead of 156 on the 2-core machine beside
+# another test, tests/test_rl.py's compiled run 65 instead of 99. This file's two compiling tests in this process
+# (the policy and the structures), run alone: 215 + 12 against 247 + 21 CPU-s (the training runs included in both).
+SCALAR = QUICK_COMPILE_ENV
 
 
 @pytest.fixture(autouse=True)
@@ -218,3 +225,18 @@ def test_reduce_overhead_training_on_cuda_gives_the_plain_losses_and_checkpoint(
     assert a.keys() == b.keys()
     for k in a:
         torch.testing.assert_close(b[k], a[k], rtol=0, atol=2e-3, msg=k)
+
+
+def test_cpu_graphs_compile_with_the_cpp_wrapper_unless_turned_off(monkeypatch):
+    """policy.compile's CPU graphs use inductor's C++ wrapper (one compiler call per graph); TORCHINDUCTOR_CPP_WRAPPER=0
+    turns it off, as the user would expect of inductor's own variable."""
+    from rvn_il.models.graph_calls import CompiledCall, cpp_wrapper
+
+    monkeypatch.delenv("TORCHINDUCTOR_CPP_WRAPPER", raising=False)
+    assert cpp_wrapper()
+    seen = []
+    monkeypatch.setattr(torch, "compile", lambda fn, **kw: seen.append(kw["options"]["cpp_wrapper"]) or fn)
+    CompiledCall(torch.relu, "cpu")
+    monkeypatch.setenv("TORCHINDUCTOR_CPP_WRAPPER", "0")
+    CompiledCall(torch.relu, "cpu")
+    assert seen == [True, False]

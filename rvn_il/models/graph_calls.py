@@ -4,6 +4,7 @@ structure number, :func:`register_structure`), with packed weights held as a mod
 from __future__ import annotations
 
 import inspect
+import os
 import re
 import zlib
 from typing import Callable
@@ -27,7 +28,8 @@ class CompiledCall:
             self.fn = torch.compile(fn, dynamic=False, mode="reduce-overhead")
         else:  # the inputs' sizes and strides are guarded (or named by a structure number: KeyedCall), so the
             # kernels' own checks of them are left out (~135 for a U-Net step, 0.16 ms a call)
-            self.fn = torch.compile(fn, dynamic=False, options={"size_asserts": False, **(options or {})})
+            self.fn = torch.compile(fn, dynamic=False, options={"size_asserts": False, "cpp_wrapper": cpp_wrapper(),
+                                                                **(options or {})})
         self.called = False
 
     def __call__(self, *args):
@@ -38,6 +40,17 @@ class CompiledCall:
             return self.fn(*args)
         torch.compiler.cudagraph_mark_step_begin()
         return self.fn(*args).clone()
+
+
+def cpp_wrapper() -> bool:
+    """Whether a CPU graph is compiled with inductor's C++ wrapper: its kernels and the code that calls them in one
+    C++ file, one compiler call per graph, each kernel called from C++ rather than Python. Inductor's default, a
+    Python wrapper, compiles each kernel alone, and each compiler call loads inductor's 140 MB precompiled header
+    (~0.75 s). NoMaD full's decision graphs (encoder, condition, one denoising step), cold kernel cache, one thread of
+    the 2-core development CPU: benchmarks/decision.py --compile from a cold cache (every model, compiled and plain)
+    took 261 against 419 CPU-s, 4 min 21 s against 5 min 4 s; a decision then 27.2 and 27.4 ms against 29.4 and 35.0 (the plain path
+    beside it x1.37-1.38 against x1.30-1.32, two runs each, alternating). On unless TORCHINDUCTOR_CPP_WRAPPER=0."""
+    return os.environ.get("TORCHINDUCTOR_CPP_WRAPPER", "1") != "0"
 
 
 # torch.compile's guard_filter_fn came with torch 2.8 (as these helpers did); before it a KeyedCall checks every guard
