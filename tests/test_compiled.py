@@ -47,8 +47,8 @@ FEWER_LAYERS = ["model.num_layers=1", "model.sizes.small.down_dims=[32,64]", "mo
 # compiler call per graph instead of one per kernel, each of which loads inductor's 140 MB precompiled header (~0.75 s
 # a kernel). The same losses and checkpoint; the compiled run 111 s instead of 156 on the 2-core machine beside
 # another test, tests/test_rl.py's compiled run 65 instead of 99. This file's two compiling tests in this process
-# (the policy and the structures), run alone: 215 + 12 against 247 + 21 CPU-s (the training runs included in both).
-SCALAR = QUICK_COMPILE_ENV
+# (the policy and the structures), run alone: 215 + 12 against 247 + 21 CPU-s, user + system (the training runs in
+# both; tests/conftest.py's QUICK_COMPILE_ENV is their environment).
 
 
 @pytest.fixture(autouse=True)
@@ -71,7 +71,7 @@ def runs(tmp_path_factory):
     common = ["model=nomad_pointgoal", f"data.root={base / 'expert'}", "model.size=small", "train.max_steps=3",
               "train.batch_size=4", "train.log_every=1", "model.num_diffusion_iters=2", "data.num_workers=0",
               f"cache_dir={base / 'cache'}", *FEWER_LAYERS]
-    for name, extra, env in (("plain", [], ENV), ("compiled", ["train.compile=true"], {**ENV, **SCALAR})):
+    for name, extra, env in (("plain", [], ENV), ("compiled", ["train.compile=true"], {**ENV, **QUICK_COMPILE_ENV})):
         r = subprocess.run([sys.executable, "-m", "rvn_il.train.cli", f"out_dir={base / name}", *common, *extra],
                            capture_output=True, text=True, env=env, timeout=900)
         assert r.returncode == 0, r.stderr[-3000:]

@@ -29,8 +29,7 @@ cache, one thread of the 2-core development machine (an Intel Xeon that day), 10
 included), at the same speed a decision after it (in turns: 37.1, 31.9, 44.2 against 37.1, 31.5, 42.5 ms);
 ``benchmarks/node.py --rows decision --compile on`` from a cold cache: 132 s for its three rows, compiled 34.2 ms
 against 40.6 plain. On a CPU each graph compiles with inductor's C++ wrapper, one compiler call per graph
-(:func:`rvn_il.models.graph_calls.cpp_wrapper`: 261 against 419 CPU-s for benchmarks/decision.py --compile from a cold
-cache, decisions as fast or faster).
+(:func:`rvn_il.models.graph_calls.cpp_wrapper`, which gives the figures).
 """
 from __future__ import annotations
 

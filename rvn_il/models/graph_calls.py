@@ -46,10 +46,10 @@ def cpp_wrapper() -> bool:
     """Whether a CPU graph is compiled with inductor's C++ wrapper: its kernels and the code that calls them in one
     C++ file, one compiler call per graph, each kernel called from C++ rather than Python. Inductor's default, a
     Python wrapper, compiles each kernel alone, and each compiler call loads inductor's 140 MB precompiled header
-    (~0.75 s). NoMaD full's decision graphs (encoder, condition, one denoising step), cold kernel cache, one thread of
-    the 2-core development CPU: benchmarks/decision.py --compile from a cold cache (every model, compiled and plain)
-    took 261 against 419 CPU-s, 4 min 21 s against 5 min 4 s; a decision then 27.2 and 27.4 ms against 29.4 and 35.0 (the plain path
-    beside it x1.37-1.38 against x1.30-1.32, two runs each, alternating). On unless TORCHINDUCTOR_CPP_WRAPPER=0."""
+    (~0.75 s). One thread of the 2-core development CPU: benchmarks/decision.py --compile from a cold kernel cache
+    (every model, compiled and plain) took 261 against 419 CPU-s, 4 min 21 s against 5 min 4 s; NoMaD full's compiled
+    decision then 27.2 and 27.4 ms against 29.4 and 35.0 (the plain path beside it x1.37-1.38 against x1.30-1.32, two
+    runs each, alternating). On unless TORCHINDUCTOR_CPP_WRAPPER=0."""
     return os.environ.get("TORCHINDUCTOR_CPP_WRAPPER", "1") != "0"
 
 
