@@ -31,8 +31,8 @@ LONGEST_FIRST = ("test_rl.py", "test_experiment_smoke.py", "test_compiled.py", "
 
 
 # The environment of the tests' compiled training runs (rvn-train, rvn-rl with train.compile=true): inductor's scalar
-# C++ kernels, each graph's in one translation unit (tests/test_compiled.py says why)
-QUICK_COMPILE_ENV = {"TORCHINDUCTOR_VEC_ISA_OK": "0", "TORCHINDUCTOR_CPP_WRAPPER": "1"}
+# C++ kernels, each graph's in one translation unit, compiled without optimisation (tests/test_compiled.py says why)
+QUICK_COMPILE_ENV = {"TORCHINDUCTOR_VEC_ISA_OK": "0", "TORCHINDUCTOR_CPP_WRAPPER": "1", "TORCHINDUCTOR_DEBUG_COMPILE": "1"}
 
 
 def pytest_collection_modifyitems(config, items):

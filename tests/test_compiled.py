@@ -45,18 +45,21 @@ FEWER_LAYERS = ["model.num_layers=1", "model.sizes.small.down_dims=[32,64]", "mo
 # The training runs also get inductor's C++ wrapper (TORCHINDUCTOR_CPP_WRAPPER=1), as policy.compile on a CPU has it
 # by default (rvn_il.models.graph_calls.cpp_wrapper): a graph's kernels and its wrapper in one translation unit, one
 # compiler call per graph instead of one per kernel, each of which loads inductor's 140 MB precompiled header (~0.75 s
-# a kernel). The same losses and checkpoint; the compiled run 111 s instead of 156 on the 2-core machine beside
-# another test, tests/test_rl.py's compiled run 65 instead of 99. This file's two compiling tests in this process
-# (the policy and the structures), run alone: 215 + 12 against 247 + 21 CPU-s, user + system (the training runs in
-# both; tests/conftest.py's QUICK_COMPILE_ENV is their environment).
+# a kernel): the compiled run 111 s instead of 156 on the 2-core machine beside another test, tests/test_rl.py's
+# compiled run 65 instead of 99. And every compile here is unoptimised (TORCHINDUCTOR_DEBUG_COMPILE=1: g++ -O0 -g
+# instead of -O3; the kernels run a few times): the training run's losses equal -O3's to the last bit, the tests'
+# tolerances are unchanged; on the 2-core machine g++'s share of the training run 56 -> 18 s (113 -> 68 s in all),
+# this file alone 187 -> 133 s.
+# tests/conftest.py's QUICK_COMPILE_ENV is the training runs' environment.
 
 
 @pytest.fixture(autouse=True)
-def scalar_kernels():
+def scalar_kernels(monkeypatch):
     """Inductor's C++ kernels without vector instructions for the compiles in this process (cpp.simdlen 1: no vector
-    ISA of that width, so none is picked)."""
+    ISA of that width, so none is picked), compiled unoptimised (inductor reads the variable at each compile)."""
     import torch._inductor.config as inductor
 
+    monkeypatch.setenv("TORCHINDUCTOR_DEBUG_COMPILE", QUICK_COMPILE_ENV["TORCHINDUCTOR_DEBUG_COMPILE"])
     with inductor.patch({"cpp.simdlen": 1}):
         yield
 

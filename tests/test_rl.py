@@ -100,8 +100,8 @@ def test_resume_continues_from_the_latest_checkpoint(ppo_run, tmp_path):
 def test_compiled_trunk_trains_as_the_plain_run(ppo_run, tmp_path):
     """train.compile=true (the visual trunk under torch.compile, in rollouts and updates): the plain run's episodes
     and losses to float rounding (fused GroupNorm reductions: ~1e-4 apart here), its kernels under the cache root.
-    Scalar C++ kernels in one translation unit per graph, as tests/test_compiled.py's training step: what is
-    checked is the wiring."""
+    Scalar C++ kernels in one translation unit per graph, compiled unoptimised, as tests/test_compiled.py's training
+    step: what is checked is the wiring."""
     plain, _ = ppo_run
     out = tmp_path / "compiled"
     rvn_rl("algo=ppo", f"out_dir={out}", "train.total_steps=32", "train.compile=true", *TINY,
