@@ -2,8 +2,11 @@
 from __future__ import annotations
 
 import os
+import shutil
 import subprocess
 import sys
+import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
@@ -18,16 +21,30 @@ DREAM_APARTMENT = Path(os.environ.get(
 
 
 # The files whose tests take longest on 2 cores, slowest first (each file's time under `-n auto --dist loadfile`,
-# 2026-11-29: test_rl ~165 s, test_experiment_smoke ~135, test_compiled ~125, test_real_sim_smoke ~115,
-# test_node_benchmark ~105, test_rl_ddppo ~90, then ten files of 25-40 s). xdist's loadfile hands files out in queue
-# order, by default the files with the most tests first, which left one worker running a long file alone at the end
+# 2026-12-02: test_compiled ~160 s, test_rl ~145, test_node_benchmark ~140, test_experiment_smoke ~105, test_rl_ddppo
+# ~100, test_real_sim_smoke ~90, then ten files of 30-55 s). xdist's loadfile hands files out in queue order, by
+# default the files with the most tests first, which left one worker running a long file alone at the end
 # (test_rl_ddppo, later test_rl: 75 s of one idle core). Longest first, the short files fill in behind, and the two
-# workers end within seconds of each other.
-LONGEST_FIRST = ("test_rl.py", "test_experiment_smoke.py", "test_compiled.py", "test_real_sim_smoke.py",
-                 "test_node_benchmark.py", "test_rl_ddppo.py", "test_eval.py", "test_il_train.py", "test_agreement.py",
-                 "test_embodiment.py", "test_depth_aux.py", "test_rl_depth.py", "test_il_datasets.py",
-                 "test_readme_block.py", "test_gen_readback.py", "test_worker_threads.py", "test_cli_errors.py",
-                 "test_gen_repair.py")
+# workers end within seconds of each other. test_compiled leads: it needs none of numba's kernels (KERNEL_FREE), so
+# on a fresh clone one worker runs it while the kernels compile (pytest_configure).
+LONGEST_FIRST = ("test_compiled.py", "test_rl.py", "test_node_benchmark.py", "test_experiment_smoke.py",
+                 "test_rl_ddppo.py", "test_real_sim_smoke.py", "test_eval.py", "test_il_train.py", "test_agreement.py",
+                 "test_depth_aux.py", "test_gen_readback.py", "test_embodiment.py", "test_il_datasets.py",
+                 "test_rl_depth.py", "test_cli_errors.py", "test_worker_threads.py", "test_gen_repair.py",
+                 "test_report.py", "test_il_models.py", "test_cli_typos.py", "test_rl_vec_env.py",
+                 "test_readme_block.py")
+# Test files that call none of numba's kernels (torch.compile on synthetic frames): they start before the kernels are
+# compiled; every other file's tests wait for them (pytest_runtest_setup)
+KERNEL_FREE = ("test_compiled.py",)
+# Set while pytest's main process compiles numba's kernels for the workers: the file that appears when it has ended
+WARMING = "RVN_TEST_KERNELS_WARMING"
+_WARM_UP = """import pathlib, sys
+try:
+    from rvn_data.numba_note import warm_kernels
+    warm_kernels()
+finally:
+    pathlib.Path(sys.argv[1]).touch()
+"""
 
 
 # The environment of the tests' compiled training runs (rvn-train, rvn-rl with train.compile=true): inductor's scalar
@@ -42,23 +59,47 @@ def pytest_collection_modifyitems(config, items):
 
 
 def pytest_configure(config):
-    """With xdist's workers (``-n``) and numba's kernels not cached yet (a fresh clone), compile them once here, in
-    pytest's main process, before the workers start (`rvn_data.numba_note.warm_kernels`, ~25 s on 2 cores). Otherwise
-    each worker and each CLI process it starts compiles them side by side until one has cached them. On a 2-core
-    machine, fresh clones: 895 s of tests without this, 765 s with it (823 s with the kernels cached beforehand). A
-    failure or time-out here is left to the tests, which compile what they need as before. xdist's queue takes the
-    collection's order (:data:`LONGEST_FIRST`)."""
+    """With xdist's workers (``-n``) and numba's kernels not cached yet (a fresh clone), compile them once, in a process
+    of pytest's main process (`rvn_data.numba_note.warm_kernels`, ~40 s on 2 cores), while the workers start.
+    Otherwise each worker and each CLI process it starts compiles them side by side until one has cached them (on a
+    2-core machine, fresh clones: 895 s of tests without this, 765 s with it, 823 s with the kernels cached
+    beforehand). The workers' tests wait for it (:func:`pytest_runtest_setup`), those of :data:`KERNEL_FREE` files
+    excepted, so one core runs test_compiled.py while the other compiles the kernels (before 2026-12-02 the workers
+    started after them, one core idle meanwhile). A warm-up that fails leaves the tests to compile what they need, as
+    before. xdist's queue takes the collection's order (:data:`LONGEST_FIRST`)."""
     if hasattr(config, "workerinput") or not getattr(config.option, "numprocesses", None):
         return
     config.option.loadscopereorder = False  # xdist's queue in the collection's order: LONGEST_FIRST's files first
     from rvn_data.numba_note import kernels_cached
 
     if not kernels_cached():
-        try:
-            subprocess.run([sys.executable, "-c", "from rvn_data.numba_note import warm_kernels; warm_kernels()"],
-                           capture_output=True, timeout=600, env={**os.environ, "OMP_NUM_THREADS": "1"})
-        except subprocess.TimeoutExpired:
-            pass
+        done = Path(tempfile.mkdtemp(prefix="rvn-kernels-")) / "done"
+        config.rvn_warm_up = subprocess.Popen([sys.executable, "-c", _WARM_UP, str(done)], stdout=subprocess.DEVNULL,
+                                              stderr=subprocess.DEVNULL, env={**os.environ, "OMP_NUM_THREADS": "1"})
+        config.rvn_warm_up_done = done
+        os.environ[WARMING] = str(done)  # the workers start after this hook: they inherit it
+
+
+def pytest_runtest_setup(item):
+    """In a worker, while the main process compiles numba's kernels: wait for them (10 minutes at most), unless the
+    test's file needs none (:data:`KERNEL_FREE`)."""
+    done = os.environ.get(WARMING)
+    if done and item.path.name not in KERNEL_FREE:
+        deadline = time.monotonic() + 600
+        while not os.path.exists(done) and time.monotonic() < deadline:
+            time.sleep(0.2)
+        os.environ.pop(WARMING)  # ended (or given up on): the next tests need not look
+
+
+def pytest_unconfigure(config):
+    """The warm-up's process ended (stopped if a short run ended first) and its folder removed."""
+    proc = getattr(config, "rvn_warm_up", None)
+    if proc is not None:
+        if proc.poll() is None:
+            proc.kill()
+        proc.wait()
+        shutil.rmtree(config.rvn_warm_up_done.parent, ignore_errors=True)
+        os.environ.pop(WARMING, None)
 
 
 def run_python(*args: str, check: bool = True, timeout: float = 600) -> subprocess.CompletedProcess:
