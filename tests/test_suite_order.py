@@ -29,14 +29,12 @@ def test_collection_puts_them_first_in_their_order_and_keeps_the_rest_stable():
 
 def test_a_worker_waits_for_the_kernels_unless_its_file_needs_none(tmp_path, monkeypatch):
     import threading
-    import time
 
     done = tmp_path / "done"
     monkeypatch.setenv(WARMING, str(done))
-    start = time.monotonic()
     pytest_runtest_setup(SimpleNamespace(path=HERE / KERNEL_FREE[0]))
     assert os.environ[WARMING] == str(done) and not done.exists()  # no wait: the kernels are still compiling
     threading.Timer(0.5, done.touch).start()
     pytest_runtest_setup(SimpleNamespace(path=HERE / "test_env.py"))
-    assert done.exists() and time.monotonic() - start >= 0.5  # waited for the warm-up's end
+    assert done.exists()  # waited for the warm-up's end
     assert WARMING not in os.environ  # later tests do not look again
