@@ -25,7 +25,9 @@ def rl_rows(plan) -> Iterator[dict]:
     scenes they have not seen, as a run over all 800 does). A first run of two updates (the first one loads scenes:
     not counted) times an update; when that left part of ``plan.seconds``, the run resumes for as many more updates as
     fit (the first again not counted). ``rl_bf16``: the rl row with train.precision=bf16 (the visual encoder under
-    torch.autocast(bfloat16) in rollouts and updates), naming its ratio to the rl row; with CUDA, after the envs-alone
+    torch.autocast(bfloat16) in rollouts and updates), naming its ratio to the rl row; ``rl_overlap``: with
+    train.overlap=true (each PPO update in a learner thread while the envs collect the next rollout), naming its ratio
+    too; with CUDA, after the envs-alone
     rows, ``rl_compiled``: with train.compile=true (the visual trunk's forward and backward as CUDA graphs; its
     compiling falls in the first, uncounted update), naming its ratio too. With CUDA (and --quick), the
     envs alone (``rl_envs``): with env.prefetch_scenes (the default), without it (``rl_envs_no_prefetch``: vectorised
@@ -49,6 +51,8 @@ def rl_rows(plan) -> Iterator[dict]:
         plain = _rl_row(plan, "rl", "scale=small", small, "rl", "")
         yield plain
         yield _rl_row(plan, "rl_bf16", "scale=small, train.precision=bf16", {**small, "precision": "bf16"}, "rl", "",
+                      against=plain["value"])
+        yield _rl_row(plan, "rl_overlap", "scale=small, train.overlap=true", {**small, "overlap": True}, "rl", "",
                       against=plain["value"])
         if plan.cuda or plan.quick:
             envs = _rl_envs_row(plan, small)
@@ -148,7 +152,8 @@ def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, bas
                f"{plan.rl_scenes} train scenes, goal pool {args.goal_pool} {plan.rl_filled}, "
                f"{len(counted)} updates timed ({seconds:.1f} s); time: envs stepping {100 * share('time_envs'):.0f}%, "
                f"policy and storage {100 * (1 - share('time_envs') - share('time_learn')):.0f}%, "
-               f"PPO update {100 * share('time_learn'):.0f}%", baseline, busy.share, profile=profile)
+               f"{'waiting for the PPO update' if settings.get('overlap') else 'PPO update'} "
+               f"{100 * share('time_learn'):.0f}%", baseline, busy.share, profile=profile)
 
 
 def _rl_envs_row(plan, settings: dict, workers: int | None = None, prefetch: bool = True,

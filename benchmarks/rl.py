@@ -38,6 +38,7 @@ def overrides(args, out_dir: str) -> list[str]:
             f"ppo.num_mini_batch={args.mini_batches}",
             f"train.precision={getattr(args, 'precision', 'fp32')}",
             f"train.compile={str(getattr(args, 'compile', False)).lower()}",
+            f"train.overlap={str(getattr(args, 'overlap', False)).lower()}",
             ] + ([f"cache_dir={args.cache_dir}"] if getattr(args, "cache_dir", None) else [])  # else <out_dir>/cache
 
 

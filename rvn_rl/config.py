@@ -81,6 +81,9 @@ class RLConfig:
             raise ValueError(f"model.backbone={self.model.backbone!r}: choose resnet50 or resnet18")
         if world_size > 1 and not self.algo.distributed:
             raise ValueError(f"algo={self.algo.name} runs in one process; use algo=ddppo (or ddppo_depth) under torchrun")
+        if self.train.overlap and (self.algo.distributed or world_size > 1):
+            raise ValueError(f"train.overlap=true learns in a thread of one process; algo={self.algo.name} runs "
+                             "DD-PPO's ranks, whose collectives that thread would interleave: use train.overlap=false")
         if not 0.0 < self.ddppo.sync_frac <= 1.0:
             raise ValueError(f"ddppo.sync_frac={self.ddppo.sync_frac!r} must be in (0, 1]")
         self._check_depth()

@@ -67,11 +67,16 @@ class RolloutStorage:
 
     def after_update(self, state: torch.Tensor) -> None:
         """Carry the last observation, state, previous action and mask to the next rollout."""
-        n = self.step
-        for v in self.obs.values():
-            v[0].copy_(v[n])
-        self.prev_actions[0].copy_(self.prev_actions[n])
-        self.masks[0].copy_(self.masks[n])
+        self.continue_from(self, state)
+
+    def continue_from(self, other: "RolloutStorage", state: torch.Tensor) -> None:
+        """Start a rollout where ``other``'s ended: its last observation, previous action and mask, and ``state``
+        (train.overlap collects into one storage while the update reads the other)."""
+        n = other.step
+        for k, v in self.obs.items():
+            v[0].copy_(other.obs[k][n])
+        self.prev_actions[0].copy_(other.prev_actions[n])
+        self.masks[0].copy_(other.masks[n])
         self.state0.copy_(state)
         self.step = 0
 

@@ -119,6 +119,12 @@ class TrainSettings:
     # <cache root>/compiled
     compile: bool = False
     compile_mode: str = "reduce-overhead"  # default | reduce-overhead (CUDA graphs on a GPU; on a CPU as default)
+    # learn while collecting: each PPO update runs in a learner thread while the envs collect the next rollout with
+    # a copy of the weights from before it (one update of policy lag, as asynchronous PPO; PPO's ratio and clipping are
+    # against the policy that acted), so an update's time is the longer of the two instead of their sum. For a GPU
+    # node, where the learner and the envs use different hardware; one process only (not DD-PPO's ranks). The copy that
+    # acts is not compiled (train.compile compiles the learner's trunk)
+    overlap: bool = False
 
     def __post_init__(self) -> None:
         if isinstance(self.total_steps, float) and self.total_steps.is_integer():

@@ -5,7 +5,8 @@ latest checkpoint when there is one), the environments and the log, and runs `_l
 Lagrange multiplier for PPO-Lagrangian, a PPO update through a DistributedDataParallel replica when distributed,
 the log row and resumable checkpoints in ``out_dir``. Each setting group goes to where it acts: ``ppo`` to the
 rollout and the update, ``env`` to the environments, ``algo`` to the multiplier, ``train`` to the loop's length,
-checkpoints and the visual trunk's precision and compilation."""
+checkpoints, the visual trunk's precision and compilation, and ``train.overlap`` (each update in a learner thread
+while a copy of the policy collects the next rollout: `rvn_rl.overlap`)."""
 from __future__ import annotations
 
 import logging
@@ -27,6 +28,7 @@ from . import checkpoint as ck
 from .config import RLConfig
 from .distrib import Dist, all_sum, init, pick_device, shutdown
 from .model import PointNavResNetPolicy
+from .overlap import LearnerThread, actor_generator, make_actor
 from .ppo import Lagrange, ppo_update
 from .rollout import DeviceRollouts, RolloutStorage, to_device
 from .runlog import RunLog, episode_sums, plot_learning_curve, summary
@@ -142,6 +144,7 @@ def train(cfg: RLConfig, on_checked=None) -> dict:
         if cfg.train.threads:
             torch.set_num_threads(cfg.train.threads)
         run = Run.start(cfg.seed, policy_kwargs, cfg.ppo, cfg.algo, d, device, resume_from)
+        actor = make_actor(run.policy, cfg.train) if cfg.train.overlap else None  # a copy, before set_trunk compiles
         if cfg.train.compile:  # kernels under the cache root, beside the navmeshes and goal pools
             keep_compiled_kernels(env_kwargs["cache_dir"])
         set_trunk(run.policy, cfg.train)  # rollouts and updates alike
@@ -155,7 +158,7 @@ def train(cfg: RLConfig, on_checked=None) -> dict:
         logging.getLogger("rvn").setLevel(logging.WARNING)  # the first scenes' renderer lines are enough
         log = RunLog(out_dir, d.rank == 0)
         try:
-            result = _loop(run, envs, log, cfg, d, device, out_dir)
+            result = _loop(run, envs, log, cfg, d, device, out_dir, actor)
         finally:
             envs.close()
             log.close()
@@ -166,9 +169,43 @@ def train(cfg: RLConfig, on_checked=None) -> dict:
         shutdown()
 
 
-def _loop(run: Run, envs, log: RunLog, cfg: RLConfig, d: Dist, device, out_dir: Path) -> dict:
+def _collect(actor, envs, rollouts: RolloutStorage, state: torch.Tensor, run: Run, cfg: RLConfig, d: Dist, device,
+             heads: int, generator: torch.Generator | None = None) -> tuple:
+    """A rollout of ``ppo.num_steps`` steps into ``rollouts`` (fewer when DD-PPO pre-empts it) acted by ``actor``
+    (actions drawn from ``generator``, else torch's global one), and its GAE returns. Returns the recurrent state after
+    it, the episodes that ended, the seconds the envs stepped and the env steps over all ranks."""
+    ppo, n = cfg.ppo, envs.num_envs
+    actor.eval()
+    episodes, t_env = [], 0.0
+    for step in range(ppo.num_steps):
+        o, prev, masks = rollouts.current()
+        with torch.no_grad():
+            action, logp, values, state = actor.act(to_device(o, device), state, prev.to(device), masks.to(device),
+                                                    generator=generator)
+        actions = action.cpu().numpy()
+        t_step = time.perf_counter()
+        obs, reward, cost, done, infos = envs.step(actions)
+        t_env += time.perf_counter() - t_step
+        rewards = np.stack([reward, cost], -1) if heads == 2 else reward[:, None]
+        rollouts.insert(obs, action.cpu(), logp.cpu(), values.cpu(), rewards, done)
+        episodes += [info["episode"] for info in infos if "episode" in info]
+        if d.should_end_early(step + 1, ppo.num_steps, run.updates, cfg.ddppo.sync_frac):
+            break
+    d.rollout_done(run.updates)
+    delta = int(all_sum(torch.tensor([float(rollouts.step * n)], dtype=torch.float64))[0])  # env steps, all ranks
+    o, prev, masks = rollouts.current()
+    with torch.no_grad():
+        feats, _ = actor(to_device(o, device), state, prev.to(device), masks.to(device))
+        next_values = actor.values(feats).cpu()
+    rollouts.compute_returns(next_values, ppo.gamma, ppo.tau)
+    return state, episodes, t_env, delta
+
+
+def _loop(run: Run, envs, log: RunLog, cfg: RLConfig, d: Dist, device, out_dir: Path, actor=None) -> dict:
     """Rollouts and updates until ``train.total_steps`` env steps; rank 0 checkpoints every
-    ``train.checkpoint_every`` updates and at the end, and closes with the run's summary."""
+    ``train.checkpoint_every`` updates and at the end, and closes with the run's summary. With ``actor``
+    (train.overlap: `overlap.make_actor`), each update runs in the learner thread while ``actor`` collects the next
+    rollout into the other of two buffers; the actor then takes the updated weights."""
     from tqdm import tqdm
 
     ppo, total = cfg.ppo, cfg.train.total_steps
@@ -176,59 +213,65 @@ def _loop(run: Run, envs, log: RunLog, cfg: RLConfig, d: Dist, device, out_dir: 
     obs = envs.reset()
     space = {k: (v.shape[1:], torch.uint8 if v.dtype == np.uint8 else torch.float32) for k, v in obs.items()}
     state = policy.initial_state(n, device)
-    rollouts = RolloutStorage(ppo.num_steps, n, space, tuple(state.shape), heads)
-    rollouts.set_first(obs, state.cpu(), torch.zeros(n, dtype=torch.long), torch.zeros(n))
-    batches = DeviceRollouts(rollouts, device)  # the update's mini-batches, on the learner's device
+    buffers = [RolloutStorage(ppo.num_steps, n, space, tuple(state.shape), heads) for _ in range(1 + (actor is not None))]
+    buffers[0].set_first(obs, state.cpu(), torch.zeros(n, dtype=torch.long), torch.zeros(n))
+    batches = [DeviceRollouts(b, device) for b in buffers]  # the update's mini-batches, on the learner's device
+    learner, acts = LearnerThread(actor is not None, device), None
+    if actor is not None:  # its own stream: torch.compile in the learner thread saves and restores the global one
+        acts = actor_generator(cfg.seed, run.updates, device)
+    actor = policy if actor is None else actor
     bar = tqdm(total=total, initial=min(run.env_steps, total), unit="step", desc=f"rvn-rl {cfg.algo.name}",
                disable=d.rank != 0 or not cfg.progress, smoothing=0.1)
     t_start, steps_start = time.perf_counter(), run.env_steps
-    while run.env_steps < total:
-        t0 = time.perf_counter()
-        policy.eval()
-        episodes, t_env = [], 0.0
-        for step in range(ppo.num_steps):
-            o, prev, masks = rollouts.current()
-            with torch.no_grad():
-                action, logp, values, state = policy.act(to_device(o, device), state, prev.to(device),
-                                                         masks.to(device), generator=None)
-            actions = action.cpu().numpy()
-            t_step = time.perf_counter()
-            obs, reward, cost, done, infos = envs.step(actions)
-            t_env += time.perf_counter() - t_step
-            rewards = np.stack([reward, cost], -1) if heads == 2 else reward[:, None]
-            rollouts.insert(obs, action.cpu(), logp.cpu(), values.cpu(), rewards, done)
-            episodes += [info["episode"] for info in infos if "episode" in info]
-            if d.should_end_early(step + 1, ppo.num_steps, run.updates, cfg.ddppo.sync_frac):
+    t0, cur = t_start, 0
+    state, episodes, t_env, delta = _collect(actor, envs, buffers[cur], state, run, cfg, d, device, heads, acts)
+    t_collect = time.perf_counter() - t0
+    try:
+        while True:
+            sums = episode_sums(episodes)
+            if run.lagrange is not None:
+                if sums[0] > 0:
+                    run.ep_cost = float(sums[6] / sums[0])
+                run.lagrange.update(run.ep_cost)
+            policy.train()
+            more = run.env_steps + delta < total  # another rollout after this update
+            t_learn = time.perf_counter()
+            update = learner.start(ppo_update, run.learner, run.optimizer, batches[cur], ppo, run.gen, run.lagrange)
+            if more and len(buffers) == 2:  # the next rollout while the update runs, by the weights from before it
+                buffers[1 - cur].continue_from(buffers[cur], state.cpu())
+                nxt = (1 - cur, *_collect(actor, envs, buffers[1 - cur], state, run, cfg, d, device, heads, acts),
+                       time.perf_counter() - t_learn)  # ..., the next rollout's seconds
+                t_learn = time.perf_counter()  # from here, the wait for the update
+                losses = update.result()
+                actor.load_state_dict(policy.state_dict())
+            else:
+                losses = update.result()
+                buffers[cur].after_update(state.cpu())
+            t_learn = time.perf_counter() - t_learn
+            run.env_steps += delta
+            run.updates += 1
+            t_update = time.perf_counter() - t0
+            scalars = {"fps": delta / t_update, "fps_collect": delta / max(t_collect, 1e-9), **losses,
+                       # shares of the update's time (train.overlap: the learner's share is what the envs waited for it)
+                       "time_envs": t_env / t_update, "time_learn": t_learn / t_update,
+                       "updates": run.updates, "rollout_steps": delta / (n * d.world_size)}
+            if run.lagrange is not None:
+                scalars.update({"lambda": run.lagrange.value, "J_c": run.ep_cost})
+            row = log.record(run.env_steps, sums, scalars)
+            bar.update(delta)
+            bar.set_postfix({k: f"{row[k]:.3g}" for k in ("reward", "goals", "lambda") if k in row})
+            if d.rank == 0 and (run.updates % cfg.train.checkpoint_every == 0 or run.env_steps >= total):
+                ck.save(out_dir, run.env_steps, policy, run.resume_state(), keep=cfg.train.keep_checkpoints)
+            if not more:
                 break
-        d.rollout_done(run.updates)
-        delta = int(all_sum(torch.tensor([float(rollouts.step * n)], dtype=torch.float64))[0])  # env steps, all ranks
-        t_collect = time.perf_counter() - t0
-        o, prev, masks = rollouts.current()
-        with torch.no_grad():
-            feats, _ = policy(to_device(o, device), state, prev.to(device), masks.to(device))
-            next_values = policy.values(feats).cpu()
-        rollouts.compute_returns(next_values, ppo.gamma, ppo.tau)
-        sums = episode_sums(episodes)
-        if run.lagrange is not None:
-            if sums[0] > 0:
-                run.ep_cost = float(sums[6] / sums[0])
-            run.lagrange.update(run.ep_cost)
-        policy.train()
-        losses = ppo_update(run.learner, run.optimizer, batches, ppo, run.gen, run.lagrange)
-        rollouts.after_update(state.cpu())
-        run.env_steps += delta
-        run.updates += 1
-        t_update = time.perf_counter() - t0
-        scalars = {"fps": delta / t_update, "fps_collect": delta / max(t_collect, 1e-9), **losses,
-                   "time_envs": t_env / t_update, "time_learn": (t_update - t_collect) / t_update,  # shares of the update
-                   "updates": run.updates, "rollout_steps": delta / (n * d.world_size)}
-        if run.lagrange is not None:
-            scalars.update({"lambda": run.lagrange.value, "J_c": run.ep_cost})
-        row = log.record(run.env_steps, sums, scalars)
-        bar.update(delta)
-        bar.set_postfix({k: f"{row[k]:.3g}" for k in ("reward", "goals", "lambda") if k in row})
-        if d.rank == 0 and (run.updates % cfg.train.checkpoint_every == 0 or run.env_steps >= total):
-            ck.save(out_dir, run.env_steps, policy, run.resume_state(), keep=cfg.train.keep_checkpoints)
+            t0 = time.perf_counter()
+            if len(buffers) == 2:  # collected while the update ran
+                cur, state, episodes, t_env, delta, t_collect = nxt
+            else:
+                state, episodes, t_env, delta = _collect(actor, envs, buffers[cur], state, run, cfg, d, device, heads, acts)
+                t_collect = time.perf_counter() - t0
+    finally:
+        learner.close()
     bar.close()
     result = {"env_steps": run.env_steps, "updates": run.updates}
     if d.rank == 0:

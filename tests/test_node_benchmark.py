@@ -28,7 +28,7 @@ def test_quick_run_lists_every_row(tmp_path):
     assert table in proc.stdout
     rows = {r["key"]: r for r in doc["rows"]}
     cpus = doc["cpu_count"]
-    expected = {"gen", "train_nomad_pointgoal", "train_vint_pointgoal", "decision_gpu", "decision_cpu", "rl", "rl_bf16",
+    expected = {"gen", "train_nomad_pointgoal", "train_vint_pointgoal", "decision_gpu", "decision_cpu", "rl", "rl_bf16", "rl_overlap",
                 "rl_compiled", "rl_envs", "rl_envs_no_prefetch", "rl_envs_1", "rl_envs_fresh_goals",
                 "rl_envs_first_pass", "render_gl_4scenes"}
     expected |= {f"render_{b}_{n}p" for b in ("gl", "raycast") for n in {1, 2, cpus}}
@@ -41,7 +41,9 @@ def test_quick_run_lists_every_row(tmp_path):
     assert "with the goal pool of 64 (rl_envs): x" in rows["rl_envs_fresh_goals"]["settings"]
     assert "over an empty cache root" in rows["rl_envs_first_pass"]["settings"]
     assert "train.precision=bf16" in rows["rl_bf16"]["label"]
-    assert re.match(r"x[\d.]+ the rl row's \d+ \(float32, not compiled\)", rows["rl_bf16"]["baseline"])
+    for name in ("rl_bf16", "rl_overlap"):
+        assert re.match(r"x[\d.]+ the rl row's \d+ \(float32, not compiled\)", rows[name]["baseline"])
+    assert "train.overlap=true" in rows["rl_overlap"]["label"]
     assert rows["rl_compiled"]["skipped"] if doc["device"] == "CPU only" else rows["rl_compiled"]["value"] > 0
     assert "over the kept caches (rl_envs): x" in rows["rl_envs_first_pass"]["settings"]
     for name in ("rl", "rl_envs", "rl_envs_1"):  # the scenes' navmeshes and pools made before the rows

@@ -145,6 +145,7 @@ def test_ppo_lag_logs_lambda_and_episode_cost(tmp_path):
     (["env.num_envs=1"], "ppo.num_mini_batch"),
     (["train.total_steps=abc"], "train.total_steps=abc: Value 'abc' of type 'str' is incompatible"),  # the last override wins
     (["algo=ppo", "algo.cost_limit=0.5"], "algo.cost_limit=0.5 acts only in a Lagrangian algorithm"),
+    (["algo=ddppo", "train.overlap=true"], "train.overlap=true learns in a thread of one process"),
 ])
 def test_bad_input_one_line(tmp_path, args, words):
     proc = rvn_rl(f"out_dir={tmp_path / 'x'}", "train.total_steps=8", *TINY, *args, check=False)
