@@ -27,10 +27,9 @@ def rl_rows(plan) -> Iterator[dict]:
     fit (the first again not counted). ``rl_bf16``: the rl row with train.precision=bf16 (the visual encoder under
     torch.autocast(bfloat16) in rollouts and updates), naming its ratio to the rl row; ``rl_overlap``: with
     train.overlap=true (each PPO update in a learner thread while the envs collect the next rollout), naming its ratio
-    too; with CUDA, after the envs-alone
-    rows, ``rl_compiled``: with train.compile=true (the visual trunk's forward and backward as CUDA graphs; its
-    compiling falls in the first, uncounted update), naming its ratio too. With CUDA (and --quick), the
-    envs alone (``rl_envs``): with env.prefetch_scenes (the default), without it (``rl_envs_no_prefetch``: vectorised
+    too; with CUDA, after the envs-alone rows, ``rl_compiled``: with train.compile=true (the visual trunk's forward
+    and backward as CUDA graphs; its compiling falls in the first, uncounted update), naming its ratio too. With CUDA
+    (and --quick), the envs alone (``rl_envs``): with env.prefetch_scenes (the default), without it (``rl_envs_no_prefetch``: vectorised
     envs then wait for whichever env switches scene, the bound of the third GPU run, docs/results/2026-11-27_gpu3)
     and in one worker (``rl_envs_1``). The second and third GPU runs also timed renderer=raycast and gl under
     __GL_YIELD=USLEEP: the renderer is not the bound. Last, the envs alone with fresh goals (``rl_envs_fresh_goals``,
