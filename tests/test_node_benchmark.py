@@ -28,8 +28,8 @@ def test_quick_run_lists_every_row(tmp_path):
     assert table in proc.stdout
     rows = {r["key"]: r for r in doc["rows"]}
     cpus = doc["cpu_count"]
-    expected = {"gen", "train_nomad_pointgoal", "train_vint_pointgoal", "decision_gpu", "decision_cpu", "rl", "rl_bf16", "rl_overlap",
-                "rl_compiled", "rl_envs", "rl_envs_no_prefetch", "rl_envs_1", "rl_envs_fresh_goals",
+    expected = {"gen", "train_nomad_pointgoal", "train_vint_pointgoal", "decision_gpu", "decision_cpu",
+                "rl", "rl_bf16", "rl_overlap", "rl_compiled", "rl_envs", "rl_envs_no_prefetch", "rl_envs_1", "rl_envs_fresh_goals",
                 "rl_envs_first_pass", "render_gl_4scenes"}
     expected |= {f"render_{b}_{n}p" for b in ("gl", "raycast") for n in {1, 2, cpus}}
     assert expected <= set(rows), sorted(expected - set(rows))

@@ -33,7 +33,6 @@ Metrics:
 from __future__ import annotations
 
 import json
-import math
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from rvn_data.atomic import write_text_atomic  # noqa: F401 (re-exported: eval code imports it from here)

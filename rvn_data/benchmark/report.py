@@ -16,7 +16,6 @@ episode's record. Runs appear in the order given.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 from collections import Counter

@@ -1,0 +1,51 @@
+"""seeds.md: train.overlap false against true over the training seeds: each seed's pair, the spread between seeds of
+one arm, and the seeds pooled.
+
+The evaluations of every pair ran on the same 200 val episodes (rvn-eval seed 0), so within a seed the two rows are
+paired by episode; pooled, a unit is (training seed, episode) and the paired tests swap the rows' labels within it
+(`rvn_data.benchmark.significance`): the question is whether overlap changes SR_1 or CPK whatever the seed.
+
+    python seeds.py eval seed1/eval [...]   # one folder of rvn-eval out_dirs per training seed, seed 0 first
+"""
+import sys
+from pathlib import Path
+
+from rvn_data.benchmark.runs import load_run
+from rvn_data.benchmark.significance import Row, significance_table
+
+ARMS = {"false": "PPO", "true": "PPO overlap"}
+
+
+def row(label: str, runs: list) -> Row:
+    """One row over the runs (one per seed), episodes keyed by (seed, episode id)."""
+    per_episode = {(seed, e["episode_id"]): (bool(e["first_goal_success"]), int(e["collisions"]),
+                                             float(e["path_length"]) / 1e3)
+                   for seed, run in enumerate(runs) for e in run.records}
+    return Row(label, sum(int(v[0]) for v in per_episode.values()), len(per_episode),
+               sum(int(r.metrics.get("collisions", 0)) for r in runs),
+               sum(float(r.metrics.get("distance_km", 0.0)) for r in runs), per_episode)
+
+
+def main(folders: list[str]) -> str:
+    runs = {arm: [load_run(Path(f) / f"ppo_overlap_{arm}") for f in folders] for arm in ARMS}
+    sets = {run.episode_set for arm in ARMS for run in runs[arm]}
+    if len(sets) != 1:
+        raise SystemExit(f"the runs in {folders} were not evaluated on the same episodes ({len(sets)} episode sets)")
+    out = ["# train.overlap false against true, per training seed and pooled\n",
+           f"Folders, seed 0 first: {', '.join(folders)}. Same 200 val episodes in every evaluation.\n"]
+    for seed, _ in enumerate(folders):
+        rows = [row(f"{ARMS[arm]} (seed {seed})", [runs[arm][seed]]) for arm in ("true", "false")]
+        out += [f"## Seed {seed}\n", significance_table(rows)]
+    if len(folders) > 1:  # the same recipe across seeds: how far two seeds part without any change
+        spread = [row(f"{ARMS[arm]} (seed {seed})", [runs[arm][seed]]) for arm in ARMS for seed in (1, 0)]
+        out += ["## Seed spread: one arm, seed 1 against seed 0\n", significance_table(spread, [
+            (spread[0].label, spread[1].label), (spread[2].label, spread[3].label)])]
+    pooled = [row(f"{ARMS[arm]} (seeds 0-{len(folders) - 1})", runs[arm]) for arm in ("true", "false")]
+    out += ["## Seeds pooled (a unit: seed, episode)\n", significance_table(pooled)]
+    return "\n".join(out)
+
+
+if __name__ == "__main__":
+    text = main(sys.argv[1:])
+    Path("seeds.md").write_text(text)
+    print(text)
