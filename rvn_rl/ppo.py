@@ -1,7 +1,11 @@
 """Recurrent PPO update (clipped surrogate, clipped value loss, entropy bonus, gradient-norm
 clipping) as habitat-baselines' PPO, and the PPO-Lagrangian multiplier as OmniSafe's
 `Lagrange`: Adam on -lambda (J_c - d), lambda clamped to >= 0, surrogate advantage
-(A_r - lambda A_c) / (1 + lambda)."""
+(A_r - lambda A_c) / (1 + lambda).
+
+``ppo.decoupled``: decoupled PPO (Hilton et al. 2021, "Batch size-invariance for policy optimization") for rollouts
+acted by older weights (train.overlap): the surrogate's ratio is to the proximal policy, the weights at the update's
+start (`DeviceRollouts.set_proximal`), and each advantage is weighted by the proximal / behaviour ratio."""
 from __future__ import annotations
 
 import torch
@@ -59,14 +63,20 @@ def ppo_update(model: nn.Module, optimizer, rollouts, cfg: PPOConfig, generator:
         adv = adv[..., 0]
     if cfg.use_normalized_advantage:
         adv = normalise(adv)
+    if cfg.decoupled:  # clip around the policy at this update's start, weighted by its ratio to the one that acted
+        rollouts.set_proximal(model, adv, cfg.num_mini_batch)
     names = ("value_loss", "action_loss", "entropy", "grad_norm")
     sums, updates = None, 0  # summed on the learner's device (float64, as Python's floats): one host sync an update
     for _ in range(cfg.ppo_epoch):
         for mb in rollouts.minibatches(adv, cfg.num_mini_batch, generator):
             logp, entropy, values = model(mb["obs"], mb["state"], mb["prev_actions"], mb["masks"], mb["actions"],
                                           pieces=mb["pieces"])
-            ratio = torch.exp(logp - mb["logp"])
             a = mb["advantages"]
+            if cfg.decoupled:
+                ratio = torch.exp(logp - mb["prox_logp"])
+                a = a * torch.exp(mb["prox_logp"] - mb["logp"])  # importance weight proximal / behaviour (> 0)
+            else:
+                ratio = torch.exp(logp - mb["logp"])
             action_loss = -torch.min(ratio * a, ratio.clamp(1 - cfg.clip_param, 1 + cfg.clip_param) * a).mean()
             ret, old = mb["returns"], mb["values"]
             if cfg.use_clipped_value_loss:

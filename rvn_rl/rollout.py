@@ -112,16 +112,45 @@ class DeviceRollouts:
         return {"obs": {k: v[:n].to(dev) for k, v in r.obs.items()}, "state": r.state0.to(dev),
                 **{k: getattr(r, k)[:n].to(dev) for k in _FIELDS}, "advantages": adv.to(dev)}
 
-    def minibatches(self, adv: torch.Tensor, num_mini_batch: int, generator: torch.Generator):
+    def _on(self, adv: torch.Tensor) -> dict:
         if adv is not self._adv:  # a new update (holding the last one's advantages, no new tensor can be them)
             self._adv, self._on_device = adv, self._load(adv)
-        d, n = self._on_device, self.r.step
+        return self._on_device
+
+    def _envs(self, d: dict, env: torch.Tensor) -> dict:
+        """The mini-batch of the envs ``env``: their whole rollouts, time-major and flat."""
+        n = self.r.step
+        pieces = plan_pieces(self.r.masks[:n, env], self.device) if self.plans else None  # from the CPU's masks
+        idx = env.to(self.device, non_blocking=True)
+
+        def flat(x: torch.Tensor) -> torch.Tensor:
+            return x[:, idx].reshape(n * len(idx), *x.shape[2:])
+        keys = (*_FIELDS, "advantages", *(["prox_logp"] if "prox_logp" in d else []))
+        return {"obs": {k: flat(v) for k, v in d["obs"].items()}, "state": d["state"][:, idx],
+                **{k: flat(d[k]) for k in keys}, "pieces": pieces}
+
+    def minibatches(self, adv: torch.Tensor, num_mini_batch: int, generator: torch.Generator):
+        d = self._on(adv)
         perm = torch.randperm(self.r.num_envs, generator=generator)
         for env in perm.chunk(num_mini_batch):
-            pieces = plan_pieces(self.r.masks[:n, env], self.device) if self.plans else None  # from the CPU's masks
-            idx = env.to(self.device, non_blocking=True)
+            yield self._envs(d, env)
 
-            def flat(x: torch.Tensor) -> torch.Tensor:
-                return x[:, idx].reshape(n * len(idx), *x.shape[2:])
-            yield {"obs": {k: flat(v) for k, v in d["obs"].items()}, "state": d["state"][:, idx],
-                   **{k: flat(d[k]) for k in (*_FIELDS, "advantages")}, "pieces": pieces}
+    def set_proximal(self, model, adv: torch.Tensor, chunks: int) -> None:
+        """Decoupled PPO's proximal policy (`ppo.decoupled`): the log-probs of the rollout's actions under ``model`` as
+        it is at the update's start, in eval mode (as the actor acts: the input normaliser's statistics stay) and
+        without gradients, over ``chunks`` groups of envs in order; the mini-batches then carry them as
+        ``prox_logp``."""
+        d, n = self._on(adv), self.r.step
+        out = torch.empty_like(d["logp"])
+        training = model.training
+        model.eval()
+        try:
+            with torch.no_grad():
+                for env in torch.arange(self.r.num_envs).chunk(chunks):
+                    mb = self._envs(d, env)
+                    logp, _, _ = model(mb["obs"], mb["state"], mb["prev_actions"], mb["masks"], mb["actions"],
+                                       pieces=mb["pieces"])
+                    out[:, env.to(self.device)] = logp.float().view(n, len(env))
+        finally:
+            model.train(training)
+        d["prox_logp"] = out

@@ -73,6 +73,11 @@ class PPOConfig:
     tau: float = 0.95  # GAE lambda
     use_normalized_advantage: bool = True
     use_clipped_value_loss: bool = True
+    # decoupled PPO (Hilton et al. 2021): clip the ratio to the weights at the update's start (their log-probs
+    # recomputed, one forward pass over the rollout without gradients) and weight the surrogate by their ratio to the
+    # weights that acted. For train.overlap, whose rollouts are acted by the weights one update older, where the ratio
+    # to those starts away from 1 and clipping takes smaller steps; synchronous PPO gives the same loss up to rounding
+    decoupled: bool = False
 
 
 @dataclass

@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# rvn-rl PPO with train.overlap=true and ppo.decoupled=true (decoupled PPO: clipped around the weights at the update's
+# start), training seeds 0 and 1 side by side (one torch thread each), otherwise run_pair.sh's settings; then rvn-eval
+# on the same 200 val episodes and seeds.py's tests against the pairs' rows.
+#   bash run_decoupled.sh OUT [TOTAL_STEPS]
+set -euo pipefail
+OUT=$1; STEPS=${2:-300000}
+mkdir -p "$OUT/logs"
+export OMP_NUM_THREADS=1 MKL_NUM_THREADS=1
+RL=(algo=ppo scale=small env.size=64 env.num_scenes=50 env.workers=0 model.backbone=resnet18 model.base_planes=16
+    model.ngroups=8 env.goal_pool=64 ppo.num_steps=64 ppo.num_mini_batch=4 train.total_steps=$STEPS
+    train.checkpoint_every=20 env.t_max=500 device=cpu renderer=auto progress=false env.num_envs=8 train.threads=1
+    train.overlap=true ppo.decoupled=true)
+EVAL=(split=val episodes.num_scenes=50 episodes.per_scene=4 episodes.n_goals=32 env.t_max=500
+      "episodes.dir=$OUT/episodes" workers=2 progress=false seed=0 renderer=auto camera.width=64 camera.height=64)
+for seed in 0 1; do
+  ( s=$SECONDS; rvn-rl "${RL[@]}" seed=$seed out_dir="$OUT/seed$seed/train/ppo_overlap_decoupled" \
+      > "$OUT/logs/train_$seed.log" 2>&1
+    echo "train_seed$seed $((SECONDS - s)) s" >> "$OUT/timings.txt" ) &
+done
+wait
+s=$SECONDS
+for seed in 0 1; do
+  rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/seed$seed/train/ppo_overlap_decoupled" \
+    "method=PPO overlap decoupled" out_dir="$OUT/seed$seed/eval/ppo_overlap_decoupled" "${EVAL[@]}" \
+    > "$OUT/logs/eval_$seed.log" 2>&1
+done
+echo "evals $((SECONDS - s)) s" >> "$OUT/timings.txt"
