@@ -76,7 +76,8 @@ class PPOConfig:
     # decoupled PPO (Hilton et al. 2021): clip the ratio to the weights at the update's start (their log-probs
     # recomputed, one forward pass over the rollout without gradients) and weight the surrogate by their ratio to the
     # weights that acted. For train.overlap, whose rollouts are acted by the weights one update older, where the ratio
-    # to those starts away from 1 and clipping takes smaller steps; synchronous PPO gives the same loss up to rounding
+    # to those starts away from 1 and clipping takes smaller steps; synchronous PPO gives the same loss up to rounding.
+    # Off: it did not lower overlap's CPK in two seeds (docs/results/2026-12-02_rl_overlap/)
     decoupled: bool = False
 
 

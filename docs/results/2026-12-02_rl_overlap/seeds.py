@@ -1,5 +1,5 @@
-"""seeds.md: train.overlap false against true over the training seeds: each seed's pair, the spread between seeds of
-one arm, and the seeds pooled.
+"""seeds.md: train.overlap false against true (and with ppo.decoupled, where its rows are there) over the training
+seeds: each seed's rows, the spread between seeds of one arm, and the seeds pooled.
 
 The evaluations of every pair ran on the same 200 val episodes (rvn-eval seed 0), so within a seed the two rows are
 paired by episode; pooled, a unit is (training seed, episode) and the paired tests swap the rows' labels within it
@@ -13,8 +13,8 @@ from pathlib import Path
 from rvn_data.benchmark.runs import load_run
 from rvn_data.benchmark.significance import Row, significance_table
 
-ARMS = {"false": "PPO", "true": "PPO overlap"}
-
+ARMS = {"false": "PPO", "true": "PPO overlap", "decoupled": "PPO overlap decoupled"}  # out_dir suffix: method
+COMPARE = [("true", "false"), ("decoupled", "false"), ("decoupled", "true")]  # A against B
 
 def row(label: str, runs: list) -> Row:
     """One row over the runs (one per seed), episodes keyed by (seed, episode id)."""
@@ -27,23 +27,26 @@ def row(label: str, runs: list) -> Row:
 
 
 def main(folders: list[str]) -> str:
-    runs = {arm: [load_run(Path(f) / f"ppo_overlap_{arm}") for f in folders] for arm in ARMS}
-    sets = {run.episode_set for arm in ARMS for run in runs[arm]}
+    arms = [arm for arm in ARMS if all((Path(f) / f"ppo_overlap_{arm}").is_dir() for f in folders)]
+    runs = {arm: [load_run(Path(f) / f"ppo_overlap_{arm}") for f in folders] for arm in arms}
+    sets = {run.episode_set for arm in arms for run in runs[arm]}
     if len(sets) != 1:
         raise SystemExit(f"the runs in {folders} were not evaluated on the same episodes ({len(sets)} episode sets)")
-    out = ["# train.overlap false against true, per training seed and pooled\n",
+    compare = [(a, b) for a, b in COMPARE if a in runs and b in runs]
+    out = [f"# {', '.join(ARMS[a] for a in arms)}: per training seed and pooled\n",
            f"Folders, seed 0 first: {', '.join(folders)}. Same 200 val episodes in every evaluation.\n"]
-    for seed, _ in enumerate(folders):
-        rows = [row(f"{ARMS[arm]} (seed {seed})", [runs[arm][seed]]) for arm in ("true", "false")]
-        out += [f"## Seed {seed}\n", significance_table(rows)]
-    if len(folders) > 1:  # the same recipe across seeds: how far two seeds part without any change
-        spread = [row(f"{ARMS[arm]} (seed {seed})", [runs[arm][seed]]) for arm in ARMS for seed in (1, 0)]
-        out += ["## Seed spread: one arm, seed 1 against seed 0\n", significance_table(spread, [
-            (spread[0].label, spread[1].label), (spread[2].label, spread[3].label)])]
-    pooled = [row(f"{ARMS[arm]} (seeds 0-{len(folders) - 1})", runs[arm]) for arm in ("true", "false")]
-    out += ["## Seeds pooled (a unit: seed, episode)\n", significance_table(pooled)]
-    return "\n".join(out)
 
+    def table(rows: dict) -> str:
+        return significance_table(list(rows.values()), [(rows[a].label, rows[b].label) for a, b in compare])
+    for seed, _ in enumerate(folders):
+        out += [f"## Seed {seed}\n", table({arm: row(f"{ARMS[arm]} (seed {seed})", [runs[arm][seed]]) for arm in arms})]
+    if len(folders) > 1:  # the same recipe across seeds: how far two seeds part without any change
+        spread = [row(f"{ARMS[arm]} (seed {seed})", [runs[arm][seed]]) for arm in arms for seed in (1, 0)]
+        out += ["## Seed spread: one arm, seed 1 against seed 0\n", significance_table(
+            spread, [(spread[i].label, spread[i + 1].label) for i in range(0, len(spread), 2)])]
+    pooled = {arm: row(f"{ARMS[arm]} (seeds 0-{len(folders) - 1})", runs[arm]) for arm in arms}
+    out += ["## Seeds pooled (a unit: seed, episode)\n", table(pooled)]
+    return "\n".join(out)
 
 if __name__ == "__main__":
     text = main(sys.argv[1:])
