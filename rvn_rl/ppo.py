@@ -5,7 +5,11 @@ clipping) as habitat-baselines' PPO, and the PPO-Lagrangian multiplier as OmniSa
 
 ``ppo.decoupled``: decoupled PPO (Hilton et al. 2021, "Batch size-invariance for policy optimization") for rollouts
 acted by older weights (train.overlap): the surrogate's ratio is to the proximal policy, the weights at the update's
-start (`DeviceRollouts.set_proximal`), and each advantage is weighted by the proximal / behaviour ratio."""
+start (`DeviceRollouts.set_proximal`), and each advantage is weighted by the proximal / behaviour ratio.
+``ppo.recompute_advantages``: the rollout's values (and so GAE's advantages, the value targets and the clipped value
+loss's anchor) recomputed with the weights at the update's start (`DeviceRollouts.recompute_returns`), instead of the
+acting weights' (with train.overlap one update older); Andrychowicz et al. 2021 ("What matters in on-policy RL")
+recompute them before every epoch."""
 from __future__ import annotations
 
 import torch
@@ -55,6 +59,8 @@ def ppo_update(model: nn.Module, optimizer, rollouts, cfg: PPOConfig, generator:
                lagrange: Lagrange | None = None) -> dict:
     """One PPO update over the filled part of ``rollouts`` (returns computed already).
     ``model`` may be a DistributedDataParallel wrapper (gradients all-reduced in backward)."""
+    if cfg.recompute_advantages:  # the values behind GAE from the weights this update starts from
+        rollouts.recompute_returns(model, cfg.gamma, cfg.tau, cfg.num_mini_batch)
     adv = rollouts.returns[:rollouts.step] - rollouts.values[:rollouts.step]
     if lagrange is not None:
         lam = lagrange.value

@@ -154,3 +154,26 @@ class DeviceRollouts:
         finally:
             model.train(training)
         d["prox_logp"] = out
+
+    def recompute_returns(self, model, gamma: float, tau: float, chunks: int) -> None:
+        """`ppo.recompute_advantages`: the rollout's values, the bootstrap after its last step included, under
+        ``model`` as it is at the update's start (eval mode, without gradients, over ``chunks`` groups of envs in
+        order), stored in place of those the acting weights gave, and the GAE returns again from them."""
+        r, n, dev = self.r, self.r.step, self.device
+        fresh = torch.empty(n + 1, r.num_envs, r.heads)
+        actions = torch.cat([r.actions[:n], r.actions[:1]])  # step n acts after the rollout: its log-prob is unused
+        training = model.training
+        model.eval()
+        try:
+            with torch.no_grad():
+                for env in torch.arange(r.num_envs).chunk(chunks):
+                    def flat(x: torch.Tensor) -> torch.Tensor:
+                        return x[:n + 1, env].reshape((n + 1) * len(env), *x.shape[2:]).to(dev)
+                    pieces = plan_pieces(r.masks[:n + 1, env], dev) if self.plans else None
+                    _, _, values = model({k: flat(v) for k, v in r.obs.items()}, r.state0[:, env].to(dev),
+                                         flat(r.prev_actions), flat(r.masks), flat(actions), pieces=pieces)
+                    fresh[:, env] = values.float().view(n + 1, len(env), r.heads).cpu()
+        finally:
+            model.train(training)
+        r.values[:n].copy_(fresh[:n])
+        r.compute_returns(fresh[n], gamma, tau)

@@ -79,6 +79,10 @@ class PPOConfig:
     # to those starts away from 1 and clipping takes smaller steps; synchronous PPO gives the same loss up to rounding.
     # Off: it did not lower overlap's CPK in two seeds (docs/results/2026-12-02_rl_overlap/)
     decoupled: bool = False
+    # the rollout's values (GAE's advantages, the value targets) recomputed with the weights at the update's start, one
+    # forward pass without gradients: with train.overlap those that acted are one update older. Synchronous PPO: the
+    # same values up to rounding
+    recompute_advantages: bool = False
 
 
 @dataclass

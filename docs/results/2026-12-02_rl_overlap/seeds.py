@@ -1,5 +1,5 @@
-"""seeds.md: train.overlap false against true (and with ppo.decoupled, where its rows are there) over the training
-seeds: each seed's rows, the spread between seeds of one arm, and the seeds pooled.
+"""seeds.md: train.overlap false against true (and with its lag corrections, where their rows are there) over the
+training seeds: each seed's rows, the spread between seeds of one arm, and the seeds pooled.
 
 The evaluations of every pair ran on the same 200 val episodes (rvn-eval seed 0), so within a seed the two rows are
 paired by episode; pooled, a unit is (training seed, episode) and the paired tests swap the rows' labels within it
@@ -13,8 +13,10 @@ from pathlib import Path
 from rvn_data.benchmark.runs import load_run
 from rvn_data.benchmark.significance import Row, significance_table
 
-ARMS = {"false": "PPO", "true": "PPO overlap", "decoupled": "PPO overlap decoupled"}  # out_dir suffix: method
-COMPARE = [("true", "false"), ("decoupled", "false"), ("decoupled", "true")]  # A against B
+ARMS = {"false": "PPO", "true": "PPO overlap", "decoupled": "PPO overlap decoupled",  # out_dir suffix: method
+        "recompute": "PPO overlap recompute"}
+COMPARE = [("true", "false"), ("decoupled", "false"), ("decoupled", "true"), ("recompute", "false"),
+           ("recompute", "true")]  # A against B
 
 def row(label: str, runs: list) -> Row:
     """One row over the runs (one per seed), episodes keyed by (seed, episode id)."""
