@@ -1,7 +1,8 @@
 """rvn-rl's learner alone (issue 32's RL row): one PPO update in float32 and with ``train.precision=bf16`` (the
 visual encoder under torch.autocast(bfloat16)) and, with ``--compile``, both with ``train.compile`` (the visual trunk
-compiled; on a GPU its forward and backward as CUDA graphs) and, with ``--decoupled``, in float32 with
-``ppo.decoupled`` (the proximal log-probs recomputed first: one forward pass over the rollout without gradients), as
+compiled; on a GPU its forward and backward as CUDA graphs) and, with ``--decoupled`` and ``--recompute``, in float32
+with train.overlap's lag corrections ``ppo.decoupled`` (the proximal log-probs recomputed first: one forward pass over
+the rollout without gradients) and ``ppo.recompute_advantages`` (the values recomputed first: the same pass), as
 rvn-rl runs it (`ppo_update` over `DeviceRollouts`) on a rollout of random frames with ~25-step episodes; alternated
 rounds after a warm-up one, best of ``--repeats``. Prints each update's ms, the env steps/s that learning alone would
 allow (rollout steps / update seconds), the ratio, the first update's seconds (compiling, for a compiled one) and how
@@ -10,12 +11,13 @@ far each first update's losses from the same weights are from float32's.
 On the 2-core development CPU an update of scale=small (8 envs x 64 steps, 128², ResNet-18 base 32, 4 x 4
 mini-batches) takes ~15 s in float32, the bound of rvn-rl's README recipe there (collection alone runs at ~150 env
 steps/s); on the third GPU run (H200, 30 envs) the update was 1.1 s of every 1,920 env steps.
-Run: python benchmarks/rl_learner.py [--device cuda --envs 30 --compile] [--decoupled] [--size 128] [--threads 2]
-[--repeats 2]
+Run: python benchmarks/rl_learner.py [--device cuda --envs 30 --compile] [--decoupled] [--recompute] [--size 128]
+[--threads 2] [--repeats 2]
 """
 from __future__ import annotations
 
 import argparse
+import copy
 import dataclasses
 import time
 
@@ -58,6 +60,8 @@ def main() -> None:
     p.add_argument("--repeats", type=int, default=2, help="timed rounds of each variant")
     p.add_argument("--compile", action="store_true", help="also with train.compile (the visual trunk compiled)")
     p.add_argument("--decoupled", action="store_true", help="also fp32 with ppo.decoupled (its proximal pass)")
+    p.add_argument("--recompute", action="store_true",
+                   help="also fp32 with ppo.recompute_advantages (its values pass, on a copy of the rollout)")
     args = p.parse_args()
     torch.set_num_threads(args.threads)
     from rvn_rl.model import PointNavResNetPolicy
@@ -78,17 +82,21 @@ def main() -> None:
         return _Evaluate(policy), torch.optim.Adam(policy.parameters(), lr=cfg.lr, eps=cfg.eps)
 
     names = ["fp32", "bf16"] + (["fp32 compiled", "bf16 compiled"] if args.compile else []) + (
-        ["fp32 decoupled"] if args.decoupled else [])
-    cfgs = {name: dataclasses.replace(cfg, decoupled="decoupled" in name) for name in names}
+        ["fp32 decoupled"] if args.decoupled else []) + (["fp32 recomputed"] if args.recompute else [])
+    cfgs = {name: dataclasses.replace(cfg, decoupled="decoupled" in name, recompute_advantages="recomputed" in name)
+            for name in names}
     learners = {name: learner("bf16" in name, "compiled" in name) for name in names}
     state_shape = tuple(learners["fp32"][0].policy.initial_state(n).shape)
-    batches = DeviceRollouts(filled_rollouts(n, T, args.size, state_shape), dev)
+    rollouts = filled_rollouts(n, T, args.size, state_shape)
+    # ppo.recompute_advantages rewrites its rollout's values and returns: a copy of its own
+    batches = {name: DeviceRollouts(copy.deepcopy(rollouts) if "recomputed" in name else rollouts, dev)
+               for name in names}
     losses, first, best = {}, {}, {name: float("inf") for name in names}
     for i in range(args.repeats + 1):  # round 0: the same weights' first update (warm-up: compiling, cuDNN, allocator)
         for name, (evaluate, optimizer) in learners.items():
             t = time.perf_counter()
             gen = torch.Generator().manual_seed(i)
-            out = ppo_update(evaluate, optimizer, batches, cfgs[name], gen)  # ends on a host read
+            out = ppo_update(evaluate, optimizer, batches[name], cfgs[name], gen)  # ends on a host read
             if i:
                 best[name] = min(best[name], time.perf_counter() - t)
             else:  # said at once: a time limit that cuts a later compile keeps it
