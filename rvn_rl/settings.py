@@ -81,7 +81,8 @@ class PPOConfig:
     decoupled: bool = False
     # the rollout's values (GAE's advantages, the value targets) recomputed with the weights at the update's start, one
     # forward pass without gradients: with train.overlap those that acted are one update older. Synchronous PPO: the
-    # same values up to rounding
+    # same values up to rounding. With train.overlap it removed overlap's extra collisions in two seeds
+    # (docs/results/2026-12-02_rl_overlap/): set both
     recompute_advantages: bool = False
 
 
