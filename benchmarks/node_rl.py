@@ -24,10 +24,12 @@ def rl_rows(plan) -> Iterator[dict]:
     ~160 frames/s per GPU), both with the same envs on ``plan.rl_scenes`` train scenes (200: envs keep loading
     scenes they have not seen, as a run over all 800 does). A first run of two updates (the first one loads scenes:
     not counted) times an update; when that left part of ``plan.seconds``, the run resumes for as many more updates as
-    fit (the first again not counted). ``rl_bf16``: the rl row with train.precision=bf16 (the visual encoder under
+    fit (the first again not counted). Overlapped rows run one update more and leave each run's last out too (nothing
+    is collected beside it: `rl.steady_updates`). ``rl_bf16``: the rl row with train.precision=bf16 (the visual encoder under
     torch.autocast(bfloat16) in rollouts and updates), naming its ratio to the rl row; ``rl_overlap``: with
-    train.overlap=true (each PPO update in a learner thread while the envs collect the next rollout), naming its ratio
-    too; with CUDA, after the envs-alone rows, ``rl_compiled``: with train.compile=true (the visual trunk's forward
+    train.overlap=true (each PPO update in a learner thread while the envs collect the next rollout) and, as the
+    recipe pairs them, ppo.recompute_advantages=true (the values recomputed with the learner's weights, one forward
+    pass an update: overlap alone collided more, docs/results/2026-12-02_rl_overlap), naming its ratio too; with CUDA, after the envs-alone rows, ``rl_compiled``: with train.compile=true (the visual trunk's forward
     and backward as CUDA graphs; its compiling falls in the first, uncounted update), naming its ratio too. With CUDA
     (and --quick), the envs alone (``rl_envs``): with env.prefetch_scenes (the default), without it (``rl_envs_no_prefetch``: vectorised
     envs then wait for whichever env switches scene, the bound of the third GPU run, docs/results/2026-11-27_gpu3)
@@ -51,8 +53,8 @@ def rl_rows(plan) -> Iterator[dict]:
         yield plain
         yield _rl_row(plan, "rl_bf16", "scale=small, train.precision=bf16", {**small, "precision": "bf16"}, "rl", "",
                       against=plain["value"])
-        yield _rl_row(plan, "rl_overlap", "scale=small, train.overlap=true", {**small, "overlap": True}, "rl", "",
-                      against=plain["value"])
+        yield _rl_row(plan, "rl_overlap", "scale=small, train.overlap=true, ppo.recompute_advantages=true",
+                      {**small, "overlap": True, "recompute": True}, "rl", "", against=plain["value"])
         if plan.cuda or plan.quick:
             envs = _rl_envs_row(plan, small)
             yield envs
@@ -118,18 +120,19 @@ def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, bas
     from rvn_rl.trainer import train
 
     envs, workers = plan.rl_envs, plan.rl_workers
-    args = _rl_args(plan, settings, updates=2)
-    counted = []  # (env steps, seconds, update's metrics) of the updates that count
+    # overlapped, a run's last update has no collection beside it: one more, so that one update counts
+    args = _rl_args(plan, settings, updates=3 if settings.get("overlap") else 2)
+    counted = []  # (env steps, seconds, update's metrics) of the updates that count (`rl.steady_updates`)
     with tempfile.TemporaryDirectory() as tmp, GpuBusy() as busy:
         out = f"{tmp}/run"
         train(compose(rl_bench.overrides(args, out)))
-        counted += [_steps_seconds(r, envs) for r in _metrics(out)[1:]]
+        counted += [_steps_seconds(r, envs) for r in rl_bench.steady_updates(_metrics(out))]
         left = plan.seconds - sum(s for _, s, _ in counted)
         if left > 0 and not plan.quick:
             args.updates += 1 + math.ceil(left / (counted[-1][1] or 1e-3))
             seen = len(_metrics(out))
             train(compose(rl_bench.overrides(args, out)))
-            counted += [_steps_seconds(r, envs) for r in _metrics(out)[seen + 1:]]
+            counted += [_steps_seconds(r, envs) for r in rl_bench.steady_updates(_metrics(out)[seen:])]
     steps, seconds = sum(n for n, _, _ in counted), sum(s for _, s, _ in counted)
     if against is not None:
         baseline = f"x{steps / seconds / against:.2f} the rl row's {against:.0f} (float32, not compiled)"

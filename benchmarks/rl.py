@@ -39,7 +39,17 @@ def overrides(args, out_dir: str) -> list[str]:
             f"train.precision={getattr(args, 'precision', 'fp32')}",
             f"train.compile={str(getattr(args, 'compile', False)).lower()}",
             f"train.overlap={str(getattr(args, 'overlap', False)).lower()}",
+            f"ppo.recompute_advantages={str(getattr(args, 'recompute', False)).lower()}",
             ] + ([f"cache_dir={args.cache_dir}"] if getattr(args, "cache_dir", None) else [])  # else <out_dir>/cache
+
+
+def steady_updates(rows: list[dict]) -> list[dict]:
+    """The updates of an rvn-rl run's metrics.jsonl rows that show its steady state: not the first (it loads scenes
+    and warms up), and with train.overlap not the last, whose time holds no collection beside the update (the
+    rollout it is credited with was collected during the update before it)."""
+    rows = rows[1:]
+    overlapped = any(r.get("overlapped") for r in rows)
+    return [r for r in rows if r.get("overlapped")] if overlapped else rows
 
 
 def collection(cfg, steps: int, with_policy: bool, times: list | None = None) -> float:

@@ -2,7 +2,8 @@
 visual encoder under torch.autocast(bfloat16)) and, with ``--compile``, both with ``train.compile`` (the visual trunk
 compiled; on a GPU its forward and backward as CUDA graphs) and, with ``--decoupled`` and ``--recompute``, in float32
 with train.overlap's lag corrections ``ppo.decoupled`` (the proximal log-probs recomputed first: one forward pass over
-the rollout without gradients) and ``ppo.recompute_advantages`` (the values recomputed first: the same pass), as
+the rollout without gradients) and ``ppo.recompute_advantages`` (the values recomputed first: the same pass; with both
+flags also both settings, which share it), as
 rvn-rl runs it (`ppo_update` over `DeviceRollouts`) on a rollout of random frames with ~25-step episodes; alternated
 rounds after a warm-up one, best of ``--repeats``. Prints each update's ms, the env steps/s that learning alone would
 allow (rollout steps / update seconds), the ratio, the first update's seconds (compiling, for a compiled one) and how
@@ -12,7 +13,7 @@ On the 2-core development CPU an update of scale=small (8 envs x 64 steps, 128²
 mini-batches) takes ~15 s in float32, the bound of rvn-rl's README recipe there (collection alone runs at ~150 env
 steps/s); on the third GPU run (H200, 30 envs) the update was 1.1 s of every 1,920 env steps.
 Run: python benchmarks/rl_learner.py [--device cuda --envs 30 --compile] [--decoupled] [--recompute] [--size 128]
-[--threads 2] [--repeats 2]
+[--threads 2] [--repeats 2] [--no-bf16]
 """
 from __future__ import annotations
 
@@ -62,6 +63,8 @@ def main() -> None:
     p.add_argument("--decoupled", action="store_true", help="also fp32 with ppo.decoupled (its proximal pass)")
     p.add_argument("--recompute", action="store_true",
                    help="also fp32 with ppo.recompute_advantages (its values pass, on a copy of the rollout)")
+    p.add_argument("--no-bf16", action="store_true", help="float32 alone (a CPU without native bfloat16 emulates "
+                   "it, ~16x slower)")
     args = p.parse_args()
     torch.set_num_threads(args.threads)
     from rvn_rl.model import PointNavResNetPolicy
@@ -81,8 +84,10 @@ def main() -> None:
         set_trunk(policy, TrainSettings(precision="bf16" if bf16 else "fp32", compile=compiled))
         return _Evaluate(policy), torch.optim.Adam(policy.parameters(), lr=cfg.lr, eps=cfg.eps)
 
-    names = ["fp32", "bf16"] + (["fp32 compiled", "bf16 compiled"] if args.compile else []) + (
-        ["fp32 decoupled"] if args.decoupled else []) + (["fp32 recomputed"] if args.recompute else [])
+    precisions = ["fp32"] + ([] if args.no_bf16 else ["bf16"])
+    names = precisions + ([f"{p} compiled" for p in precisions] if args.compile else []) + (
+        ["fp32 decoupled"] if args.decoupled else []) + (["fp32 recomputed"] if args.recompute else []) + (
+        ["fp32 decoupled recomputed"] if args.decoupled and args.recompute else [])  # one pass serves both
     cfgs = {name: dataclasses.replace(cfg, decoupled="decoupled" in name, recompute_advantages="recomputed" in name)
             for name in names}
     learners = {name: learner("bf16" in name, "compiled" in name) for name in names}
@@ -106,7 +111,7 @@ def main() -> None:
     print(f"One PPO update ({where}; {n} envs x {T} steps, {args.size}², {args.backbone} base {args.base_planes}, "
           f"{args.epochs} epochs x {args.mini_batches} mini-batches; best of {args.repeats}):")
     for name, sec in best.items():
-        print(f"  {name:<14} {1000 * sec:9.1f} ms   learning alone allows {n * T / sec:8.0f} env steps/s   "
+        print(f"  {name:<25} {1000 * sec:9.1f} ms   learning alone allows {n * T / sec:8.0f} env steps/s   "
               f"x{best['fp32'] / sec:.2f}   (first update {first[name]:.1f} s)")
     for name in names[1:]:
         diff = ", ".join(f"{k} {losses['fp32'][k]:.4g} / {losses[name][k]:.4g}" for k in losses["fp32"])

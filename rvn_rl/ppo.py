@@ -5,9 +5,9 @@ clipping) as habitat-baselines' PPO, and the PPO-Lagrangian multiplier as OmniSa
 
 ``ppo.decoupled``: decoupled PPO (Hilton et al. 2021, "Batch size-invariance for policy optimization") for rollouts
 acted by older weights (train.overlap): the surrogate's ratio is to the proximal policy, the weights at the update's
-start (`DeviceRollouts.set_proximal`), and each advantage is weighted by the proximal / behaviour ratio.
+start (`DeviceRollouts.start_policy`), and each advantage is weighted by the proximal / behaviour ratio.
 ``ppo.recompute_advantages``: the rollout's values (and so GAE's advantages, the value targets and the clipped value
-loss's anchor) recomputed with the weights at the update's start (`DeviceRollouts.recompute_returns`), instead of the
+loss's anchor) recomputed with the weights at the update's start (the same pass), instead of the
 acting weights' (with train.overlap one update older); Andrychowicz et al. 2021 ("What matters in on-policy RL")
 recompute them before every epoch."""
 from __future__ import annotations
@@ -59,8 +59,10 @@ def ppo_update(model: nn.Module, optimizer, rollouts, cfg: PPOConfig, generator:
                lagrange: Lagrange | None = None) -> dict:
     """One PPO update over the filled part of ``rollouts`` (returns computed already).
     ``model`` may be a DistributedDataParallel wrapper (gradients all-reduced in backward)."""
+    if cfg.recompute_advantages or cfg.decoupled:  # one pass of the weights this update starts from serves both
+        start_logp, start_values = rollouts.start_policy(model, cfg.num_mini_batch)
     if cfg.recompute_advantages:  # the values behind GAE from the weights this update starts from
-        rollouts.recompute_returns(model, cfg.gamma, cfg.tau, cfg.num_mini_batch)
+        rollouts.use_values(start_values, cfg.gamma, cfg.tau)
     adv = rollouts.returns[:rollouts.step] - rollouts.values[:rollouts.step]
     if lagrange is not None:
         lam = lagrange.value
@@ -70,7 +72,7 @@ def ppo_update(model: nn.Module, optimizer, rollouts, cfg: PPOConfig, generator:
     if cfg.use_normalized_advantage:
         adv = normalise(adv)
     if cfg.decoupled:  # clip around the policy at this update's start, weighted by its ratio to the one that acted
-        rollouts.set_proximal(model, adv, cfg.num_mini_batch)
+        rollouts.set_proximal(adv, start_logp)
     names = ("value_loss", "action_loss", "entropy", "grad_norm")
     sums, updates = None, 0  # summed on the learner's device (float64, as Python's floats): one host sync an update
     for _ in range(cfg.ppo_epoch):

@@ -135,33 +135,15 @@ class DeviceRollouts:
         for env in perm.chunk(num_mini_batch):
             yield self._envs(d, env)
 
-    def set_proximal(self, model, adv: torch.Tensor, chunks: int) -> None:
-        """Decoupled PPO's proximal policy (`ppo.decoupled`): the log-probs of the rollout's actions under ``model`` as
-        it is at the update's start, in eval mode (as the actor acts: the input normaliser's statistics stay) and
-        without gradients, over ``chunks`` groups of envs in order; the mini-batches then carry them as
-        ``prox_logp``."""
-        d, n = self._on(adv), self.r.step
-        out = torch.empty_like(d["logp"])
-        training = model.training
-        model.eval()
-        try:
-            with torch.no_grad():
-                for env in torch.arange(self.r.num_envs).chunk(chunks):
-                    mb = self._envs(d, env)
-                    logp, _, _ = model(mb["obs"], mb["state"], mb["prev_actions"], mb["masks"], mb["actions"],
-                                       pieces=mb["pieces"])
-                    out[:, env.to(self.device)] = logp.float().view(n, len(env))
-        finally:
-            model.train(training)
-        d["prox_logp"] = out
-
-    def recompute_returns(self, model, gamma: float, tau: float, chunks: int) -> None:
-        """`ppo.recompute_advantages`: the rollout's values, the bootstrap after its last step included, under
-        ``model`` as it is at the update's start (eval mode, without gradients, over ``chunks`` groups of envs in
-        order), stored in place of those the acting weights gave, and the GAE returns again from them."""
+    def start_policy(self, model, chunks: int) -> tuple[torch.Tensor, torch.Tensor]:
+        """The rollout under ``model`` as it is at the update's start: one forward pass over its n + 1 steps (the
+        bootstrap's included), in eval mode (as the actor acts: the input normaliser's statistics stay), without
+        gradients, over ``chunks`` groups of envs in order. Returns the log-probs of the rollout's actions [n, N] on
+        the learner's device (`set_proximal`) and the values [n + 1, N, heads] on the CPU (`use_values`); the LSTM is
+        causal, so step n, which acts after the rollout, changes neither."""
         r, n, dev = self.r, self.r.step, self.device
-        fresh = torch.empty(n + 1, r.num_envs, r.heads)
-        actions = torch.cat([r.actions[:n], r.actions[:1]])  # step n acts after the rollout: its log-prob is unused
+        logp, values = torch.empty(n + 1, r.num_envs, device=dev), torch.empty(n + 1, r.num_envs, r.heads)
+        actions = torch.cat([r.actions[:n], r.actions[:1]])  # step n's action: any (its log-prob is dropped)
         training = model.training
         model.eval()
         try:
@@ -170,10 +152,22 @@ class DeviceRollouts:
                     def flat(x: torch.Tensor) -> torch.Tensor:
                         return x[:n + 1, env].reshape((n + 1) * len(env), *x.shape[2:]).to(dev)
                     pieces = plan_pieces(r.masks[:n + 1, env], dev) if self.plans else None
-                    _, _, values = model({k: flat(v) for k, v in r.obs.items()}, r.state0[:, env].to(dev),
-                                         flat(r.prev_actions), flat(r.masks), flat(actions), pieces=pieces)
-                    fresh[:, env] = values.float().view(n + 1, len(env), r.heads).cpu()
+                    lp, _, v = model({k: flat(val) for k, val in r.obs.items()}, r.state0[:, env].to(dev),
+                                     flat(r.prev_actions), flat(r.masks), flat(actions), pieces=pieces)
+                    logp[:, env.to(dev)] = lp.float().view(n + 1, len(env))
+                    values[:, env] = v.float().view(n + 1, len(env), r.heads).cpu()
         finally:
             model.train(training)
-        r.values[:n].copy_(fresh[:n])
-        r.compute_returns(fresh[n], gamma, tau)
+        return logp[:n], values
+
+    def use_values(self, values: torch.Tensor, gamma: float, tau: float) -> None:
+        """`ppo.recompute_advantages`: ``values`` [n + 1, N, heads] (`start_policy`'s) in place of those the acting
+        weights gave, the bootstrap after the rollout's last step included, and the GAE returns again from them."""
+        n = self.r.step
+        self.r.values[:n].copy_(values[:n])
+        self.r.compute_returns(values[n], gamma, tau)
+
+    def set_proximal(self, adv: torch.Tensor, logp: torch.Tensor) -> None:
+        """Decoupled PPO's proximal policy (`ppo.decoupled`): ``logp`` [n, N] (`start_policy`'s), which this update's
+        mini-batches (those of ``adv``) then carry as ``prox_logp``."""
+        self._on(adv)["prox_logp"] = logp

@@ -254,6 +254,9 @@ def _loop(run: Run, envs, log: RunLog, cfg: RLConfig, d: Dist, device, out_dir: 
             scalars = {"fps": delta / t_update, "fps_collect": delta / max(t_collect, 1e-9), **losses,
                        # shares of the update's time (train.overlap: the learner's share is what the envs waited for it)
                        "time_envs": t_env / t_update, "time_learn": t_learn / t_update,
+                       # train.overlap: 1 where the next rollout was collected while this update ran. The last
+                       # update's time holds no collection (its fps is the drain's): steady-state figures leave it out
+                       "overlapped": float(more and len(buffers) == 2),
                        "updates": run.updates, "rollout_steps": delta / (n * d.world_size)}
             if run.lagrange is not None:
                 scalars.update({"lambda": run.lagrange.value, "J_c": run.ep_cost})

@@ -43,7 +43,7 @@ def test_quick_run_lists_every_row(tmp_path):
     assert "train.precision=bf16" in rows["rl_bf16"]["label"]
     for name in ("rl_bf16", "rl_overlap"):
         assert re.match(r"x[\d.]+ the rl row's \d+ \(float32, not compiled\)", rows[name]["baseline"])
-    assert "train.overlap=true" in rows["rl_overlap"]["label"]
+    assert "train.overlap=true, ppo.recompute_advantages=true" in rows["rl_overlap"]["label"]
     assert rows["rl_compiled"]["skipped"] if doc["device"] == "CPU only" else rows["rl_compiled"]["value"] > 0
     assert "over the kept caches (rl_envs): x" in rows["rl_envs_first_pass"]["settings"]
     for name in ("rl", "rl_envs", "rl_envs_1"):  # the scenes' navmeshes and pools made before the rows

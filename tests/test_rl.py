@@ -46,7 +46,7 @@ def test_ppo_trains_writes_a_checkpoint_and_a_curve(ppo_run):
     assert (latest / "weights.safetensors").is_file() and (latest / "state.pt").is_file()
     r = rows(out)
     assert [x["env_steps"] for x in r] == [16, 32]
-    assert all(x["fps"] > 0 for x in r) and "value_loss" in r[-1]
+    assert all(x["fps"] > 0 and x["overlapped"] == 0 for x in r) and "value_loss" in r[-1]
     assert (out / "learning_curve.png").stat().st_size > 1000
     assert list((out / "tb").glob("events.out.tfevents.*"))
     assert "rvn-rl ppo: 32 env steps" in proc.stdout

@@ -25,8 +25,8 @@ def run(monkeypatch, out, *overrides: str) -> tuple[list[float], list[dict], dic
 
     gaps, set_proximal = [], rollout.DeviceRollouts.set_proximal
 
-    def recording(self, model, adv, chunks):
-        set_proximal(self, model, adv, chunks)
+    def recording(self, adv, logp):
+        set_proximal(self, adv, logp)
         d = self._on(adv)
         gaps.append(float((d["prox_logp"] - d["logp"]).abs().max()))
 
@@ -94,11 +94,8 @@ def _first_gradient(decoupled: bool, shift: float, proximal: torch.Tensor | None
     policy, _, rollouts = small_update_setup()
     settle_normaliser(policy, rollouts.obs["rgb"])
     learner = _Evaluate(policy)
-    adv = rollouts.returns[:rollouts.step, :, 0] - rollouts.values[:rollouts.step, :, 0]
     if proximal is None:
-        probe = DeviceRollouts(rollouts, "cpu")
-        probe.set_proximal(learner, adv, 2)
-        proximal = probe._on(adv)["prox_logp"].clone()
+        proximal = DeviceRollouts(rollouts, "cpu").start_policy(learner, 2)[0].clone()
     rollouts.logp[:rollouts.step] = proximal - shift
 
     class Recorder:  # the optimiser: keeps the gradient, changes nothing

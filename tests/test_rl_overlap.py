@@ -70,6 +70,7 @@ def test_overlap_learns_beside_the_collection_as_the_same_schedule_in_one_thread
     theta = [w for _, w in updates]
     assert collected == [theta[0], theta[0], theta[1]] and len(set(theta)) == 3
     assert all(r["time_learn"] >= 0 and r["fps"] > 0 for r in rows)
+    assert [r["overlapped"] for r in rows] == [1, 1, 0]  # the last update: nothing left to collect beside it
 
     one = run(monkeypatch, tmp_path / "inline", False, device)
     assert all(main for main, _ in one[1])

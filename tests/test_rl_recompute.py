@@ -1,5 +1,5 @@
 """ppo.recompute_advantages: the rollout's values (the bootstrap after its last step included) recomputed with the
-weights the update starts from, and GAE's returns again from them. Through `DeviceRollouts.recompute_returns` against
+weights the update starts from, and GAE's returns again from them. Through `DeviceRollouts.start_policy` against
 the policy stepped one step at a time, and through rvn-rl's public API (`rvn_rl.cli.compose`,
 `rvn_rl.trainer.train`): synchronous PPO acts with the weights its update starts from, so there the values are the
 acting ones up to rounding; with train.overlap a rollout's values come from the weights one update older."""
@@ -13,33 +13,40 @@ import torch
 from test_rl_decoupled import TINY
 
 
-def stepped_values(policy, rollouts) -> torch.Tensor:
-    """The values [step + 1, N, heads] of the policy (eval mode) stepped through the rollout one step at a time."""
-    out, state = [], rollouts.state0.clone()
+def stepped(policy, rollouts) -> tuple[torch.Tensor, torch.Tensor]:
+    """The log-probs of the rollout's actions [step, N] and the values [step + 1, N, heads] of the policy (eval mode)
+    stepped through the rollout one step at a time."""
+    logp, values, state = [], [], rollouts.state0.clone()
     policy.eval()
     with torch.no_grad():
         for t in range(rollouts.step + 1):
             feats, state = policy({k: v[t] for k, v in rollouts.obs.items()}, state, rollouts.prev_actions[t],
                                   rollouts.masks[t])
-            out.append(policy.values(feats))
-    return torch.stack(out)
+            values.append(policy.values(feats))
+            if t < rollouts.step:
+                logp.append(torch.log_softmax(policy.actor(feats), -1).gather(-1, rollouts.actions[t, :, None])[:, 0])
+    return torch.stack(logp), torch.stack(values)
 
 
 @pytest.mark.parametrize("chunks", [1, 2])
 def test_recomputed_values_are_the_policys_and_returns_follow(chunks):
-    """Values in the storage that no network gave: after `recompute_returns` they are the policy's own, step by step
-    (episode restarts mid-way included), and the returns are GAE over them."""
+    """Values in the storage that no network gave: after `start_policy` and `use_values` they are the policy's own,
+    step by step (episode restarts mid-way included), and the returns are GAE over them; the same pass's log-probs
+    (ppo.decoupled's proximal ones) are the stepped policy's too."""
     from test_rl_recurrent import small_update_setup
 
     from rvn_rl.rollout import DeviceRollouts
     from rvn_rl.trainer import _Evaluate
 
     policy, _, rollouts = small_update_setup()
-    expected = stepped_values(policy, rollouts)
+    expected_logp, expected = stepped(policy, rollouts)
     before = rollouts.values.clone()
     policy.train()  # as the update finds it: the pass runs in eval mode (the normaliser's statistics stay) and back
-    DeviceRollouts(rollouts, "cpu").recompute_returns(_Evaluate(policy), 0.99, 0.95, chunks)
+    batches = DeviceRollouts(rollouts, "cpu")
+    logp, values = batches.start_policy(_Evaluate(policy), chunks)
     n = rollouts.step
+    torch.testing.assert_close(logp, expected_logp, rtol=1e-4, atol=1e-5)
+    batches.use_values(values, 0.99, 0.95)
     assert not torch.allclose(before[:n + 1], expected, atol=1e-3)
     torch.testing.assert_close(rollouts.values[:n + 1], expected, rtol=1e-4, atol=1e-5)
     returns = rollouts.returns[:n].clone()
@@ -54,15 +61,15 @@ def run(monkeypatch, out, *overrides: str) -> tuple[list[float], list[dict]]:
     from rvn_rl import rollout, trainer
     from rvn_rl.cli import compose
 
-    gaps, recompute = [], rollout.DeviceRollouts.recompute_returns
+    gaps, use_values = [], rollout.DeviceRollouts.use_values
 
-    def recording(self, model, gamma, tau, chunks):
+    def recording(self, values, gamma, tau):
         acting = self.r.values[:self.r.step + 1].clone()
-        recompute(self, model, gamma, tau, chunks)
+        use_values(self, values, gamma, tau)
         gaps.append(float((self.r.values[:self.r.step + 1] - acting).abs().max()))
 
     with monkeypatch.context() as patch:
-        patch.setattr(rollout.DeviceRollouts, "recompute_returns", recording)
+        patch.setattr(rollout.DeviceRollouts, "use_values", recording)
         trainer.train(compose(["algo=ppo", f"out_dir={out}", *TINY, *overrides]))
     return gaps, [json.loads(line) for line in (out / "metrics.jsonl").read_text().splitlines()]
 
@@ -91,3 +98,31 @@ def test_overlapped_values_come_from_the_updates_weights(tmp_path, monkeypatch):
     _, plain = run(monkeypatch, tmp_path / "plain", "train.total_steps=48", "train.overlap=true")
     assert rows[0]["value_loss"] == pytest.approx(plain[0]["value_loss"], rel=1e-4, abs=1e-6)
     assert rows[1]["value_loss"] != pytest.approx(plain[1]["value_loss"], rel=1e-4, abs=1e-6)
+
+
+def test_decoupled_and_recomputed_share_one_pass(monkeypatch):
+    """ppo.decoupled with ppo.recompute_advantages: the update runs the weights at its start over the rollout once,
+    and takes its values for GAE and its log-probs as the proximal policy's."""
+    from test_rl_recurrent import small_update_setup
+
+    from rvn_rl.ppo import PPOConfig, ppo_update
+    from rvn_rl.rollout import DeviceRollouts
+    from rvn_rl.trainer import _Evaluate
+
+    policy, _, rollouts = small_update_setup()
+    passes, start_policy = [], DeviceRollouts.start_policy
+
+    def counting(self, model, chunks):
+        passes.append(start_policy(self, model, chunks))
+        return passes[-1]
+
+    monkeypatch.setattr(DeviceRollouts, "start_policy", counting)
+    batches = DeviceRollouts(rollouts, "cpu")
+    cfg = PPOConfig(ppo_epoch=2, num_mini_batch=2, decoupled=True, recompute_advantages=True)
+    ppo_update(_Evaluate(policy), torch.optim.Adam(policy.parameters(), lr=1e-4), batches, cfg,
+               torch.Generator().manual_seed(0))
+    assert len(passes) == 1
+    logp, values = passes[0]
+    n = rollouts.step
+    assert torch.equal(rollouts.values[:n + 1], values)
+    assert batches._on_device["prox_logp"] is logp
