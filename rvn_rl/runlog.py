@@ -106,8 +106,10 @@ def summary(out_dir: Path, cfg, env_steps: int, seconds: float, params: int) -> 
         a, b = first.get(key), last.get(key)
         return "-" if a is None else f"{a:.3f} -> {b:.3f}"
 
+    rate = env_steps / max(seconds, 1e-9)
+    rate = f"{rate:.0f}" if rate >= 10 else f"{rate:.2g}"  # a tiny run's rate is not 0
     lines = [f"rvn-rl {cfg.algo.name}: {env_steps} env steps in {seconds / 60:.1f} min "
-             f"({env_steps / max(seconds, 1e-9):.0f} steps/s), {params / 1e6:.2f}M parameters "
+             f"({rate} steps/s), {params / 1e6:.2f}M parameters "
              f"({cfg.model.backbone}, {cfg.env.size}px, {cfg.env.num_envs} envs/process)",
              f"  episode return     {fmt('reward')}", f"  goals per episode  {fmt('goals')}",
              f"  all goals reached  {fmt('success')}", f"  collisions per km  {fmt('collisions_per_km')}"]

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
 
@@ -50,6 +51,13 @@ def test_ppo_trains_writes_a_checkpoint_and_a_curve(ppo_run):
     assert (out / "learning_curve.png").stat().st_size > 1000
     assert list((out / "tb").glob("events.out.tfevents.*"))
     assert "rvn-rl ppo: 32 env steps" in proc.stdout
+    assert re.search(r"rvn-rl ppo: 32 env steps in [\d.]+ min \([\d.]+ steps/s\)", proc.stdout)
+    from rvn_rl.cli import compose
+    from rvn_rl.runlog import summary
+
+    cfg = compose(["algo=ppo"])  # a slow run's rate is not printed as 0, a fast one's without decimals
+    assert "(0.38 steps/s)" in summary(out, cfg, 48, 126.0, 10**6)
+    assert "(1234 steps/s)" in summary(out, cfg, 12340, 10.0, 10**6)
     assert list((out / "cache" / "navmesh").glob("*.npz")) and "no cache folder given" not in proc.stderr
     assert list((out / "cache" / "goal_pools").glob("*.npz"))  # env.goal_pool: each scene's pool kept
 

@@ -5,7 +5,9 @@ The evaluations of every pair ran on the same 200 val episodes (rvn-eval seed 0)
 paired by episode; pooled, a unit is (training seed, episode) and the paired tests swap the rows' labels within it
 (`rvn_data.benchmark.significance`): the question is whether overlap changes SR_1 or CPK whatever the seed.
 
-    python seeds.py eval seed1/eval [...]   # one folder of rvn-eval out_dirs per training seed, seed 0 first
+    python seeds.py eval seed1/eval [...] [-o seeds.md]   # one folder of rvn-eval out_dirs per training seed, seed 0 first
+
+The arms are those every folder holds: the third seed's pair (plain PPO and overlap + recompute) went to seeds3.md.
 """
 import sys
 from pathlib import Path
@@ -43,14 +45,20 @@ def main(folders: list[str]) -> str:
     for seed, _ in enumerate(folders):
         out += [f"## Seed {seed}\n", table({arm: row(f"{ARMS[arm]} (seed {seed})", [runs[arm][seed]]) for arm in arms})]
     if len(folders) > 1:  # the same recipe across seeds: how far two seeds part without any change
-        spread = [row(f"{ARMS[arm]} (seed {seed})", [runs[arm][seed]]) for arm in arms for seed in (1, 0)]
-        out += ["## Seed spread: one arm, seed 1 against seed 0\n", significance_table(
-            spread, [(spread[i].label, spread[i + 1].label) for i in range(0, len(spread), 2)])]
+        later = range(1, len(folders))
+        spread = [row(f"{ARMS[arm]} (seed {seed})", [runs[arm][seed]]) for arm in arms for seed in (*later, 0)]
+        pairs = [(f"{ARMS[arm]} (seed {seed})", f"{ARMS[arm]} (seed 0)") for arm in arms for seed in later]
+        out += [f"## Seed spread: one arm, seed{'s' if len(later) > 1 else ''} {', '.join(map(str, later))} "
+                "against seed 0\n", significance_table(spread, pairs)]
     pooled = {arm: row(f"{ARMS[arm]} (seeds 0-{len(folders) - 1})", runs[arm]) for arm in arms}
     out += ["## Seeds pooled (a unit: seed, episode)\n", table(pooled)]
     return "\n".join(out)
 
 if __name__ == "__main__":
-    text = main(sys.argv[1:])
-    Path("seeds.md").write_text(text)
+    args, out = sys.argv[1:], "seeds.md"
+    if "-o" in args:
+        i = args.index("-o")
+        out, args = args[i + 1], args[:i] + args[i + 2:]
+    text = main(args)
+    Path(out).write_text(text)
     print(text)
