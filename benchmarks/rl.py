@@ -245,7 +245,7 @@ def main() -> None:
         rows = [json.loads(line) for line in open(f"{tmp}/run/metrics.jsonl")]
         gflop, peak = forward_gflop(cfg), matmul_gflops()
         epochs, mini_batches = cfg.ppo.ppo_epoch, cfg.ppo.num_mini_batch
-    learn = rows[1:] or rows  # the first update includes scene loading
+    learn = steady_updates(rows) or rows  # the first update includes scene loading
     fps = sum(r["fps"] for r in learn) / len(learn)
     print(f"rvn-rl at {args.size}x{args.size} RGB, resnet18 (base planes {args.base_planes}), {args.envs} envs, workers={args.workers}, "
           f"{args.threads} torch threads:")

@@ -235,9 +235,10 @@ def _loop(run: Run, envs, log: RunLog, cfg: RLConfig, d: Dist, device, out_dir: 
                 run.lagrange.update(run.ep_cost)
             policy.train()
             more = run.env_steps + delta < total  # another rollout after this update
+            overlapped = more and len(buffers) == 2  # train.overlap: that rollout collected while this update runs
             t_learn = time.perf_counter()
             update = learner.start(ppo_update, run.learner, run.optimizer, batches[cur], ppo, run.gen, run.lagrange)
-            if more and len(buffers) == 2:  # the next rollout while the update runs, by the weights from before it
+            if overlapped:  # the next rollout while the update runs, by the weights from before it
                 buffers[1 - cur].continue_from(buffers[cur], state.cpu())
                 nxt = (1 - cur, *_collect(actor, envs, buffers[1 - cur], state, run, cfg, d, device, heads, acts),
                        time.perf_counter() - t_learn)  # ..., the next rollout's seconds
@@ -254,9 +255,9 @@ def _loop(run: Run, envs, log: RunLog, cfg: RLConfig, d: Dist, device, out_dir: 
             scalars = {"fps": delta / t_update, "fps_collect": delta / max(t_collect, 1e-9), **losses,
                        # shares of the update's time (train.overlap: the learner's share is what the envs waited for it)
                        "time_envs": t_env / t_update, "time_learn": t_learn / t_update,
-                       # train.overlap: 1 where the next rollout was collected while this update ran. The last
-                       # update's time holds no collection (its fps is the drain's): steady-state figures leave it out
-                       "overlapped": float(more and len(buffers) == 2),
+                       # 0 for an overlapped run's last update: its time holds no collection (its fps is the
+                       # drain's), so steady-state figures leave it out
+                       "overlapped": float(overlapped),
                        "updates": run.updates, "rollout_steps": delta / (n * d.world_size)}
             if run.lagrange is not None:
                 scalars.update({"lambda": run.lagrange.value, "J_c": run.ep_cost})
@@ -268,7 +269,7 @@ def _loop(run: Run, envs, log: RunLog, cfg: RLConfig, d: Dist, device, out_dir: 
             if not more:
                 break
             t0 = time.perf_counter()
-            if len(buffers) == 2:  # collected while the update ran
+            if overlapped:  # collected while the update ran
                 cur, state, episodes, t_env, delta, t_collect = nxt
             else:
                 state, episodes, t_env, delta = _collect(actor, envs, buffers[cur], state, run, cfg, d, device, heads, acts)
