@@ -110,8 +110,8 @@ def test_invalid_action_names_policy(runs, tmp_path):
 
 
 def test_one_process_runs_the_policy_it_checked(runs, tmp_path):
-    """rvn-eval builds the policy once to check it before any episode; with workers=1 that policy runs the
-    episodes (bound to the env), where each worker process builds its own."""
+    """rvn-eval builds the policy once to check it before any episode; with workers=1, or one episode to run, that
+    policy runs the episodes (bound to the env), where each worker process builds its own."""
     (tmp_path / "countpol.py").write_text(
         "import os\n"
         "class CountPolicy:\n"
@@ -134,6 +134,12 @@ def test_one_process_runs_the_policy_it_checked(runs, tmp_path):
             assert whats.count("built") == 3 and whats.count("bound") == 2
         assert load(tmp_path / f"count{workers}")["episodes"] == 4
     assert load(tmp_path / "count1")["SR_1"] == load(tmp_path / "count2")["SR_1"]
+    log = tmp_path / "count_one.txt"  # workers=2 with one episode: no pool of one
+    env = dict(os.environ, COUNT_LOG=str(log), PYTHONPATH=f"{tmp_path}{os.pathsep}{os.environ.get('PYTHONPATH', '')}")
+    ok(rvn_eval(runs, "policy=random", "policy._target_=countpol.CountPolicy", "method=Count", "workers=2",
+                "episodes.num_scenes=1", "episodes.per_scene=1", f"out_dir={tmp_path / 'count_one'}", env=env))
+    whats, pids = zip(*(ln.split() for ln in log.read_text().splitlines()))
+    assert whats == ("built", "bound") and pids[0] == pids[1] and load(tmp_path / "count_one")["episodes"] == 1
 
 
 def test_missing_scene_is_named(runs, tmp_path):

@@ -185,18 +185,20 @@ def _pool(workers: int, job: EvalJob | None = None):
 
 
 def prepare_episodes(env: EnvConfig, slots: list, workers: int, progress: Callable | None = None) -> None:
-    """Generate and cache the episode files of every scene (in parallel when workers > 1)."""
+    """Generate and cache the episode files of every scene (in parallel when workers > 1 and there are several
+    scenes: a pool of one would only start a process)."""
     note_first_compile("rvn-eval")
     tasks = [(env, slot) for slot in slots]
     if not tasks:  # every episode already done (a resumed run): no pool of zero processes
         return
+    workers = min(workers, len(tasks))
     if workers <= 1:
         for t in tasks:
             _prepare_task(t)
             if progress:
                 progress(1)
         return
-    with _pool(min(workers, len(tasks))) as pool:
+    with _pool(workers) as pool:
         for _ in pool.imap_unordered(_prepare_task, tasks):
             if progress:
                 progress(1)
@@ -205,9 +207,12 @@ def prepare_episodes(env: EnvConfig, slots: list, workers: int, progress: Callab
 def run_episodes(job: EvalJob, todo: list[int], workers: int, policy=None) -> Iterator[tuple[int, dict]]:
     """Yield (k, record) for the schedule positions ``todo`` (completion order). ``policy``: one already built from
     ``job.policy`` with no env (rvn-eval's check), used in this process rather than building another (a
-    checkpoint policy loads in about a second); worker processes build their own."""
+    checkpoint policy loads in about a second); worker processes build their own. Never more workers than
+    episodes: one episode left (a tiny run, a resumed one) runs here, not in a pool of one that would start a process,
+    import torch and load the policy again."""
     if not todo:
         return
+    workers = min(workers, len(todo))
     if workers <= 1:
         _init_worker(job, policy=policy)
         try:
@@ -217,5 +222,5 @@ def run_episodes(job: EvalJob, todo: list[int], workers: int, policy=None) -> It
             _WORKER.pop("env").close()
             _WORKER.clear()
         return
-    with _pool(min(workers, len(todo)), job) as pool:
+    with _pool(workers, job) as pool:
         yield from pool.imap_unordered(_run_task, todo)
