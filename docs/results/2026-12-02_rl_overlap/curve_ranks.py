@@ -1,0 +1,64 @@
+"""curve_ranks.md: what the training curves (metrics.jsonl) say about the evaluation rows, over every (training seed, arm)
+run in this folder: when the policy's entropy first fell below 1.0 nat (it starts at ln 4 = 1.386, four actions), its
+mean over the last 40 updates, and the training episodes' collisions per km and goals reached over the last 40
+updates; beside each, the run's val row (200 episodes). Spearman's rank correlation over the runs says which
+training figure orders the val rows.
+
+    python curve_ranks.py [-o curve_ranks.md]   # from this folder
+"""
+import json
+import sys
+from pathlib import Path
+
+from scipy.stats import spearmanr
+
+HERE = Path(__file__).resolve().parent
+SEEDS = {0: HERE, 1: HERE / "seed1", 2: HERE / "seed2"}
+ARMS = {"false": "PPO", "true": "PPO overlap", "recompute": "PPO overlap recompute", "decoupled": "PPO overlap decoupled"}
+LAST = 40  # updates: 20,480 of the runs' 122,880 env steps
+FIGURES = {"entropy_below_1": "env steps to entropy < 1.0", "entropy": f"entropy, last {LAST}",
+           "train_cpk": f"train CPK, last {LAST}", "train_goals": f"train goals / episode, last {LAST}"}
+
+
+def run_figures(folder: Path, arm: str) -> dict | None:
+    path = folder / "train" / f"ppo_overlap_{arm}" / "metrics.jsonl"
+    if not path.is_file():
+        return None
+    rows = [json.loads(line) for line in path.read_text().splitlines()]
+    last = rows[-LAST:]
+    val = json.loads((folder / "eval" / f"ppo_overlap_{arm}" / "metrics.json").read_text())
+    return {"entropy_below_1": next((r["env_steps"] for r in rows if r["entropy"] < 1.0), None),
+            "entropy": sum(r["entropy"] for r in last) / len(last),
+            "train_cpk": sum(r["collisions_per_km"] for r in last) / len(last),
+            "train_goals": sum(r["goals"] for r in last) / len(last),
+            "SR_1": val["SR_1"], "CPK": val["CPK"], "env_steps": rows[-1]["env_steps"]}
+
+
+def main() -> str:
+    runs = {(s, a): f for s, folder in SEEDS.items() for a in ARMS if (f := run_figures(folder, a)) is not None}
+    out = ["# Training curves against the val rows (every training seed and arm)\n",
+           f"{len(runs)} runs of {next(iter(runs.values()))['env_steps']:,} env steps; the val rows on the same 200 "
+           "episodes. Written by curve_ranks.py.\n",
+           "| seed | arm | " + " | ".join(FIGURES.values()) + " | val SR_1 | val CPK |",
+           "|---|---|" + "---:|" * (len(FIGURES) + 2)]
+    for (s, a), f in sorted(runs.items(), key=lambda kv: (kv[0][0], list(ARMS).index(kv[0][1]))):
+        out.append(f"| {s} | {ARMS[a]} | {f['entropy_below_1']:,} | {f['entropy']:.3f} | {f['train_cpk']:.0f} | "
+                   f"{f['train_goals']:.3f} | {f['SR_1']:.3f} | {f['CPK']:.0f} |")
+    out += ["", "Spearman's rho over the runs (p, two-sided):", "",
+            "| training figure | val CPK | val SR_1 |", "|---|---:|---:|"]
+    for key, name in FIGURES.items():
+        cells = []
+        for target in ("CPK", "SR_1"):
+            rho, p = spearmanr([f[key] for f in runs.values()], [f[target] for f in runs.values()])
+            cells.append(f"{rho:+.2f} ({p:.3f})")
+        out.append(f"| {name} | {' | '.join(cells)} |")
+    return "\n".join(out) + "\n"
+
+
+if __name__ == "__main__":
+    text = main()
+    if sys.argv[1:2] == ["-o"] and len(sys.argv) == 3:
+        Path(sys.argv[2]).write_text(text)
+    elif sys.argv[1:]:
+        raise SystemExit("usage: python curve_ranks.py [-o curve_ranks.md]")
+    print(text, end="")
