@@ -5,8 +5,8 @@ rvn-eval builds the policy once to check it before any episode; with one worker 
 process. Until 2026-12-03 ``workers=2`` with one episode started a pool of one process instead, which imported torch
 and loaded the policy again (`rvn_data.benchmark.runner.run_episodes`: never more workers than episodes now). The two
 settings run in turns, one fresh command each, after one untimed pair (disk cache, the episode set); medians and their
-ratio are printed. The checkpoint: a 2-step rvn-train run of NoMaD-PointGoal (small) on a synthetic GNM dataset, in a
-temporary folder.
+ratio are printed. The checkpoint: policy_start.py's (a 2-step rvn-train run of NoMaD-PointGoal, small, on a synthetic
+GNM dataset), in a temporary folder.
 Run: python benchmarks/eval_tail.py [--rounds 3]
 """
 from __future__ import annotations
@@ -42,19 +42,12 @@ def main() -> None:
     args = p.parse_args()
     if args.rounds < 1:
         p.error("--rounds must be positive")
-    from rvn_il.data.synthetic import write_synthetic_gnm
+    from policy_start import small_nomad_checkpoint  # benchmarks/, beside this script
 
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
     with tempfile.TemporaryDirectory() as tmp_name:
         tmp = Path(tmp_name)
-        write_synthetic_gnm(tmp / "data", 2, 20, image_size=96, seed=0)
-        ckpt = tmp / "nomad"
-        r = subprocess.run([sys.executable, "-m", "rvn_il.train.cli", "model=nomad_pointgoal", "model.size=small",
-                            f"data.root={tmp}/data", f"out_dir={ckpt}", "train.max_steps=2", "train.batch_size=4",
-                            "data.num_workers=0", f"cache_dir={tmp}/cache"], capture_output=True, text=True, env=env,
-                           timeout=600)
-        if r.returncode != 0:
-            raise SystemExit(f"rvn-train failed:\n{r.stderr[-2000:]}")
+        ckpt = small_nomad_checkpoint(tmp, env)
         times = {1: [], 2: []}
         for k in range(args.rounds + 1):
             for workers in (2, 1):

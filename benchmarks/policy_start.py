@@ -44,6 +44,21 @@ def start_seconds(ckpt: Path, baseline: bool, env: dict) -> float:
     return float(seconds)
 
 
+def small_nomad_checkpoint(tmp: Path, env: dict) -> Path:
+    """A 2-step rvn-train run of NoMaD-PointGoal (small) on a synthetic GNM dataset, in ``tmp`` (also eval_tail.py's)."""
+    from rvn_il.data.synthetic import write_synthetic_gnm
+
+    write_synthetic_gnm(tmp / "data", 2, 20, image_size=96, seed=0)
+    ckpt = tmp / "nomad"
+    r = subprocess.run([sys.executable, "-m", "rvn_il.train.cli", "model=nomad_pointgoal", "model.size=small",
+                        f"data.root={tmp}/data", f"out_dir={ckpt}", "train.max_steps=2", "train.batch_size=4",
+                        "data.num_workers=0", f"cache_dir={tmp}/cache"], capture_output=True, text=True, env=env,
+                       timeout=600)
+    if r.returncode != 0:
+        raise SystemExit(f"rvn-train failed:\n{r.stderr[-2000:]}")
+    return ckpt
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--rounds", type=int, default=5, help="timed pairs (default 5)")
@@ -51,18 +66,9 @@ def main() -> None:
     args = p.parse_args()
     if args.rounds < 1 or args.threads < 1:
         p.error("--rounds and --threads must be positive")
-    from rvn_il.data.synthetic import write_synthetic_gnm
-
     env = {**os.environ, "OMP_NUM_THREADS": str(args.threads)}
     with tempfile.TemporaryDirectory() as tmp:
-        write_synthetic_gnm(Path(tmp) / "data", 2, 20, image_size=96, seed=0)
-        ckpt = Path(tmp) / "nomad"
-        r = subprocess.run([sys.executable, "-m", "rvn_il.train.cli", "model=nomad_pointgoal", "model.size=small",
-                            f"data.root={tmp}/data", f"out_dir={ckpt}", "train.max_steps=2", "train.batch_size=4",
-                            "data.num_workers=0", f"cache_dir={tmp}/cache"], capture_output=True, text=True, env=env,
-                           timeout=600)
-        if r.returncode != 0:
-            raise SystemExit(f"rvn-train failed:\n{r.stderr[-2000:]}")
+        ckpt = small_nomad_checkpoint(Path(tmp), env)
         times = {False: [], True: []}
         for k in range(args.rounds + 1):
             for baseline in (True, False):
