@@ -2,10 +2,12 @@
 run in this folder: when the policy's entropy first fell below 1.0 nat (it starts at ln 4 = 1.386, four actions), its
 mean over the last 40 updates, and the training episodes' collisions per km and goals reached over the last 40
 updates; beside each, the run's val row (200 episodes). Spearman's rank correlation over the runs says which
-training figure orders the val rows.
+training figure orders the val rows; the pairs of runs of one seed that it orders the way its rho with val CPK says (same sign) tell
+whether it also orders the arms within a seed (the seeds differ as much as the arms).
 
     python curve_ranks.py [-o curve_ranks.md]   # from this folder
 """
+import itertools
 import json
 import sys
 from pathlib import Path
@@ -45,13 +47,16 @@ def main() -> str:
         out.append(f"| {s} | {ARMS[a]} | {f['entropy_below_1']:,} | {f['entropy']:.3f} | {f['train_cpk']:.0f} | "
                    f"{f['train_goals']:.3f} | {f['SR_1']:.3f} | {f['CPK']:.0f} |")
     out += ["", "Spearman's rho over the runs (p, two-sided):", "",
-            "| training figure | val CPK | val SR_1 |", "|---|---:|---:|"]
+            "| training figure | val CPK | val SR_1 | pairs within a seed ordered as its rho with val CPK says |", "|---|---:|---:|---:|"]
     for key, name in FIGURES.items():
-        cells = []
+        cells, sign = [], 0.0
         for target in ("CPK", "SR_1"):
             rho, p = spearmanr([f[key] for f in runs.values()], [f[target] for f in runs.values()])
             cells.append(f"{rho:+.2f} ({p:.3f})")
-        out.append(f"| {name} | {' | '.join(cells)} |")
+            sign = sign or (1.0 if rho >= 0 else -1.0)  # rho with val CPK
+        pairs = [(a, b) for a, b in itertools.combinations(runs, 2) if a[0] == b[0]]
+        alike = sum(sign * (runs[a][key] - runs[b][key]) * (runs[a]["CPK"] - runs[b]["CPK"]) > 0 for a, b in pairs)
+        out.append(f"| {name} | {' | '.join(cells)} | {alike} of {len(pairs)} |")
     return "\n".join(out) + "\n"
 
 
