@@ -14,6 +14,8 @@ from pathlib import Path
 
 from scipy.stats import spearmanr
 
+from rvn_rl.runlog import read_rows
+
 HERE = Path(__file__).resolve().parent
 SEEDS = {0: HERE, 1: HERE / "seed1", 2: HERE / "seed2"}
 ARMS = {"false": "PPO", "true": "PPO overlap", "recompute": "PPO overlap recompute", "decoupled": "PPO overlap decoupled"}
@@ -23,16 +25,17 @@ FIGURES = {"entropy_below_1": "env steps to entropy < 1.0", "entropy": f"entropy
 
 
 def run_figures(folder: Path, arm: str) -> dict | None:
-    path = folder / "train" / f"ppo_overlap_{arm}" / "metrics.jsonl"
-    if not path.is_file():
+    rows = read_rows(folder / "train" / f"ppo_overlap_{arm}")
+    if not rows:
         return None
-    rows = [json.loads(line) for line in path.read_text().splitlines()]
     last = rows[-LAST:]
+
+    def mean(key: str) -> float:
+        return sum(r[key] for r in last) / len(last)
+
     val = json.loads((folder / "eval" / f"ppo_overlap_{arm}" / "metrics.json").read_text())
     return {"entropy_below_1": next((r["env_steps"] for r in rows if r["entropy"] < 1.0), None),
-            "entropy": sum(r["entropy"] for r in last) / len(last),
-            "train_cpk": sum(r["collisions_per_km"] for r in last) / len(last),
-            "train_goals": sum(r["goals"] for r in last) / len(last),
+            "entropy": mean("entropy"), "train_cpk": mean("collisions_per_km"), "train_goals": mean("goals"),
             "SR_1": val["SR_1"], "CPK": val["CPK"], "env_steps": rows[-1]["env_steps"]}
 
 
@@ -49,11 +52,10 @@ def main() -> str:
     out += ["", "Spearman's rho over the runs (p, two-sided):", "",
             "| training figure | val CPK | val SR_1 | pairs within a seed ordered as its rho with val CPK says |", "|---|---:|---:|---:|"]
     for key, name in FIGURES.items():
-        cells, sign = [], 0.0
-        for target in ("CPK", "SR_1"):
-            rho, p = spearmanr([f[key] for f in runs.values()], [f[target] for f in runs.values()])
-            cells.append(f"{rho:+.2f} ({p:.3f})")
-            sign = sign or (1.0 if rho >= 0 else -1.0)  # rho with val CPK
+        tests = [spearmanr([f[key] for f in runs.values()], [f[target] for f in runs.values()])
+                 for target in ("CPK", "SR_1")]
+        cells = [f"{rho:+.2f} ({p:.3f})" for rho, p in tests]
+        sign = 1.0 if tests[0][0] >= 0 else -1.0  # the direction of its rho with val CPK
         pairs = [(a, b) for a, b in itertools.combinations(runs, 2) if a[0] == b[0]]
         alike = sum(sign * (runs[a][key] - runs[b][key]) * (runs[a]["CPK"] - runs[b]["CPK"]) > 0 for a, b in pairs)
         out.append(f"| {name} | {' | '.join(cells)} | {alike} of {len(pairs)} |")
