@@ -37,7 +37,7 @@ ran for the others (set-up and warm-up included: the third GPU run's kernel-boun
 the profiles give the kernel time of the profiled steps. On the first GPU
 run (H200, 16 cores, 5 s per figure) render with --backends gl took 86 s, gen 16 s, rl 66 s; the plain decision
 and train groups 44 and 58 s (6 s per figure); cold compiles of both ran past 150 and 190 s. --quick: about a second per figure at tiny sizes (a smoke test;
-its figures mean little). --out DIR: DIR/node.md and DIR/node.json (with the commit), e.g.
+its figures mean little; on a CPU that emulates bfloat16 it leaves rl_bf16 out). --out DIR: DIR/node.md and DIR/node.json (with the commit), e.g.
 docs/results/<date>_gpu/, rewritten after each row (a run cut short keeps the rows it measured; groups run in
 the order --rows names them;
 benchmarks/node_gpu.sh runs it on an offline GPU node). Exit status 1 when a row failed (its error is in the table), 2 for bad options.

@@ -26,7 +26,8 @@ def rl_rows(plan) -> Iterator[dict]:
     not counted) times an update; when that left part of ``plan.seconds``, the run resumes for as many more updates as
     fit (the first again not counted). Overlapped rows run one update more and leave each run's last out too (nothing
     is collected beside it: `rl.steady_updates`). ``rl_bf16``: the rl row with train.precision=bf16 (the visual encoder under
-    torch.autocast(bfloat16) in rollouts and updates), naming its ratio to the rl row; ``rl_overlap``: with
+    torch.autocast(bfloat16) in rollouts and updates), naming its ratio to the rl row (--quick on a CPU that emulates
+    bfloat16 skips it: the row took 36-46 s of a 2-minute quick run on the 2-core development machine); ``rl_overlap``: with
     train.overlap=true (each PPO update in a learner thread while the envs collect the next rollout) and, as the
     recipe pairs them, ppo.recompute_advantages=true (the values recomputed with the learner's weights, one forward
     pass an update: overlap alone collided more, docs/results/2026-12-02_rl_overlap), naming its ratio too; with CUDA, after the envs-alone rows, ``rl_compiled``: with train.compile=true (the visual trunk's forward
@@ -46,13 +47,20 @@ def rl_rows(plan) -> Iterator[dict]:
                  mini_batches=min(4, plan.rl_envs))
     paper = dict(size=plan.rl_paper_size, backbone="resnet50", num_steps=2 * plan.rl_num_steps, ppo_epoch=2,
                  mini_batches=min(2, plan.rl_envs))
+    from rvn_rl.trainer import native_bf16_cpu
+
     what, ddppo = "scale=paper network and PPO", "DD-PPO (Wijmans et al. 2020): ~160 frames/s per GPU (2.5B frames, 180 GPU-days)"
     with tempfile.TemporaryDirectory() as kept:
         plan = SimpleNamespace(**vars(plan), rl_cache=kept, rl_filled=fill_scene_caches(plan, small, kept))
         plain = _rl_row(plan, "rl", "scale=small", small, "rl", "")
         yield plain
-        yield _rl_row(plan, "rl_bf16", "scale=small, train.precision=bf16", {**small, "precision": "bf16"}, "rl", "",
-                      against=plain["value"])
+        if plan.quick and not plan.cuda and not native_bf16_cpu():  # a smoke test: the emulation's minute spared
+            yield row(5, "rl_bf16", "rvn-rl PPO collection + learning, scale=small, train.precision=bf16", "env steps/s",
+                      skipped="bfloat16 is emulated on this CPU (no AVX512-BF16 or AMX; rvn_rl/README.md), --quick "
+                      "leaves it out; a run without --quick times it")
+        else:
+            yield _rl_row(plan, "rl_bf16", "scale=small, train.precision=bf16", {**small, "precision": "bf16"}, "rl",
+                          "", against=plain["value"])
         yield _rl_row(plan, "rl_overlap", "scale=small, train.overlap=true, ppo.recompute_advantages=true",
                       {**small, "overlap": True, "recompute": True}, "rl", "", against=plain["value"])
         if plan.cuda or plan.quick:

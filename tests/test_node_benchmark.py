@@ -42,7 +42,12 @@ def test_quick_run_lists_every_row(tmp_path):
     assert "over an empty cache root" in rows["rl_envs_first_pass"]["settings"]
     assert "train.precision=bf16" in rows["rl_bf16"]["label"]
     for name in ("rl_bf16", "rl_overlap"):
+        if rows[name]["skipped"]:  # --quick on a CPU that emulates bfloat16 (rvn_rl.trainer.native_bf16_cpu)
+            assert name == "rl_bf16" and "bfloat16 is emulated on this CPU" in rows[name]["skipped"]
+            continue
         assert re.match(r"x[\d.]+ the rl row's \d+ \(float32, not compiled\)", rows[name]["baseline"])
+    from rvn_rl.trainer import native_bf16_cpu
+    assert bool(rows["rl_bf16"]["skipped"]) == (doc["device"] == "CPU only" and not native_bf16_cpu())
     assert "train.overlap=true, ppo.recompute_advantages=true" in rows["rl_overlap"]["label"]
     assert rows["rl_compiled"]["skipped"] if doc["device"] == "CPU only" else rows["rl_compiled"]["value"] > 0
     assert "over the kept caches (rl_envs): x" in rows["rl_envs_first_pass"]["settings"]
@@ -161,7 +166,7 @@ def test_the_table_is_written_after_each_row(tmp_path):
     import time
 
     out = tmp_path / "out"
-    proc = subprocess.Popen([sys.executable, str(NODE), "--quick", "--rows", "rl", "decision", "--out", str(out)],
+    proc = subprocess.Popen([sys.executable, str(NODE), "--quick", "--rows", "decision", "rl", "--out", str(out)],
                             cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         deadline = time.monotonic() + 600
@@ -172,8 +177,8 @@ def test_the_table_is_written_after_each_row(tmp_path):
     finally:
         proc.kill()
         proc.wait()
-    assert [r["key"] for r in first["rows"]] == ["rl"]
-    assert "rvn-rl PPO collection + learning, scale=small" in (out / "node.md").read_text()
+    assert first["rows"][0]["key"] == "decision_gpu" and {r["group"] for r in first["rows"]} == {GROUPS["decision"]}
+    assert "NoMaD decision, GPU" in (out / "node.md").read_text()
 
 
 @pytest.mark.slow
