@@ -107,9 +107,17 @@ def test_resume_continues_from_the_latest_checkpoint(ppo_run, tmp_path):
 
 def test_compiled_trunk_trains_as_the_plain_run(ppo_run, tmp_path):
     """train.compile=true (the visual trunk under torch.compile, in rollouts and updates): the plain run's episodes
-    and losses to float rounding (fused GroupNorm reductions: ~1e-4 apart here), its kernels under the cache root.
-    Scalar C++ kernels in one translation unit per graph, compiled unoptimised, as tests/test_compiled.py's training
-    step: what is checked is the wiring."""
+    and losses to float rounding, its kernels under the cache root. Scalar C++ kernels in one translation unit per
+    graph, compiled unoptimised, as tests/test_compiled.py's training step: what is checked is the wiring.
+
+    How far rounding carries depends on the frames, so the tolerance is sized on several episode streams, not on
+    this one alone (2026-12-03, largest relative gap of the four losses over both updates): seeds 1-4 of these tiny
+    runs 1e-7 to 7e-7 (action_loss, a mean of advantage-weighted ratios near 0: at most 1.9e-7 apart, so it is
+    compared to an absolute 1e-4), this run 5.5e-4, and with env.goal_pool=8 2.2e-4 in the first update and 2.7e-3
+    (value_loss 1.9e-3, action_loss 2.9e-5 apart) in the second: the compiled trunk's rounding (fused GroupNorm
+    reductions) carried through 8 optimizer steps. A wiring fault is not rounding: compiling a copy of the trunk
+    (its gradients never reach the optimizer, the updates never reach it) put value_loss 31 % off (0.0114 against
+    0.0167)."""
     plain, _ = ppo_run
     out = tmp_path / "compiled"
     rvn_rl("algo=ppo", f"out_dir={out}", "train.total_steps=32", "train.compile=true", *TINY,
@@ -118,7 +126,7 @@ def test_compiled_trunk_trains_as_the_plain_run(ppo_run, tmp_path):
     assert [(x["env_steps"], x.get("episodes")) for x in a] == [(x["env_steps"], x.get("episodes")) for x in b]
     for x, y in zip(a, b):
         for key in ("value_loss", "action_loss", "entropy", "grad_norm"):
-            assert y[key] == pytest.approx(x[key], rel=2e-3, abs=1e-5), key
+            assert y[key] == pytest.approx(x[key], rel=1e-2, abs=1e-4 if key == "action_loss" else 1e-6), key
     assert list((out / "cache" / "compiled").iterdir())
     assert yaml.safe_load((out / "config.yaml").read_text())["train"]["compile"] is True
 

@@ -61,7 +61,8 @@ def run(monkeypatch, out, threaded: bool, device: str) -> tuple[list, list, list
     not torch.cuda.is_available(), reason="needs a GPU: the learner's CUDA stream"))])
 def test_overlap_learns_beside_the_collection_as_the_same_schedule_in_one_thread(monkeypatch, tmp_path, device):
     """On a GPU the update runs on the learner thread's CUDA stream; cuDNN's kernels may differ in the last bits from
-    run to run there, so the one-thread run's losses are compared to float rounding, and its weights not at all."""
+    run to run there, so the one-thread run's losses are compared to float rounding (as tests/test_rl.py's compiled
+    trunk, whose docstring has the measured spread), and its weights not at all."""
     collected, updates, rows, weights = run(monkeypatch, tmp_path / "threaded", True, device)
     # three rollouts and three updates, each update in the learner thread
     assert [r["env_steps"] for r in rows] == [16, 32, 48] and len(collected) == len(updates) == 3
@@ -82,4 +83,8 @@ def test_overlap_learns_beside_the_collection_as_the_same_schedule_in_one_thread
     else:
         for a, b in zip(one[2], rows, strict=True):
             assert [a.get(k) for k in keys[:2]] == [b.get(k) for k in keys[:2]]
-            assert [a.get(k) for k in keys[2:]] == pytest.approx([b.get(k) for k in keys[2:]], rel=1e-3, abs=1e-6)
+            for k in keys[2:]:  # action_loss, a mean of advantage-weighted ratios near 0: its rounding is absolute
+                if b.get(k) is None:  # reward: none before the first episode has ended
+                    assert a.get(k) is None, k
+                else:
+                    assert a.get(k) == pytest.approx(b[k], rel=1e-2, abs=1e-4 if k == "action_loss" else 1e-6), k
