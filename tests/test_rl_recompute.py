@@ -77,12 +77,14 @@ def run(monkeypatch, out, *overrides: str) -> tuple[list[float], list[dict]]:
 @pytest.mark.slow  # rvn-rl runs
 def test_synchronous_recomputed_values_are_the_acting_ones(tmp_path, monkeypatch):
     """One synchronous update: the recomputed values are those the acting policy gave (one policy, over the
-    sequences instead of step by step), so the losses are plain PPO's up to rounding."""
+    sequences instead of step by step), so the losses are plain PPO's up to rounding: the values' ~4e-8 carried
+    through the update's 8 optimizer steps, 1e-8 to 1e-7 relative on main's stream and seeds 1-2, 6.3e-5 (value_loss)
+    with env.goal_pool=8 (2026-12-03), hence 1e-3; a fault in the values is caught by ``gaps`` first."""
     _, plain = run(monkeypatch, tmp_path / "plain", "train.total_steps=16")
     gaps, rows = run(monkeypatch, tmp_path / "recomputed", "train.total_steps=16", "ppo.recompute_advantages=true")
     assert len(gaps) == 1 and gaps[0] < 1e-4, gaps
     for key in ("value_loss", "action_loss", "entropy", "grad_norm"):
-        assert rows[0][key] == pytest.approx(plain[0][key], rel=1e-4, abs=1e-6), key
+        assert rows[0][key] == pytest.approx(plain[0][key], rel=1e-3, abs=1e-6), key
 
 
 @pytest.mark.slow
@@ -96,8 +98,8 @@ def test_overlapped_values_come_from_the_updates_weights(tmp_path, monkeypatch):
     assert gaps[0] < 1e-4, gaps
     assert gaps[1] > 1e-4 and gaps[2] > 1e-4, gaps
     _, plain = run(monkeypatch, tmp_path / "plain", "train.total_steps=48", "train.overlap=true")
-    assert rows[0]["value_loss"] == pytest.approx(plain[0]["value_loss"], rel=1e-4, abs=1e-6)
-    assert rows[1]["value_loss"] != pytest.approx(plain[1]["value_loss"], rel=1e-4, abs=1e-6)
+    assert rows[0]["value_loss"] == pytest.approx(plain[0]["value_loss"], rel=1e-3, abs=1e-6)
+    assert rows[1]["value_loss"] != pytest.approx(plain[1]["value_loss"], rel=1e-3, abs=1e-6)
 
 
 def test_decoupled_and_recomputed_share_one_pass(monkeypatch):
