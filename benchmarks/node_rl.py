@@ -16,6 +16,8 @@ import numpy as np
 from node_report import GpuBusy
 from node_rows import row
 
+RL_LABEL = "rvn-rl PPO collection + learning, "  # the label of each row that trains, before its settings
+
 
 def rl_rows(plan) -> Iterator[dict]:
     """5. rvn-rl PPO collection + learning with envs in worker processes: env steps/s at scale=small (ResNet-18,
@@ -55,9 +57,9 @@ def rl_rows(plan) -> Iterator[dict]:
         plain = _rl_row(plan, "rl", "scale=small", small, "rl", "")
         yield plain
         if plan.quick and not plan.cuda and not native_bf16_cpu():  # a smoke test: the emulation's minute spared
-            yield row(5, "rl_bf16", "rvn-rl PPO collection + learning, scale=small, train.precision=bf16", "env steps/s",
-                      skipped="bfloat16 is emulated on this CPU (no AVX512-BF16 or AMX; rvn_rl/README.md), --quick "
-                      "leaves it out; a run without --quick times it")
+            yield _skipped_rl_row("rl_bf16", "scale=small, train.precision=bf16",
+                                  "bfloat16 is emulated on this CPU (no AVX512-BF16 or AMX; rvn_rl/README.md), --quick "
+                                  "leaves it out; a run without --quick times it")
         else:
             yield _rl_row(plan, "rl_bf16", "scale=small, train.precision=bf16", {**small, "precision": "bf16"}, "rl",
                           "", against=plain["value"])
@@ -74,12 +76,10 @@ def rl_rows(plan) -> Iterator[dict]:
             yield _rl_row(plan, "rl_compiled", "scale=small, train.compile=true (reduce-overhead)",
                           {**small, "compile": True}, "rl", "", against=plain["value"])
         else:
-            yield row(5, "rl_compiled", "rvn-rl PPO collection + learning, scale=small, train.compile=true",
-                      "env steps/s", skipped="CUDA graphs need a GPU (on a CPU the compiled trunk was not faster: "
-                      "rvn_rl/settings.py)")
+            yield _skipped_rl_row("rl_compiled", "scale=small, train.compile=true", "CUDA graphs need a GPU (on a CPU "
+                                  "the compiled trunk was not faster: rvn_rl/settings.py)")
         if not (plan.cuda or plan.quick):  # minutes per update on a few cores; --quick runs it small
-            yield row(5, "rl_paper", f"rvn-rl PPO collection + learning, {what}", "env steps/s",
-                      skipped="ResNet-50 at 256² is sized for a GPU (--quick runs it at 64²)")
+            yield _skipped_rl_row("rl_paper", what, "ResNet-50 at 256² is sized for a GPU (--quick runs it at 64²)")
             return
         yield _rl_row(plan, "rl_paper", what, paper, None, ddppo)
         # last: what a lease that runs short loses
@@ -119,6 +119,11 @@ def _rl_args(plan, settings: dict, updates: int) -> SimpleNamespace:
                            **{"renderer": "auto", **settings})
 
 
+def _skipped_rl_row(key: str, what: str, why: str) -> dict:
+    """A row of `_rl_row`'s kind left out, ``why`` in its place (its label without the device: nothing ran)."""
+    return row(5, key, f"{RL_LABEL}{what}", "env steps/s", skipped=why)
+
+
 def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, baseline: str,
             against: float | None = None) -> dict:
     """rvn-rl's own loop (`rvn_rl.trainer.train`) with ``settings``; ``against``: the rl row's rate (float32, not
@@ -155,7 +160,7 @@ def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, bas
     def share(k: str) -> float:  # time-weighted share of the counted updates' time
         return sum(s * r.get(k, float("nan")) for _, s, r in counted) / seconds
 
-    return row(5, key, f"rvn-rl PPO collection + learning, {what} ({'cuda' if plan.cuda else 'cpu'})", "env steps/s",
+    return row(5, key, f"{RL_LABEL}{what} ({'cuda' if plan.cuda else 'cpu'})", "env steps/s",
                goal_key, steps / seconds,
                f"{args.size}² RGB, renderer={args.renderer}, {args.backbone} (base planes 32), PPO rollouts of {args.num_steps} x {envs} envs, "
                f"{args.ppo_epoch} epochs x {args.mini_batches} mini-batches, {workers} env worker processes, "
