@@ -82,6 +82,10 @@ def runs(tmp_path_factory):
 
 
 def test_compiled_training_gives_the_plain_losses_and_checkpoint(runs):
+    """The losses check the training: with the parts compiled as copies whose updates never reach the forward
+    (measured 2026-12-03: the optimizer steps the model, the compiled copies keep its first weights), train/loss was
+    2.7 % and 11.5 % off at steps 2 and 3, against a 1e-4 tolerance. Three AdamW steps at lr 1e-4 move a weight by
+    less than the checkpoints' atol, so that comparison checks names, shapes and gross corruption only."""
     plain, compiled = losses(runs / "plain"), losses(runs / "compiled")
     assert set(plain) == set(compiled) and "train/diffusion_loss" in plain
     for tag, values in plain.items():  # same draws (dropout, drop-connect, noise): float rounding apart
