@@ -148,6 +148,28 @@ def test_missing_scene_is_named(runs, tmp_path):
     assert proc.returncode != 0 and str(missing) in proc.stderr and "Traceback" not in proc.stderr
 
 
+def test_a_mesh_folder_without_split_folders_is_said_and_reported(tmp_path):
+    """scenes=mesh_dir on a folder without split folders evaluates on every mesh there, which every other split takes
+    too (the training data's): rvn-eval says so, metrics.json records it and the report warns above the table."""
+    import trimesh
+
+    from rvn_data.benchmark.runs import find_runs, provenance_note
+    from rvn_data.scenes.loader import load_scene
+
+    scans = tmp_path / "scans"
+    scans.mkdir()
+    trimesh.Trimesh(*load_scene("procedural:val/0").triangles(), process=False).export(scans / "apartment.glb")
+    out = tmp_path / "random"
+    proc = ok(rvn_eval(tmp_path, "policy=random", "scenes=mesh_dir", f"scenes.root={scans}", f"out_dir={out}",
+                       "episodes.per_scene=1"))
+    assert f"scenes.root={scans} has no val/ folder, so split=val takes every mesh in it, as split train and test " \
+           "do: their scenes are the same" in proc.stderr
+    assert load(out)["shared_scenes"] == {"folder": str(scans), "splits": ["train", "test"]}
+    assert load(out)["episodes"] == 1
+    assert "evaluated on scenes that other splits share (a mesh folder without a folder per split, so a model may " \
+           f"have trained on them): random ({scans}, also train and test)" in provenance_note(find_runs([out]))
+
+
 def test_table_merges_metrics(tmp_path, capsys):
     base = {"SR_1": 0.5, "E_G": 1.25, "CPK": 12.34, "SPL_1": 0.4, "episodes": 4, "policy": "checkpoint",
             "method": "NoMaD-Neg (ours)"}

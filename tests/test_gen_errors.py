@@ -90,6 +90,7 @@ def test_scene_that_fails_to_load_in_a_multi_scene_run(tmp_path):
                    "dataset.d_min=2", "dataset.d_max=6", *TINY)
     assert proc.returncode == 1, proc.stdout + proc.stderr
     assert "FAILED scenes (1)" in proc.stdout and "room_b" in proc.stdout
+    assert f"note: scenes.root={scenes} has no train/ folder, so split=train takes every mesh in it" in proc.stdout
     assert (out / "room_a_expert_0000" / "traj_data.pkl").is_file()
     assert not any(p.name.startswith("room_b") for p in out.iterdir())
     manifest = json.loads((out / "manifest.json").read_text())

@@ -12,6 +12,7 @@ from conftest import box_scene, room_boxes
 from rvn_data.navmesh import NavMesh
 from rvn_data.scenes import NEUTRAL_GREY, SceneError, load_mesh_file, load_scene, scene_specs
 from rvn_data.scenes import mesh_file
+from rvn_data.scenes.sets import shared_splits
 
 
 def _room_mesh() -> trimesh.Trimesh:
@@ -102,6 +103,15 @@ def test_scene_specs(tmp_path):
     for name in ("b.glb", "a.obj", "notes.txt"):
         (tmp_path / "meshes" / "val" / name).write_text("x")
     assert [s.split("/")[-1] for s in scene_specs("mesh_dir", "val", root=tmp_path / "meshes")] == ["a.obj", "b.glb"]
+    # a split without its folder takes every mesh directly in the root, as each other split without one: named
+    assert shared_splits("mesh_dir", "val", tmp_path / "meshes") == []
+    assert shared_splits("mesh_dir", "train", tmp_path / "meshes") == ["test"]
+    (tmp_path / "meshes" / "test").mkdir()
+    assert shared_splits("mesh_dir", "train", tmp_path / "meshes") == []  # its meshes are no other split's
+    (tmp_path / "flat").mkdir()
+    assert shared_splits("mesh_dir", "train", tmp_path / "flat") == ["val", "test"]
+    assert shared_splits("mesh_dir", "val", tmp_path / "meshes" / "val" / "b.glb") == []  # one mesh: a choice
+    assert shared_splits("procedural", "val", None) == [] == shared_splits("mesh_dir", "val", None)
     listing = tmp_path / "list.txt"
     (tmp_path / "abs").mkdir()
     (tmp_path / "abs" / "c.ply").write_text("x")

@@ -29,6 +29,7 @@ from rvn_data.cache_root import cache_root, keep_compiled_kernels
 from rvn_data.config import CONF_DIR, register_configs, typed
 from rvn_data.config_schemas import EvalConfig
 from rvn_data.embodiment import check_embodiment, describe, embodiment_of
+from rvn_data.scenes.sets import shared_splits, shared_splits_note
 from rvn_data.cli.common import check_writable_dir, entered_task, fail, record_run, run_hydra, validating
 
 register_configs()
@@ -62,6 +63,10 @@ def evaluate(config: EvalConfig, choice: str = "policy", on_checked=None) -> dic
     if diffs:
         print(f"rvn-eval: note: policy {config.method!r} was trained for another robot or camera: {describe(diffs)} "
               "(embodiment_mismatch=allow; recorded in run.json and metrics.json)", file=sys.stderr)
+    shared = shared_splits(config.scenes.source, config.split, config.scenes.root)
+    if shared:
+        print(f"rvn-eval: note: {shared_splits_note(config.scenes.root, config.split, shared)} (recorded in "
+              "metrics.json)", file=sys.stderr)
     if on_checked is not None:
         on_checked()
     todo = [k for k, key in enumerate(keys) if key not in done]
@@ -82,6 +87,8 @@ def evaluate(config: EvalConfig, choice: str = "policy", on_checked=None) -> dic
                    scenes=len(slots), per_scene=env_cfg.per_scene, n_goals=env_cfg.episodes.n_goals)
     if diffs:
         metrics["embodiment_mismatch"] = diffs
+    if shared:  # the report warns: a model may have trained on these scenes
+        metrics["shared_scenes"] = {"folder": str(Path(config.scenes.root).expanduser()), "splits": shared}
     run.finish(records, metrics, render_table([metrics]))
     return metrics
 

@@ -158,7 +158,8 @@ def merge_shards(runs: list[Run]) -> list[Run]:
 
 
 def provenance_note(runs: list[Run]) -> str:
-    """One line above the table when rows come from different code or episode sets, else ''."""
+    """Lines above the table when rows come from different code or episode sets, ran on scenes that other splits
+    share, or on another robot or camera than their training data; else ''."""
     notes = []
     commits = sorted({c for r in runs for c in r.commits})
     if len(commits) > 1:
@@ -168,6 +169,11 @@ def provenance_note(runs: list[Run]) -> str:
         if len(sets) > 1:
             notes.append(f"{split} rows on different episode sets ({len(sets)} sets: compare rows only within one)")
     text = f"**Warning: {'; '.join(notes)}; see the Runs table.**\n" if notes else ""
+    shared = [(r.method, r.metrics["shared_scenes"]) for r in runs if r.metrics.get("shared_scenes")]
+    if shared:  # rvn-eval on a mesh folder without split folders (rvn_data.scenes.sets.shared_splits)
+        rows = "; ".join(f"{method} ({s['folder']}, also {' and '.join(s['splits'])})" for method, s in shared)
+        text += ("**Warning: evaluated on scenes that other splits share (a mesh folder without a folder per split, "
+                 f"so a model may have trained on them): {rows}.**\n")
     return text + embodiment_note(runs)
 
 

@@ -26,7 +26,7 @@ from rvn_data.dataset.settings import GenSettings
 from rvn_data.dataset.verify import summarise
 from rvn_data.gen.summary import summary
 from rvn_data.numba_note import note_first_compile
-from rvn_data.scenes.sets import ScenesConfig
+from rvn_data.scenes.sets import ScenesConfig, shared_splits, shared_splits_note
 from rvn_data.worker_threads import settle_worker_threads, worker_threads
 
 
@@ -92,6 +92,9 @@ def generate(cfg: GenConfig | Mapping[str, Any], overrides: list[str] | None = N
         print(f"warning: expert dataset.margin={settings.margin} m is not larger than r_robot={settings.agent.r_robot} m")
     if settings.kind == "negative" and settings.margin >= settings.agent.r_robot:
         print(f"warning: negative dataset.margin={settings.margin} m is not smaller than r_robot={settings.agent.r_robot} m")
+    shared = shared_splits(config.scenes.source, config.scenes.split, config.scenes.root)
+    if shared:
+        print(f"note: {shared_splits_note(config.scenes.root, config.scenes.split, shared)}")
     if overrides is not None:
         record_command(out_dir, overrides)
     shard_index, num_shards = config.shard_index, config.num_shards

@@ -1,9 +1,10 @@
 """Scene lists of a split: `scene_specs(source, split, ...)` → specs for `load_scene`.
 
 Sources: `procedural` (`procedural:<split>/<i>`; 800 train / 50 val / 50 test), `mesh_dir`
-(a directory of GLB/glTF/OBJ/PLY files, `<root>/<split>/` when it exists, one mesh file, or
-a text file listing paths), `list_file` (a text file listing paths; relative paths are relative to the
-file; blank lines and `#` comments ignored) and `hm3d` (`<root>/<split>/<NNNNN-id>/<id>.glb`).
+(a directory of GLB/glTF/OBJ/PLY files: `<root>/<split>/` when it exists, else the meshes directly in `<root>`,
+as for every split without its folder, and the commands say so (`shared_splits`); one mesh file, or a text file
+listing paths), `list_file` (a text file listing paths; relative paths are relative to the file; blank lines and
+`#` comments ignored) and `hm3d` (`<root>/<split>/<NNNNN-id>/<id>.glb`).
 """
 from __future__ import annotations
 
@@ -67,6 +68,27 @@ def _mesh_dir(root: Path, split: str) -> list[str]:
     if not files:
         raise SceneError(f"no mesh files ({', '.join(SUFFIXES)}) in {str(base)!r}")
     return files
+
+
+def shared_splits(source: str, split: str, root: str | Path | None) -> list[str]:
+    """The other splits (of train, val and test) that take the same meshes as ``split``: a ``mesh_dir`` folder
+    without ``<split>/`` gives the split every mesh directly in it, and so it does to each split without its folder
+    (a model's training scenes are then its evaluation scenes). Empty where splits are disjoint: procedural and HM3D
+    scenes, a split with a folder of its own, a list file or one mesh (the user's explicit choice)."""
+    if source != "mesh_dir" or root is None or str(root) in ("", "???"):
+        return []
+    root = Path(root).expanduser()
+    if not root.is_dir() or (root / split).is_dir():
+        return []
+    return [other for other in PROCEDURAL_SPLITS if other != split and not (root / other).is_dir()]
+
+
+def shared_splits_note(root: str | Path, split: str, others: list[str]) -> str:
+    """One line saying that ``split`` takes the same meshes as the splits ``others`` (`shared_splits`)."""
+    root = Path(root).expanduser()
+    return (f"scenes.root={root} has no {split}/ folder, so split={split} takes every mesh in it, as split "
+            f"{' and '.join(others)} {'does' if len(others) == 1 else 'do'}: their scenes are the same; put each "
+            f"split's meshes in a folder of its own ({root}/train, {root}/val, {root}/test) to keep them apart")
 
 
 def scene_specs(source: str, split: str, root: str | Path | None = None,
