@@ -187,7 +187,7 @@ class ConditionalUnet1D(nn.Module):
 
         def build() -> dict:
             (fc, fg, _), fout = self.final_conv
-            film = [blk.cond_encoder[1] for blk in self._blocks()]  # Linear on [Mish(t_emb), Mish(cond)]
+            film = [b.cond_encoder[1] for b in self._blocks()]  # Linear on [Mish(t_emb), Mish(cond)]
             dsed = self.diffusion_step_encoder[-1].out_features
             w = torch.cat([lin.weight.detach() for lin in film]).t()  # [dsed + G, ΣC]
             b = torch.cat([_bias(lin, lin.out_features) for lin in film])
