@@ -20,6 +20,9 @@ def make_actor(policy: nn.Module, train: TrainSettings) -> nn.Module:
     ``train.precision``, in eval mode, without gradients and not compiled (an act is a small batch; the learner
     thread alone records CUDA graphs)."""
     actor = copy.deepcopy(policy)
+    for m in actor.modules():  # a deep copy gives each LSTM weight a storage of its own: cuDNN then compacts
+        if isinstance(m, nn.RNNBase):  # them at every call (its warning on the first GPU run of train.overlap)
+            m.flatten_parameters()
     actor.autocast_bf16 = train.precision == "bf16"
     actor.eval()
     for p in actor.parameters():

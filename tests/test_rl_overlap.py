@@ -59,6 +59,7 @@ def run(monkeypatch, out, threaded: bool, device: str) -> tuple[list, list, list
 
 @pytest.mark.parametrize("device", ["cpu", pytest.param("cuda", marks=pytest.mark.skipif(
     not torch.cuda.is_available(), reason="needs a GPU: the learner's CUDA stream"))])
+@pytest.mark.filterwarnings("error:RNN module weights are not part of single contiguous chunk")  # the actor's copy
 def test_overlap_learns_beside_the_collection_as_the_same_schedule_in_one_thread(monkeypatch, tmp_path, device):
     """On a GPU the update runs on the learner thread's CUDA stream; cuDNN's kernels may differ in the last bits from
     run to run there, so the one-thread run's losses are compared to float rounding (as tests/test_rl.py's compiled
