@@ -184,8 +184,10 @@ def _rl_envs_row(plan, settings: dict, workers: int | None = None, prefetch: boo
     64 at each scene a worker has not kept (on the 2-core development CPU, 200 scenes: ~500 env steps/s against ~410
     with the pool and prefetch). ``first_pass`` (row ``rl_envs_first_pass``, naming the ratio of ``kept_caches``, the
     rate over the kept caches, to its own): over an empty cache root, each scene's navmesh built and pool solved and
-    smoothed at its first visit. The settings give each batched step's median, 90th and 99th percentile and slowest:
-    vectorised envs step together, so an env whose scene switch waits holds up the batch, in the tail."""
+    smoothed at its first visit. Each row times two rollouts' batched steps and more until ``plan.seconds`` have
+    passed (until the fourth GPU run, 128 steps, ~1 s on the node, held one stall or none). The settings give each
+    batched step's median, 90th and 99th percentile and slowest: vectorised envs step together, so an env whose scene
+    switch waits holds up the batch, in the tail."""
     import rl as rl_bench
     from rvn_rl.cli import compose
 
@@ -199,7 +201,7 @@ def _rl_envs_row(plan, settings: dict, workers: int | None = None, prefetch: boo
     times: list[float] = []  # each batched step's seconds: a scene switch that waits shows in the top percentiles
     with tempfile.TemporaryDirectory() as tmp, GpuBusy() as busy:
         rate = rl_bench.collection(compose(rl_bench.overrides(args, f"{tmp}/run") + extra), 2 * args.num_steps, False,
-                                   times)
+                                   times, seconds=0.0 if plan.quick else plan.seconds)
     ms = 1e3 * np.percentile(times, [50, 90, 99, 100])
     ratio = "" if with_prefetch is None else f"; with env.prefetch_scenes (rl_envs): x{with_prefetch / rate:.2f} this"
     ratio += "" if with_pool is None else f"; with the goal pool of 64 (rl_envs): x{with_pool / rate:.2f} this"
@@ -215,7 +217,7 @@ def _rl_envs_row(plan, settings: dict, workers: int | None = None, prefetch: boo
                f"{args.size}² RGB, renderer={args.renderer}, {args.envs} envs in {args.workers} worker processes, "
                f"{plan.rl_scenes} train scenes, goal pool {args.goal_pool} {caches}, random actions, no policy or "
                "learner, "
-               f"{2 * args.num_steps} batched steps after 10 of warm-up: {rate / args.workers:.0f} env steps/s "
+               f"{len(times)} batched steps after 10 of warm-up: {rate / args.workers:.0f} env steps/s "
                f"per worker; batched step median {ms[0]:.1f} ms, 90th {ms[1]:.1f}, 99th {ms[2]:.1f}, slowest {ms[3]:.0f}"
                f"{ratio}", gpu_busy=busy.share)
 

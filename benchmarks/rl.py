@@ -52,9 +52,10 @@ def steady_updates(rows: list[dict]) -> list[dict]:
     return [r for r in rows if r.get("overlapped")] if overlapped else rows
 
 
-def collection(cfg, steps: int, with_policy: bool, times: list | None = None) -> float:
-    """Env steps/s of ``steps`` batched steps after 10 of warm-up: random actions, or ``with_policy`` the policy's
-    act(); ``times`` (a list) receives each timed batched step's seconds."""
+def collection(cfg, steps: int, with_policy: bool, times: list | None = None, seconds: float = 0.0) -> float:
+    """Env steps/s of ``steps`` batched steps after 10 of warm-up, and more until ``seconds`` have passed (so that a
+    fast machine's figure holds as many scene switches as a slow one's): random actions, or ``with_policy`` the
+    policy's act(); ``times`` (a list) receives each timed batched step's seconds."""
     from rvn_rl.model import PointNavResNetPolicy
     from rvn_rl.trainer import set_trunk
     from rvn_rl.vec_env import make_envs
@@ -89,7 +90,11 @@ def collection(cfg, steps: int, with_policy: bool, times: list | None = None) ->
         run(10)  # warm-up: scenes of the first resets loaded, numba compiled
         t = time.perf_counter()
         run(steps, times)
-        return steps * n / (time.perf_counter() - t)
+        done = steps
+        while time.perf_counter() - t < seconds:
+            run(8, times)
+            done += 8
+        return done * n / (time.perf_counter() - t)
     finally:
         envs.close()
 

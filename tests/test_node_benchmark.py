@@ -327,3 +327,24 @@ def test_learner_profile_names_the_phases_of_an_update(monkeypatch, tmp_path):
     (line,) = [x for x in text.splitlines() if x.startswith("host time per phase")]
     assert [p.split()[0] for p in line.split(": ", 1)[1].split(", ")] == ["act", "storage", "returns", "update"], line
     assert "aten::convolution" in text or "aten::conv2d" in text
+
+
+def test_collection_runs_on_until_its_seconds_have_passed(monkeypatch, tmp_path):
+    """rl.collection (node.py's envs-alone rows): the batched steps asked for, then more until ``seconds`` have
+    passed, so that a fast node's figure holds as many scene switches as a slow one's (the fourth GPU run's rows
+    were 128 steps, ~1 s, and held one stall or none); each timed step's seconds are given back and counted."""
+    from types import SimpleNamespace
+
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
+    import rl as rl_bench
+    from rvn_rl.cli import compose
+
+    args = SimpleNamespace(size=32, envs=2, workers=0, scenes=2, base_planes=8, num_steps=4, threads=1,
+                           renderer="raycast", updates=1, goal_pool=8, ppo_epoch=1, mini_batches=1)
+    cfg = compose(rl_bench.overrides(args, str(tmp_path / "run")))
+    times = []
+    assert rl_bench.collection(cfg, 3, False, times) > 0 and len(times) == 3
+    times = []
+    rate = rl_bench.collection(cfg, 3, False, times, seconds=0.5)
+    assert sum(times) >= 0.5 * 0.9 and len(times) > 3 and (len(times) - 3) % 8 == 0
+    assert rate == pytest.approx(2 * len(times) / sum(times), rel=0.5)  # every timed step counted
