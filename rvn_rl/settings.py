@@ -121,7 +121,8 @@ class TrainSettings:
     # updates; the LSTM, heads, losses, weights and optimiser stay float32. For GPUs with bf16 (Ampere on) and CPUs
     # with native bf16 (AVX512-BF16, AMX): on the 2-core development CPU (AVX512-BF16) a scale=small update took 16.2 s
     # in fp32 and 10.9 s in bf16 (benchmarks/rl_learner.py), the README's rvn-rl run 26 -> 36 env steps/s; a CPU
-    # without them emulates bf16, slower
+    # without them emulates bf16, slower. On an H200 slower at scale=small (an update x0.84: host-bound, autocast adds
+    # launches; docs/results/2026-12-04_gpu4)
     precision: str = "fp32"
     # torch.compile of the visual trunk (ResNet, compression, visual_fc: `PointNavResNetPolicy.compile_visual`) in
     # rollouts and updates: the same losses to float rounding (tests/test_rl.py). For GPUs, with
