@@ -243,6 +243,17 @@ def test_train_compile_traces_every_part_it_compiles(root, name, monkeypatch, tm
     assert modes == [{"mode": None}] * len(parts)  # torch.compile's default mode
 
 
+def test_train_compile_mode_auto_graphs_one_gpu_only():
+    """rvn-train's train.compile_mode=auto (the default): CUDA graphs (reduce-overhead) on one CUDA device, where their
+    CUDA test passed; torch.compile's default on a CPU and with several ranks; a mode given is kept."""
+    from rvn_il.train.choices import training_compile_mode
+
+    assert training_compile_mode("auto", "cuda", 1) == "reduce-overhead"
+    assert training_compile_mode("auto", "cuda", 4) == training_compile_mode("auto", "cpu", 1) == "default"
+    assert training_compile_mode("default", "cuda", 1) == "default"
+    assert training_compile_mode("reduce-overhead", "cuda", 4) == "reduce-overhead"
+
+
 def test_train_compile_mode_reaches_every_part(root, monkeypatch, tmp_path):
     """rvn-train's ``train.compile_mode`` (reduce-overhead: CUDA graphs for host-bound steps on a GPU) is torch.compile's
     mode for every part compile_for_training compiles; an unknown mode is refused before any work, naming the setting
@@ -261,7 +272,11 @@ def test_train_compile_mode_reaches_every_part(root, monkeypatch, tmp_path):
         assert [kw for _, kw in seen] == [{"mode": "reduce-overhead"}] * 3, seen
         assert (tmp_path / "ro" / "model" / "ckpt_00000001").is_dir()
         seen.clear()
-        with pytest.raises(ValueError, match="train.compile_mode='max-autotune'; choose one of default, reduce-overhead"):
+        train([*common, f"out_dir={tmp_path / 'auto'}"])  # the default, auto: on a CPU torch.compile's default
+        assert [kw for _, kw in seen] == [{"mode": None}] * 3, seen
+        seen.clear()
+        with pytest.raises(ValueError, match="train.compile_mode='max-autotune'; choose one of auto, default, "
+                                             "reduce-overhead"):
             train([*common, f"out_dir={tmp_path / 'bad'}", "train.compile_mode=max-autotune"])
         assert not (tmp_path / "bad" / "model").exists()
         with pytest.raises(ValueError, match="compile mode 'max-autotune': choose one of default, reduce-overhead"):

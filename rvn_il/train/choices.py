@@ -5,6 +5,7 @@ from __future__ import annotations
 
 PRECISIONS = ("fp32", "bf16")  # train.precision: float32, or bfloat16 autocast (weights and optimiser float32)
 COMPILE_MODES = ("default", "reduce-overhead")  # train.compile_mode: torch.compile's modes
+TRAIN_COMPILE_MODES = ("auto", *COMPILE_MODES)  # rvn-train's: auto picks by device and ranks (`training_compile_mode`)
 
 
 def _check(setting: str, value: object, choices: tuple[str, ...]) -> str:
@@ -18,9 +19,20 @@ def check_precision(value: object) -> str:
     return _check("train.precision", value, PRECISIONS)
 
 
-def check_compile_mode(value: object) -> str:
+def check_compile_mode(value: object, choices: tuple[str, ...] = COMPILE_MODES) -> str:
     """``value`` of train.compile_mode; a one-line ValueError naming the setting and its choices otherwise."""
-    return _check("train.compile_mode", value, COMPILE_MODES)
+    return _check("train.compile_mode", value, choices)
+
+
+def training_compile_mode(value: str, device_type: str, world: int) -> str:
+    """rvn-train's train.compile_mode as torch.compile takes it. ``auto``: reduce-overhead on one CUDA device (each
+    compiled part's forward and backward replayed as CUDA graphs: NoMaD full x2.6 and ViNT x2.1 the compiled default
+    step on an H200, docs/results/2026-11-27_gpu3; the same losses and checkpoint as the plain fp32 step there,
+    tests/test_compiled.py, passed on 2026-12-04), default elsewhere: on a CPU the two compile alike, and with several
+    ranks (DDP) CUDA graphs have not been tested."""
+    if value != "auto":
+        return value
+    return "reduce-overhead" if device_type == "cuda" and world == 1 else "default"
 
 
 def check_precision_on(value: str, device) -> None:

@@ -13,6 +13,7 @@ from safetensors.torch import load_file
 from ..models import build_model
 from ..models.checkpoint import latest_checkpoint, load_state_dict_checked, read_weights
 from ..models.compiled import compile_for_training
+from .choices import training_compile_mode
 from .ema import EMA
 
 
@@ -65,7 +66,7 @@ def optimisation(model_cfg: Mapping, tcfg: Mapping, dataset, world: int, device:
     sched = torch.optim.lr_scheduler.LambdaLR(opt, lr_lambda(max(1, warmup), max_steps))
     ema = EMA(model, float(model_cfg.get("ema_power", 0.75))) if use_ema else None
     if tcfg["compile"]:
-        compile_for_training(model, tcfg["compile_mode"])
+        compile_for_training(model, training_compile_mode(tcfg["compile_mode"], device.type, world))
     return Optimisation(model, opt, sched, ema, bs, max_steps)
 
 

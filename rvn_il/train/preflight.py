@@ -33,7 +33,7 @@ from ..models.checkpoint import members_of, read_config
 from ..models.nomad import check_prediction_type
 from ..policies.loader import resolve_device
 from .adopt import expert_source
-from .choices import check_compile_mode, check_precision, check_precision_on
+from .choices import TRAIN_COMPILE_MODES, check_compile_mode, check_precision, check_precision_on
 
 log = logging.getLogger(__name__)
 
@@ -126,7 +126,7 @@ def check_settings(cfg: Mapping) -> None:
         check_prediction_type(model["prediction_type"])
     check_waypoint_frames(data["waypoint_frames"])
     check_precision(tcfg["precision"])
-    check_compile_mode(tcfg["compile_mode"])
+    check_compile_mode(tcfg["compile_mode"], TRAIN_COMPILE_MODES)
     val_root = data["val_root"]
     if val_root and not Path(val_root).expanduser().is_dir():
         raise ValueError(f"data.val_root={val_root} does not exist; generate an expert dataset on other scenes "

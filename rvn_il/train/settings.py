@@ -100,10 +100,11 @@ class TrainLoopConfig:
     # torch.compile of the encoder, Transformer and decoder (rvn_il/models/compiled.py): same losses to float
     # rounding, faster steps after a first one that compiles (minutes on a CPU; kernels cached under the cache root)
     compile: bool = False
-    # torch.compile's mode with train.compile: default | reduce-overhead (also replays each compiled part's forward
-    # and backward as CUDA graphs on a GPU, for steps bound by the host's launches: NoMaD full x3.3 the plain step
-    # on an H200, docs/results/2026-11-27_gpu3; on a CPU it compiles as default)
-    compile_mode: str = "default"
+    # torch.compile's mode with train.compile: auto | default | reduce-overhead (also replays each compiled part's
+    # forward and backward as CUDA graphs on a GPU, for steps bound by the host's launches: NoMaD full x3.3 the plain
+    # step on an H200, docs/results/2026-11-27_gpu3; on a CPU it compiles as default). auto: reduce-overhead on one
+    # CUDA device, default on a CPU and with several ranks (DDP with CUDA graphs is untested)
+    compile_mode: str = "auto"
     val_every: int = 1000  # steps between validations (and at the last step), when data.val_root is set
     val_batches: int = 8  # held-out loss on val_batches x batch_size fixed samples
     val_trajectories: int = 20  # expert trajectories replayed for the open-loop agreement
