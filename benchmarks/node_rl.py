@@ -60,6 +60,10 @@ def rl_rows(plan) -> Iterator[dict]:
             yield _skipped_rl_row("rl_bf16", "scale=small, train.precision=bf16",
                                   "bfloat16 is emulated on this CPU (no AVX512-BF16 or AMX; rvn_rl/README.md), --quick "
                                   "leaves it out; a run without --quick times it")
+        elif plan.cuda:  # the lease's minute for the rows below
+            yield _skipped_rl_row("rl_bf16", "scale=small, train.precision=bf16",
+                                  "measured on an H200 on 2026-12-04: x0.74 the rl row (host-bound; autocast adds "
+                                  "launches), docs/results/2026-12-04_gpu4")
         else:
             yield _rl_row(plan, "rl_bf16", "scale=small, train.precision=bf16", {**small, "precision": "bf16"}, "rl",
                           "", against=plain["value"])
@@ -68,6 +72,10 @@ def rl_rows(plan) -> Iterator[dict]:
         if plan.cuda or plan.quick:
             envs = _rl_envs_row(plan, small)
             yield envs
+            if plan.cuda:  # do GL's calls from many processes bound the envs? none, then more views a call
+                yield _rl_envs_row(plan, small, renderer="raycast", against=envs["value"])
+                yield _rl_envs_row(plan, small, workers=plan.rl_workers, per_worker=4, against=envs["value"])
+                yield _rl_envs_row(plan, small, workers=4, per_worker=8, against=envs["value"])
             yield _rl_envs_row(plan, small, first_pass=True, kept_caches=envs["value"])
             yield _rl_envs_row(plan, small, prefetch=False, with_prefetch=envs["value"])
             if plan.rl_workers > 1 or plan.quick:  # a per-worker rate that drops with more workers: contention
@@ -173,7 +181,8 @@ def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, bas
 
 def _rl_envs_row(plan, settings: dict, workers: int | None = None, prefetch: bool = True,
                  with_prefetch: float | None = None, goal_pool: int = 64, with_pool: float | None = None,
-                 first_pass: bool = False, kept_caches: float | None = None) -> dict:
+                 first_pass: bool = False, kept_caches: float | None = None, per_worker: int | None = None,
+                 renderer: str | None = None, against: float | None = None) -> dict:
     """The rl row's envs alone (`rl.collection`: the same vec env and worker processes, random actions, no policy, no
     learner), so a slow rl row shows whether the envs or their sharing the node with the learner bound it. With
     ``workers`` (row ``rl_envs_<workers>``), that many worker processes with as many envs each as the rl row's: on the
@@ -187,16 +196,23 @@ def _rl_envs_row(plan, settings: dict, workers: int | None = None, prefetch: boo
     smoothed at its first visit. Each row times two rollouts' batched steps and more until ``plan.seconds`` have
     passed (until the fourth GPU run, 128 steps, ~1 s on the node, held one stall or none). The settings give each
     batched step's median, 90th and 99th percentile and slowest: vectorised envs step together, so an env whose scene
-    switch waits holds up the batch, in the tail."""
+    switch waits holds up the batch, in the tail. ``per_worker`` (row ``rl_envs_<workers>x<per_worker>``): that many
+    envs in each worker, whose views a worker renders in one call; ``renderer`` (row ``rl_envs_<renderer>``): that
+    renderer instead of auto's; both name the ratio of their rate to ``against``, the rl_envs row's. On the first GPU
+    run GL with one view a call gave 4,051 frames/s in one process and 2,393 in 16 together, with 32 views a call
+    10,506 in 16 (docs/results/2026-11-27_gpu): these rows ask whether that bounds the envs (on the fourth run 115 env
+    steps/s a worker in 15 workers, against a median batched step of 1.4 ms for 2 envs in one)."""
     import rl as rl_bench
     from rvn_rl.cli import compose
 
     args = _rl_args(plan, settings, updates=1)
     args.goal_pool = goal_pool
+    if renderer is not None:
+        args.renderer = renderer
     if first_pass:
         args.cache_dir = None  # the row's own <out_dir>/cache, empty
     if workers is not None:
-        args.envs, args.workers = max(1, plan.rl_envs // plan.rl_workers) * workers, workers
+        args.envs, args.workers = (per_worker or max(1, plan.rl_envs // plan.rl_workers)) * workers, workers
     extra = [] if prefetch else ["env.prefetch_scenes=false"]
     times: list[float] = []  # each batched step's seconds: a scene switch that waits shows in the top percentiles
     with tempfile.TemporaryDirectory() as tmp, GpuBusy() as busy:
@@ -206,12 +222,17 @@ def _rl_envs_row(plan, settings: dict, workers: int | None = None, prefetch: boo
     ratio = "" if with_prefetch is None else f"; with env.prefetch_scenes (rl_envs): x{with_prefetch / rate:.2f} this"
     ratio += "" if with_pool is None else f"; with the goal pool of 64 (rl_envs): x{with_pool / rate:.2f} this"
     ratio += "" if kept_caches is None else f"; over the kept caches (rl_envs): x{kept_caches / rate:.2f} this"
+    ratio += "" if against is None else f"; x{rate / against:.2f} the rl_envs row's {against:.0f}"
     caches = ("over an empty cache root (each scene's navmesh built and pool solved and smoothed at its first visit)"
               if first_pass else plan.rl_filled)
-    return row(5, "rl_envs" + ("" if workers is None else f"_{workers}") + ("" if prefetch else "_no_prefetch")
+    return row(5, "rl_envs" + ("" if workers is None else f"_{workers}") + ("" if per_worker is None else f"x{per_worker}")
+               + ("" if renderer is None else f"_{renderer}") + ("" if prefetch else "_no_prefetch")
                + ("" if goal_pool else "_fresh_goals") + ("_first_pass" if first_pass else ""),
                f"rvn-rl envs alone, scale=small's envs ({'cuda' if plan.cuda else 'cpu'})"
-               + ("" if workers is None else f", {workers} worker(s)") + ("" if prefetch else ", env.prefetch_scenes=false")
+               + ("" if workers is None else f", {workers} worker(s)")
+               + ("" if per_worker is None else f" x {per_worker} envs")
+               + ("" if renderer is None else f", renderer={renderer}")
+               + ("" if prefetch else ", env.prefetch_scenes=false")
                + ("" if goal_pool else ", env.goal_pool=0") + (", first pass over the scenes" if first_pass else ""),
                "env steps/s", None, rate,
                f"{args.size}² RGB, renderer={args.renderer}, {args.envs} envs in {args.workers} worker processes, "

@@ -348,3 +348,26 @@ def test_collection_runs_on_until_its_seconds_have_passed(monkeypatch, tmp_path)
     rate = rl_bench.collection(cfg, 3, False, times, seconds=0.5)
     assert sum(times) >= 0.5 * 0.9 and len(times) > 3 and (len(times) - 3) % 8 == 0
     assert rate == pytest.approx(2 * len(times) / sum(times), rel=0.5)  # every timed step counted
+
+
+def test_envs_rows_with_more_envs_a_worker_or_another_renderer(monkeypatch, tmp_path):
+    """node.py's envs-alone rows that ask whether GL's calls from many processes bound the envs on a GPU node
+    (run there after rl_envs): ``per_worker`` envs in each worker (row rl_envs_<workers>x<per_worker>, whose worker
+    renders their views in one call) and another renderer (row rl_envs_<renderer>), each naming its ratio to the
+    rl_envs row's rate; here on a --quick plan."""
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
+    import node as node_bench
+    import node_rl
+
+    from types import SimpleNamespace
+
+    plan = node_bench.make_plan(node_bench.parse(["--quick"]), False, 2)
+    plan = SimpleNamespace(**vars(plan), rl_cache=str(tmp_path / "cache"), rl_filled="over a cache root of its own")
+    small = dict(size=plan.rl_size, backbone="resnet18", num_steps=plan.rl_num_steps, ppo_epoch=4, mini_batches=1)
+    wide = node_rl._rl_envs_row(plan, small, workers=1, per_worker=3, against=100.0)
+    assert wide["key"] == "rl_envs_1x3" and wide["value"] > 0, wide
+    assert "1 worker(s) x 3 envs" in wide["label"] and "3 envs in 1 worker processes" in wide["settings"]
+    assert re.search(r"; x[\d.]+ the rl_envs row's 100$", wide["settings"]), wide["settings"]
+    other = node_rl._rl_envs_row(plan, small, renderer="raycast", against=100.0)
+    assert other["key"] == "rl_envs_raycast" and "renderer=raycast" in other["label"]
+    assert "renderer=raycast, 2 envs in 1 worker processes" in other["settings"], other["settings"]
