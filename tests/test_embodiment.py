@@ -114,3 +114,35 @@ def test_rvn_train_refuses_negatives_made_with_another_camera(trained):
                               f"data.negative_root={trained / 'negative_hfov90'}", f"out_dir={out}"))
     assert f"data.negative_root={trained / 'negative_hfov90'} was made with camera.hfov_deg=90" in line, line
     assert f"data.root={trained / 'data'} with 100" in line and not out.exists()
+
+
+def test_rvn_eval_names_evaluated_scenes_the_model_trained_on(trained, tmp_path):
+    """rvn-eval on scenes in the checkpoint's training data (its stats.json's dataset, whose manifest.json lists the
+    scenes of its GNM train split): a note naming them, metrics.json's ``trained_scenes`` and the report's warning. On
+    the val scenes, which the data does not hold: nothing. A training folder without a manifest is named unchecked."""
+    from rvn_data.benchmark.runs import find_runs, provenance_note
+    from rvn_data.benchmark.trained_scenes import trained_scenes_evaluated
+
+    data = str((trained / "data").resolve())
+    out = tmp_path / "on_train"
+    base = [o for o in EVAL if not o.startswith("split=")]
+    proc = ok(cli("rvn_data.benchmark.cli", *base, "split=train", "camera.hfov_deg=100", "policy=checkpoint",
+                  f"policy.checkpoint_path={trained / 'ckpt'}", f"episodes.dir={tmp_path / 'episodes'}",
+                  f"out_dir={out}", "method=NoMaD", cwd=tmp_path))
+    assert "policy 'NoMaD' trained on 1 of the 1 evaluated scenes (proc_train_0000; matched by name in the GNM " \
+           f"train split of {data}): this row is not a held-out figure" in proc.stderr, proc.stderr
+    record = json.loads((out / "metrics.json").read_text())["trained_scenes"]
+    assert record == {"datasets": [data], "scenes": ["proc_train_0000"], "evaluated": 1}
+    assert "evaluated on scenes the model trained on (not held-out figures): NoMaD (1 of 1 scenes)" in \
+        provenance_note(find_runs([out]))
+    held_out = tmp_path / "on_val"
+    proc = ok(cli("rvn_data.benchmark.cli", *EVAL, "camera.hfov_deg=100", "policy=checkpoint",
+                  f"policy.checkpoint_path={trained / 'ckpt'}", f"episodes.dir={tmp_path / 'episodes'}",
+                  f"out_dir={held_out}", cwd=tmp_path))
+    assert "trained on" not in proc.stderr and "trained_scenes" not in json.loads((held_out / "metrics.json").read_text())
+    assert "trained on" not in provenance_note(find_runs([held_out]))
+    elsewhere = str(tmp_path / "on_another_machine")
+    assert trained_scenes_evaluated([elsewhere, data], ["procedural:train/0", "procedural:train/1"]) == {
+        "datasets": [data], "scenes": ["proc_train_0000"], "evaluated": 2, "unchecked": [elsewhere]}
+    assert trained_scenes_evaluated([elsewhere], ["procedural:train/0"]) is None
+    assert trained_scenes_evaluated(None, ["procedural:train/0"]) is None

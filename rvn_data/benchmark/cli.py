@@ -25,6 +25,7 @@ from rvn_data.benchmark.policy_registry import registered_name, unregistered_not
 from rvn_data.benchmark.results import RunDir, record_key, run_identity
 from rvn_data.benchmark.runner import EvalJob, make_policy, prepare_episodes, run_episodes
 from rvn_data.benchmark.table import render_table
+from rvn_data.benchmark.trained_scenes import trained_scenes_evaluated, trained_scenes_note
 from rvn_data.cache_root import cache_root, keep_compiled_kernels
 from rvn_data.config import CONF_DIR, register_configs, typed
 from rvn_data.config_schemas import EvalConfig
@@ -67,6 +68,9 @@ def evaluate(config: EvalConfig, choice: str = "policy", on_checked=None) -> dic
     if shared:
         print(f"rvn-eval: note: {shared_splits_note(config.scenes.root, config.split, shared)} (recorded in "
               "metrics.json)", file=sys.stderr)
+    trained = trained_scenes_evaluated(getattr(policy, "training_data", None), [spec for spec, _ in slots])
+    if trained:
+        print(f"rvn-eval: note: {trained_scenes_note(config.method, trained)} (recorded in metrics.json)", file=sys.stderr)
     if on_checked is not None:
         on_checked()
     todo = [k for k, key in enumerate(keys) if key not in done]
@@ -89,6 +93,8 @@ def evaluate(config: EvalConfig, choice: str = "policy", on_checked=None) -> dic
         metrics["embodiment_mismatch"] = diffs
     if shared:  # the report warns: a model may have trained on these scenes
         metrics["shared_scenes"] = {"folder": str(Path(config.scenes.root).expanduser()), "splits": shared}
+    if trained:  # the report warns: the model trained on these scenes
+        metrics["trained_scenes"] = trained
     run.finish(records, metrics, render_table([metrics]))
     return metrics
 

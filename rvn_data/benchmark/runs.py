@@ -159,7 +159,7 @@ def merge_shards(runs: list[Run]) -> list[Run]:
 
 def provenance_note(runs: list[Run]) -> str:
     """Lines above the table when rows come from different code or episode sets, ran on scenes that other splits
-    share, or on another robot or camera than their training data; else ''."""
+    share or that the model trained on, or on another robot or camera than their training data; else ''."""
     notes = []
     commits = sorted({c for r in runs for c in r.commits})
     if len(commits) > 1:
@@ -174,6 +174,10 @@ def provenance_note(runs: list[Run]) -> str:
         rows = "; ".join(f"{method} ({s['folder']}, also {' and '.join(s['splits'])})" for method, s in shared)
         text += ("**Warning: evaluated on scenes that other splits share (a mesh folder without a folder per split, "
                  f"so a model may have trained on them): {rows}.**\n")
+    trained = [(r.method, r.metrics["trained_scenes"]) for r in runs if r.metrics.get("trained_scenes")]
+    if trained:  # rvn-eval on scenes in the checkpoint's training data (rvn_data.benchmark.trained_scenes)
+        rows = "; ".join(f"{method} ({len(t['scenes'])} of {t['evaluated']} scenes)" for method, t in trained)
+        text += f"**Warning: evaluated on scenes the model trained on (not held-out figures): {rows}.**\n"
     return text + embodiment_note(runs)
 
 
