@@ -103,4 +103,23 @@ def load_rl_policy(checkpoint_path: str | Path, device: str | torch.device = "cp
                       threads=overrides.get("threads", 1), depth_fn=depth_fn, true_depth=true_depth)
     if cfg.get("agent") and cfg.get("camera"):  # the robot and camera it was trained with, checked by rvn-eval
         policy.embodiment = embodiment_of(cfg["agent"], cfg["camera"])
+    policy.training_scenes = training_scenes(out_dir, cfg)
     return policy
+
+
+def training_scenes(out_dir: Path, cfg: dict) -> dict | None:
+    """The train scenes an rvn-rl run's config.yaml names (``scenes``, split train), as rvn-eval compares them with
+    the scenes it evaluates (`rvn_data.benchmark.trained_scenes`): ``{"source": the config.yaml, "scenes": specs, or
+    None where they cannot be listed here (a scene folder on another machine)}``; None for a config without
+    ``scenes``."""
+    from rvn_data.scenes.sets import scene_specs
+
+    s = cfg.get("scenes")
+    if not isinstance(s, dict):
+        return None
+    try:
+        specs = scene_specs(s.get("source", "procedural"), "train", root=s.get("root"), num_scenes=s.get("num_scenes"),
+                            first_scene=int(s.get("first_scene") or 0))
+    except (ValueError, OSError, TypeError):  # a folder that is not here, a changed list: the check says unchecked
+        specs = None
+    return {"source": str(out_dir / "config.yaml"), "scenes": specs}

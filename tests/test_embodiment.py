@@ -129,10 +129,10 @@ def test_rvn_eval_names_evaluated_scenes_the_model_trained_on(trained, tmp_path)
     proc = ok(cli("rvn_data.benchmark.cli", *base, "split=train", "camera.hfov_deg=100", "policy=checkpoint",
                   f"policy.checkpoint_path={trained / 'ckpt'}", f"episodes.dir={tmp_path / 'episodes'}",
                   f"out_dir={out}", "method=NoMaD", cwd=tmp_path))
-    assert "policy 'NoMaD' trained on 1 of the 1 evaluated scenes (proc_train_0000; matched by name in the GNM " \
-           f"train split of {data}): this row is not a held-out figure" in proc.stderr, proc.stderr
+    assert "policy 'NoMaD' trained on 1 of the 1 evaluated scenes (proc_train_0000; matched by name in what it " \
+           f"trained on: {data}): this row is not a held-out figure" in proc.stderr, proc.stderr
     record = json.loads((out / "metrics.json").read_text())["trained_scenes"]
-    assert record == {"datasets": [data], "scenes": ["proc_train_0000"], "evaluated": 1}
+    assert record == {"sources": [data], "scenes": ["proc_train_0000"], "evaluated": 1}
     assert "evaluated on scenes the model trained on (not held-out figures): NoMaD (1 of 1 scenes)" in \
         provenance_note(find_runs([out]))
     held_out = tmp_path / "on_val"
@@ -143,6 +143,6 @@ def test_rvn_eval_names_evaluated_scenes_the_model_trained_on(trained, tmp_path)
     assert "trained on" not in provenance_note(find_runs([held_out]))
     elsewhere = str(tmp_path / "on_another_machine")
     assert trained_scenes_evaluated([elsewhere, data], ["procedural:train/0", "procedural:train/1"]) == {
-        "datasets": [data], "scenes": ["proc_train_0000"], "evaluated": 2, "unchecked": [elsewhere]}
+        "sources": [data], "scenes": ["proc_train_0000"], "evaluated": 2, "unchecked": [elsewhere]}
     assert trained_scenes_evaluated([elsewhere], ["procedural:train/0"]) is None
     assert trained_scenes_evaluated(None, ["procedural:train/0"]) is None

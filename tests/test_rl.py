@@ -73,6 +73,34 @@ def test_rvn_eval_loads_the_rl_checkpoint(ppo_run, tmp_path):
     assert proc.returncode == 0, proc.stderr[-3000:]
     metrics = json.loads((ev / "metrics.json").read_text())
     assert metrics["episodes"] == 2 and metrics["method"] == "PPO"
+    assert "trained_scenes" not in metrics and "trained on" not in proc.stderr  # val: not the run's train scenes
+
+
+def test_rvn_eval_names_the_rl_runs_train_scenes_it_evaluates(ppo_run, tmp_path):
+    """An rvn-rl checkpoint names the train scenes of its config.yaml (rvn_rl.policy.training_scenes): rvn-eval on
+    one of them says so and records it (rvn_data.benchmark.trained_scenes); scenes that cannot be listed here (a
+    folder on another machine) are named unchecked."""
+    from rvn_data.benchmark.trained_scenes import trained_scenes_evaluated
+    from rvn_rl.policy import training_scenes
+
+    out, _ = ppo_run
+    ev = tmp_path / "eval"
+    proc = subprocess.run(["rvn-eval", "policy=checkpoint", f"policy.checkpoint_path={out}", "split=train",
+                           "episodes.num_scenes=1", "episodes.per_scene=1", "episodes.n_goals=1", "env.t_max=10",
+                           "camera.width=32", "camera.height=32", f"out_dir={ev}", "progress=false", "method=PPO",
+                           "renderer=raycast", f"episodes.dir={tmp_path / 'episodes'}"],
+                          capture_output=True, text=True, env=ENV, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    source = str(out / "config.yaml")
+    assert f"policy 'PPO' trained on 1 of the 1 evaluated scenes (proc_train_0000; matched by name in what it " \
+           f"trained on: {source})" in proc.stderr, proc.stderr
+    record = json.loads((ev / "metrics.json").read_text())["trained_scenes"]
+    assert record == {"sources": [source], "scenes": ["proc_train_0000"], "evaluated": 1}
+    assert training_scenes(out, yaml.safe_load((out / "config.yaml").read_text()))["scenes"] == [
+        "procedural:train/0", "procedural:train/1"]  # env.num_scenes=2
+    gone = training_scenes(out, {"scenes": {"source": "mesh_dir", "root": str(tmp_path / "elsewhere")}})
+    assert gone == {"source": source, "scenes": None}
+    assert trained_scenes_evaluated(None, ["procedural:train/0"], gone) is None
 
 
 def test_rl_policy_resets_its_recurrent_state(ppo_run):

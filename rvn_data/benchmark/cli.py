@@ -68,7 +68,8 @@ def evaluate(config: EvalConfig, choice: str = "policy", on_checked=None) -> dic
     if shared:
         print(f"rvn-eval: note: {shared_splits_note(config.scenes.root, config.split, shared)} (recorded in "
               "metrics.json)", file=sys.stderr)
-    trained = trained_scenes_evaluated(getattr(policy, "training_data", None), [spec for spec, _ in slots])
+    trained = trained_scenes_evaluated(getattr(policy, "training_data", None), [spec for spec, _ in slots],
+                                       getattr(policy, "training_scenes", None))
     if trained:
         print(f"rvn-eval: note: {trained_scenes_note(config.method, trained)} (recorded in metrics.json)", file=sys.stderr)
     if on_checked is not None:

@@ -2,12 +2,14 @@
 datasets a checkpoint trained on, so a row measured on its own training scenes (a model trained on `rvn-gen split=val`
 data, say) is said and reported, not mistaken for a held-out figure.
 
-A policy names its training data as ``policy.training_data``: the dataset folders its networks trained on (rvn-train's
-checkpoints record them in stats.json, `rvn_il.policies.loader`); a policy without it (rvn-rl's, hand-written ones) is
-not checked. rvn-gen's ``manifest.json`` in each folder lists its scenes by name (`rvn_data.dataset.naming.scene_slug`,
-the file stem of a mesh) with their GNM split; the scenes of the ``train`` split are the ones trained on. A folder
-without a manifest (another machine's path, a dataset not made by rvn-gen) is left out and named as unchecked. Scenes
-are matched by name, so two meshes with one file stem in different folders match too: the note says so."""
+A policy names what it trained on as ``policy.training_data``, the dataset folders its networks trained on (rvn-train's
+checkpoints record them in stats.json, `rvn_il.policies.loader`): rvn-gen's ``manifest.json`` in each folder lists its
+scenes by name (`rvn_data.dataset.naming.scene_slug`, the file stem of a mesh) with their GNM split, and the scenes of
+the ``train`` split are the ones trained on. Or as ``policy.training_scenes``, ``{"source": what says so, "scenes":
+their specs, or None where they could not be listed}`` (rvn-rl's checkpoints: the train scenes of the run's
+config.yaml, `rvn_rl.policy`). A policy with neither (a hand-written one) is not checked. A folder without a manifest
+(another machine's path, a dataset not made by rvn-gen) or scenes that could not be listed are named as unchecked.
+Scenes are matched by name, so two meshes with one file stem in different folders match too: the note says so."""
 from __future__ import annotations
 
 import json
@@ -29,25 +31,29 @@ def dataset_scenes(root: str | Path) -> dict[str, str] | None:
         return None
 
 
-def trained_scenes_evaluated(training_data: Iterable[str] | None, specs: Sequence[str]) -> dict | None:
-    """What metrics.json records when evaluated scenes ``specs`` are among the training data's: ``{"datasets": the
-    folders holding them, "scenes": their names, "evaluated": len(specs), "unchecked": folders without a manifest}``;
-    None when none is (or the policy names no training data)."""
-    if not training_data:
-        return None
+def trained_scenes_evaluated(training_data: Iterable[str] | None, specs: Sequence[str],
+                             training_scenes: dict | None = None) -> dict | None:
+    """What metrics.json records when evaluated scenes ``specs`` are among those a policy trained on (its
+    ``training_data`` folders, its ``training_scenes``): ``{"sources": the folders or files naming them, "scenes":
+    their names, "evaluated": how many scenes were evaluated, "unchecked": sources that could not be read}``; None
+    when none is (or the policy names neither)."""
+    sources = [(root, dataset_scenes(root)) for root in dict.fromkeys(str(r) for r in training_data or ())]
+    if training_scenes:
+        listed = training_scenes.get("scenes")
+        sources.append((str(training_scenes["source"]),
+                        None if listed is None else {scene_slug(str(s)): str(s) for s in listed}))
     wanted = {scene_slug(s) for s in specs}
     found: dict[str, list[str]] = {}
     unchecked = []
-    for root in dict.fromkeys(str(r) for r in training_data):
-        scenes = dataset_scenes(root)
+    for source, scenes in sources:
         if scenes is None:
-            unchecked.append(root)
+            unchecked.append(source)
             continue
         for slug in sorted(wanted & set(scenes)):
-            found.setdefault(slug, []).append(root)
+            found.setdefault(slug, []).append(source)
     if not found:
         return None
-    out = {"datasets": sorted({r for roots in found.values() for r in roots}), "scenes": sorted(found),
+    out = {"sources": sorted({r for roots in found.values() for r in roots}), "scenes": sorted(found),
            "evaluated": len(wanted)}
     if unchecked:
         out["unchecked"] = unchecked
@@ -59,5 +65,5 @@ def trained_scenes_note(method: str, record: dict) -> str:
     names = record["scenes"]
     shown = ", ".join(names[:5]) + (f" and {len(names) - 5} more" if len(names) > 5 else "")
     return (f"policy {method!r} trained on {len(names)} of the {record['evaluated']} evaluated scenes ({shown}; "
-            f"matched by name in the GNM train split of {', '.join(record['datasets'])}): this row is not a "
-            "held-out figure; evaluate on another split, or train on data of other scenes")
+            f"matched by name in what it trained on: {', '.join(record['sources'])}): this row is not a held-out "
+            "figure; evaluate on another split, or train on other scenes")
