@@ -32,7 +32,7 @@ def rl_rows(plan) -> Iterator[dict]:
     bfloat16 skips it: the row took 36-46 s of a 2-minute quick run on the 2-core development machine); ``rl_overlap``: with
     train.overlap=true (each PPO update in a learner thread while the envs collect the next rollout) and, as the
     recipe pairs them, ppo.recompute_advantages=true (the values recomputed with the learner's weights, one forward
-    pass an update: overlap alone collided more, docs/results/2026-12-02_rl_overlap), naming its ratio too; with CUDA, after the envs-alone rows, ``rl_compiled``: with train.compile=true (the visual trunk's forward
+    pass an update: overlap alone collided more, docs/results/2026-12-02_rl_overlap), naming its ratio too; with CUDA, after the envs-alone rows and ``rl_paper``, ``rl_compiled``: with train.compile=true (the visual trunk's forward
     and backward as CUDA graphs; its compiling falls in the first, uncounted update), naming its ratio too. With CUDA
     (and --quick), the envs alone (``rl_envs``): with env.prefetch_scenes (the default), without it (``rl_envs_no_prefetch``: vectorised
     envs then wait for whichever env switches scene, the bound of the third GPU run, docs/results/2026-11-27_gpu3)
@@ -80,16 +80,18 @@ def rl_rows(plan) -> Iterator[dict]:
             yield _rl_envs_row(plan, small, prefetch=False, with_prefetch=envs["value"])
             if plan.rl_workers > 1 or plan.quick:  # a per-worker rate that drops with more workers: contention
                 yield _rl_envs_row(plan, small, workers=1)
+        if plan.cuda or plan.quick:  # before rl_compiled: the fourth GPU run's time limit cut it there
+            yield _rl_row(plan, "rl_paper", what, paper, None, ddppo)
+        else:  # minutes per update on a few cores; --quick runs it small
+            yield _skipped_rl_row("rl_paper", what, "ResNet-50 at 256² is sized for a GPU (--quick runs it at 64²)")
         if plan.cuda:  # the trunk's forward and backward as CUDA graphs (train.compile, reduce-overhead)
             yield _rl_row(plan, "rl_compiled", "scale=small, train.compile=true (reduce-overhead)",
                           {**small, "compile": True}, "rl", "", against=plain["value"])
         else:
             yield _skipped_rl_row("rl_compiled", "scale=small, train.compile=true", "CUDA graphs need a GPU (on a CPU "
                                   "the compiled trunk was not faster: rvn_rl/settings.py)")
-        if not (plan.cuda or plan.quick):  # minutes per update on a few cores; --quick runs it small
-            yield _skipped_rl_row("rl_paper", what, "ResNet-50 at 256² is sized for a GPU (--quick runs it at 64²)")
+        if not (plan.cuda or plan.quick):
             return
-        yield _rl_row(plan, "rl_paper", what, paper, None, ddppo)
         # last: what a lease that runs short loses
         yield _rl_envs_row(plan, small, goal_pool=0, with_pool=envs["value"])
 
