@@ -62,15 +62,21 @@ def test_ppo_trains_writes_a_checkpoint_and_a_curve(ppo_run):
     assert list((out / "cache" / "goal_pools").glob("*.npz"))  # env.goal_pool: each scene's pool kept
 
 
+def rvn_eval_rl(out, tmp_path, split: str, per_scene: int, t_max: int) -> subprocess.CompletedProcess:
+    """rvn-eval of the rvn-rl checkpoint ``out`` on one scene of ``split`` into ``tmp_path/eval``, as method PPO."""
+    proc = subprocess.run(["rvn-eval", "policy=checkpoint", f"policy.checkpoint_path={out}", f"split={split}",
+                           "episodes.num_scenes=1", f"episodes.per_scene={per_scene}", f"episodes.n_goals={per_scene}",
+                           f"env.t_max={t_max}", "camera.width=32", "camera.height=32", f"out_dir={tmp_path / 'eval'}",
+                           "progress=false", "method=PPO", "renderer=raycast", f"episodes.dir={tmp_path / 'episodes'}"],
+                          capture_output=True, text=True, env=ENV, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return proc
+
+
 def test_rvn_eval_loads_the_rl_checkpoint(ppo_run, tmp_path):
     out, _ = ppo_run
     ev = tmp_path / "eval"
-    proc = subprocess.run(["rvn-eval", "policy=checkpoint", f"policy.checkpoint_path={out}", "split=val",
-                           "episodes.num_scenes=1", "episodes.per_scene=2", "episodes.n_goals=2", "env.t_max=20",
-                           "camera.width=32", "camera.height=32", f"out_dir={ev}", "progress=false", "method=PPO",
-                           "renderer=raycast", f"episodes.dir={tmp_path / 'episodes'}"],
-                          capture_output=True, text=True, env=ENV, timeout=600)
-    assert proc.returncode == 0, proc.stderr[-3000:]
+    proc = rvn_eval_rl(out, tmp_path, "val", 2, 20)
     metrics = json.loads((ev / "metrics.json").read_text())
     assert metrics["episodes"] == 2 and metrics["method"] == "PPO"
     assert "trained_scenes" not in metrics and "trained on" not in proc.stderr  # val: not the run's train scenes
@@ -85,12 +91,7 @@ def test_rvn_eval_names_the_rl_runs_train_scenes_it_evaluates(ppo_run, tmp_path)
 
     out, _ = ppo_run
     ev = tmp_path / "eval"
-    proc = subprocess.run(["rvn-eval", "policy=checkpoint", f"policy.checkpoint_path={out}", "split=train",
-                           "episodes.num_scenes=1", "episodes.per_scene=1", "episodes.n_goals=1", "env.t_max=10",
-                           "camera.width=32", "camera.height=32", f"out_dir={ev}", "progress=false", "method=PPO",
-                           "renderer=raycast", f"episodes.dir={tmp_path / 'episodes'}"],
-                          capture_output=True, text=True, env=ENV, timeout=600)
-    assert proc.returncode == 0, proc.stderr[-3000:]
+    proc = rvn_eval_rl(out, tmp_path, "train", 1, 10)
     source = str(out / "config.yaml")
     assert f"policy 'PPO' trained on 1 of the 1 evaluated scenes (proc_train_0000; matched by name in what it " \
            f"trained on: {source})" in proc.stderr, proc.stderr
