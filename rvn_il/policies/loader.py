@@ -87,7 +87,7 @@ def load_member(out_dir: Path, member: str, model_cfg: dict, device: torch.devic
     model = model.eval().to(device)
     if device.type == "cuda":  # cuDNN runs NHWC convolutions faster; on a CPU one frame is faster in NCHW
         model.use_channels_last()
-    return Member(model, float(stats["metric_waypoint_spacing"]), crop, stats.get("hfov_deg"))
+    return Member(model, float(stats["metric_waypoint_spacing"]), crop, stats.get("hfov_deg"), training_data(stats))
 
 
 LOADERS_GROUP = "rvn.checkpoint_loaders"  # package entry points: checkpoint kind -> its policy loader
@@ -168,7 +168,7 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
         policy = NoMaDNegPolicy(members, control, selection=pol.get("selection", "argmax"),
                                 cor_alpha=float(pol.get("cor_alpha", 1.0)), **common)
         policy.embodiment = trained_embodiment(cfg, members[0])
-        policy.training_data = training_data([(out_dir, m) for m in members_of(name)])
+        policy.training_data = list(dict.fromkeys(r for m in members for r in m.datasets))
         return policy
     aggregate = str(pol.get("aggregate", "first"))
     if extra and aggregate != "vote":
@@ -179,22 +179,16 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
     compile_members(members, compiled, dev)
     policy = PointGoalPolicy(members, control, aggregate=aggregate, **common)
     policy.embodiment = trained_embodiment(cfg, members[0])
-    policy.training_data = training_data([(out_dir, m) for m in members_of(name)]
-                                         + [(d, members_of(name)[0]) for d in extra])
+    policy.training_data = list(dict.fromkeys(r for m in members for r in m.datasets))  # ensemble members' too
     return policy
 
 
-def training_data(members: list[tuple[Path, str]]) -> list[str]:
-    """The dataset folders the networks of ``members`` ((out_dir, member) pairs) trained on, as their latest
-    checkpoints' stats.json record them (each dataset's ``root`` of a mixture, else ``dataset``): rvn-eval names
-    evaluated scenes found in them (`rvn_data.benchmark.trained_scenes`)."""
-    roots = []
-    for out_dir, member in members:
-        ckpt = latest_checkpoint(out_dir / member)
-        stats = read_stats(ckpt) if ckpt is not None else {}
-        mixture = [d["root"] for d in stats.get("datasets") or [] if isinstance(d, dict) and d.get("root")]
-        roots += mixture or ([str(stats["dataset"])] if stats.get("dataset") else [])
-    return list(dict.fromkeys(roots))
+def training_data(stats: dict) -> tuple[str, ...]:
+    """The dataset folders a network trained on, as its checkpoint's stats.json records them (each dataset's ``root``
+    of a mixture, else ``dataset``): rvn-eval names evaluated scenes found in them
+    (`rvn_data.benchmark.trained_scenes`)."""
+    mixture = [d["root"] for d in stats.get("datasets") or [] if isinstance(d, dict) and d.get("root")]
+    return tuple(mixture or ([str(stats["dataset"])] if stats.get("dataset") else []))
 
 
 def trained_embodiment(cfg: dict, member: Member) -> dict | None:

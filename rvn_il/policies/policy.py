@@ -57,6 +57,7 @@ class Member:
     spacing: float  # metric_waypoint_spacing of its training data, metres
     crop: str = "aspect"  # data.crop of its training data: aspect | official | none (True/False: aspect/none)
     hfov_deg: float | None = None  # camera hfov of its training data, degrees (None: not recorded)
+    datasets: tuple[str, ...] = ()  # the dataset folders it trained on (stats.json), for rvn-eval's trained_scenes
 
     def __post_init__(self):
         self.crop = check_crop(self.crop, "policy member crop")
