@@ -57,7 +57,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))  # the other benchmarks
 import node_cpu  # noqa: E402
 import node_report  # noqa: E402
 import node_warm  # noqa: E402
-from node_rl import rl_rows  # noqa: E402
+from node_rl import SKIPPABLE, rl_rows  # noqa: E402
 from node_rows import decision_rows, gen_rows, render_rows, row, train_rows  # noqa: E402
 
 from rvn_il.train.choices import COMPILE_MODES  # noqa: E402  (torch-free: node.py parses without torch)
@@ -100,6 +100,9 @@ def parse(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument("--warm", type=float, default=0, metavar="SECONDS",
                     help="first compile the compiled rows' models side by side in processes of their own, at most "
                          "SECONDS (node_warm.py): their rows then load the kernels (default 0: each row compiles cold)")
+    ap.add_argument("--skip", nargs="+", choices=SKIPPABLE, default=[], metavar="ROW",
+                    help=f"RL rows to leave out, each named as skipped in the table ({', '.join(SKIPPABLE)}): "
+                         "rows a lease has measured already, whose minutes another row needs")
     args = ap.parse_args(argv)
     if args.seconds_per_row is None:
         args.seconds_per_row = 1.0 if args.quick else 15.0
@@ -149,6 +152,7 @@ def make_plan(args, cuda: bool, cpus: int) -> SimpleNamespace:
         rl_scenes=1 if q else 200,  # most scene switches load a scene the worker has not seen, as over all 800
         rl_num_steps=8 if q else 64,
         rl_threads=args.threads or (1 if q else min(4, cpus) if cuda else cpus),
+        skip=set(args.skip),
     )
 
 

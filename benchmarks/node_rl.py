@@ -19,6 +19,10 @@ from node_rows import row
 RL_LABEL = "rvn-rl PPO collection + learning, "  # the label of each row that trains, before its settings
 
 
+# rows nothing else reads (node.py --skip): each a full rvn-rl run of a minute or two on the node
+SKIPPABLE = ("rl_overlap", "rl_paper", "rl_compiled")
+
+
 def rl_rows(plan) -> Iterator[dict]:
     """5. rvn-rl PPO collection + learning with envs in worker processes: env steps/s at scale=small (ResNet-18,
     128², 4 PPO epochs x 4 mini-batches of 64-step rollouts) and at the paper's network and PPO settings
@@ -137,7 +141,9 @@ def _skipped_rl_row(key: str, what: str, why: str) -> dict:
 def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, baseline: str,
             against: float | None = None) -> dict:
     """rvn-rl's own loop (`rvn_rl.trainer.train`) with ``settings``; ``against``: the rl row's rate (float32, not
-    compiled), whose ratio to this one the row names."""
+    compiled), whose ratio to this one the row names. A row in ``plan.skip`` (node.py --skip) is named as skipped."""
+    if key in getattr(plan, "skip", ()):
+        return _skipped_rl_row(key, what, "left out by node.py --skip")
     import rl as rl_bench
     from rvn_rl.cli import compose
     from rvn_rl.trainer import train

@@ -371,3 +371,18 @@ def test_envs_rows_with_more_envs_a_worker_or_another_renderer(monkeypatch, tmp_
     other = node_rl._rl_envs_row(plan, small, renderer="raycast", against=100.0)
     assert other["key"] == "rl_envs_raycast" and "renderer=raycast" in other["label"]
     assert "renderer=raycast, 2 envs in 1 worker processes" in other["settings"], other["settings"]
+
+
+def test_skip_leaves_an_rl_row_out_and_names_it(monkeypatch):
+    """node.py --skip ROW (a row a lease has measured already): the row is named as skipped in the table, nothing runs
+    (rvn-rl's trainer would fail on the missing cache root here); an unknown row is an argparse error."""
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
+    import node as node_bench
+    import node_rl
+
+    plan = node_bench.make_plan(node_bench.parse(["--quick", "--skip", "rl_compiled", "rl_overlap"]), False, 2)
+    assert plan.skip == {"rl_compiled", "rl_overlap"}
+    r = node_rl._rl_row(plan, "rl_overlap", "scale=small, train.overlap=true", {}, "rl", "")
+    assert r["key"] == "rl_overlap" and r["value"] is None and "--skip" in r["skipped"], r
+    with pytest.raises(SystemExit):
+        node_bench.parse(["--skip", "rl"])
