@@ -19,8 +19,9 @@ from node_rows import row
 RL_LABEL = "rvn-rl PPO collection + learning, "  # the label of each row that trains, before its settings
 
 
-# rows nothing else reads (node.py --skip): each a full rvn-rl run of a minute or two on the node
-SKIPPABLE = ("rl_overlap", "rl_paper", "rl_compiled")
+# rows nothing else reads (node.py --skip): each a full rvn-rl run of a minute or two on the node; rl_envs: all the
+# envs-alone rows (measured together on the fifth GPU run, docs/results/2026-12-04_gpu5)
+SKIPPABLE = ("rl_overlap", "rl_envs", "rl_paper", "rl_compiled")
 
 
 def rl_rows(plan) -> Iterator[dict]:
@@ -71,9 +72,14 @@ def rl_rows(plan) -> Iterator[dict]:
         else:
             yield _rl_row(plan, "rl_bf16", "scale=small, train.precision=bf16", {**small, "precision": "bf16"}, "rl",
                           "", against=plain["value"])
+        if plan.cuda:  # the act replayed as one CUDA graph, alone and with the update overlapped
+            yield from graph_act_rows(plan, small, plain["value"])
+        else:
+            yield _skipped_rl_row("rl_graph_act", "scale=small, train.graph_act=true", "CUDA graphs need a GPU (on a "
+                                  "CPU train.graph_act acts as without it)")
         yield _rl_row(plan, "rl_overlap", "scale=small, train.overlap=true, ppo.recompute_advantages=true",
                       {**small, "overlap": True, "recompute": True}, "rl", "", against=plain["value"])
-        if plan.cuda or plan.quick:
+        if (plan.cuda or plan.quick) and "rl_envs" not in plan.skip:
             envs = _rl_envs_row(plan, small)
             yield envs
             if plan.cuda:  # do GL's calls from many processes bound the envs? none, then more views a call
@@ -94,10 +100,27 @@ def rl_rows(plan) -> Iterator[dict]:
         else:
             yield _skipped_rl_row("rl_compiled", "scale=small, train.compile=true", "CUDA graphs need a GPU (on a CPU "
                                   "the compiled trunk was not faster: rvn_rl/settings.py)")
-        if not (plan.cuda or plan.quick):
+        if not (plan.cuda or plan.quick) or "rl_envs" in plan.skip:
             return
         # last: what a lease that runs short loses
         yield _rl_envs_row(plan, small, goal_pool=0, with_pool=envs["value"])
+
+
+def graph_act_rows(plan, small: dict, against: float) -> Iterator[dict]:
+    """With CUDA, scale=small with train.graph_act=true (``rl_graph_act``: each act one CUDA graph's replay, where the
+    fourth GPU run's act was ~7.9 ms of host launches against 1.8 ms of kernels), then also with the update overlapped
+    (``rl_graph_act_overlap``: train.overlap=true and ppo.recompute_advantages=true, as rl_overlap), then also with
+    the learner's trunk compiled (``rl_graph_act_overlap_compiled``: train.compile=true, reduce-overhead; an update
+    x1.36 in benchmarks/rl_learner.py on the fifth GPU run); each names its ratio to the rl row. A graphed act leaves
+    the envs' step and the update as the bounds, which the overlap runs side by side."""
+    graphed = {**small, "graph_act": True}
+    yield _rl_row(plan, "rl_graph_act", "scale=small, train.graph_act=true", graphed, "rl", "", against=against)
+    both = {**graphed, "overlap": True, "recompute": True}
+    yield _rl_row(plan, "rl_graph_act_overlap", "scale=small, train.graph_act=true, train.overlap=true, "
+                  "ppo.recompute_advantages=true", both, "rl", "", against=against)
+    yield _rl_row(plan, "rl_graph_act_overlap_compiled", "scale=small, train.graph_act=true, train.overlap=true, "
+                  "ppo.recompute_advantages=true, train.compile=true", {**both, "compile": True}, "rl", "",
+                  against=against)
 
 
 def _keep_scene(config, slot) -> None:

@@ -40,6 +40,7 @@ def overrides(args, out_dir: str) -> list[str]:
             f"train.compile={str(getattr(args, 'compile', False)).lower()}",
             f"train.overlap={str(getattr(args, 'overlap', False)).lower()}",
             f"ppo.recompute_advantages={str(getattr(args, 'recompute', False)).lower()}",
+            f"train.graph_act={str(getattr(args, 'graph_act', False)).lower()}",
             ] + ([f"cache_dir={args.cache_dir}"] if getattr(args, "cache_dir", None) else [])  # else <out_dir>/cache
 
 

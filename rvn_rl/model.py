@@ -7,6 +7,8 @@ PPO-Lagrangian, a cost critic. Recurrent state is reset where ``masks`` is 0. Wi
 ``compile_visual`` (``train.compile``) compiles the visual trunk."""
 from __future__ import annotations
 
+import contextlib
+
 import torch
 import torch.distributed as dist
 import torch.nn.functional as F
@@ -138,6 +140,16 @@ class PointNavResNetPolicy(nn.Module):
         cuda = next(self.parameters()).is_cuda
         self._cuda_graphs = cuda and mode == "reduce-overhead"
         self._compiled_visual = torch.compile(self._visual, mode="reduce-overhead" if self._cuda_graphs else None)
+
+    @contextlib.contextmanager
+    def eager_visual(self):
+        """The visual trunk not compiled while the block runs (`graphed.GraphedAct` records it into a CUDA graph of its
+        own, which cannot hold train.compile's)."""
+        compiled, self._compiled_visual = self._compiled_visual, None
+        try:
+            yield
+        finally:
+            self._compiled_visual = compiled
 
     def _visual(self, x: torch.Tensor) -> torch.Tensor:
         return self.visual_fc(self.visual_encoder.trunk(x))

@@ -138,6 +138,11 @@ class TrainSettings:
     # node, where the learner and the envs use different hardware; one process only (not DD-PPO's ranks). The copy that
     # acts is not compiled (train.compile compiles the learner's trunk)
     overlap: bool = False
+    # the rollouts' act (network, LSTM step, heads) replayed as one CUDA graph (`rvn_rl.graphed`), the action drawn
+    # after it as the plain act draws it: the same actions. For a GPU, where an act of 30 envs was ~7.9 ms of host
+    # launches against 1.8 ms of kernels (docs/results/2026-12-04_gpu4); on a CPU it acts as without it (a warning).
+    # Off until a GPU run has measured it
+    graph_act: bool = False
 
     def __post_init__(self) -> None:
         if isinstance(self.total_steps, float) and self.total_steps.is_integer():

@@ -27,6 +27,7 @@ from rvn_il.train.choices import check_precision_on
 from . import checkpoint as ck
 from .config import RLConfig
 from .distrib import Dist, all_sum, init, pick_device, shutdown
+from .graphed import GraphedAct
 from .model import PointNavResNetPolicy
 from .overlap import LearnerThread, actor_generator, make_actor
 from .ppo import Lagrange, ppo_update
@@ -127,6 +128,10 @@ def train(cfg: RLConfig, on_checked=None) -> dict:
             device = pick_device(cfg.device, d)
             cfg.validate(d.world_size)
             check_precision_on(cfg.train.precision, device)  # rvn-train's: a GPU without bfloat16
+            if cfg.train.graph_act and device.type != "cuda":
+                logger.warning("train.graph_act=true records the act as a CUDA graph, and this run's device is %s: "
+                               "its acts run as without it (the same actions); use device=cuda on a GPU",
+                               device.type)
             if cfg.train.precision == "bf16" and device.type == "cpu" and not native_bf16_cpu():
                 logger.warning("train.precision=bf16 on a CPU without native bfloat16 (AVX512-BF16 or AMX): its "
                                "convolutions are emulated, 16x slower than float32 in a measurement "
@@ -220,6 +225,8 @@ def _loop(run: Run, envs, log: RunLog, cfg: RLConfig, d: Dist, device, out_dir: 
     if actor is not None:  # its own stream: torch.compile in the learner thread saves and restores the global one
         acts = actor_generator(cfg.seed, run.updates, device)
     actor = policy if actor is None else actor
+    if cfg.train.graph_act:  # recorded at the first act, before the learner thread starts
+        actor = GraphedAct(actor, cuda_graph=device.type == "cuda")
     bar = tqdm(total=total, initial=min(run.env_steps, total), unit="step", desc=f"rvn-rl {cfg.algo.name}",
                disable=d.rank != 0 or not cfg.progress, smoothing=0.1)
     t_start, steps_start = time.perf_counter(), run.env_steps

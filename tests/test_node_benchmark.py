@@ -50,6 +50,8 @@ def test_quick_run_lists_every_row(tmp_path):
     assert bool(rows["rl_bf16"]["skipped"]) == (doc["device"] == "CPU only" and not native_bf16_cpu())
     assert "train.overlap=true, ppo.recompute_advantages=true" in rows["rl_overlap"]["label"]
     assert rows["rl_compiled"]["skipped"] if doc["device"] == "CPU only" else rows["rl_compiled"]["value"] > 0
+    if doc["device"] == "CPU only":
+        assert "CUDA graphs need a GPU" in rows["rl_graph_act"]["skipped"]
     assert "over the kept caches (rl_envs): x" in rows["rl_envs_first_pass"]["settings"]
     for name in ("rl", "rl_envs", "rl_envs_1"):  # the scenes' navmeshes and pools made before the rows
         assert re.search(r"over a cache root holding the \d+ scenes' navmeshes and goal pools", rows[name]["settings"])
@@ -386,3 +388,29 @@ def test_skip_leaves_an_rl_row_out_and_names_it(monkeypatch):
     assert r["key"] == "rl_overlap" and r["value"] is None and "--skip" in r["skipped"], r
     with pytest.raises(SystemExit):
         node_bench.parse(["--skip", "rl"])
+
+
+def test_graph_act_rows_run_rvn_rl_with_the_graphed_act(monkeypatch):
+    """node.py's CUDA rows of train.graph_act (node_rl.graph_act_rows): rvn-rl's overrides of each row carry
+    train.graph_act=true, then train.overlap with ppo.recompute_advantages, then train.compile; each names its ratio to
+    the rl row. Here the rows' runs are recorded, not run (they need a GPU)."""
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
+    import node as node_bench
+    import node_rl
+    import rl as rl_bench
+
+    plan = node_bench.make_plan(node_bench.parse(["--quick"]), False, 2)
+    seen = []
+
+    def record(plan, key, what, settings, goal_key, baseline, against=None):
+        args = node_rl._rl_args(plan, settings, updates=2)
+        seen.append((key, against, [o for o in rl_bench.overrides(args, "out") if o.startswith(("train.", "ppo.rec"))]))
+        return {"key": key}
+    monkeypatch.setattr(node_rl, "_rl_row", record)
+    small = dict(size=plan.rl_size, backbone="resnet18", num_steps=plan.rl_num_steps, ppo_epoch=4, mini_batches=1)
+    keys = [r["key"] for r in node_rl.graph_act_rows(plan, small, 100.0)]
+    assert keys == ["rl_graph_act", "rl_graph_act_overlap", "rl_graph_act_overlap_compiled"]
+    assert all(against == 100.0 and "train.graph_act=true" in o for _, against, o in seen)
+    assert "train.overlap=false" in seen[0][2] and "train.compile=false" in seen[0][2]
+    assert {"train.overlap=true", "ppo.recompute_advantages=true", "train.compile=false"} <= set(seen[1][2])
+    assert {"train.overlap=true", "train.compile=true"} <= set(seen[2][2])
