@@ -414,3 +414,26 @@ def test_graph_act_rows_run_rvn_rl_with_the_graphed_act(monkeypatch):
     assert "train.overlap=false" in seen[0][2] and "train.compile=false" in seen[0][2]
     assert {"train.overlap=true", "ppo.recompute_advantages=true", "train.compile=false"} <= set(seen[1][2])
     assert {"train.overlap=true", "train.compile=true"} <= set(seen[2][2])
+
+
+@pytest.mark.slow
+def test_env_phases_benchmark_splits_the_envs_step_by_process_count(tmp_path):
+    """benchmarks/rl_env_phases.py (what bounds rvn-rl's envs side by side) at a tiny size: the cache root filled, then
+    one and two processes of 2 envs each, each line with the rate together and a process's, and the phases' ms."""
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "rl_env_phases.py"), "--processes", "1", "2",
+                           "--envs", "2", "--seconds", "0.5", "--warm", "2", "--scenes", "2", "--size", "64",
+                           "--renderer", "raycast"], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert re.search(r"cache root filled \(2 scenes' navmeshes and goal pools\)", proc.stdout), proc.stdout
+    lines = [line for line in proc.stdout.splitlines() if "process(es):" in line]
+    assert len(lines) == 2 and lines[0].lstrip().startswith("1 process") and lines[1].lstrip().startswith("2 process")
+    pattern = (r"(\d+) env steps/s together, +(\d+) a process; a batched step's mean ([\d.]+) ms .*state steps "
+               r"([\d.]+), rendering ([\d.]+), observations ([\d.]+) ms")
+    for line in lines:
+        together, per, step, state, render, observe = map(float, re.search(pattern, line).groups())
+        assert together > 0 and per > 0 and render > 0
+        assert state + render + observe == pytest.approx(step, abs=0.02)  # the phases split the step
+    assert "against 1: step x1.00" in lines[0]

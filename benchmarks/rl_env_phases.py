@@ -1,0 +1,171 @@
+"""rvn-rl's envs side by side, phase by phase (issue 32's RL row): for each count in ``--processes``, that many
+processes each step a `BatchEnv` of ``--envs`` envs of their own (rvn-rl's env settings: ``--size``² RGB, renderer
+``--renderer``, ``--scenes`` train scenes, goal pool 64, scene prefetch, over a cache root filled first) with random
+actions, started together, no learner and no main process gathering their observations. Each batched step is split
+into the envs' state steps (simulator, collision, rewards, resets and scene switches), rendering (`render_views`: one
+call for the process's envs) and the rest of the observations (goal vectors, batching). Prints, for each count, the
+env steps/s of all processes together and per process, each phase's mean ms a batched step (means add up to the
+rate; the step's median and 90th percentile show the stalls) and its ratio to the first count's.
+
+Why: on the fifth GPU run (docs/results/2026-12-04_gpu5) rvn-rl's envs alone gave 2,861 env steps/s in 15 worker
+processes of 2 envs (191 a worker), 3,139 in 4 of 8 (785 a worker) and 1,007 in one of 2 (median batched step
+1.0 ms): a worker's rate fell x5 from one worker to 15, and the envs alone are the bound of scale=small's 3,000 once
+the act and the update are hidden. The phase that grows with the count is what the processes share (rendering: the
+GPU's contexts, or the cores for software GL and ray casting; the state steps: the cores, with the prefetch helpers);
+if none grows and the processes together beat rl_envs, rvn-rl's main process (the workers' pipes, gathering the
+observations) is the bound.
+Run: python benchmarks/rl_env_phases.py [--processes 1 4 15] [--envs 2] [--seconds 4] [--renderer auto]
+"""
+from __future__ import annotations
+
+import argparse
+import multiprocessing as mp
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+PHASES = ("state", "render", "observe")  # besides the whole batched step
+
+
+def rl_args(args, cache_dir: str | None) -> SimpleNamespace:
+    """benchmarks/rl.py's arguments (`rl.overrides`) for these envs: scale=small's sizes, envs in this process."""
+    return SimpleNamespace(envs=args.envs, workers=0, scenes=args.scenes, base_planes=32, threads=1, updates=1,
+                           goal_pool=64, cache_dir=cache_dir, renderer=args.renderer, size=args.size,
+                           backbone="resnet18", num_steps=64, ppo_epoch=4, mini_batches=1)
+
+
+def worker(args, cache_dir: str, index: int, threads: int, barrier, results) -> None:
+    """One process's `BatchEnv` (envs ``index * args.envs`` on, as `ProcessBatchEnv`'s worker ``index``), timed
+    phase by phase for ``args.seconds`` after ``args.warm`` batched steps and the barrier."""
+    from rvn_data.worker_threads import settle_worker_threads
+
+    settle_worker_threads(threads)
+    import rl as rl_bench
+    from rvn_rl import vec_env
+    from rvn_rl.cli import compose
+
+    cfg = compose(rl_bench.overrides(rl_args(args, cache_dir), os.path.join(cache_dir, "run")))
+    spent = dict.fromkeys(PHASES, 0.0)
+    render_views = vec_env.render_views
+
+    def timed_render(*a, **k):  # this process's module only
+        t = time.perf_counter()
+        try:
+            return render_views(*a, **k)
+        finally:
+            spent["render"] += time.perf_counter() - t
+    vec_env.render_views = timed_render
+    envs = vec_env.BatchEnv(cfg.env_kwargs(), args.envs, seed=cfg.seed, scene_cache=cfg.env.scene_cache,
+                            index_offset=index * args.envs, prefetch=cfg.env.prefetch_scenes)
+    observe = envs._observe
+
+    def timed_observe():
+        t = time.perf_counter()
+        try:
+            return observe()
+        finally:
+            spent["observe"] += time.perf_counter() - t
+    envs._observe = timed_observe
+    rng = np.random.default_rng(index)
+    rows = []
+    try:
+        envs.reset()
+        for _ in range(args.warm):
+            envs.step(rng.integers(0, 4, args.envs))
+        barrier.wait()
+        start = time.perf_counter()
+        while time.perf_counter() - start < args.seconds:
+            spent.update(dict.fromkeys(PHASES, 0.0))
+            t = time.perf_counter()
+            envs.step(rng.integers(0, 4, args.envs))
+            step = time.perf_counter() - t
+            # state: all but the observations; observe: the observations but the rendering
+            rows.append((step, step - spent["observe"], spent["render"], spent["observe"] - spent["render"]))
+        results.put((index, time.perf_counter() - start, rows))
+    finally:
+        envs.close()
+
+
+def measure(args, processes: int, cache_dir: str) -> dict:
+    """``processes`` workers started together; env steps/s together and per process, phases' medians (ms)."""
+    from rvn_data.worker_threads import threads_per_worker, worker_threads
+
+    ctx = mp.get_context("spawn")
+    barrier, results = ctx.Barrier(processes), ctx.Queue()
+    threads = threads_per_worker(processes)
+    with worker_threads(threads):
+        procs = [ctx.Process(target=worker, args=(args, cache_dir, i, threads, barrier, results), daemon=True)
+                 for i in range(processes)]
+        for p in procs:
+            p.start()
+    got = [results.get(timeout=args.seconds + 600) for _ in procs]
+    for p in procs:
+        p.join(timeout=60)
+    if any(p.exitcode for p in procs):
+        raise SystemExit(f"rl_env_phases: a worker failed (exit codes {[p.exitcode for p in procs]})")
+    rates = [len(rows) * args.envs / seconds for _, seconds, rows in got]
+    steps = np.array([r for _, _, rows in got for r in rows]) * 1e3
+    return {"processes": processes, "together": sum(rates), "per_process": sum(rates) / processes,
+            "mean": dict(zip(("step", *PHASES), steps.mean(axis=0))),
+            "median_step": float(np.median(steps[:, 0])), "p90_step": float(np.percentile(steps[:, 0], 90)),
+            "steps": len(steps)}
+
+
+def fill(args, cache_dir: str) -> float:
+    """The scenes' navmeshes and goal pools made into ``cache_dir`` first (node.py's RL rows' way); seconds taken."""
+    import node_rl
+
+    t = time.perf_counter()
+    plan = SimpleNamespace(rl_envs=args.envs, rl_workers=0, rl_scenes=args.scenes, rl_threads=1,
+                           cpus=max(1, min(os.cpu_count() or 1, 16)))
+    node_rl.fill_scene_caches(plan, dict(size=args.size, backbone="resnet18", num_steps=64, ppo_epoch=4,
+                                         mini_batches=1, renderer=args.renderer), cache_dir)
+    return time.perf_counter() - t
+
+
+def main(argv: list[str] | None = None) -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    cpus = os.cpu_count() or 1
+    p.add_argument("--processes", type=int, nargs="+", default=sorted({1, max(1, cpus - 1)}))
+    p.add_argument("--envs", type=int, default=2, help="envs a process (rvn-rl on the node: 2 a worker)")
+    p.add_argument("--seconds", type=float, default=4.0, help="timed seconds a count")
+    p.add_argument("--warm", type=int, default=20, help="batched steps before the timed ones")
+    p.add_argument("--scenes", type=int, default=200)
+    p.add_argument("--size", type=int, default=128)
+    p.add_argument("--renderer", default="auto", choices=("auto", "gl", "raycast"))
+    p.add_argument("--cache-dir", default=None, help="a filled cache root (default: a temporary one, filled first)")
+    args = p.parse_args(argv)
+    for key in ("envs", "scenes", "size"):
+        if getattr(args, key) < 1:
+            p.error(f"--{key}={getattr(args, key)} must be >= 1")
+    if min(args.processes) < 1 or args.seconds <= 0 or args.warm < 0:
+        p.error("--processes must be >= 1, --seconds > 0 and --warm >= 0")
+    with tempfile.TemporaryDirectory() as tmp:
+        cache = args.cache_dir or tmp
+        if args.cache_dir is None:
+            print(f"cache root filled ({args.scenes} scenes' navmeshes and goal pools) in {fill(args, cache):.0f} s",
+                  flush=True)
+        print(f"rvn-rl's envs, {args.envs} a process, {args.size}² RGB, renderer={args.renderer}, {args.scenes} train "
+              f"scenes, random actions, {args.seconds:g} s each ({cpus} CPUs):")
+        first = None
+        for n in args.processes:
+            m = measure(args, n, cache)
+            first = first or m
+            mean = m["mean"]
+            ratios = ", ".join(f"{k} x{mean[k] / max(first['mean'][k], 1e-9):.2f}" for k in ("step", *PHASES))
+            print(f"  {n:>3} process(es): {m['together']:8.0f} env steps/s together, {m['per_process']:6.0f} a "
+                  f"process; a batched step's mean {mean['step']:.2f} ms (median {m['median_step']:.2f}, 90th "
+                  f"{m['p90_step']:.2f}): state steps {mean['state']:.2f}, rendering {mean['render']:.2f}, "
+                  f"observations {mean['observe']:.2f} ms ({m['steps']} steps); against {first['processes']}: "
+                  f"{ratios}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
