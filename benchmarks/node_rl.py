@@ -175,16 +175,20 @@ def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, bas
     # overlapped, a run's last update has no collection beside it: one more, so that one update counts
     args = _rl_args(plan, settings, updates=3 if settings.get("overlap") else 2)
     counted = []  # (env steps, seconds, update's metrics) of the updates that count (`rl.steady_updates`)
+    warm = plan.rl_warm_seconds  # a run's first seconds: its envs' scene-prefetch helpers starting
     with tempfile.TemporaryDirectory() as tmp, GpuBusy() as busy:
         out = f"{tmp}/run"
         train(compose(rl_bench.overrides(args, out)))
-        counted += [_steps_seconds(r, envs) for r in rl_bench.steady_updates(_metrics(out))]
+        rows = _metrics(out)
+        if not warm:  # else this short run only times an update: all of it is warm-up
+            counted += [_steps_seconds(r, envs) for r in rl_bench.steady_updates(rows)]
         left = plan.seconds - sum(s for _, s, _ in counted)
         if left > 0 and not plan.quick:
-            args.updates += 1 + math.ceil(left / (counted[-1][1] or 1e-3))
-            seen = len(_metrics(out))
+            args.updates += 1 + math.ceil((left + warm) / (_steps_seconds(rows[-1], envs)[1] or 1e-3))
             train(compose(rl_bench.overrides(args, out)))
-            counted += [_steps_seconds(r, envs) for r in rl_bench.steady_updates(_metrics(out)[seen:])]
+            later = _metrics(out)[len(rows):]
+            counted += [_steps_seconds(r, envs) for r in
+                        rl_bench.steady_updates(later, warm, envs) or rl_bench.steady_updates(later)]
     steps, seconds = sum(n for n, _, _ in counted), sum(s for _, s, _ in counted)
     if against is not None:
         baseline = f"x{steps / seconds / against:.2f} the rl row's {against:.0f} (float32, not compiled)"
@@ -204,7 +208,8 @@ def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, bas
                f"{args.size}² RGB, renderer={args.renderer}, {args.backbone} (base planes 32), PPO rollouts of {args.num_steps} x {envs} envs, "
                f"{args.ppo_epoch} epochs x {args.mini_batches} mini-batches, {workers} env worker processes, "
                f"{plan.rl_scenes} train scenes, goal pool {args.goal_pool} {plan.rl_filled}, "
-               f"{len(counted)} updates timed ({seconds:.1f} s); time: envs stepping {100 * share('time_envs'):.0f}%, "
+               f"{len(counted)} updates timed ({seconds:.1f} s) after a run's first {warm:g} s; time: envs stepping "
+               f"{100 * share('time_envs'):.0f}%, "
                f"policy and storage {100 * (1 - share('time_envs') - share('time_learn')):.0f}%, "
                f"{'waiting for the PPO update' if settings.get('overlap') else 'PPO update'} "
                f"{100 * share('time_learn'):.0f}%", baseline, busy.share, profile=profile)
@@ -248,7 +253,8 @@ def _rl_envs_row(plan, settings: dict, workers: int | None = None, prefetch: boo
     times: list[float] = []  # each batched step's seconds: a scene switch that waits shows in the top percentiles
     with tempfile.TemporaryDirectory() as tmp, GpuBusy() as busy:
         rate = rl_bench.collection(compose(rl_bench.overrides(args, f"{tmp}/run") + extra), 2 * args.num_steps, False,
-                                   times, seconds=0.0 if plan.quick else plan.seconds)
+                                   times, seconds=0.0 if plan.quick else plan.seconds,
+                                   warm_seconds=plan.rl_warm_seconds)
     ms = 1e3 * np.percentile(times, [50, 90, 99, 100])
     ratio = "" if with_prefetch is None else f"; with env.prefetch_scenes (rl_envs): x{with_prefetch / rate:.2f} this"
     ratio += "" if with_pool is None else f"; with the goal pool of 64 (rl_envs): x{with_pool / rate:.2f} this"
@@ -269,7 +275,8 @@ def _rl_envs_row(plan, settings: dict, workers: int | None = None, prefetch: boo
                f"{args.size}² RGB, renderer={args.renderer}, {args.envs} envs in {args.workers} worker processes, "
                f"{plan.rl_scenes} train scenes, goal pool {args.goal_pool} {caches}, random actions, no policy or "
                "learner, "
-               f"{len(times)} batched steps after 10 of warm-up: {rate / args.workers:.0f} env steps/s "
+               f"{len(times)} batched steps after 10 of warm-up and {plan.rl_warm_seconds:g} s more: "
+               f"{rate / args.workers:.0f} env steps/s "
                f"per worker; batched step median {ms[0]:.1f} ms, 90th {ms[1]:.1f}, 99th {ms[2]:.1f}, slowest {ms[3]:.0f}"
                f"{ratio}", gpu_busy=busy.share)
 

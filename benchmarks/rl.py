@@ -44,17 +44,28 @@ def overrides(args, out_dir: str) -> list[str]:
             ] + ([f"cache_dir={args.cache_dir}"] if getattr(args, "cache_dir", None) else [])  # else <out_dir>/cache
 
 
-def steady_updates(rows: list[dict]) -> list[dict]:
+def steady_updates(rows: list[dict], warm_seconds: float = 0.0, envs: int = 1) -> list[dict]:
     """The updates of an rvn-rl run's metrics.jsonl rows that show its steady state: not the first (it loads scenes
-    and warms up), and with train.overlap not the last, whose time holds no collection beside the update (the
-    rollout it is credited with was collected during the update before it)."""
-    rows = rows[1:]
+    and warms up), nor those that began within ``warm_seconds`` of the run's start (each of the ``envs`` envs'
+    scene-prefetch helper process starts at the env's first scene and takes ~1.3 s to its first prepared scene on the
+    development CPU, 0.1-0.2 s a scene after that: 30 envs' helpers load a node's cores for their first seconds), and
+    with train.overlap not the last, whose time holds no collection beside the update (the rollout it is credited with
+    was collected during the update before it)."""
+    began, skip = 0.0, 1
+    for i, r in enumerate(rows):  # an update's seconds: its env steps over its env steps/s
+        if i >= 1 and began >= warm_seconds:
+            break
+        began += r["rollout_steps"] * envs / r["fps"]
+        skip = i + 1
+    rows = rows[skip:]
     overlapped = any(r.get("overlapped") for r in rows)
     return [r for r in rows if r.get("overlapped")] if overlapped else rows
 
 
-def collection(cfg, steps: int, with_policy: bool, times: list | None = None, seconds: float = 0.0) -> float:
-    """Env steps/s of ``steps`` batched steps after 10 of warm-up, and more until ``seconds`` have passed (so that a
+def collection(cfg, steps: int, with_policy: bool, times: list | None = None, seconds: float = 0.0,
+               warm_seconds: float = 0.0) -> float:
+    """Env steps/s of ``steps`` batched steps after 10 of warm-up and more until ``warm_seconds`` have passed (the
+    envs' scene-prefetch helpers started: `steady_updates`), and more until ``seconds`` have passed (so that a
     fast machine's figure holds as many scene switches as a slow one's): random actions, or ``with_policy`` the
     policy's act(); ``times`` (a list) receives each timed batched step's seconds."""
     from rvn_rl.model import PointNavResNetPolicy
@@ -88,7 +99,10 @@ def collection(cfg, steps: int, with_policy: bool, times: list | None = None, se
                 if times is not None:
                     times.append(time.perf_counter() - t_step)
 
+        t = time.perf_counter()
         run(10)  # warm-up: scenes of the first resets loaded, numba compiled
+        while time.perf_counter() - t < warm_seconds:
+            run(8)
         t = time.perf_counter()
         run(steps, times)
         done = steps

@@ -2,8 +2,10 @@
 processes each step a `BatchEnv` of ``--envs`` envs of their own (rvn-rl's env settings: ``--size``² RGB, renderer
 ``--renderer``, ``--scenes`` train scenes, goal pool 64, scene prefetch, over a cache root filled first) with random
 actions, started together, no learner and no main process gathering their observations. Each batched step is split
-into the envs' state steps (simulator, collision, rewards, resets and scene switches), rendering (`render_views`: one
-call for the process's envs) and the rest of the observations (goal vectors, batching). Prints, for each count, the
+into the envs' state steps (simulator, collision, rewards, resets and scene switches: of them the switches, and of
+those the renderer made for the new scene, its meshes uploaded), rendering (`render_views`: one call for the
+process's envs) and the rest of the observations (goal vectors, batching), and the slowest step likewise, and how
+busy the machine's cores were meanwhile (/proc/stat: the processes' scene-prefetch helpers included). Prints, for each count, the
 env steps/s of all processes together and per process, each phase's mean ms a batched step (means add up to the
 rate; the step's median and 90th percentile show the stalls) and its ratio to the first count's.
 
@@ -14,11 +16,12 @@ the act and the update are hidden. The phase that grows with the count is what t
 GPU's contexts, or the cores for software GL and ray casting; the state steps: the cores, with the prefetch helpers);
 if none grows and the processes together beat rl_envs, rvn-rl's main process (the workers' pipes, gathering the
 observations) is the bound.
-Run: python benchmarks/rl_env_phases.py [--processes 1 4 15] [--envs 2] [--seconds 4] [--renderer auto]
+Run: python benchmarks/rl_env_phases.py [--processes 1 4 15] [--envs 2] [--seconds 4] [--warm 5] [--renderer auto]
 """
 from __future__ import annotations
 
 import argparse
+import itertools
 import multiprocessing as mp
 import os
 import sys
@@ -31,7 +34,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-PHASES = ("state", "render", "observe")  # besides the whole batched step
+PHASES = ("state", "render", "observe")  # besides the whole batched step; state holds the two below
+SWITCH = ("switch", "upload")  # scene switches (`CachedSceneEnv._switch_to`), and the renderer made in them
 
 
 def rl_args(args, cache_dir: str | None) -> SimpleNamespace:
@@ -43,54 +47,66 @@ def rl_args(args, cache_dir: str | None) -> SimpleNamespace:
 
 def worker(args, cache_dir: str, index: int, threads: int, barrier, results) -> None:
     """One process's `BatchEnv` (envs ``index * args.envs`` on, as `ProcessBatchEnv`'s worker ``index``), timed
-    phase by phase for ``args.seconds`` after ``args.warm`` batched steps and the barrier."""
+    phase by phase for ``args.seconds`` after ``args.warm`` seconds (at least 10 batched steps) and the barrier."""
     from rvn_data.worker_threads import settle_worker_threads
 
     settle_worker_threads(threads)
     import rl as rl_bench
+    from rvn_data.benchmark.episodes_source import SceneSlot
     from rvn_rl import vec_env
     from rvn_rl.cli import compose
 
     cfg = compose(rl_bench.overrides(rl_args(args, cache_dir), os.path.join(cache_dir, "run")))
-    spent = dict.fromkeys(PHASES, 0.0)
-    render_views = vec_env.render_views
+    spent = dict.fromkeys(PHASES + SWITCH, 0.0)
 
-    def timed_render(*a, **k):  # this process's module only
-        t = time.perf_counter()
-        try:
-            return render_views(*a, **k)
-        finally:
-            spent["render"] += time.perf_counter() - t
-    vec_env.render_views = timed_render
+    def timed(fn, phase: str):  # ``fn`` whose time adds to ``phase``; patched in this process only
+        def call(*a, **k):
+            t = time.perf_counter()
+            try:
+                return fn(*a, **k)
+            finally:
+                spent[phase] += time.perf_counter() - t
+        return call
+    vec_env.render_views = timed(vec_env.render_views, "render")
+    SceneSlot.with_renderer = timed(SceneSlot.with_renderer, "upload")
     envs = vec_env.BatchEnv(cfg.env_kwargs(), args.envs, seed=cfg.seed, scene_cache=cfg.env.scene_cache,
                             index_offset=index * args.envs, prefetch=cfg.env.prefetch_scenes)
-    observe = envs._observe
-
-    def timed_observe():
-        t = time.perf_counter()
-        try:
-            return observe()
-        finally:
-            spent["observe"] += time.perf_counter() - t
-    envs._observe = timed_observe
+    envs._observe = timed(envs._observe, "observe")
+    for env in envs.envs:
+        env._switch_to = timed(env._switch_to, "switch")
     rng = np.random.default_rng(index)
     rows = []
     try:
         envs.reset()
-        for _ in range(args.warm):
+        t = time.perf_counter()
+        for k in itertools.count():  # 10 batched steps, and on until every env's prefetch helper has started
+            if k >= 10 and time.perf_counter() - t >= args.warm:
+                break
             envs.step(rng.integers(0, 4, args.envs))
         barrier.wait()
         start = time.perf_counter()
         while time.perf_counter() - start < args.seconds:
-            spent.update(dict.fromkeys(PHASES, 0.0))
+            spent.update(dict.fromkeys(PHASES + SWITCH, 0.0))
             t = time.perf_counter()
             envs.step(rng.integers(0, 4, args.envs))
             step = time.perf_counter() - t
             # state: all but the observations; observe: the observations but the rendering
-            rows.append((step, step - spent["observe"], spent["render"], spent["observe"] - spent["render"]))
+            rows.append((step, step - spent["observe"], spent["render"], spent["observe"] - spent["render"],
+                         spent["switch"], spent["upload"]))
         results.put((index, time.perf_counter() - start, rows))
     finally:
         envs.close()
+
+
+def cpu_times() -> tuple[float, float] | None:
+    """(busy, all) jiffies of every core since boot (Linux's /proc/stat), else None."""
+    try:
+        with open("/proc/stat") as f:
+            fields = [float(x) for x in f.readline().split()[1:]]
+    except (OSError, ValueError):
+        return None
+    idle = fields[3] + (fields[4] if len(fields) > 4 else 0.0)  # idle and iowait
+    return sum(fields) - idle, sum(fields)
 
 
 def measure(args, processes: int, cache_dir: str) -> dict:
@@ -98,22 +114,30 @@ def measure(args, processes: int, cache_dir: str) -> dict:
     from rvn_data.worker_threads import threads_per_worker, worker_threads
 
     ctx = mp.get_context("spawn")
-    barrier, results = ctx.Barrier(processes), ctx.Queue()
+    barrier, results = ctx.Barrier(processes + 1), ctx.Queue()
     threads = threads_per_worker(processes)
     with worker_threads(threads):
         procs = [ctx.Process(target=worker, args=(args, cache_dir, i, threads, barrier, results), daemon=True)
                  for i in range(processes)]
         for p in procs:
             p.start()
-    got = [results.get(timeout=args.seconds + 600) for _ in procs]
+    barrier.wait(timeout=900)  # with the workers: their timed window starts
+    before = cpu_times()  # the node's cores while they step, their scene-prefetch helpers included
+    time.sleep(args.seconds)
+    after = cpu_times()
+    got = [results.get(timeout=600) for _ in procs]
     for p in procs:
         p.join(timeout=60)
     if any(p.exitcode for p in procs):
         raise SystemExit(f"rl_env_phases: a worker failed (exit codes {[p.exitcode for p in procs]})")
     rates = [len(rows) * args.envs / seconds for _, seconds, rows in got]
     steps = np.array([r for _, _, rows in got for r in rows]) * 1e3
+    slowest = steps[np.argmax(steps[:, 0])]
     return {"processes": processes, "together": sum(rates), "per_process": sum(rates) / processes,
-            "mean": dict(zip(("step", *PHASES), steps.mean(axis=0))),
+            "mean": dict(zip(("step", *PHASES, *SWITCH), steps.mean(axis=0))),
+            "slowest": dict(zip(("step", *PHASES, *SWITCH), slowest)),
+            "switching": float(np.mean(steps[:, 4] > 0)),
+            "cpu_busy": None if before is None or after is None else (after[0] - before[0]) / max(after[1] - before[1], 1),
             "median_step": float(np.median(steps[:, 0])), "p90_step": float(np.percentile(steps[:, 0], 90)),
             "steps": len(steps)}
 
@@ -136,7 +160,9 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--processes", type=int, nargs="+", default=sorted({1, max(1, cpus - 1)}))
     p.add_argument("--envs", type=int, default=2, help="envs a process (rvn-rl on the node: 2 a worker)")
     p.add_argument("--seconds", type=float, default=4.0, help="timed seconds a count")
-    p.add_argument("--warm", type=int, default=20, help="batched steps before the timed ones")
+    p.add_argument("--warm", type=float, default=5.0,
+                   help="seconds stepped before the timed ones (each env's scene-prefetch helper starts at its first "
+                        "scene and took ~1.3 s to its first prepared scene on the development CPU)")
     p.add_argument("--scenes", type=int, default=200)
     p.add_argument("--size", type=int, default=128)
     p.add_argument("--renderer", default="auto", choices=("auto", "gl", "raycast"))
@@ -165,6 +191,13 @@ def main(argv: list[str] | None = None) -> None:
                   f"{m['p90_step']:.2f}): state steps {mean['state']:.2f}, rendering {mean['render']:.2f}, "
                   f"observations {mean['observe']:.2f} ms ({m['steps']} steps); against {first['processes']}: "
                   f"{ratios}", flush=True)
+            if m["cpu_busy"] is not None:
+                print(f"      the machine's cores {100 * m['cpu_busy']:.0f}% busy while they stepped", flush=True)
+            slow = m["slowest"]
+            print(f"      scene switches in {100 * m['switching']:.1f}% of the steps: {mean['switch']:.2f} ms a step "
+                  f"on average (the renderer made {mean['upload']:.2f}); the slowest step {slow['step']:.0f} ms: "
+                  f"state steps {slow['state']:.0f} (switches {slow['switch']:.0f}, renderer {slow['upload']:.0f}), "
+                  f"rendering {slow['render']:.0f}, observations {slow['observe']:.0f}", flush=True)
 
 
 if __name__ == "__main__":

@@ -383,7 +383,7 @@ def test_skip_leaves_an_rl_row_out_and_names_it(monkeypatch):
     import node_rl
 
     plan = node_bench.make_plan(node_bench.parse(["--quick", "--skip", "rl_compiled", "rl_overlap"]), False, 2)
-    assert plan.skip == {"rl_compiled", "rl_overlap"}
+    assert plan.skip == ["rl_compiled", "rl_overlap"]
     r = node_rl._rl_row(plan, "rl_overlap", "scale=small, train.overlap=true", {}, "rl", "")
     assert r["key"] == "rl_overlap" and r["value"] is None and "--skip" in r["skipped"], r
     with pytest.raises(SystemExit):
@@ -424,7 +424,7 @@ def test_env_phases_benchmark_splits_the_envs_step_by_process_count(tmp_path):
     import sys
 
     proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "rl_env_phases.py"), "--processes", "1", "2",
-                           "--envs", "2", "--seconds", "0.5", "--warm", "2", "--scenes", "2", "--size", "64",
+                           "--envs", "2", "--seconds", "0.5", "--warm", "0", "--scenes", "2", "--size", "64",
                            "--renderer", "raycast"], capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert re.search(r"cache root filled \(2 scenes' navmeshes and goal pools\)", proc.stdout), proc.stdout
@@ -437,3 +437,19 @@ def test_env_phases_benchmark_splits_the_envs_step_by_process_count(tmp_path):
         assert together > 0 and per > 0 and render > 0
         assert state + render + observe == pytest.approx(step, abs=0.02)  # the phases split the step
     assert "against 1: step x1.00" in lines[0]
+
+
+def test_steady_updates_leave_out_a_runs_first_seconds(monkeypatch):
+    """rl.steady_updates(rows, warm_seconds, envs): the first update always, then every update that began within
+    ``warm_seconds`` of the run's start (an update's seconds: its env steps over its env steps/s); overlapped runs
+    also leave their last update out."""
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
+    import rl as rl_bench
+
+    rows = [{"rollout_steps": 10, "fps": 20.0 * 4, "overlapped": 0, "k": k} for k in range(6)]  # 0.5 s each, 4 envs
+    assert [r["k"] for r in rl_bench.steady_updates(rows)] == [1, 2, 3, 4, 5]
+    assert [r["k"] for r in rl_bench.steady_updates(rows, 1.2, 4)] == [3, 4, 5]  # began at 0, 0.5, 1.0: warm-up
+    assert [r["k"] for r in rl_bench.steady_updates(rows, 1.0, 4)] == [2, 3, 4, 5]
+    assert rl_bench.steady_updates(rows, 10.0, 4) == []
+    over = [{**r, "overlapped": float(r["k"] < 5)} for r in rows]
+    assert [r["k"] for r in rl_bench.steady_updates(over, 1.2, 4)] == [3, 4]
