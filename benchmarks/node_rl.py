@@ -31,7 +31,9 @@ def rl_rows(plan) -> Iterator[dict]:
     ~160 frames/s per GPU), both with the same envs on ``plan.rl_scenes`` train scenes (200: envs keep loading
     scenes they have not seen, as a run over all 800 does). A first run of two updates (the first one loads scenes:
     not counted) times an update; when that left part of ``plan.seconds``, the run resumes for as many more updates as
-    fit (the first again not counted). Overlapped rows run one update more and leave each run's last out too (nothing
+    fit (the first again not counted; on a normal run every update that began in the run's first
+    ``plan.rl_warm_seconds``, its envs' scene-prefetch helpers starting, and the first run only times an update).
+    Overlapped rows run one update more and leave each run's last out too (nothing
     is collected beside it: `rl.steady_updates`). ``rl_bf16``: the rl row with train.precision=bf16 (the visual encoder under
     torch.autocast(bfloat16) in rollouts and updates), naming its ratio to the rl row (--quick on a CPU that emulates
     bfloat16 skips it: the row took 36-46 s of a 2-minute quick run on the 2-core development machine); ``rl_overlap``: with
@@ -41,7 +43,8 @@ def rl_rows(plan) -> Iterator[dict]:
     and backward as CUDA graphs; its compiling falls in the first, uncounted update), naming its ratio too. With CUDA
     (and --quick), the envs alone (``rl_envs``): with env.prefetch_scenes (the default), without it (``rl_envs_no_prefetch``: vectorised
     envs then wait for whichever env switches scene, the bound of the third GPU run, docs/results/2026-11-27_gpu3)
-    and in one worker (``rl_envs_1``). The second and third GPU runs also timed renderer=raycast and gl under
+    and in one worker (``rl_envs_1``), each after ``plan.rl_warm_seconds`` of warm-up. With CUDA, after rl_bf16, the
+    act replayed as one CUDA graph (`graph_act_rows`). The second and third GPU runs also timed renderer=raycast and gl under
     __GL_YIELD=USLEEP: the renderer is not the bound. Last, the envs alone with fresh goals (``rl_envs_fresh_goals``,
     env.goal_pool=0) against the pool's 64 solves a scene.
 
