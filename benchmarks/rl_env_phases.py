@@ -14,8 +14,9 @@ processes of 2 envs (191 a worker), 3,139 in 4 of 8 (785 a worker) and 1,007 in 
 1.0 ms): a worker's rate fell x5 from one worker to 15, and the envs alone are the bound of scale=small's 3,000 once
 the act and the update are hidden. The phase that grows with the count is what the processes share (rendering: the
 GPU's contexts, or the cores for software GL and ray casting; the state steps: the cores, with the prefetch helpers);
-if none grows and the processes together beat rl_envs, rvn-rl's main process (the workers' pipes, gathering the
-observations) is the bound.
+if none grows and the processes together beat the same envs as rvn-rl steps them (each count but 1 is also run
+through `vec_env.make_envs`: worker processes whose observations one process gathers), that process (the workers'
+pipes, gathering the observations) is the bound.
 Run: python benchmarks/rl_env_phases.py [--processes 1 4 15] [--envs 2] [--seconds 4] [--warm 5] [--renderer auto]
 """
 from __future__ import annotations
@@ -142,6 +143,37 @@ def measure(args, processes: int, cache_dir: str) -> dict:
             "steps": len(steps)}
 
 
+def gathered(args, processes: int, cache_dir: str) -> tuple[float, float | None]:
+    """The same envs as rvn-rl steps them (`vec_env.make_envs`: ``processes`` worker processes of ``args.envs`` envs
+    each, their observations gathered by this process every batched step), random actions, after the same warm-up:
+    env steps/s and the machine's cores' busy share."""
+    import rl as rl_bench
+    from rvn_rl.cli import compose
+    from rvn_rl.vec_env import make_envs
+
+    ns = rl_args(args, cache_dir)
+    ns.envs, ns.workers = processes * args.envs, processes
+    cfg = compose(rl_bench.overrides(ns, os.path.join(cache_dir, "run")))
+    envs = make_envs(cfg.env_kwargs(), cfg.env, seed=cfg.seed)
+    rng = np.random.default_rng(0)
+    try:
+        envs.reset()
+        t = time.perf_counter()
+        for k in itertools.count():
+            if k >= 10 and time.perf_counter() - t >= args.warm:
+                break
+            envs.step(rng.integers(0, 4, envs.num_envs))
+        before, n, t = cpu_times(), 0, time.perf_counter()
+        while time.perf_counter() - t < args.seconds:
+            envs.step(rng.integers(0, 4, envs.num_envs))
+            n += 1
+        rate, after = n * envs.num_envs / (time.perf_counter() - t), cpu_times()
+    finally:
+        envs.close()
+    busy = None if before is None or after is None else (after[0] - before[0]) / max(after[1] - before[1], 1)
+    return rate, busy
+
+
 def fill(args, cache_dir: str) -> float:
     """The scenes' navmeshes and goal pools made into ``cache_dir`` first (node.py's RL rows' way); seconds taken."""
     import node_rl
@@ -198,6 +230,11 @@ def main(argv: list[str] | None = None) -> None:
                   f"on average (the renderer made {mean['upload']:.2f}); the slowest step {slow['step']:.0f} ms: "
                   f"state steps {slow['state']:.0f} (switches {slow['switch']:.0f}, renderer {slow['upload']:.0f}), "
                   f"rendering {slow['render']:.0f}, observations {slow['observe']:.0f}", flush=True)
+            if n > 1 or len(args.processes) == 1:
+                rate, busy = gathered(args, n, cache)
+                print(f"      as rvn-rl steps them ({n} worker processes, one process gathering their observations "
+                      f"each batched step): {rate:.0f} env steps/s, x{rate / m['together']:.2f} the processes on "
+                      f"their own" + ("" if busy is None else f"; cores {100 * busy:.0f}% busy"), flush=True)
 
 
 if __name__ == "__main__":

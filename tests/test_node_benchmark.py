@@ -419,7 +419,8 @@ def test_graph_act_rows_run_rvn_rl_with_the_graphed_act(monkeypatch):
 @pytest.mark.slow
 def test_env_phases_benchmark_splits_the_envs_step_by_process_count(tmp_path):
     """benchmarks/rl_env_phases.py (what bounds rvn-rl's envs side by side) at a tiny size: the cache root filled, then
-    one and two processes of 2 envs each, each line with the rate together and a process's, and the phases' ms."""
+    one and two processes of 2 envs each, each line with the rate together and a process's, and the phases' ms; the
+    two also through rvn-rl's worker processes."""
     import subprocess
     import sys
 
@@ -437,6 +438,9 @@ def test_env_phases_benchmark_splits_the_envs_step_by_process_count(tmp_path):
         assert together > 0 and per > 0 and render > 0
         assert state + render + observe == pytest.approx(step, abs=0.02)  # the phases split the step
     assert "against 1: step x1.00" in lines[0]
+    # the two processes' envs also as rvn-rl steps them: worker processes, one process gathering them
+    assert re.search(r"as rvn-rl steps them \(2 worker processes, one process gathering their observations each "
+                     r"batched step\): \d+ env steps/s, x[\d.]+ the processes on their own", proc.stdout), proc.stdout
 
 
 def test_steady_updates_leave_out_a_runs_first_seconds(monkeypatch):
