@@ -43,6 +43,9 @@ class Optimisation:
     batch_size: int
     max_steps: int
     step: int = 0
+    # train.compile_mode=reduce-overhead on a GPU (auto's choice there with one rank): the compiled parts replay as
+    # CUDA graphs, whose outputs the next replay overwrites, so each training step says it begins (`train_loop`)
+    cuda_graphs: bool = False
 
 
 def optimisation(model_cfg: Mapping, tcfg: Mapping, dataset, world: int, device: torch.device) -> Optimisation:
@@ -65,9 +68,11 @@ def optimisation(model_cfg: Mapping, tcfg: Mapping, dataset, world: int, device:
     opt = torch.optim.AdamW(model.parameters(), lr=lr, weight_decay=float(tcfg["weight_decay"]), fused=fused_on(device))
     sched = torch.optim.lr_scheduler.LambdaLR(opt, lr_lambda(max(1, warmup), max_steps))
     ema = EMA(model, float(model_cfg.get("ema_power", 0.75))) if use_ema else None
-    if tcfg["compile"]:
-        compile_for_training(model, training_compile_mode(tcfg["compile_mode"], device.type, world))
-    return Optimisation(model, opt, sched, ema, bs, max_steps)
+    mode = training_compile_mode(tcfg["compile_mode"], device.type, world) if tcfg["compile"] else None
+    if mode is not None:
+        compile_for_training(model, mode)
+    return Optimisation(model, opt, sched, ema, bs, max_steps,
+                        cuda_graphs=mode == "reduce-overhead" and device.type == "cuda")
 
 
 def resume(run: Optimisation, member_dir: Path, model_cfg: Mapping, device: torch.device) -> None:

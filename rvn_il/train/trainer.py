@@ -29,7 +29,6 @@ from ..models import resolve_size
 from ..models.checkpoint import read_config, save_checkpoint, write_config
 from ..models.encoders import IMAGENET_MEAN, IMAGENET_STD
 from .adopt import adopt_expert
-from .choices import training_compile_mode
 from .optimisation import Optimisation, optimisation, resume
 from .preflight import data_roots, member_entries, preflight
 from .settings import complete_config
@@ -201,11 +200,9 @@ def train_loop(run: Optimisation, batches: Iterator[dict], stats: dict, validato
         from torch.utils.tensorboard import SummaryWriter
         writer = SummaryWriter(str(member_dir.parent / "tb" / member_dir.name), purge_step=step)
     val_every, bf16 = int(tcfg["val_every"]), tcfg["precision"] == "bf16"
-    # train.compile_mode=reduce-overhead on a GPU (auto's choice there with one rank): the compiled parts replay as
-    # CUDA graphs, whose outputs the next replay overwrites; each step says it begins (its outputs are all read within
-    # the step: losses are eager)
-    graphs = (tcfg["compile"] and device.type == "cuda"
-              and training_compile_mode(tcfg["compile_mode"], device.type, world) == "reduce-overhead")
+    # the compiled parts replayed as CUDA graphs (`Optimisation.cuda_graphs`): each step says it begins (its outputs are
+    # all read within the step: losses are eager)
+    graphs = run.cuda_graphs
     gen = torch.Generator(device=device)
     log_every, ckpt_every = int(tcfg["log_every"]), int(tcfg["ckpt_every"])
     net.train()
