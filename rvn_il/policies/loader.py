@@ -165,11 +165,8 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
             raise ValueError(f"policy aggregate={pol['aggregate']!r}: NoMaD-Neg chooses its sample by CoR (policy.selection)")
         set_sampler(members, pol.get("sampler"), name)
         compile_members(members, compiled, dev)
-        policy = NoMaDNegPolicy(members, control, selection=pol.get("selection", "argmax"),
-                                cor_alpha=float(pol.get("cor_alpha", 1.0)), **common)
-        policy.embodiment = trained_embodiment(cfg, members[0])
-        policy.training_data = list(dict.fromkeys(r for m in members for r in m.datasets))
-        return policy
+        return with_training_record(NoMaDNegPolicy(members, control, selection=pol.get("selection", "argmax"),
+                                                   cor_alpha=float(pol.get("cor_alpha", 1.0)), **common), cfg, members)
     aggregate = str(pol.get("aggregate", "first"))
     if extra and aggregate != "vote":
         raise ValueError(f"policy.ensemble needs policy.aggregate=vote (got {aggregate!r}): the members' samples are pooled "
@@ -177,9 +174,14 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
     members += [load_ensemble_member(d, name, dev) for d in extra]
     set_sampler(members, pol.get("sampler"), name)
     compile_members(members, compiled, dev)
-    policy = PointGoalPolicy(members, control, aggregate=aggregate, **common)
+    return with_training_record(PointGoalPolicy(members, control, aggregate=aggregate, **common), cfg, members)
+
+
+def with_training_record(policy, cfg: dict, members: list[Member]):
+    """``policy`` with what rvn-eval checks against what it trained on: ``embodiment`` (`trained_embodiment`, the
+    first member's) and ``training_data``, the dataset folders of all its members (an ensemble's too)."""
     policy.embodiment = trained_embodiment(cfg, members[0])
-    policy.training_data = list(dict.fromkeys(r for m in members for r in m.datasets))  # ensemble members' too
+    policy.training_data = list(dict.fromkeys(r for m in members for r in m.datasets))
     return policy
 
 
