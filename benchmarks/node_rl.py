@@ -139,7 +139,7 @@ def fill_scene_caches(plan, settings: dict, root: str) -> str:
     from rvn_data.benchmark.episodes_source import EnvConfig
     from rvn_rl.cli import compose
 
-    args = _rl_args(plan, settings, updates=1)
+    args = rl_args(plan, settings, updates=1)
     args.cache_dir = root
     config = EnvConfig.from_kwargs(**compose(rl_bench.overrides(args, f"{root}/run")).env_kwargs())
     slots = config.scene_slots()
@@ -150,7 +150,7 @@ def fill_scene_caches(plan, settings: dict, root: str) -> str:
             f"processes in {time.perf_counter() - t:.0f} s before the rows: a long run after its first pass)")
 
 
-def _rl_args(plan, settings: dict, updates: int) -> SimpleNamespace:
+def rl_args(plan, settings: dict, updates: int) -> SimpleNamespace:
     """benchmarks/rl.py's arguments (`rl.overrides`) for the RL rows: the plan's envs, workers and scenes, a goal pool
     of 64, ``settings`` (size, backbone, PPO; renderer, else auto)."""
     return SimpleNamespace(envs=plan.rl_envs, workers=plan.rl_workers, scenes=plan.rl_scenes, base_planes=32,
@@ -176,7 +176,7 @@ def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, bas
 
     envs, workers = plan.rl_envs, plan.rl_workers
     # overlapped, a run's last update has no collection beside it: one more, so that one update counts
-    args = _rl_args(plan, settings, updates=3 if settings.get("overlap") else 2)
+    args = rl_args(plan, settings, updates=3 if settings.get("overlap") else 2)
     counted = []  # (env steps, seconds, update's metrics) of the updates that count (`rl.steady_updates`)
     warm = plan.rl_warm_seconds  # a run's first seconds: its envs' scene-prefetch helpers starting
     with tempfile.TemporaryDirectory() as tmp, GpuBusy() as busy:
@@ -244,7 +244,7 @@ def _rl_envs_row(plan, settings: dict, workers: int | None = None, prefetch: boo
     import rl as rl_bench
     from rvn_rl.cli import compose
 
-    args = _rl_args(plan, settings, updates=1)
+    args = rl_args(plan, settings, updates=1)
     args.goal_pool = goal_pool
     if renderer is not None:
         args.renderer = renderer
@@ -285,9 +285,10 @@ def _rl_envs_row(plan, settings: dict, workers: int | None = None, prefetch: boo
 
 
 def _steps_seconds(update: dict, envs: int) -> tuple[float, float, dict]:
-    """Env steps and seconds of one update of rvn-rl's metrics.jsonl, and the update's row."""
-    steps = update["rollout_steps"] * envs
-    return steps, steps / update["fps"], update
+    """Env steps and seconds (`rl.update_seconds`) of one update of rvn-rl's metrics.jsonl, and the update's row."""
+    import rl as rl_bench
+
+    return update["rollout_steps"] * envs, rl_bench.update_seconds(update, envs), update
 
 
 def _metrics(out: str) -> list[dict]:

@@ -44,6 +44,11 @@ def overrides(args, out_dir: str) -> list[str]:
             ] + ([f"cache_dir={args.cache_dir}"] if getattr(args, "cache_dir", None) else [])  # else <out_dir>/cache
 
 
+def update_seconds(update: dict, envs: int) -> float:
+    """The seconds of one update of rvn-rl's metrics.jsonl (``envs`` envs): its env steps over its env steps/s."""
+    return update["rollout_steps"] * envs / update["fps"]
+
+
 def steady_updates(rows: list[dict], warm_seconds: float = 0.0, envs: int = 1) -> list[dict]:
     """The updates of an rvn-rl run's metrics.jsonl rows that show its steady state: not the first (it loads scenes
     and warms up), nor those that began within ``warm_seconds`` of the run's start (each of the ``envs`` envs'
@@ -52,10 +57,10 @@ def steady_updates(rows: list[dict], warm_seconds: float = 0.0, envs: int = 1) -
     with train.overlap not the last, whose time holds no collection beside the update (the rollout it is credited with
     was collected during the update before it)."""
     began, skip = 0.0, 1
-    for i, r in enumerate(rows):  # an update's seconds: its env steps over its env steps/s
+    for i, r in enumerate(rows):
         if i >= 1 and began >= warm_seconds:
             break
-        began += r["rollout_steps"] * envs / r["fps"]
+        began += update_seconds(r, envs)
         skip = i + 1
     rows = rows[skip:]
     overlapped = any(r.get("overlapped") for r in rows)

@@ -39,11 +39,32 @@ PHASES = ("state", "render", "observe")  # besides the whole batched step; state
 SWITCH = ("switch", "upload")  # scene switches (`CachedSceneEnv._switch_to`), and the renderer made in them
 
 
-def rl_args(args, cache_dir: str | None) -> SimpleNamespace:
-    """benchmarks/rl.py's arguments (`rl.overrides`) for these envs: scale=small's sizes, envs in this process."""
-    return SimpleNamespace(envs=args.envs, workers=0, scenes=args.scenes, base_planes=32, threads=1, updates=1,
-                           goal_pool=64, cache_dir=cache_dir, renderer=args.renderer, size=args.size,
-                           backbone="resnet18", num_steps=64, ppo_epoch=4, mini_batches=1)
+def plan_and_settings(args, cache_dir: str, workers: int = 0) -> tuple[SimpleNamespace, dict]:
+    """node.py's RL plan for these envs (``args.envs`` in this process, or in each of ``workers`` worker processes,
+    over ``cache_dir``) and its row settings (scale=small's sizes): what `node_rl.rl_args` turns into
+    benchmarks/rl.py's arguments (`rl.overrides`) and `node_rl.fill_scene_caches` fills the cache root for."""
+    plan = SimpleNamespace(rl_envs=max(1, workers) * args.envs, rl_workers=workers, rl_scenes=args.scenes, rl_threads=1,
+                           rl_cache=cache_dir, cpus=max(1, min(os.cpu_count() or 1, 16)))
+    return plan, dict(size=args.size, backbone="resnet18", num_steps=64, ppo_epoch=4, mini_batches=1,
+                      renderer=args.renderer)
+
+
+def overrides(args, cache_dir: str, workers: int = 0) -> list[str]:
+    """rvn-rl's overrides for these envs, as node.py's RL rows make them (`node_rl.rl_args`, `rl.overrides`)."""
+    import node_rl
+    import rl as rl_bench
+
+    return rl_bench.overrides(node_rl.rl_args(*plan_and_settings(args, cache_dir, workers), updates=1),
+                              os.path.join(cache_dir, "run"))
+
+
+def warm_up(envs, rng: np.random.Generator, seconds: float) -> None:
+    """10 batched steps of random actions, and on until ``seconds`` have passed (every env's prefetch helper started)."""
+    t = time.perf_counter()
+    for k in itertools.count():
+        if k >= 10 and time.perf_counter() - t >= seconds:
+            break
+        envs.step(rng.integers(0, 4, envs.num_envs))
 
 
 def worker(args, cache_dir: str, index: int, threads: int, barrier, results) -> None:
@@ -52,12 +73,11 @@ def worker(args, cache_dir: str, index: int, threads: int, barrier, results) -> 
     from rvn_data.worker_threads import settle_worker_threads
 
     settle_worker_threads(threads)
-    import rl as rl_bench
     from rvn_data.benchmark.episodes_source import SceneSlot
     from rvn_rl import vec_env
     from rvn_rl.cli import compose
 
-    cfg = compose(rl_bench.overrides(rl_args(args, cache_dir), os.path.join(cache_dir, "run")))
+    cfg = compose(overrides(args, cache_dir))
     spent = dict.fromkeys(PHASES + SWITCH, 0.0)
 
     def timed(fn, phase: str):  # ``fn`` whose time adds to ``phase``; patched in this process only
@@ -79,11 +99,7 @@ def worker(args, cache_dir: str, index: int, threads: int, barrier, results) -> 
     rows = []
     try:
         envs.reset()
-        t = time.perf_counter()
-        for k in itertools.count():  # 10 batched steps, and on until every env's prefetch helper has started
-            if k >= 10 and time.perf_counter() - t >= args.warm:
-                break
-            envs.step(rng.integers(0, 4, args.envs))
+        warm_up(envs, rng, args.warm)
         barrier.wait()
         start = time.perf_counter()
         while time.perf_counter() - start < args.seconds:
@@ -108,6 +124,11 @@ def cpu_times() -> tuple[float, float] | None:
         return None
     idle = fields[3] + (fields[4] if len(fields) > 4 else 0.0)  # idle and iowait
     return sum(fields) - idle, sum(fields)
+
+
+def busy_share(before, after) -> float | None:
+    """The cores' busy share between two `cpu_times` readings (None where /proc/stat could not be read)."""
+    return None if before is None or after is None else (after[0] - before[0]) / max(after[1] - before[1], 1)
 
 
 def measure(args, processes: int, cache_dir: str) -> dict:
@@ -138,7 +159,7 @@ def measure(args, processes: int, cache_dir: str) -> dict:
             "mean": dict(zip(("step", *PHASES, *SWITCH), steps.mean(axis=0))),
             "slowest": dict(zip(("step", *PHASES, *SWITCH), slowest)),
             "switching": float(np.mean(steps[:, 4] > 0)),
-            "cpu_busy": None if before is None or after is None else (after[0] - before[0]) / max(after[1] - before[1], 1),
+            "cpu_busy": busy_share(before, after),
             "median_step": float(np.median(steps[:, 0])), "p90_step": float(np.percentile(steps[:, 0], 90)),
             "steps": len(steps)}
 
@@ -147,22 +168,15 @@ def gathered(args, processes: int, cache_dir: str) -> tuple[float, float | None]
     """The same envs as rvn-rl steps them (`vec_env.make_envs`: ``processes`` worker processes of ``args.envs`` envs
     each, their observations gathered by this process every batched step), random actions, after the same warm-up:
     env steps/s and the machine's cores' busy share."""
-    import rl as rl_bench
     from rvn_rl.cli import compose
     from rvn_rl.vec_env import make_envs
 
-    ns = rl_args(args, cache_dir)
-    ns.envs, ns.workers = processes * args.envs, processes
-    cfg = compose(rl_bench.overrides(ns, os.path.join(cache_dir, "run")))
+    cfg = compose(overrides(args, cache_dir, processes))
     envs = make_envs(cfg.env_kwargs(), cfg.env, seed=cfg.seed)
     rng = np.random.default_rng(0)
     try:
         envs.reset()
-        t = time.perf_counter()
-        for k in itertools.count():
-            if k >= 10 and time.perf_counter() - t >= args.warm:
-                break
-            envs.step(rng.integers(0, 4, envs.num_envs))
+        warm_up(envs, rng, args.warm)
         before, n, t = cpu_times(), 0, time.perf_counter()
         while time.perf_counter() - t < args.seconds:
             envs.step(rng.integers(0, 4, envs.num_envs))
@@ -170,8 +184,7 @@ def gathered(args, processes: int, cache_dir: str) -> tuple[float, float | None]
         rate, after = n * envs.num_envs / (time.perf_counter() - t), cpu_times()
     finally:
         envs.close()
-    busy = None if before is None or after is None else (after[0] - before[0]) / max(after[1] - before[1], 1)
-    return rate, busy
+    return rate, busy_share(before, after)
 
 
 def fill(args, cache_dir: str) -> float:
@@ -179,10 +192,7 @@ def fill(args, cache_dir: str) -> float:
     import node_rl
 
     t = time.perf_counter()
-    plan = SimpleNamespace(rl_envs=args.envs, rl_workers=0, rl_scenes=args.scenes, rl_threads=1,
-                           cpus=max(1, min(os.cpu_count() or 1, 16)))
-    node_rl.fill_scene_caches(plan, dict(size=args.size, backbone="resnet18", num_steps=64, ppo_epoch=4,
-                                         mini_batches=1, renderer=args.renderer), cache_dir)
+    node_rl.fill_scene_caches(*plan_and_settings(args, cache_dir), cache_dir)
     return time.perf_counter() - t
 
 

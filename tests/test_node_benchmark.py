@@ -403,7 +403,7 @@ def test_graph_act_rows_run_rvn_rl_with_the_graphed_act(monkeypatch):
     seen = []
 
     def record(plan, key, what, settings, goal_key, baseline, against=None):
-        args = node_rl._rl_args(plan, settings, updates=2)
+        args = node_rl.rl_args(plan, settings, updates=2)
         seen.append((key, against, [o for o in rl_bench.overrides(args, "out") if o.startswith(("train.", "ppo.rec"))]))
         return {"key": key}
     monkeypatch.setattr(node_rl, "_rl_row", record)
