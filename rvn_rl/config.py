@@ -148,9 +148,11 @@ class RLConfig:
         """`RVNEnv` keyword arguments of the train-mode environments (the typed groups as they are; the cache
         root, for the scenes' built navmeshes)."""
         scenes = {k: v for k, v in asdict(self.scenes).items() if k != "split"}
+        e = self.env
         return {"mode": "train", "split": "train", "scenes": scenes, "agent": self.agent,
                 "navmesh": self.navmesh, "camera": self.camera, "renderer": asdict(self.renderer),
-                "episodes": self.episode_kwargs(), "t_max": self.env.t_max, "scene_switch_every": self.env.scene_switch_every,
+                "episodes": self.episode_kwargs(), "t_max": e.t_max, "scene_switch_every": e.scene_switch_every,
+                "scene_switch_steps": e.scene_switch_steps,
                 "goal_pool": int(self.env.goal_pool), "depth": bool(self.env.depth) or self.uses_true_depth,
                 "cache_dir": str(cache_root(self.cache_dir, self.out_dir).absolute())}
 
@@ -173,8 +175,13 @@ class RLConfig:
 
 def check_env(env: EnvSettings) -> None:
     """``env``'s ranges (`RLConfig.validate`'s first rules; `settings_of` applies them before the groups that follow env)."""
-    for key in ("num_envs", "size", "scene_switch_every", "t_max"):
+    for key in ("num_envs", "size", "t_max"):
         at_least(f"env.{key}", getattr(env, key))
+    for key in ("scene_switch_every", "scene_switch_steps"):
+        at_least(f"env.{key}", getattr(env, key), minimum=0)
+    if not (env.scene_switch_every or env.scene_switch_steps):
+        raise ValueError("env.scene_switch_every=0 and env.scene_switch_steps=0: an env would never draw another "
+                         "scene; set one of them (e.g. env.scene_switch_steps=10000 env.scene_switch_every=0, Habitat's)")
     at_least("env.scene_cache + 1", env.scene_cache + 1)
     at_least("env.goal_pool", env.goal_pool, minimum=0)  # else the envs refuse these after out_dir is written
     if env.num_scenes is not None:  # null: all of the split's scenes

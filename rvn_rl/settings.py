@@ -26,7 +26,14 @@ class EnvSettings:
     num_envs: int = 4  # environments per process (per rank for DD-PPO)
     size: int = 256  # observation side (camera width = height), pixels
     num_scenes: int | None = None  # train scenes (null = all 800)
-    scene_switch_every: int = 8  # resets of an env before it draws another scene
+    scene_switch_every: int = 8  # resets of an env before it draws another scene (0: not by resets)
+    # or at its first reset after this many steps in the scene (0: not by steps), whichever comes first: Habitat's
+    # max_scene_repeat_steps (10,000 there, with max_scene_repeat_episodes off: scene_switch_every=0), each visit's
+    # budget within +-20 %. A random policy's episode lasts ~25 steps (a collision ends it), so 8 resets switch every
+    # ~200 steps, and each switch costs ~100 ms of a helper's CPU (scene, navmesh, goal pool read back): 2 processes
+    # of 2 envs on the 2-core development CPU stepped 828 env steps/s so, 1,572 with 10,000 steps
+    # (benchmarks/rl_env_phases.py)
+    scene_switch_steps: int = 0
     # train goals from a fixed pool of this many per scene (0: a fresh goal and two Dijkstra solves per draw). A pool
     # costs one solve per goal and its fields' smoothing (1.45-1.95 s for 64 on a procedural apartment) the first time a
     # cache root sees its scene, then 50-85 ms to read back (<cache root>/goal_pools, rvn_data.benchmark.pool_cache),

@@ -167,6 +167,48 @@ def test_train_mode_switches_scene(tmp_path):
     e.close()
 
 
+def test_train_mode_switches_scene_after_a_step_budget(tmp_path):
+    """scene_switch_steps=S (Habitat's max_scene_repeat_steps): a scene is drawn at the first reset after the visit's
+    budget of steps, a budget within S +- 20 % drawn at each visit, and at no other reset (scene_switch_every=0); the
+    same seed gives the same draws; both rules off is refused."""
+    kw = dict(mode="train", split="val", scene_specs=[f"procedural:val/{i}" for i in range(3)], scene_switch_every=0,
+              scene_switch_steps=5, episodes={"n_goals": 2})
+
+    def run():
+        e, steps, draws, resets = make_env(tmp_path, **kw), [0], [], []
+        real = e._draw_scene
+        e._draw_scene = lambda: (draws.append((steps[0], e._scene_budget)), real())[1]
+        rng = np.random.default_rng(0)
+        e.reset(seed=5)
+        budgets = [e._scene_budget]
+        for _ in range(600):
+            *_, terminated, truncated, _ = e.step(int(rng.choice([0, 1, 1, 2, 3])))
+            steps[0] += 1
+            if terminated or truncated:
+                n = len(draws)
+                e.reset()
+                resets.append((steps[0], len(draws) > n))
+                if len(draws) > n:
+                    budgets.append(e._scene_budget)
+        e.close()
+        return draws, resets, budgets
+
+    draws, resets, budgets = run()
+    assert len(draws) >= 10 and set(budgets) == {4, 5, 6}
+    later, last, budget, exact = iter(budgets[1:]), 0, budgets[0], 0
+    for t, drawn in resets:
+        assert drawn == (t - last >= budget), (t, last, budget)
+        exact += t - last == budget  # the boundary: a reset just as the budget is spent draws
+        if drawn:
+            last, budget = t, next(later)
+    assert exact >= 1
+    assert run() == (draws, resets, budgets)
+    with pytest.raises(ValueError, match="scene_switch_every=0 and scene_switch_steps=0: .* never draw another scene"):
+        make_env(tmp_path, mode="train", scene_switch_every=0)
+    with pytest.raises(ValueError, match="scene_switch_steps=-1 must be a non-negative integer"):
+        make_env(tmp_path, mode="train", scene_switch_steps=-1)
+
+
 def test_train_goals_from_the_scene_pool(tmp_path):
     """goal_pool=G: every train goal is one of the scene's G pool points, 4-8 m from where
     it is given, its field equal to a fresh solve; the pool is a function of the scene alone."""

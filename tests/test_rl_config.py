@@ -93,6 +93,17 @@ def test_group_dataclasses_check_their_values_at_conversion():
         compose(TINY + ["camera.hfov_deg=200"])
     with pytest.raises(ConfigError, match="d_min=9.0, d_max=8.0 must satisfy"):
         compose(TINY + ["episodes.d_min=9"])
+    with pytest.raises(ConfigError, match=r"^env.scene_switch_every=0 and env.scene_switch_steps=0: an env would never"):
+        compose(TINY + ["env.scene_switch_every=0"])
+
+
+def test_scene_switch_steps_reach_the_envs():
+    """env.scene_switch_steps (Habitat's max_scene_repeat_steps) goes to the train-mode envs and config.yaml."""
+    cfg = compose(TINY + ["env.scene_switch_steps=10000", "env.scene_switch_every=0"])
+    kw = cfg.env_kwargs()
+    assert (kw["scene_switch_every"], kw["scene_switch_steps"]) == (0, 10000)
+    assert cfg.record()["env"]["scene_switch_steps"] == 10000
+    assert compose(TINY).env_kwargs()["scene_switch_steps"] == 0  # off by default: every 8 resets, as before
 
 
 @pytest.mark.parametrize("world, args, line", [

@@ -124,13 +124,17 @@ def test_worker_processes_pass_the_same_observations_through_shared_memory():
             shared_memory.SharedMemory(name=name)
 
 
-@pytest.mark.parametrize("backend", ["raycast", pytest.param("gl", marks=needs_egl)])
-def test_prefetched_scenes_give_the_same_episodes(monkeypatch, backend):
+EVERY_RESET, BY_STEPS = {"scene_switch_every": 1}, {"scene_switch_every": 0, "scene_switch_steps": 4}
+
+
+@pytest.mark.parametrize("backend, switch", [("raycast", EVERY_RESET), ("raycast", BY_STEPS),
+                                             pytest.param("gl", EVERY_RESET, marks=needs_egl)])
+def test_prefetched_scenes_give_the_same_episodes(monkeypatch, backend, switch):
     """With env.prefetch_scenes each env draws its next scene ahead and has it prepared while it steps (scene, navmesh
     and goal pool made in a helper process, with the GL renderer's mesh arrays under gl, the simulator in a thread):
     observations, rewards, episode records and scene order equal the envs' without it, across scene switches at every
-    reset and a reset with a seed, which starts the scene stream again. A pool this process keeps is not made
-    again."""
+    reset (or after a visit's budget of steps, env.scene_switch_steps) and a reset with a seed, which starts the scene
+    stream again. A pool this process keeps is not made again."""
     import threading
 
     from rvn_data.helper_process import HelperProcess
@@ -144,7 +148,7 @@ def test_prefetched_scenes_give_the_same_episodes(monkeypatch, backend):
     real_call = HelperProcess.call
     monkeypatch.setattr(HelperProcess, "call", lambda self, fn, *a: (
         threads.append(threading.current_thread().name), calls.append((self, a[-1])), real_call(self, fn, *a))[2])
-    kw = {**KW, "scenes": {"num_scenes": 6}, "scene_switch_every": 1, "goal_pool": 8, "renderer": {"backend": backend}}
+    kw = {**KW, "scenes": {"num_scenes": 6}, **switch, "goal_pool": 8, "renderer": {"backend": backend}}
     plain, ahead = BatchEnv(kw, 2, seed=7, prefetch=False), BatchEnv(kw, 2, seed=7)
     try:
         a, b = plain.reset(), ahead.reset()

@@ -16,11 +16,11 @@ away → a no-op step (or a terminating failure with ``stop_far_is_failure``); o
 −Δ(geodesic distance to goal) − 0.01. No goal within ``t_max`` steps of being given →
 truncated (failure).
 
-Modes: ``train`` draws random episodes with the benchmark sampler from ``np_random`` (goals
-from a fixed per-scene pool with ``goal_pool`` > 0: `rvn_data.benchmark.goal_pool`)
-and switches scene every ``scene_switch_every`` resets; ``eval`` walks the fixed episode
-set of the split in order (scene, then episode); ``reset(seed=...)`` rewinds it to the
-first episode and ``options={"episode": k}`` (k-th of the set) or
+Modes: ``train`` draws random episodes with the benchmark sampler from ``np_random`` (goals from a fixed per-scene
+pool with ``goal_pool`` > 0: `rvn_data.benchmark.goal_pool`) and switches scene every ``scene_switch_every`` resets,
+or at the first reset after ``scene_switch_steps`` steps in the scene (Habitat's ``max_scene_repeat_steps``; each
+visit's budget within +-20 %, `SCENE_STEPS_RANGE`); ``eval`` walks the fixed episode set of the split in order (scene,
+then episode); ``reset(seed=...)`` rewinds it to the first episode and ``options={"episode": k}`` (k-th of the set) or
 ``{"scene_index": s, "episode_index": e}`` picks one.
 """
 from __future__ import annotations
@@ -38,6 +38,8 @@ from rvn_data.benchmark.episodes import sample_start
 from rvn_data.benchmark.episodes_source import EnvConfig, SceneSlot, eval_schedule, next_in_schedule
 from rvn_data.benchmark.metrics import EpisodeTracker
 from rvn_data.scenes import SceneError
+
+SCENE_STEPS_RANGE = 0.2  # a visit's step budget: scene_switch_steps x (1 +- this) (Habitat's step_repetition_range)
 
 
 class RVNEnv(gym.Env):
@@ -73,6 +75,7 @@ class RVNEnv(gym.Env):
         self._schedule = eval_schedule(self._slots, self.config.per_scene) if self.config.mode == "eval" else []
         self._cursor = 0
         self._resets = 0
+        self._scene_steps = self._scene_budget = 0  # train mode: steps in this scene's visit, and the visit's budget
         self._scene_rng = None
         self._episode = None
         self._done = True
@@ -155,12 +158,16 @@ class RVNEnv(gym.Env):
         if seed is not None or self._scene_rng is None:
             self._resets = 0  # scene draws: their own stream, a pure function of the reset seed
             self._scene_rng = np.random.default_rng(int(self.np_random.integers(2**63)))
+        c = self.config
+        drawn = "scene" in options or self._scene is None or seed is not None or self._visit_spent()
         if "scene" in options:
             pos = int(options["scene"]) % len(self._slots)
-        elif self._scene is None or seed is not None or self._resets % self.config.scene_switch_every == 0:
-            pos = self._draw_scene()
         else:
-            pos = self._scene.pos
+            pos = self._draw_scene() if drawn else self._scene.pos
+        if drawn and c.scene_switch_steps:  # a new visit and its step budget, within +-SCENE_STEPS_RANGE
+            spread = c.scene_switch_steps * SCENE_STEPS_RANGE
+            self._scene_steps = 0
+            self._scene_budget = max(1, round(c.scene_switch_steps + self.np_random.uniform(-spread, spread)))
         self._resets += 1
         self._load(pos)
         ep_index = self._resets - 1
@@ -171,6 +178,13 @@ class RVNEnv(gym.Env):
                 return
         raise SceneError(f"scene {self._scene.scene_id}: no goal found {self.config.episodes.d_min}-"
                            f"{self.config.episodes.d_max} m from {self.config.episodes.max_restarts} starts")
+
+    def _visit_spent(self) -> bool:
+        """Train mode: whether this reset draws another scene (every ``scene_switch_every``-th reset since the seeded
+        one, or the first after the visit's step budget)."""
+        c = self.config
+        return bool((c.scene_switch_every and self._resets % c.scene_switch_every == 0)
+                    or (c.scene_switch_steps and self._scene_steps >= self._scene_budget))
 
     def _draw_scene(self) -> int:
         """The next scene of train mode's scene stream (``_scene_rng``, used for nothing else: its draws are known ahead)."""
@@ -214,6 +228,7 @@ class RVNEnv(gym.Env):
             raise ValueError(f"invalid action {action!r}: expected one of "
                              f"{[f'{x.value}={x.name}' for x in Action]}") from None
         step = self._act(a)
+        self._scene_steps += 1
         self._tracker.step(step.displacement, step.collided, int(a))
         self._goal_steps, self._dist = step.goal_steps, step.dtg_after
         ending, reward = measures.termination(self.rules, step), measures.reward(self.rules, step)

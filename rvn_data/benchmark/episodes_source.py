@@ -42,7 +42,10 @@ class EnvConfig(EpisodeRules):
     Hydra groups ``agent``, ``navmesh``, ``camera``, ``scenes``, ``renderer``, ``episodes``).
 
     scene_specs: explicit scene specs (overrides ``scenes``); per_scene: eval episodes per
-    scene (default 2 train / 20 val, test); scene_switch_every: train-mode resets per scene;
+    scene (default 2 train / 20 val, test); scene_switch_every: train mode draws another scene every this many resets
+    (0: not by resets); scene_switch_steps: ... or at the first reset after this many steps in the scene (0: not by
+    steps; Habitat's ``max_scene_repeat_steps``, 10,000 there, each visit's budget within +-20 % of it, Habitat's
+    ``step_repetition_range``, so envs started together do not switch together), whichever comes first;
     episodes_dir: cache of eval episode sets (None: ``<cache root>/episodes``; one folder per settings inside);
     cache_dir: the cache root (`rvn_data.cache_root`; None: ``$RVN_CACHE_DIR``, else a temporary folder, with a
     warning), whose ``navmesh/`` keeps every scene's built navmesh (`rvn_data.navmesh.disk_cache`).
@@ -61,6 +64,7 @@ class EnvConfig(EpisodeRules):
     cache_dir: str | None = None
     per_scene: int | None = None
     scene_switch_every: int = 8
+    scene_switch_steps: int = 0
     goal_pool: int = 0
     reward_goal: float = 1.0
     reward_collision: float = -0.1
@@ -110,11 +114,14 @@ class EnvConfig(EpisodeRules):
             self.success_distance = self.agent.success_distance
         if self.per_scene is None:
             self.per_scene = DEFAULT_PER_SCENE[self.split]
-        for name in ("t_max", "per_scene", "scene_switch_every", "goal_pool"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < (0 if name == "goal_pool" else 1):
+        for name in ("t_max", "per_scene", "scene_switch_every", "scene_switch_steps", "goal_pool"):
+            v, least = getattr(self, name), 1 if name in ("t_max", "per_scene") else 0
+            if isinstance(v, bool) or not isinstance(v, int) or v < least:
                 raise ValueError(f"RVNEnv setting {name}={v!r} must be a "
-                                 f"{'non-negative' if name == 'goal_pool' else 'positive'} integer")
+                                 f"{'non-negative' if least == 0 else 'positive'} integer")
+        if not (self.scene_switch_every or self.scene_switch_steps):
+            raise ValueError("RVNEnv settings scene_switch_every=0 and scene_switch_steps=0: train mode would never "
+                             "draw another scene; set one of them (e.g. scene_switch_steps=10000, Habitat's)")
         if not self.success_distance > 0:
             raise ValueError(f"RVNEnv setting success_distance={self.success_distance!r} must be > 0")
 
