@@ -21,7 +21,10 @@ RL_LABEL = "rvn-rl PPO collection + learning, "  # the label of each row that tr
 
 # rows nothing else reads (node.py --skip): each a full rvn-rl run of a minute or two on the node; rl_envs: all the
 # envs-alone rows (measured together on the fifth GPU run, docs/results/2026-12-04_gpu5)
-SKIPPABLE = ("rl_overlap", "rl_envs", "rl_paper", "rl_compiled")
+SKIPPABLE = ("rl_overlap", "rl_envs", "rl_paper", "rl_compiled", "rl_scene_steps")
+# Habitat's scene switches (max_scene_repeat_steps 10,000, max_scene_repeat_episodes off) instead of every 8 resets
+HABITAT_SWITCH = {"scene_switch_steps": 10000, "scene_switch_every": 0}
+HABITAT_LABEL = ", ".join(f"env.{k}={v}" for k, v in HABITAT_SWITCH.items())
 
 
 def rl_rows(plan) -> Iterator[dict]:
@@ -64,6 +67,8 @@ def rl_rows(plan) -> Iterator[dict]:
         plan = SimpleNamespace(**vars(plan), rl_cache=kept, rl_filled=fill_scene_caches(plan, small, kept))
         plain = _rl_row(plan, "rl", "scale=small", small, "rl", "")
         yield plain
+        yield _rl_row(plan, "rl_scene_steps", f"scale=small, {HABITAT_LABEL}", {**small, **HABITAT_SWITCH}, "rl", "",
+                      against=plain["value"])
         if plan.quick and not plan.cuda and not native_bf16_cpu():  # a smoke test: the emulation's minute spared
             yield _skipped_rl_row("rl_bf16", "scale=small, train.precision=bf16",
                                   "bfloat16 is emulated on this CPU (no AVX512-BF16 or AMX; rvn_rl/README.md), --quick "
@@ -114,8 +119,9 @@ def graph_act_rows(plan, small: dict, against: float) -> Iterator[dict]:
     fourth GPU run's act was ~7.9 ms of host launches against 1.8 ms of kernels), then also with the update overlapped
     (``rl_graph_act_overlap``: train.overlap=true and ppo.recompute_advantages=true, as rl_overlap), then also with
     the learner's trunk compiled (``rl_graph_act_overlap_compiled``: train.compile=true, reduce-overhead; an update
-    x1.36 in benchmarks/rl_learner.py on the fifth GPU run); each names its ratio to the rl row. A graphed act leaves
-    the envs' step and the update as the bounds, which the overlap runs side by side."""
+    x1.36 in benchmarks/rl_learner.py on the fifth GPU run), last the overlapped graphed act with Habitat's scene
+    switches (``rl_graph_act_overlap_scene_steps``, `HABITAT_SWITCH`); each names its ratio to the rl row. A graphed
+    act leaves the envs' step and the update as the bounds, which the overlap runs side by side."""
     graphed = {**small, "graph_act": True}
     yield _rl_row(plan, "rl_graph_act", "scale=small, train.graph_act=true", graphed, "rl", "", against=against)
     both = {**graphed, "overlap": True, "recompute": True}
@@ -123,6 +129,9 @@ def graph_act_rows(plan, small: dict, against: float) -> Iterator[dict]:
                   "ppo.recompute_advantages=true", both, "rl", "", against=against)
     yield _rl_row(plan, "rl_graph_act_overlap_compiled", "scale=small, train.graph_act=true, train.overlap=true, "
                   "ppo.recompute_advantages=true, train.compile=true", {**both, "compile": True}, "rl", "",
+                  against=against)
+    yield _rl_row(plan, "rl_graph_act_overlap_scene_steps", "scale=small, train.graph_act=true, train.overlap=true, "
+                  f"ppo.recompute_advantages=true, {HABITAT_LABEL}", {**both, **HABITAT_SWITCH}, "rl", "",
                   against=against)
 
 

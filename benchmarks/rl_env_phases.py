@@ -45,8 +45,9 @@ def plan_and_settings(args, cache_dir: str, workers: int = 0) -> tuple[SimpleNam
     benchmarks/rl.py's arguments (`rl.overrides`) and `node_rl.fill_scene_caches` fills the cache root for."""
     plan = SimpleNamespace(rl_envs=max(1, workers) * args.envs, rl_workers=workers, rl_scenes=args.scenes, rl_threads=1,
                            rl_cache=cache_dir, cpus=max(1, min(os.cpu_count() or 1, 16)))
+    steps = getattr(args, "scene_switch_steps", 0)  # Habitat's scene switches with it, else every 8 resets
     return plan, dict(size=args.size, backbone="resnet18", num_steps=64, ppo_epoch=4, mini_batches=1,
-                      renderer=args.renderer)
+                      renderer=args.renderer, scene_switch_steps=steps, scene_switch_every=0 if steps else 8)
 
 
 def overrides(args, cache_dir: str, workers: int = 0) -> list[str]:
@@ -93,8 +94,11 @@ def worker(args, cache_dir: str, index: int, threads: int, barrier, results) -> 
     envs = vec_env.BatchEnv(cfg.env_kwargs(), args.envs, seed=cfg.seed, scene_cache=cfg.env.scene_cache,
                             index_offset=index * args.envs, prefetch=cfg.env.prefetch_scenes)
     envs._observe = timed(envs._observe, "observe")
+    def switches(env):  # a reset that loads another scene (one that keeps its scene returns at once: not counted)
+        real, timed_real = env._switch_to, timed(env._switch_to, "switch")
+        return lambda pos: real(pos) if env._scene is not None and env._scene.pos == pos else timed_real(pos)
     for env in envs.envs:
-        env._switch_to = timed(env._switch_to, "switch")
+        env._switch_to = switches(env)
     rng = np.random.default_rng(index)
     rows = []
     try:
@@ -208,20 +212,26 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--scenes", type=int, default=200)
     p.add_argument("--size", type=int, default=128)
     p.add_argument("--renderer", default="auto", choices=("auto", "gl", "raycast"))
-    p.add_argument("--cache-dir", default=None, help="a filled cache root (default: a temporary one, filled first)")
+    p.add_argument("--scene-switch-steps", type=int, default=0,
+                   help="env.scene_switch_steps with env.scene_switch_every=0: an env draws another scene at its first "
+                        "reset after ~this many steps in one (Habitat's max_scene_repeat_steps, 10000 there; default 0: "
+                        "every 8 resets, rvn-rl's default: ~200 steps of random actions)")
+    p.add_argument("--cache-dir", default=None,
+                   help="the cache root, filled first and kept (default: a temporary one): runs that share it fill it once")
     args = p.parse_args(argv)
     for key in ("envs", "scenes", "size"):
         if getattr(args, key) < 1:
             p.error(f"--{key}={getattr(args, key)} must be >= 1")
-    if min(args.processes) < 1 or args.seconds <= 0 or args.warm < 0:
-        p.error("--processes must be >= 1, --seconds > 0 and --warm >= 0")
+    if min(args.processes) < 1 or args.seconds <= 0 or args.warm < 0 or args.scene_switch_steps < 0:
+        p.error("--processes must be >= 1, --seconds > 0, --warm >= 0 and --scene-switch-steps >= 0")
     with tempfile.TemporaryDirectory() as tmp:
-        cache = args.cache_dir or tmp
-        if args.cache_dir is None:
-            print(f"cache root filled ({args.scenes} scenes' navmeshes and goal pools) in {fill(args, cache):.0f} s",
-                  flush=True)
+        cache = args.cache_dir or tmp  # filled first either way (a filled root is only read: seconds)
+        print(f"cache root filled ({args.scenes} scenes' navmeshes and goal pools) in {fill(args, cache):.0f} s",
+              flush=True)
+        switch = (f"a scene switch at the first reset after ~{args.scene_switch_steps} steps in one" if
+                  args.scene_switch_steps else "a scene switch every 8 resets")
         print(f"rvn-rl's envs, {args.envs} a process, {args.size}² RGB, renderer={args.renderer}, {args.scenes} train "
-              f"scenes, random actions, {args.seconds:g} s each ({cpus} CPUs):")
+              f"scenes, {switch}, random actions, {args.seconds:g} s each ({cpus} CPUs):")
         first = None
         for n in args.processes:
             m = measure(args, n, cache)

@@ -29,7 +29,7 @@ def test_quick_run_lists_every_row(tmp_path):
     rows = {r["key"]: r for r in doc["rows"]}
     cpus = doc["cpu_count"]
     expected = {"gen", "train_nomad_pointgoal", "train_vint_pointgoal", "decision_gpu", "decision_cpu",
-                "rl", "rl_bf16", "rl_overlap", "rl_compiled", "rl_envs", "rl_envs_no_prefetch", "rl_envs_1", "rl_envs_fresh_goals",
+                "rl", "rl_scene_steps", "rl_bf16", "rl_overlap", "rl_compiled", "rl_envs", "rl_envs_no_prefetch", "rl_envs_1", "rl_envs_fresh_goals",
                 "rl_envs_first_pass", "render_gl_4scenes"}
     expected |= {f"render_{b}_{n}p" for b in ("gl", "raycast") for n in {1, 2, cpus}}
     assert expected <= set(rows), sorted(expected - set(rows))
@@ -41,7 +41,8 @@ def test_quick_run_lists_every_row(tmp_path):
     assert "with the goal pool of 64 (rl_envs): x" in rows["rl_envs_fresh_goals"]["settings"]
     assert "over an empty cache root" in rows["rl_envs_first_pass"]["settings"]
     assert "train.precision=bf16" in rows["rl_bf16"]["label"]
-    for name in ("rl_bf16", "rl_overlap"):
+    assert "env.scene_switch_steps=10000, env.scene_switch_every=0" in rows["rl_scene_steps"]["label"]
+    for name in ("rl_bf16", "rl_overlap", "rl_scene_steps"):
         if rows[name]["skipped"]:  # --quick on a CPU that emulates bfloat16 (rvn_rl.trainer.native_bf16_cpu)
             assert name == "rl_bf16" and "bfloat16 is emulated on this CPU" in rows[name]["skipped"]
             continue
@@ -392,8 +393,9 @@ def test_skip_leaves_an_rl_row_out_and_names_it(monkeypatch):
 
 def test_graph_act_rows_run_rvn_rl_with_the_graphed_act(monkeypatch):
     """node.py's CUDA rows of train.graph_act (node_rl.graph_act_rows): rvn-rl's overrides of each row carry
-    train.graph_act=true, then train.overlap with ppo.recompute_advantages, then train.compile; each names its ratio to
-    the rl row. Here the rows' runs are recorded, not run (they need a GPU)."""
+    train.graph_act=true, then train.overlap with ppo.recompute_advantages, then train.compile, then Habitat's scene
+    switches instead of train.compile; each names its ratio to the rl row. Here the rows' runs are recorded, not run
+    (they need a GPU)."""
     monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
     import node as node_bench
     import node_rl
@@ -404,16 +406,21 @@ def test_graph_act_rows_run_rvn_rl_with_the_graphed_act(monkeypatch):
 
     def record(plan, key, what, settings, goal_key, baseline, against=None):
         args = node_rl.rl_args(plan, settings, updates=2)
-        seen.append((key, against, [o for o in rl_bench.overrides(args, "out") if o.startswith(("train.", "ppo.rec"))]))
+        seen.append((key, against, [o for o in rl_bench.overrides(args, "out")
+                                    if o.startswith(("train.", "ppo.rec", "env.scene_switch"))]))
         return {"key": key}
     monkeypatch.setattr(node_rl, "_rl_row", record)
     small = dict(size=plan.rl_size, backbone="resnet18", num_steps=plan.rl_num_steps, ppo_epoch=4, mini_batches=1)
     keys = [r["key"] for r in node_rl.graph_act_rows(plan, small, 100.0)]
-    assert keys == ["rl_graph_act", "rl_graph_act_overlap", "rl_graph_act_overlap_compiled"]
+    assert keys == ["rl_graph_act", "rl_graph_act_overlap", "rl_graph_act_overlap_compiled",
+                    "rl_graph_act_overlap_scene_steps"]
     assert all(against == 100.0 and "train.graph_act=true" in o for _, against, o in seen)
     assert "train.overlap=false" in seen[0][2] and "train.compile=false" in seen[0][2]
     assert {"train.overlap=true", "ppo.recompute_advantages=true", "train.compile=false"} <= set(seen[1][2])
     assert {"train.overlap=true", "train.compile=true"} <= set(seen[2][2])
+    assert all({"env.scene_switch_every=8", "env.scene_switch_steps=0"} <= set(o) for _, _, o in seen[:3])
+    assert {"train.overlap=true", "train.compile=false", "env.scene_switch_steps=10000",
+            "env.scene_switch_every=0"} <= set(seen[3][2])
 
 
 @pytest.mark.slow
@@ -441,6 +448,14 @@ def test_env_phases_benchmark_splits_the_envs_step_by_process_count(tmp_path):
     # the two processes' envs also as rvn-rl steps them: worker processes, one process gathering them
     assert re.search(r"as rvn-rl steps them \(2 worker processes, one process gathering their observations each "
                      r"batched step\): \d+ env steps/s, x[\d.]+ the processes on their own", proc.stdout), proc.stdout
+    # Habitat's scene switches (env.scene_switch_steps): none within a short run, and resets are not counted as switches
+    proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "rl_env_phases.py"), "--processes", "1",
+                           "--envs", "2", "--seconds", "0.5", "--warm", "0", "--scenes", "2", "--size", "64",
+                           "--renderer", "raycast", "--scene-switch-steps", "100000"], capture_output=True, text=True,
+                          timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert "a scene switch at the first reset after ~100000 steps in one" in proc.stdout, proc.stdout
+    assert "scene switches in 0.0% of the steps: 0.00 ms a step" in proc.stdout, proc.stdout
 
 
 def test_steady_updates_leave_out_a_runs_first_seconds(monkeypatch):
