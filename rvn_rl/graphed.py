@@ -49,14 +49,19 @@ class GraphedAct:
     def act(self, obs: dict, state: torch.Tensor, prev_actions: torch.Tensor, masks: torch.Tensor,
             deterministic: bool = False, generator: torch.Generator | None = None):
         """`PointNavResNetPolicy.act`'s (action, log-prob, values, new state), by a replay."""
-        if self._inputs is None or not _same_shapes(self._inputs, (obs, state, prev_actions, masks)):
-            self._record(obs, state, prev_actions, masks)
+        fresh = self._inputs is None or not _same_shapes(self._inputs, (obs, state, prev_actions, masks))
+        if fresh:  # static buffers for these shapes, filled below, then the graph recorded on their values
+            device = state.device
+            self._inputs = ({k: torch.empty_like(v, device=device) for k, v in obs.items()}, torch.empty_like(state),
+                            torch.empty_like(prev_actions, device=device), torch.empty_like(masks, device=device))
         s_obs, s_state, s_prev, s_masks = self._inputs
         for k, v in obs.items():
             s_obs[k].copy_(v, non_blocking=True)
         s_state.copy_(state, non_blocking=True)
         s_prev.copy_(prev_actions, non_blocking=True)
         s_masks.copy_(masks, non_blocking=True)
+        if fresh:
+            self._record(state.device)
         if self._graph is not None:
             self._graph.replay()
         else:
@@ -78,16 +83,8 @@ class GraphedAct:
             logits = self.actor.actor(feats)
             return logits, F.softmax(logits, -1), F.log_softmax(logits, -1), self.actor.values(feats), new_state
 
-    def _record(self, obs: dict, state: torch.Tensor, prev_actions: torch.Tensor, masks: torch.Tensor) -> None:
-        device = state.device
-        self._inputs = ({k: torch.empty_like(v, device=device) for k, v in obs.items()}, torch.empty_like(state),
-                        torch.empty_like(prev_actions, device=device), torch.empty_like(masks, device=device))
-        s_obs, s_state, s_prev, s_masks = self._inputs
-        for k, v in obs.items():  # real values for the warm-up passes
-            s_obs[k].copy_(v)
-        s_state.copy_(state)
-        s_prev.copy_(prev_actions)
-        s_masks.copy_(masks)
+    def _record(self, device: torch.device) -> None:
+        """The graph of `_forward` on the static inputs, which hold the first act's values (for the warm-up passes)."""
         self._graph = None
         if not self.cuda_graph:
             self.recorded += 1
