@@ -45,9 +45,10 @@ def plan_and_settings(args, cache_dir: str, workers: int = 0) -> tuple[SimpleNam
     benchmarks/rl.py's arguments (`rl.overrides`) and `node_rl.fill_scene_caches` fills the cache root for."""
     plan = SimpleNamespace(rl_envs=max(1, workers) * args.envs, rl_workers=workers, rl_scenes=args.scenes, rl_threads=1,
                            rl_cache=cache_dir, cpus=max(1, min(os.cpu_count() or 1, 16)))
-    steps = getattr(args, "scene_switch_steps", 0)  # Habitat's scene switches with it, else every 8 resets
+    steps = getattr(args, "scene_switch_steps", 0)  # Habitat's scene switches with it, else rvn-rl's default
+    habitat = {"scene_switch_steps": steps, "scene_switch_every": 0} if steps else {}
     return plan, dict(size=args.size, backbone="resnet18", num_steps=64, ppo_epoch=4, mini_batches=1,
-                      renderer=args.renderer, scene_switch_steps=steps, scene_switch_every=0 if steps else 8)
+                      renderer=args.renderer, **habitat)
 
 
 def overrides(args, cache_dir: str, workers: int = 0) -> list[str]:
@@ -228,8 +229,10 @@ def main(argv: list[str] | None = None) -> None:
         cache = args.cache_dir or tmp  # filled first either way (a filled root is only read: seconds)
         print(f"cache root filled ({args.scenes} scenes' navmeshes and goal pools) in {fill(args, cache):.0f} s",
               flush=True)
+        from rvn_rl.settings import EnvSettings
+
         switch = (f"a scene switch at the first reset after ~{args.scene_switch_steps} steps in one" if
-                  args.scene_switch_steps else "a scene switch every 8 resets")
+                  args.scene_switch_steps else f"a scene switch every {EnvSettings.scene_switch_every} resets")
         print(f"rvn-rl's envs, {args.envs} a process, {args.size}² RGB, renderer={args.renderer}, {args.scenes} train "
               f"scenes, {switch}, random actions, {args.seconds:g} s each ({cpus} CPUs):")
         first = None

@@ -418,7 +418,7 @@ def test_graph_act_rows_run_rvn_rl_with_the_graphed_act(monkeypatch):
     assert "train.overlap=false" in seen[0][2] and "train.compile=false" in seen[0][2]
     assert {"train.overlap=true", "ppo.recompute_advantages=true", "train.compile=false"} <= set(seen[1][2])
     assert {"train.overlap=true", "train.compile=true"} <= set(seen[2][2])
-    assert all({"env.scene_switch_every=8", "env.scene_switch_steps=0"} <= set(o) for _, _, o in seen[:3])
+    assert not any(x.startswith("env.scene_switch") for _, _, o in seen[:3] for x in o)  # rvn-rl's default switches
     assert {"train.overlap=true", "train.compile=false", "env.scene_switch_steps=10000",
             "env.scene_switch_every=0"} <= set(seen[3][2])
 
