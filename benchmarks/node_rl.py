@@ -117,21 +117,27 @@ def rl_rows(plan) -> Iterator[dict]:
 def graph_act_rows(plan, small: dict, against: float) -> Iterator[dict]:
     """With CUDA, scale=small with train.graph_act=true (``rl_graph_act``: each act one CUDA graph's replay, where the
     fourth GPU run's act was ~7.9 ms of host launches against 1.8 ms of kernels), then also with the update overlapped
-    (``rl_graph_act_overlap``: train.overlap=true and ppo.recompute_advantages=true, as rl_overlap), then also with
-    the learner's trunk compiled (``rl_graph_act_overlap_compiled``: train.compile=true, reduce-overhead; an update
-    x1.36 in benchmarks/rl_learner.py on the fifth GPU run), last the overlapped graphed act with Habitat's scene
-    switches (``rl_graph_act_overlap_scene_steps``, `HABITAT_SWITCH`); each names its ratio to the rl row. A graphed
-    act leaves the envs' step and the update as the bounds, which the overlap runs side by side."""
+    (``rl_graph_act_overlap``: train.overlap=true and ppo.recompute_advantages=true, as rl_overlap), then that with
+    the collection double-buffered (``rl_graph_act_overlap_double_buffered``: one half of the env workers steps while
+    the graphed act runs for the other), then with Habitat's scene switches instead
+    (``rl_graph_act_overlap_scene_steps``, `HABITAT_SWITCH`), last with the learner's trunk compiled
+    (``rl_graph_act_overlap_compiled``: train.compile=true, reduce-overhead; an update x1.36 in
+    benchmarks/rl_learner.py on the fifth GPU run; its first update compiles for ~50 s: last, what a short lease
+    loses); each names its ratio to the rl row. A graphed act leaves the envs' step and the update as the bounds, which
+    the overlap runs side by side, and double buffering hides the acts behind the steps."""
     graphed = {**small, "graph_act": True}
     yield _rl_row(plan, "rl_graph_act", "scale=small, train.graph_act=true", graphed, "rl", "", against=against)
     both = {**graphed, "overlap": True, "recompute": True}
     yield _rl_row(plan, "rl_graph_act_overlap", "scale=small, train.graph_act=true, train.overlap=true, "
                   "ppo.recompute_advantages=true", both, "rl", "", against=against)
-    yield _rl_row(plan, "rl_graph_act_overlap_compiled", "scale=small, train.graph_act=true, train.overlap=true, "
-                  "ppo.recompute_advantages=true, train.compile=true", {**both, "compile": True}, "rl", "",
-                  against=against)
+    yield _rl_row(plan, "rl_graph_act_overlap_double_buffered", "scale=small, train.graph_act=true, "
+                  "train.overlap=true, ppo.recompute_advantages=true, train.double_buffered=true",
+                  {**both, "double_buffered": True}, "rl", "", against=against)
     yield _rl_row(plan, "rl_graph_act_overlap_scene_steps", "scale=small, train.graph_act=true, train.overlap=true, "
                   f"ppo.recompute_advantages=true, {HABITAT_LABEL}", {**both, **HABITAT_SWITCH}, "rl", "",
+                  against=against)
+    yield _rl_row(plan, "rl_graph_act_overlap_compiled", "scale=small, train.graph_act=true, train.overlap=true, "
+                  "ppo.recompute_advantages=true, train.compile=true", {**both, "compile": True}, "rl", "",
                   against=against)
 
 
@@ -220,7 +226,8 @@ def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, bas
                f"{args.size}² RGB, renderer={args.renderer}, {args.backbone} (base planes 32), PPO rollouts of {args.num_steps} x {envs} envs, "
                f"{args.ppo_epoch} epochs x {args.mini_batches} mini-batches, {workers} env worker processes, "
                f"{plan.rl_scenes} train scenes, goal pool {args.goal_pool} {plan.rl_filled}, "
-               f"{len(counted)} updates timed ({seconds:.1f} s) after a run's first {warm:g} s; time: envs stepping "
+               f"{len(counted)} updates timed ({seconds:.1f} s) after a run's first {warm:g} s; time: "
+               f"{'waiting for the envs' if settings.get('double_buffered') else 'envs stepping'} "
                f"{100 * share('time_envs'):.0f}%, "
                f"policy and storage {100 * (1 - share('time_envs') - share('time_learn')):.0f}%, "
                f"{'waiting for the PPO update' if settings.get('overlap') else 'PPO update'} "

@@ -41,6 +41,7 @@ def overrides(args, out_dir: str) -> list[str]:
             f"train.overlap={str(getattr(args, 'overlap', False)).lower()}",
             f"ppo.recompute_advantages={str(getattr(args, 'recompute', False)).lower()}",
             f"train.graph_act={str(getattr(args, 'graph_act', False)).lower()}",
+            f"train.double_buffered={str(getattr(args, 'double_buffered', False)).lower()}",
             ] + ([f"cache_dir={args.cache_dir}"] if getattr(args, "cache_dir", None) else []) + [  # else out_dir/cache
                 f"env.{k}={getattr(args, k)}" for k in ("scene_switch_every", "scene_switch_steps")
                 if getattr(args, k, None) is not None]  # else rvn-rl's default scene switches

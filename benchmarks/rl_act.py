@@ -83,7 +83,7 @@ def main() -> None:
     graphed = GraphedAct(policy)
     sec, got = timed(graphed, frames, device, state, args.acts, args.repeats)
     line("graphed (train.graph_act)", sec)
-    if graphed._graph is None:
+    if not graphed.graphs:
         print("  the graph's recording FAILED (the warning above): the graphed line's acts ran one kernel at a time")
     same = sum(np.array_equal(a, b) for a, b in zip(want, got))
     print(f"  graphed acts with the plain act's actions: {same} of {len(want)}")

@@ -84,6 +84,10 @@ class RLConfig:
         if self.train.overlap and (self.algo.distributed or world_size > 1):
             raise ValueError(f"train.overlap=true learns in a thread of one process; algo={self.algo.name} runs "
                              "DD-PPO's ranks, whose collectives that thread would interleave: use train.overlap=false")
+        if self.train.double_buffered and env.workers < 2:
+            raise ValueError(f"train.double_buffered=true steps one half of the env workers while the policy acts for "
+                             f"the other: it needs env.workers >= 2 (env.workers={env.workers}); set env.workers=2 or "
+                             "more, or train.double_buffered=false")
         if not 0.0 < self.ddppo.sync_frac <= 1.0:
             raise ValueError(f"ddppo.sync_frac={self.ddppo.sync_frac!r} must be in (0, 1]")
         self._check_depth()

@@ -33,23 +33,31 @@ class RolloutStorage:
         self.masks[0].copy_(masks)
         self.step = 0
 
-    def current(self) -> tuple[dict, torch.Tensor, torch.Tensor]:
-        t = self.step
-        return {k: v[t] for k, v in self.obs.items()}, self.prev_actions[t], self.masks[t]
+    def current(self, envs: slice = slice(None)) -> tuple[dict, torch.Tensor, torch.Tensor]:
+        """The acting inputs (observation, previous action, mask) of the envs ``envs`` at the current step."""
+        return self.inputs(self.step, envs)
 
-    def insert(self, obs: dict, actions, logp, values, rewards, done: np.ndarray) -> None:
-        """Transition ``step`` (its action, log-prob, value, rewards [N, heads]) and the next
-        observation; ``done`` marks envs whose episode ended with this action."""
-        t = self.step
-        self.actions[t].copy_(actions)
-        self.logp[t].copy_(logp)
-        self.values[t].copy_(values)
-        self.rewards[t].copy_(torch.as_tensor(rewards))
+    def inputs(self, t: int, envs: slice = slice(None)) -> tuple[dict, torch.Tensor, torch.Tensor]:
+        return {k: v[t, envs] for k, v in self.obs.items()}, self.prev_actions[t, envs], self.masks[t, envs]
+
+    def insert(self, obs: dict, actions, logp, values, rewards, done: np.ndarray, envs: slice | None = None) -> None:
+        """Transition ``step`` (its action, log-prob, value, rewards [N, heads]) and the next observation; ``done``
+        marks envs whose episode ended with this action. With ``envs`` (a slice: train.double_buffered's half), those
+        envs' columns only, and the step stays: `advance` once every env's transition is in."""
+        t, cols = self.step, slice(None) if envs is None else envs
+        self.actions[t, cols].copy_(actions)
+        self.logp[t, cols].copy_(logp)
+        self.values[t, cols].copy_(values)
+        self.rewards[t, cols].copy_(torch.as_tensor(rewards))
         for k, v in obs.items():
-            self.obs[k][t + 1].copy_(torch.as_tensor(v))
-        self.prev_actions[t + 1].copy_(actions)
-        self.masks[t + 1].copy_(torch.as_tensor(~done, dtype=torch.float32))
-        self.step = t + 1
+            self.obs[k][t + 1, cols].copy_(torch.as_tensor(v))
+        self.prev_actions[t + 1, cols].copy_(actions)
+        self.masks[t + 1, cols].copy_(torch.as_tensor(~done, dtype=torch.float32))
+        if envs is None:
+            self.advance()
+
+    def advance(self) -> None:
+        self.step += 1
 
     def compute_returns(self, next_values: torch.Tensor, gamma: float, tau: float) -> torch.Tensor:
         """GAE(gamma, tau) returns per head; returns the advantages [step, N, heads]."""

@@ -150,6 +150,13 @@ class TrainSettings:
     # launches against 1.8 ms of kernels (docs/results/2026-12-04_gpu4); on a CPU it acts as without it (a warning).
     # Off until a GPU run has measured it
     graph_act: bool = False
+    # Sample Factory's double-buffered sampling: the env workers in two halves, one stepping while the policy acts for
+    # the other (`rvn_rl.collect`), so an act's time hides behind the other half's step instead of adding to it; needs
+    # env.workers >= 2. Each env's transitions are the plain loop's (on a CPU its actions too, to the byte; a GPU draws
+    # them otherwise from the same probabilities). Two acts a step of half the envs each: for a GPU with
+    # train.graph_act, where an act is a graph's replay; with acts of host launches (~7.9 ms for 30 envs or 15 alike on
+    # the fourth H200 run) two halves' acts would take longer than one. Off until a GPU run has measured it
+    double_buffered: bool = False
 
     def __post_init__(self) -> None:
         if isinstance(self.total_steps, float) and self.total_steps.is_integer():

@@ -1,12 +1,13 @@
 """The rvn-rl training loop. `train` checks the settings, device and out_dir (nothing is written before), then
 builds the `Run` (policy, its learner replica, optimiser, Lagrange multiplier, counters, resumed from out_dir's
 latest checkpoint when there is one), the environments and the log, and runs `_loop`: collect a rollout of
-``ppo.num_steps`` steps (DD-PPO ranks may stop early once ``ddppo.sync_frac`` of the ranks finished), GAE, the
-Lagrange multiplier for PPO-Lagrangian, a PPO update through a DistributedDataParallel replica when distributed,
-the log row and resumable checkpoints in ``out_dir``. Each setting group goes to where it acts: ``ppo`` to the
-rollout and the update, ``env`` to the environments, ``algo`` to the multiplier, ``train`` to the loop's length,
-checkpoints, the visual trunk's precision and compilation, and ``train.overlap`` (each update in a learner thread
-while a copy of the policy collects the next rollout: `rvn_rl.overlap`)."""
+``ppo.num_steps`` steps (`rvn_rl.collect`; DD-PPO ranks may stop early once ``ddppo.sync_frac`` of the ranks
+finished), GAE, the Lagrange multiplier for PPO-Lagrangian, a PPO update through a DistributedDataParallel replica
+when distributed, the log row and resumable checkpoints in ``out_dir``. Each setting group goes to where it acts:
+``ppo`` to the rollout and the update, ``env`` to the environments, ``algo`` to the multiplier, ``train`` to the
+loop's length, checkpoints, the visual trunk's precision and compilation, ``train.overlap`` (each update in a learner
+thread while a copy of the policy collects the next rollout: `rvn_rl.overlap`), ``train.graph_act`` (`rvn_rl.graphed`)
+and ``train.double_buffered`` (`rvn_rl.collect`)."""
 from __future__ import annotations
 
 import logging
@@ -25,13 +26,14 @@ from rvn_data.numba_note import note_first_compile
 from rvn_il.train.choices import check_precision_on
 
 from . import checkpoint as ck
+from .collect import collect
 from .config import RLConfig
-from .distrib import Dist, all_sum, init, pick_device, shutdown
+from .distrib import Dist, init, pick_device, shutdown
 from .graphed import GraphedAct
 from .model import PointNavResNetPolicy
 from .overlap import LearnerThread, actor_generator, make_actor
 from .ppo import Lagrange, ppo_update
-from .rollout import DeviceRollouts, RolloutStorage, to_device
+from .rollout import DeviceRollouts, RolloutStorage
 from .runlog import RunLog, episode_sums, plot_learning_curve, summary
 from .settings import AlgoConfig, PPOConfig, TrainSettings
 from .vec_env import make_envs
@@ -174,38 +176,6 @@ def train(cfg: RLConfig, on_checked=None) -> dict:
         shutdown()
 
 
-def _collect(actor, envs, rollouts: RolloutStorage, state: torch.Tensor, run: Run, cfg: RLConfig, d: Dist, device,
-             heads: int, generator: torch.Generator | None = None) -> tuple:
-    """A rollout of ``ppo.num_steps`` steps into ``rollouts`` (fewer when DD-PPO pre-empts it) acted by ``actor``
-    (actions drawn from ``generator``, else torch's global one), and its GAE returns. Returns the recurrent state after
-    it, the episodes that ended, the seconds the envs stepped and the env steps over all ranks."""
-    ppo, n = cfg.ppo, envs.num_envs
-    actor.eval()
-    episodes, t_env = [], 0.0
-    for step in range(ppo.num_steps):
-        o, prev, masks = rollouts.current()
-        with torch.no_grad():
-            action, logp, values, state = actor.act(to_device(o, device), state, prev.to(device), masks.to(device),
-                                                    generator=generator)
-        actions = action.cpu().numpy()
-        t_step = time.perf_counter()
-        obs, reward, cost, done, infos = envs.step(actions)
-        t_env += time.perf_counter() - t_step
-        rewards = np.stack([reward, cost], -1) if heads == 2 else reward[:, None]
-        rollouts.insert(obs, action.cpu(), logp.cpu(), values.cpu(), rewards, done)
-        episodes += [info["episode"] for info in infos if "episode" in info]
-        if d.should_end_early(step + 1, ppo.num_steps, run.updates, cfg.ddppo.sync_frac):
-            break
-    d.rollout_done(run.updates)
-    delta = int(all_sum(torch.tensor([float(rollouts.step * n)], dtype=torch.float64))[0])  # env steps, all ranks
-    o, prev, masks = rollouts.current()
-    with torch.no_grad():
-        feats, _ = actor(to_device(o, device), state, prev.to(device), masks.to(device))
-        next_values = actor.values(feats).cpu()
-    rollouts.compute_returns(next_values, ppo.gamma, ppo.tau)
-    return state, episodes, t_env, delta
-
-
 def _loop(run: Run, envs, log: RunLog, cfg: RLConfig, d: Dist, device, out_dir: Path, actor=None) -> dict:
     """Rollouts and updates until ``train.total_steps`` env steps; rank 0 checkpoints every
     ``train.checkpoint_every`` updates and at the end, and closes with the run's summary. With ``actor``
@@ -231,7 +201,7 @@ def _loop(run: Run, envs, log: RunLog, cfg: RLConfig, d: Dist, device, out_dir: 
                disable=d.rank != 0 or not cfg.progress, smoothing=0.1)
     t_start, steps_start = time.perf_counter(), run.env_steps
     t0, cur = t_start, 0
-    state, episodes, t_env, delta = _collect(actor, envs, buffers[cur], state, run, cfg, d, device, heads, acts)
+    state, episodes, t_env, delta = collect(actor, envs, buffers[cur], state, run, cfg, d, device, heads, acts)
     t_collect = time.perf_counter() - t0
     try:
         while True:
@@ -247,7 +217,7 @@ def _loop(run: Run, envs, log: RunLog, cfg: RLConfig, d: Dist, device, out_dir: 
             update = learner.start(ppo_update, run.learner, run.optimizer, batches[cur], ppo, run.gen, run.lagrange)
             if overlapped:  # the next rollout while the update runs, by the weights from before it
                 buffers[1 - cur].continue_from(buffers[cur], state.cpu())
-                nxt = (1 - cur, *_collect(actor, envs, buffers[1 - cur], state, run, cfg, d, device, heads, acts),
+                nxt = (1 - cur, *collect(actor, envs, buffers[1 - cur], state, run, cfg, d, device, heads, acts),
                        time.perf_counter() - t_learn)  # ..., the next rollout's seconds
                 t_learn = time.perf_counter()  # from here, the wait for the update
                 losses = update.result()
@@ -260,7 +230,8 @@ def _loop(run: Run, envs, log: RunLog, cfg: RLConfig, d: Dist, device, out_dir: 
             run.updates += 1
             t_update = time.perf_counter() - t0
             scalars = {"fps": delta / t_update, "fps_collect": delta / max(t_collect, 1e-9), **losses,
-                       # shares of the update's time (train.overlap: the learner's share is what the envs waited for it)
+                       # shares of the update's time (train.overlap: the learner's share is what the envs waited for
+                       # it; train.double_buffered: the envs' share is what the loop waited for them, acting meanwhile)
                        "time_envs": t_env / t_update, "time_learn": t_learn / t_update,
                        # 0 for an overlapped run's last update: its time holds no collection (its fps is the
                        # drain's), so steady-state figures leave it out
@@ -279,7 +250,7 @@ def _loop(run: Run, envs, log: RunLog, cfg: RLConfig, d: Dist, device, out_dir: 
             if overlapped:  # collected while the update ran
                 cur, state, episodes, t_env, delta, t_collect = nxt
             else:
-                state, episodes, t_env, delta = _collect(actor, envs, buffers[cur], state, run, cfg, d, device, heads, acts)
+                state, episodes, t_env, delta = collect(actor, envs, buffers[cur], state, run, cfg, d, device, heads, acts)
                 t_collect = time.perf_counter() - t0
     finally:
         learner.close()

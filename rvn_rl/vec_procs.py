@@ -114,13 +114,14 @@ class ProcessBatchEnv:
                 self.conns.append(parent)
                 self.procs.append(p)
         self.blocks = [ObsBlocks() for _ in range(workers)]
+        self._stepping: set[int] = set()  # workers with a step sent and not yet received
         for _ in self._gather():
             pass
 
-    def _gather(self) -> list:
+    def _gather(self, workers: range | None = None) -> list:
         out = []
-        for conn in self.conns:
-            status, value = conn.recv()
+        for w in range(len(self.conns)) if workers is None else workers:
+            status, value = self.conns[w].recv()
             if status == "error":
                 self.close()
                 raise ValueError(f"env worker: {value}")
@@ -137,17 +138,53 @@ class ProcessBatchEnv:
             conn.send(("reset", None))
         return self._with_depth(gather_obs(self.blocks, [p[0] for p in self._gather()]))
 
-    def step(self, actions):
-        """(obs, reward, cost, done, infos) as `BatchEnv.step`; infos hold only ``episode``."""
+    def halves(self) -> list[slice]:
+        """The envs of the first and the second half of the workers (train.double_buffered: one half steps while the
+        policy acts for the other), as slices of the batch; each holds whole workers."""
+        if len(self.conns) < 2:
+            raise ValueError(f"two halves of env workers need env.workers >= 2 (has {len(self.conns)})")
+        mid = int(self.bounds[(len(self.conns) + 1) // 2])
+        return [slice(0, mid), slice(mid, self.num_envs)]
+
+    def _workers(self, envs: slice) -> range:
+        """The workers that own exactly the envs ``envs`` (a slice of whole workers: `halves`, or all)."""
+        start, stop, _ = envs.indices(self.num_envs)
+        first, last = np.searchsorted(self.bounds, [start, stop])
+        if self.bounds[first] != start or self.bounds[last] != stop or envs.step not in (None, 1):
+            raise ValueError(f"envs {start}:{stop} are not whole workers (their bounds: {self.bounds.tolist()})")
+        return range(int(first), int(last))
+
+    def send_step(self, actions, envs: slice = slice(None)) -> None:
+        """Start the envs ``envs`` (whole workers) on ``actions`` (one each) and return at once; `recv_step` with the
+        same slice collects their step. Each worker steps its envs in its own process meanwhile."""
         actions = np.asarray(actions).reshape(-1)
-        if actions.shape[0] != self.num_envs:
-            raise ValueError(f"ProcessBatchEnv.step: {actions.shape[0]} actions for {self.num_envs} envs")
-        for w, conn in enumerate(self.conns):
-            conn.send(("step", actions[self.bounds[w]:self.bounds[w + 1]]))
-        parts = self._gather()
-        obs = self._with_depth(gather_obs(self.blocks, [p[0] for p in parts]))
+        workers = self._workers(envs)
+        lo = self.bounds[workers.start]
+        if actions.shape[0] != self.bounds[workers.stop] - lo:
+            raise ValueError(f"ProcessBatchEnv.step: {actions.shape[0]} actions for "
+                             f"{self.bounds[workers.stop] - lo} envs")
+        if self._stepping.intersection(workers):
+            raise RuntimeError(f"envs {envs}: a step is already under way (recv_step first)")
+        for w in workers:
+            self.conns[w].send(("step", actions[self.bounds[w] - lo:self.bounds[w + 1] - lo]))
+        self._stepping.update(workers)
+
+    def recv_step(self, envs: slice = slice(None)):
+        """(obs, reward, cost, done, infos) of the envs ``envs``' step that `send_step` started, as `BatchEnv.step`'s;
+        infos hold only ``episode``."""
+        workers = self._workers(envs)
+        if not self._stepping.issuperset(workers):
+            raise RuntimeError(f"envs {envs}: no step under way (send_step first)")
+        self._stepping.difference_update(workers)
+        parts = self._gather(workers)
+        obs = self._with_depth(gather_obs(self.blocks[workers.start:workers.stop], [p[0] for p in parts]))
         reward, cost, done = (np.concatenate([p[k] for p in parts]) for k in (1, 2, 3))
         return obs, reward, cost, done, [i for p in parts for i in p[4]]
+
+    def step(self, actions):
+        """(obs, reward, cost, done, infos) as `BatchEnv.step`; infos hold only ``episode``."""
+        self.send_step(actions)
+        return self.recv_step()
 
     def close(self) -> None:
         for blocks in getattr(self, "blocks", []):

@@ -73,6 +73,8 @@ def test_record_keeps_config_yaml_layout():
     (["algo=ppo_lag", "algo.lambda_max=0"], "algo.lambda_max=0.0 must be > 0"),
     (["algo=ddppo_depth", "depth.source=sensor"], "depth.source='sensor': choose model"),
     (["episodes.seed=4"], "episodes.seed=4 does nothing in rvn-rl"),
+    (["train.double_buffered=true", "env.workers=1"], "train.double_buffered=true steps one half of the env workers "
+     "while the policy acts for the other: it needs env.workers >= 2 (env.workers=1)"),
 ])
 def test_validate_names_the_setting(args, line):
     cfg = compose(TINY + args)

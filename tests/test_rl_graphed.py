@@ -60,12 +60,20 @@ def test_static_act_gives_the_plain_acts_across_resets_and_updates():
     assert len({tuple(a[0].tolist()) for a in want}) > 1  # the actions vary: the comparison says something
 
 
-def test_a_batch_of_other_shapes_records_again():
-    _, policy = policies("cpu")
-    graphed = GraphedAct(policy, cuda_graph=False)
-    acts(graphed, policy, "cpu", steps=2, n=3)
-    acts(graphed, policy, "cpu", steps=2, n=2)
+def test_each_batch_shape_records_once_and_alternating_shapes_replay_their_own():
+    """train.double_buffered acts for two halves of the envs in turn (16 and 14 envs in scale=small): one recording
+    each, then each half's acts are the plain act's on that half."""
+    plain, same = policies("cpu")
+    graphed = GraphedAct(same, cuda_graph=False)
+    halves = [[], []]
+    for t in range(4):
+        for h, n in enumerate((3, 2)):
+            halves[h].append(acts(graphed, same, "cpu", steps=1, n=n, seed=10 * t + h)[0])
     assert graphed.recorded == 2
+    for h, n in enumerate((3, 2)):
+        want = [acts(plain, plain, "cpu", steps=1, n=n, seed=10 * t + h)[0] for t in range(4)]
+        for a, b in zip(want, halves[h], strict=True):
+            assert all(torch.equal(x, y) for x, y in zip(a, b)), (a, b)
 
 
 @CUDA
@@ -75,7 +83,7 @@ def test_cuda_graph_act_gives_the_plain_acts():
     plain, same = policies("cuda")
     graphed = GraphedAct(same, cuda_graph=True)
     want, got = acts(plain, plain, "cuda"), acts(graphed, same, "cuda")
-    assert graphed.recorded == 1 and graphed._graph is not None
+    assert graphed.recorded == 1 and len(graphed.graphs) == 1
     for (a, la, va, sa), (b, lb, vb, sb) in zip(want, got, strict=True):
         assert torch.equal(a, b)
         torch.testing.assert_close(lb, la)

@@ -33,7 +33,7 @@ def run(monkeypatch, out, threaded: bool, device: str) -> tuple[list, list, list
     from rvn_rl.cli import compose
 
     collected, updates = [], []
-    collect, update = trainer._collect, trainer.ppo_update
+    collect, update = trainer.collect, trainer.ppo_update
 
     def recording_collect(actor, *args, **kwargs):
         collected.append(digest(actor))
@@ -48,7 +48,7 @@ def run(monkeypatch, out, threaded: bool, device: str) -> tuple[list, list, list
             super().__init__(overlap and threaded, device)
 
     with monkeypatch.context() as patch:
-        patch.setattr(trainer, "_collect", recording_collect)
+        patch.setattr(trainer, "collect", recording_collect)
         patch.setattr(trainer, "ppo_update", recording_update)
         patch.setattr(trainer, "LearnerThread", Learner)
         trainer.train(compose(["algo=ppo", f"out_dir={out}", "train.overlap=true", f"device={device}", *TINY]))
