@@ -16,11 +16,6 @@ Run: python benchmarks/rl_double_buffered.py [--envs 4] [--workers 2] [--updates
 from __future__ import annotations
 
 import argparse
-import json
-import tempfile
-import time
-from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 
@@ -29,14 +24,9 @@ def one_run(args, double: bool, cache: str) -> tuple[float, float, float] | None
     """(env steps/s of collection alone, of collection + learning, the collection's share waiting for the envs) over
     one rvn-rl run's steady updates (None without any)."""
     import rl as rl_bench
-    from rvn_rl.cli import compose
-    from rvn_rl.trainer import train
+    import rl_overlap
 
-    with tempfile.TemporaryDirectory() as tmp:
-        spec = SimpleNamespace(**vars(args), cache_dir=cache, double_buffered=double)
-        train(compose(rl_bench.overrides(spec, f"{tmp}/run") + [f"device={args.device}"]))
-        rows = rl_bench.steady_updates([json.loads(line) for line in
-                                        (Path(tmp) / "run" / "metrics.jsonl").read_text().splitlines()])
+    rows = rl_overlap.steady_rows(args, cache, double_buffered=double)
     if not rows:
         return None
     steps = np.array([r["rollout_steps"] * args.envs for r in rows])
@@ -47,41 +37,24 @@ def one_run(args, double: bool, cache: str) -> tuple[float, float, float] | None
 
 
 def main() -> None:
+    import rl_overlap
+
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--size", type=int, default=128)
-    p.add_argument("--envs", type=int, default=4)
-    p.add_argument("--workers", type=int, default=2, help="env worker processes (at least 2: two halves)")
-    p.add_argument("--scenes", type=int, default=4)
-    p.add_argument("--updates", type=int, default=4, help="updates a run (the first not counted)")
-    p.add_argument("--num-steps", type=int, default=32, help="rollout length")
-    p.add_argument("--ppo-epoch", type=int, default=2)
-    p.add_argument("--mini-batches", type=int, default=2)
-    p.add_argument("--threads", type=int, default=1, help="torch intra-op threads of the loop")
-    p.add_argument("--base-planes", type=int, default=16, help="ResNet-18 base width")
-    p.add_argument("--renderer", default="auto")
-    p.add_argument("--goal-pool", type=int, default=64)
-    p.add_argument("--device", default="cpu")
+    rl_overlap.loop_arguments(p, workers=2)  # the same run's arguments, at least 2 workers: two halves
     p.add_argument("--graph-act", action="store_true", help="train.graph_act=true in both (a CUDA graph's replay an "
                    "act; on a CPU the acts run as without it)")
-    p.add_argument("--rounds", type=int, default=2, help="off/on pairs")
     args = p.parse_args()
     if args.updates < 2 or args.rounds < 1 or args.envs < args.mini_batches or not 2 <= args.workers <= args.envs:
         p.error("--updates must be at least 2, --rounds at least 1, --envs at least --mini-batches, --workers "
                 "between 2 and --envs")
     args.backbone = "resnet18"
-    runs = {False: [], True: []}
-    with tempfile.TemporaryDirectory() as cache:
-        one_run(SimpleNamespace(**{**vars(args), "updates": 1}), False, cache)  # fills the cache root's scenes, untimed
-        t = time.perf_counter()
-        for _ in range(args.rounds):
-            for double in (False, True):
-                runs[double].append(one_run(args, double, cache))
+    runs, seconds = rl_overlap.alternated(args, one_run)
     if not all(runs[True] + runs[False]):
         raise SystemExit("no steady update to count: raise --updates")
     print(f"rvn-rl PPO collection, {args.size}² RGB, ResNet-18 (base {args.base_planes}), {args.envs} envs in "
           f"{args.workers} worker processes, rollouts of {args.num_steps}, {args.threads} torch thread(s), "
           f"{args.device}{', train.graph_act=true' if args.graph_act else ''}; {args.updates - 1} updates counted a "
-          f"run, {args.rounds} run(s) each, alternated ({time.perf_counter() - t:.0f} s):")
+          f"run, {args.rounds} run(s) each, alternated ({seconds:.0f} s):")
     rate = {}
     for double, results in runs.items():
         collect, both, waiting = (np.array([r[i] for r in results]) for i in range(3))

@@ -25,19 +25,23 @@ from types import SimpleNamespace
 import numpy as np
 
 
-def one_run(args, overlap: bool, cache: str) -> tuple[float, dict] | None:
-    """(env steps/s of the steady-state updates, their time-weighted shares) of one rvn-rl run (None without any):
-    `rl.steady_updates`, so not the first and, overlapped, not the last either."""
+def steady_rows(args, cache: str, **settings) -> list[dict]:
+    """The metrics rows of one rvn-rl run's steady updates (`rl.steady_updates`: not the first and, overlapped, not
+    the last either) over the cache root ``cache``: ``args`` and ``settings`` (`rl.overrides`' names) on ``args.device``."""
     import rl as rl_bench
     from rvn_rl.cli import compose
     from rvn_rl.trainer import train
 
     with tempfile.TemporaryDirectory() as tmp:
-        spec = SimpleNamespace(**vars(args), cache_dir=cache, recompute=overlap and args.recompute_advantages)
-        train(compose(rl_bench.overrides(spec, f"{tmp}/run") + [f"device={args.device}",
-                                                                 f"train.overlap={str(overlap).lower()}"]))
-        rows = rl_bench.steady_updates([json.loads(line) for line in
+        spec = SimpleNamespace(**{**vars(args), **settings}, cache_dir=cache)
+        train(compose(rl_bench.overrides(spec, f"{tmp}/run") + [f"device={args.device}"]))
+        return rl_bench.steady_updates([json.loads(line) for line in
                                         (Path(tmp) / "run" / "metrics.jsonl").read_text().splitlines()])
+
+
+def one_run(args, overlap: bool, cache: str) -> tuple[float, dict] | None:
+    """(env steps/s of the steady-state updates, their time-weighted shares) of one rvn-rl run (None without any)."""
+    rows = steady_rows(args, cache, overlap=overlap, recompute=overlap and args.recompute_advantages)
     if not rows:
         return None
     steps = np.array([r["rollout_steps"] * args.envs for r in rows])
@@ -46,11 +50,12 @@ def one_run(args, overlap: bool, cache: str) -> tuple[float, dict] | None:
     return float(steps.sum() / seconds.sum()), shares
 
 
-def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def loop_arguments(p: argparse.ArgumentParser, workers: int) -> None:
+    """The run's arguments that this benchmark and benchmarks/rl_double_buffered.py share (`rl.overrides` reads them),
+    with ``--workers`` defaulting to ``workers``, and ``--rounds``."""
     p.add_argument("--size", type=int, default=128)
     p.add_argument("--envs", type=int, default=4)
-    p.add_argument("--workers", type=int, default=1, help="env worker processes (0: in the loop's process)")
+    p.add_argument("--workers", type=int, default=workers, help="env worker processes (0: in the loop's process)")
     p.add_argument("--scenes", type=int, default=4)
     p.add_argument("--updates", type=int, default=4, help="updates a run (the first not counted, nor an "
                    "overlapped run's last)")
@@ -61,29 +66,41 @@ def main() -> None:
     p.add_argument("--base-planes", type=int, default=16, help="ResNet-18 base width")
     p.add_argument("--renderer", default="auto")
     p.add_argument("--goal-pool", type=int, default=64)
-    p.add_argument("--precision", default="fp32")
-    p.add_argument("--compile", action="store_true", help="train.compile=true (the learner's trunk compiled; on a GPU "
-                   "as CUDA graphs): each run compiles in its first, uncounted update")
     p.add_argument("--device", default="cpu")
-    p.add_argument("--recompute-advantages", action="store_true",
-                   help="the overlapped runs with ppo.recompute_advantages=true (the recipe's pairing)")
     p.add_argument("--rounds", type=int, default=2, help="off/on pairs")
-    args = p.parse_args()
-    if args.updates < 3 or args.rounds < 1 or args.envs < args.mini_batches:
-        p.error("--updates must be at least 3, --rounds at least 1, --envs at least --mini-batches")
-    args.backbone = "resnet18"
+
+
+def alternated(args, one_run) -> tuple[dict, float]:
+    """``one_run(args, on, cache)`` off then on, ``args.rounds`` times, over one cache root that an untimed first run
+    of one update fills. Returns {False: [...], True: [...]} of the runs' results and the timed runs' seconds."""
     runs = {False: [], True: []}
     with tempfile.TemporaryDirectory() as cache:
         one_run(SimpleNamespace(**{**vars(args), "updates": 1}), False, cache)  # fills the cache root's scenes, untimed
         t = time.perf_counter()
         for _ in range(args.rounds):
-            for overlap in (False, True):
-                runs[overlap].append(one_run(args, overlap, cache))
+            for on in (False, True):
+                runs[on].append(one_run(args, on, cache))
+    return runs, time.perf_counter() - t
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    loop_arguments(p, workers=1)
+    p.add_argument("--precision", default="fp32")
+    p.add_argument("--compile", action="store_true", help="train.compile=true (the learner's trunk compiled; on a GPU "
+                   "as CUDA graphs): each run compiles in its first, uncounted update")
+    p.add_argument("--recompute-advantages", action="store_true",
+                   help="the overlapped runs with ppo.recompute_advantages=true (the recipe's pairing)")
+    args = p.parse_args()
+    if args.updates < 3 or args.rounds < 1 or args.envs < args.mini_batches:
+        p.error("--updates must be at least 3, --rounds at least 1, --envs at least --mini-batches")
+    args.backbone = "resnet18"
+    runs, seconds = alternated(args, one_run)
     where = f"{args.workers} worker processes" if args.workers else "the loop's process"
     print(f"rvn-rl PPO collection + learning, {args.size}² RGB, ResNet-18 (base {args.base_planes}), {args.envs} envs in "
           f"{where}, rollouts of {args.num_steps}, {args.ppo_epoch} epochs x {args.mini_batches} mini-batches, "
           f"{args.threads} torch thread(s), {args.device}, {args.precision}{', compiled' if args.compile else ''}; {args.updates - 1} updates counted a plain run, {args.updates - 2} an overlapped one, "
-          f"{args.rounds} run(s) each, alternated ({time.perf_counter() - t:.0f} s):")
+          f"{args.rounds} run(s) each, alternated ({seconds:.0f} s):")
     rate = {}
     for overlap, results in runs.items():
         rates = [r for r, _ in results]
