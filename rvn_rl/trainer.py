@@ -134,6 +134,11 @@ def train(cfg: RLConfig, on_checked=None) -> dict:
                 logger.warning("train.graph_act=true records the act as a CUDA graph, and this run's device is %s: "
                                "its acts run as without it (the same actions); use device=cuda on a GPU",
                                device.type)
+            if cfg.train.double_buffered and device.type == "cpu":
+                logger.warning("train.double_buffered=true on a CPU: the acts' convolutions share the cores with the "
+                               "env workers and cost about as much for half the envs as for all (collection x0.83 on "
+                               "the 2-core development CPU, rvn_rl/README.md); it is meant for a GPU with "
+                               "train.graph_act=true")
             if cfg.train.precision == "bf16" and device.type == "cpu" and not native_bf16_cpu():
                 logger.warning("train.precision=bf16 on a CPU without native bfloat16 (AVX512-BF16 or AMX): its "
                                "convolutions are emulated, 16x slower than float32 in a measurement "

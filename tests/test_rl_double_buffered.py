@@ -6,6 +6,7 @@ leaves no step under way."""
 from __future__ import annotations
 
 import json
+import logging
 from types import SimpleNamespace
 
 import numpy as np
@@ -78,9 +79,13 @@ def run(monkeypatch, out, *overrides: str) -> tuple[list[dict], list[dict]]:
     return rollouts, [json.loads(line) for line in (out / "metrics.jsonl").read_text().splitlines()]
 
 
-def test_rvn_rl_double_buffered_collects_the_plain_runs_transitions(monkeypatch, tmp_path):
+def test_rvn_rl_double_buffered_collects_the_plain_runs_transitions(monkeypatch, tmp_path, caplog):
+    """On a CPU, with a warning that it is meant for a GPU."""
     plain, plain_rows = run(monkeypatch, tmp_path / "plain")
-    double, rows = run(monkeypatch, tmp_path / "double", "train.double_buffered=true")
+    assert not any("train.double_buffered" in r.message for r in caplog.records)
+    with caplog.at_level(logging.WARNING, logger="rvn_rl.trainer"):
+        double, rows = run(monkeypatch, tmp_path / "double", "train.double_buffered=true")
+    assert any("train.double_buffered=true on a CPU" in r.message for r in caplog.records)
     assert len(plain) == len(double) == 2  # train.total_steps=48 in rollouts of 8 steps of 3 envs
     for want, got in zip(plain, double, strict=True):
         for key in ("actions", "rewards", "masks", "rgb"):
