@@ -154,9 +154,9 @@ class TrainSettings:
     # the other (`rvn_rl.collect`), so an act's time hides behind the other half's step instead of adding to it; needs
     # env.workers >= 2. Each env's transitions are the plain loop's (on a CPU its actions too, to the byte; a GPU draws
     # them otherwise from the same probabilities). Two acts a step of half the envs each: for a GPU with
-    # train.graph_act, where an act is a graph's replay; with acts of host launches (~7.9 ms for 30 envs or 15 alike on
-    # the fourth H200 run) two halves' acts would take longer than one; on a CPU slower (a warning). Off until a GPU
-    # run has measured it
+    # train.graph_act, where an act is a graph's replay; an act of host launches (~7.9 ms for 30 envs on the fourth
+    # H200 run, 1.8 ms of it kernels) would take about as long for half the envs, so two halves' acts would cost more
+    # than they hide; on a CPU slower (a warning). Off until a GPU run has measured it
     double_buffered: bool = False
 
     def __post_init__(self) -> None:
