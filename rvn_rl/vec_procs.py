@@ -154,6 +154,9 @@ class ProcessBatchEnv:
             raise ValueError(f"envs {start}:{stop} are not whole workers (their bounds: {self.bounds.tolist()})")
         return range(int(first), int(last))
 
+    def _span(self, workers: range) -> str:
+        return f"{self.bounds[workers.start]}:{self.bounds[workers.stop]}"
+
     def send_step(self, actions, envs: slice = slice(None)) -> None:
         """Start the envs ``envs`` (whole workers) on ``actions`` (one each) and return at once; `recv_step` with the
         same slice collects their step. Each worker steps its envs in its own process meanwhile."""
@@ -164,7 +167,7 @@ class ProcessBatchEnv:
             raise ValueError(f"ProcessBatchEnv.step: {actions.shape[0]} actions for "
                              f"{self.bounds[workers.stop] - lo} envs")
         if self._stepping.intersection(workers):
-            raise RuntimeError(f"envs {envs}: a step is already under way (recv_step first)")
+            raise RuntimeError(f"envs {self._span(workers)}: a step is already under way (recv_step first)")
         for w in workers:
             self.conns[w].send(("step", actions[self.bounds[w] - lo:self.bounds[w + 1] - lo]))
         self._stepping.update(workers)
@@ -174,7 +177,7 @@ class ProcessBatchEnv:
         infos hold only ``episode``."""
         workers = self._workers(envs)
         if not self._stepping.issuperset(workers):
-            raise RuntimeError(f"envs {envs}: no step under way (send_step first)")
+            raise RuntimeError(f"envs {self._span(workers)}: no step under way (send_step first)")
         self._stepping.difference_update(workers)
         parts = self._gather(workers)
         obs = self._with_depth(gather_obs(self.blocks[workers.start:workers.stop], [p[0] for p in parts]))

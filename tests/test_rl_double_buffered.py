@@ -42,10 +42,10 @@ def test_halves_stepped_apart_give_what_the_batch_stepped_together_gives():
             for k in (1, 2, 3):
                 np.testing.assert_array_equal(np.concatenate([first[k], second[k]]), want[k])
             assert first[4] + second[4] == want[4]
-        with pytest.raises(RuntimeError, match="no step under way"):
+        with pytest.raises(RuntimeError, match="envs 0:2: no step under way"):
             apart.recv_step(halves[0])
         apart.send_step(np.zeros(2, int), halves[0])
-        with pytest.raises(RuntimeError, match="already under way"):
+        with pytest.raises(RuntimeError, match="envs 0:3: a step is already under way"):
             apart.step(np.zeros(3, int))  # the first half is still stepping
         with pytest.raises(ValueError, match=r"envs 0:1 are not whole workers \(their bounds: \[0, 2, 3\]\)"):
             apart.send_step(np.zeros(1, int), slice(0, 1))
