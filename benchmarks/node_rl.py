@@ -114,32 +114,31 @@ def rl_rows(plan) -> Iterator[dict]:
         yield _rl_envs_row(plan, small, goal_pool=0, with_pool=envs["value"])
 
 
+# the graph_act rows' settings (`rl.overrides`' names) as their labels name them
+LEVERS = {"graph_act": "train.graph_act=true", "overlap": "train.overlap=true",
+          "recompute": "ppo.recompute_advantages=true", "double_buffered": "train.double_buffered=true",
+          "compile": "train.compile=true", "scene_switch_steps": HABITAT_LABEL}
+
+
 def graph_act_rows(plan, small: dict, against: float) -> Iterator[dict]:
     """With CUDA, scale=small with train.graph_act=true (``rl_graph_act``: each act one CUDA graph's replay, where the
-    fourth GPU run's act was ~7.9 ms of host launches against 1.8 ms of kernels), then also with the update overlapped
-    (``rl_graph_act_overlap``: train.overlap=true and ppo.recompute_advantages=true, as rl_overlap), then that with
-    the collection double-buffered (``rl_graph_act_overlap_double_buffered``: one half of the env workers steps while
-    the graphed act runs for the other), then the overlapped graphed act with Habitat's scene switches instead
+    fourth GPU run's act was ~7.9 ms of host launches against 1.8 ms of kernels), then with the update overlapped too
+    (``rl_graph_act_overlap``: train.overlap=true and ppo.recompute_advantages=true, as rl_overlap), then with the
+    collection double-buffered too (``rl_graph_act_overlap_double_buffered``: one half of the env workers steps while
+    the graphed act runs for the other), then the overlapped row with Habitat's scene switches instead
     (``rl_graph_act_overlap_scene_steps``, `HABITAT_SWITCH`), last the double-buffered row with the learner's trunk
-    compiled too (``rl_graph_act_overlap_double_buffered_compiled``: train.compile=true, reduce-overhead; an update
-    x1.36 in benchmarks/rl_learner.py on the fifth GPU run, and its host time, which the learner thread takes from the
-    collection's for the GIL, smaller; its first update compiles for ~50 s: last, what a short lease loses); each names
-    its ratio to the rl row. A graphed act leaves the envs' step and the update as the bounds, which the overlap runs
-    side by side, and double buffering hides the acts behind the steps."""
-    graphed = {**small, "graph_act": True}
-    yield _rl_row(plan, "rl_graph_act", "scale=small, train.graph_act=true", graphed, "rl", "", against=against)
+    compiled (``..._compiled``: train.compile=true, reduce-overhead; an update x1.36 on the fifth GPU run, and less of
+    the host time that the learner thread takes from the collection's for the GIL; ~50 s compiling: last, what a short
+    lease loses). Each row adds one lever to the one before it (the scene steps' row aside) and names its ratio to rl."""
+    graphed = {"graph_act": True}
     both = {**graphed, "overlap": True, "recompute": True}
-    yield _rl_row(plan, "rl_graph_act_overlap", "scale=small, train.graph_act=true, train.overlap=true, "
-                  "ppo.recompute_advantages=true", both, "rl", "", against=against)
-    double = "scale=small, train.graph_act=true, train.overlap=true, ppo.recompute_advantages=true, " \
-             "train.double_buffered=true"
-    yield _rl_row(plan, "rl_graph_act_overlap_double_buffered", double, {**both, "double_buffered": True}, "rl", "",
-                  against=against)
-    yield _rl_row(plan, "rl_graph_act_overlap_scene_steps", "scale=small, train.graph_act=true, train.overlap=true, "
-                  f"ppo.recompute_advantages=true, {HABITAT_LABEL}", {**both, **HABITAT_SWITCH}, "rl", "",
-                  against=against)
-    yield _rl_row(plan, "rl_graph_act_overlap_double_buffered_compiled", f"{double}, train.compile=true",
-                  {**both, "double_buffered": True, "compile": True}, "rl", "", against=against)
+    double = {**both, "double_buffered": True}
+    for key, levers in (("rl_graph_act", graphed), ("rl_graph_act_overlap", both),
+                        ("rl_graph_act_overlap_double_buffered", double),
+                        ("rl_graph_act_overlap_scene_steps", {**both, **HABITAT_SWITCH}),
+                        ("rl_graph_act_overlap_double_buffered_compiled", {**double, "compile": True})):
+        what = ", ".join(["scale=small"] + [LEVERS[k] for k in LEVERS if k in levers])
+        yield _rl_row(plan, key, what, {**small, **levers}, "rl", "", against=against)
 
 
 def _keep_scene(config, slot) -> None:
