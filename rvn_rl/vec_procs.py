@@ -94,6 +94,22 @@ def _worker(conn, env_kwargs: dict, indices: list[int], seed: int, rank: int, sc
         conn.close()
 
 
+def worker_bounds(num_envs: int, workers: int) -> np.ndarray:
+    """Worker ``w``'s envs are ``[bounds[w], bounds[w + 1])``: ``num_envs`` split as evenly as they go."""
+    return np.linspace(0, num_envs, workers + 1).round().astype(int)
+
+
+def halves(bounds: np.ndarray) -> list[slice]:
+    """The envs of the first and the second half of the workers of `worker_bounds` ``bounds`` (train.double_buffered:
+    one half steps while the policy acts for the other), as slices of the batch; each holds whole workers (15 workers
+    of 30 envs: 16 and 14)."""
+    workers = len(bounds) - 1
+    if workers < 2:
+        raise ValueError(f"two halves of env workers need env.workers >= 2 (has {workers})")
+    mid = int(bounds[(workers + 1) // 2])
+    return [slice(0, mid), slice(mid, int(bounds[-1]))]
+
+
 class ProcessBatchEnv:
     def __init__(self, env_kwargs: dict, num_envs: int, workers: int, seed: int = 0, rank: int = 0,
                  scene_cache: int = 2, depth_fn=None, prefetch: bool = True):
@@ -101,7 +117,7 @@ class ProcessBatchEnv:
             raise ValueError(f"env.workers={workers!r} must be between 1 and env.num_envs={num_envs}")
         self.num_envs, self.depth_fn = num_envs, depth_fn
         ctx = mp.get_context("spawn")
-        self.bounds = bounds = np.linspace(0, num_envs, workers + 1).round().astype(int)
+        self.bounds = bounds = worker_bounds(num_envs, workers)
         threads = threads_per_worker(workers)  # each worker's share of the cores (rvn_data.worker_threads)
         self.conns, self.procs = [], []
         with worker_threads(threads):
@@ -139,12 +155,8 @@ class ProcessBatchEnv:
         return self._with_depth(gather_obs(self.blocks, [p[0] for p in self._gather()]))
 
     def halves(self) -> list[slice]:
-        """The envs of the first and the second half of the workers (train.double_buffered: one half steps while the
-        policy acts for the other), as slices of the batch; each holds whole workers."""
-        if len(self.conns) < 2:
-            raise ValueError(f"two halves of env workers need env.workers >= 2 (has {len(self.conns)})")
-        mid = int(self.bounds[(len(self.conns) + 1) // 2])
-        return [slice(0, mid), slice(mid, self.num_envs)]
+        """`halves` of this batch's workers."""
+        return halves(self.bounds)
 
     def _workers(self, envs: slice) -> range:
         """The workers that own exactly the envs ``envs`` (a slice of whole workers: `halves`, or all)."""

@@ -142,17 +142,24 @@ def test_rvn_rl_with_graph_act_on_cuda_learns_as_the_plain_run(tmp_path, overlap
 
 
 def test_act_benchmark_prints_the_plain_act_and_names_the_graphed_one_skipped_on_a_cpu():
-    """benchmarks/rl_act.py (issue 32's figure for train.graph_act) on a CPU at a tiny size."""
+    """benchmarks/rl_act.py (issue 32's figure for train.graph_act, and with --workers train.double_buffered's two
+    acts a step) on a CPU at a tiny size."""
     import subprocess
     import sys
     from pathlib import Path
 
     script = Path(__file__).resolve().parents[1] / "benchmarks" / "rl_act.py"
-    proc = subprocess.run([sys.executable, str(script), "--envs", "2", "--size", "64", "--acts", "2", "--repeats", "1",
-                           "--threads", "1"], capture_output=True, text=True, timeout=300)
+    proc = subprocess.run([sys.executable, str(script), "--envs", "3", "--size", "64", "--acts", "2", "--repeats", "1",
+                           "--threads", "1", "--workers", "2"], capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
-    assert "One batched act (CPU; 2 envs, 64²" in proc.stdout
+    assert "One batched act (CPU; 3 envs, 64²" in proc.stdout
     assert re.search(r"plain +[\d.]+ ms +acting alone allows +\d+ env steps/s +x1\.00", proc.stdout), proc.stdout
-    assert "graphed (train.graph_act)    skipped: CUDA graphs need a GPU" in proc.stdout
+    # train.double_buffered's two acts a step, the halves of 2 workers' envs
+    assert re.search(r"two halves' acts \(2 \+ 1\) +[\d.]+ ms +acting alone allows +\d+ env steps/s +x[\d.]+",
+                     proc.stdout), proc.stdout
+    assert "graphed (train.graph_act)      skipped: CUDA graphs need a GPU" in proc.stdout
     bad = subprocess.run([sys.executable, str(script), "--envs", "0"], capture_output=True, text=True, timeout=300)
     assert bad.returncode == 2 and "--envs=0 must be >= 1" in bad.stderr
+    bad = subprocess.run([sys.executable, str(script), "--envs", "3", "--workers", "4"], capture_output=True, text=True,
+                         timeout=300)
+    assert bad.returncode == 2 and "--workers=4: two halves need 2 to --envs=3 workers" in bad.stderr
