@@ -392,10 +392,10 @@ def test_skip_leaves_an_rl_row_out_and_names_it(monkeypatch):
 
 
 def test_graph_act_rows_run_rvn_rl_with_the_graphed_act(monkeypatch):
-    """node.py's CUDA rows of train.graph_act (node_rl.graph_act_rows): rvn-rl's overrides of each row carry
+    """node.py's CUDA rows of train.graph_act (node_rl.graph_act_rows), a ladder: rvn-rl's overrides of each row carry
     train.graph_act=true, then train.overlap with ppo.recompute_advantages, then train.double_buffered, then Habitat's
-    scene switches instead of it, last train.double_buffered with train.compile; each names its ratio to the rl row. Here the rows' runs are recorded,
-    not run (they need a GPU)."""
+    scene switches, last train.compile; each names its ratio to the rl row. Here the rows' runs are recorded, not run
+    (they need a GPU)."""
     monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
     import node as node_bench
     import node_rl
@@ -413,16 +413,17 @@ def test_graph_act_rows_run_rvn_rl_with_the_graphed_act(monkeypatch):
     small = dict(size=plan.rl_size, backbone="resnet18", num_steps=plan.rl_num_steps, ppo_epoch=4, mini_batches=1)
     keys = [r["key"] for r in node_rl.graph_act_rows(plan, small, 100.0)]
     assert keys == ["rl_graph_act", "rl_graph_act_overlap", "rl_graph_act_overlap_double_buffered",
-                    "rl_graph_act_overlap_scene_steps", "rl_graph_act_overlap_double_buffered_compiled"]
+                    "rl_graph_act_overlap_double_buffered_scene_steps", "rl_all_levers"]
     assert all(against == 100.0 and "train.graph_act=true" in o for _, against, o in seen)
-    assert {"train.overlap=false", "train.compile=false", "train.double_buffered=false"} <= set(seen[0][2])
-    assert {"train.overlap=true", "ppo.recompute_advantages=true", "train.compile=false",
-            "train.double_buffered=false"} <= set(seen[1][2])
-    assert {"train.overlap=true", "train.double_buffered=true", "train.compile=false"} <= set(seen[2][2])
-    assert {"train.overlap=true", "train.compile=false", "train.double_buffered=false", "env.scene_switch_steps=10000",
-            "env.scene_switch_every=0"} <= set(seen[3][2])
-    assert {"train.overlap=true", "train.compile=true", "train.double_buffered=true"} <= set(seen[4][2])
-    assert not any(x.startswith("env.scene_switch") for i, (_, _, o) in enumerate(seen) if i != 3 for x in o)
+    steps = ("env.scene_switch_steps=10000", "env.scene_switch_every=0")
+    ladder = [{"train.overlap=false", "train.double_buffered=false", "train.compile=false"},
+              {"train.overlap=true", "ppo.recompute_advantages=true", "train.double_buffered=false", "train.compile=false"},
+              {"train.overlap=true", "train.double_buffered=true", "train.compile=false"},
+              {"train.overlap=true", "train.double_buffered=true", "train.compile=false", *steps},
+              {"train.overlap=true", "train.double_buffered=true", "train.compile=true", *steps}]
+    for (_, _, overrides), want in zip(seen, ladder, strict=True):
+        assert want <= set(overrides), (want, overrides)
+    assert not any(x.startswith("env.scene_switch") for _, _, o in seen[:3] for x in o)  # rvn-rl's default switches
 
 
 @pytest.mark.slow
