@@ -43,10 +43,12 @@ def plan_and_settings(args, cache_dir: str, workers: int = 0) -> tuple[SimpleNam
     """node.py's RL plan for these envs (``args.envs`` in this process, or in each of ``workers`` worker processes,
     over ``cache_dir``) and its row settings (scale=small's sizes): what `node_rl.rl_args` turns into
     benchmarks/rl.py's arguments (`rl.overrides`) and `node_rl.fill_scene_caches` fills the cache root for."""
+    import node_rl
+
     plan = SimpleNamespace(rl_envs=max(1, workers) * args.envs, rl_workers=workers, rl_scenes=args.scenes, rl_threads=1,
                            rl_cache=cache_dir, cpus=max(1, min(os.cpu_count() or 1, 16)))
     steps = getattr(args, "scene_switch_steps", 0)  # Habitat's scene switches with it, else rvn-rl's default
-    habitat = {"scene_switch_steps": steps, "scene_switch_every": 0} if steps else {}
+    habitat = {**node_rl.HABITAT_SWITCH, "scene_switch_steps": steps} if steps else {}
     return plan, dict(size=args.size, backbone="resnet18", num_steps=64, ppo_epoch=4, mini_batches=1,
                       renderer=args.renderer, **habitat)
 

@@ -41,11 +41,13 @@ def steady_rows(args, cache: str, **settings) -> list[dict]:
 
 def one_run(args, overlap: bool, cache: str) -> tuple[float, dict] | None:
     """(env steps/s of the steady-state updates, their time-weighted shares) of one rvn-rl run (None without any)."""
+    import rl as rl_bench
+
     rows = steady_rows(args, cache, overlap=overlap, recompute=overlap and args.recompute_advantages)
     if not rows:
         return None
     steps = np.array([r["rollout_steps"] * args.envs for r in rows])
-    seconds = steps / np.array([r["fps"] for r in rows])
+    seconds = np.array([rl_bench.update_seconds(r, args.envs) for r in rows])
     shares = {k: float((seconds * [r[k] for r in rows]).sum() / seconds.sum()) for k in ("time_envs", "time_learn")}
     return float(steps.sum() / seconds.sum()), shares
 

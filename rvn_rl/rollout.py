@@ -33,11 +33,12 @@ class RolloutStorage:
         self.masks[0].copy_(masks)
         self.step = 0
 
-    def current(self, envs: slice = slice(None)) -> tuple[dict, torch.Tensor, torch.Tensor]:
-        """The acting inputs (observation, previous action, mask) of the envs ``envs`` at the current step."""
-        return self.inputs(self.step, envs)
+    def current(self) -> tuple[dict, torch.Tensor, torch.Tensor]:
+        """Every env's acting inputs (observation, previous action, mask) at the current step."""
+        return self.inputs(self.step)
 
     def inputs(self, t: int, envs: slice = slice(None)) -> tuple[dict, torch.Tensor, torch.Tensor]:
+        """The acting inputs of the envs ``envs`` (train.double_buffered's half) at step ``t``."""
         return {k: v[t, envs] for k, v in self.obs.items()}, self.prev_actions[t, envs], self.masks[t, envs]
 
     def insert(self, obs: dict, actions, logp, values, rewards, done: np.ndarray, envs: slice | None = None) -> None:
