@@ -20,8 +20,9 @@ RL_LABEL = "rvn-rl PPO collection + learning, "  # the label of each row that tr
 
 
 # rows nothing else reads (node.py --skip): each a full rvn-rl run of a minute or two on the node; rl_envs: all the
-# envs-alone rows (measured together on the fifth GPU run, docs/results/2026-12-04_gpu5)
-SKIPPABLE = ("rl_overlap", "rl_envs", "rl_paper", "rl_compiled", "rl_scene_steps")
+# envs-alone rows (measured together on the fifth GPU run, docs/results/2026-12-04_gpu5); rl_layouts: the envs
+# alone in each layout of node_rl_ladder.layouts
+SKIPPABLE = ("rl_overlap", "rl_envs", "rl_paper", "rl_compiled", "rl_scene_steps", "rl_layouts")
 # Habitat's scene switches (max_scene_repeat_steps 10,000, max_scene_repeat_episodes off) instead of every 8 resets
 HABITAT_SWITCH = {"scene_switch_steps": 10000, "scene_switch_every": 0}
 HABITAT_LABEL = ", ".join(f"env.{k}={v}" for k, v in HABITAT_SWITCH.items())
@@ -47,8 +48,9 @@ def rl_rows(plan) -> Iterator[dict]:
     (and --quick), the envs alone (``rl_envs``): with env.prefetch_scenes (the default), without it (``rl_envs_no_prefetch``: vectorised
     envs then wait for whichever env switches scene, the bound of the third GPU run, docs/results/2026-11-27_gpu3)
     and in one worker (``rl_envs_1``), each after ``plan.rl_warm_seconds`` of warm-up. With CUDA, after rl_bf16, the
-    act replayed as one CUDA graph (`graph_act_rows`). The second and third GPU runs also timed renderer=raycast and gl under
-    __GL_YIELD=USLEEP: the renderer is not the bound. Last, the envs alone with fresh goals (``rl_envs_fresh_goals``,
+    env workers' layout and a ladder of levers on the faster one (node_rl_ladder.py). The second and third GPU runs
+    also timed renderer=raycast and gl under __GL_YIELD=USLEEP: neither helped (the GL calls of many processes may
+    bound the envs: node_rl_ladder's layouts ask). Last, the envs alone with fresh goals (``rl_envs_fresh_goals``,
     env.goal_pool=0) against the pool's 64 solves a scene.
 
     Every row but one runs over one cache root that holds the scenes' built navmeshes and goal pools
@@ -80,8 +82,11 @@ def rl_rows(plan) -> Iterator[dict]:
         else:
             yield _rl_row(plan, "rl_bf16", "scale=small, train.precision=bf16", {**small, "precision": "bf16"}, "rl",
                           "", against=plain["value"])
-        if plan.cuda:  # the act replayed as one CUDA graph, alone and with the update overlapped
-            yield from graph_act_rows(plan, small, plain["value"])
+        if plan.cuda:  # the workers' layout, then a ladder of levers on the faster one (node_rl_ladder)
+            import node_rl_ladder
+
+            base = yield from node_rl_ladder.layout_rows(plan, small, plain)
+            yield from node_rl_ladder.graph_act_rows(plan, base, plain["value"])
         else:
             yield _skipped_rl_row("rl_graph_act", "scale=small, train.graph_act=true", "CUDA graphs need a GPU (on a "
                                   "CPU train.graph_act acts as without it)")
@@ -114,34 +119,6 @@ def rl_rows(plan) -> Iterator[dict]:
         yield _rl_envs_row(plan, small, goal_pool=0, with_pool=envs["value"])
 
 
-# the graph_act rows' settings (`rl.overrides`' names) as their labels name them
-LEVERS = {"graph_act": "train.graph_act=true", "overlap": "train.overlap=true",
-          "recompute": "ppo.recompute_advantages=true", "double_buffered": "train.double_buffered=true",
-          "compile": "train.compile=true", "scene_switch_steps": HABITAT_LABEL}
-
-
-def graph_act_rows(plan, small: dict, against: float) -> Iterator[dict]:
-    """With CUDA, a ladder of rows from scale=small, each adding one lever to the row before it and naming its ratio
-    to rl: train.graph_act=true (``rl_graph_act``: each act one CUDA graph's replay, where the fourth GPU run's act was
-    ~7.9 ms of host launches against 1.8 ms of kernels); the update overlapped (``rl_graph_act_overlap``:
-    train.overlap=true and ppo.recompute_advantages=true, as rl_overlap); the collection double-buffered
-    (``..._double_buffered``: one half of the env workers steps while the graphed act runs for the other); Habitat's
-    scene switches (``..._scene_steps``, `HABITAT_SWITCH`: on the fifth run the envs alone took a batched step of
-    10.5 ms on average, 30 envs at 2,861 env steps/s, against a median of 6.7 ms, the helpers' start-up and the scene
-    switches in the difference); last every lever, the learner's trunk compiled too
-    (``rl_all_levers``: train.compile=true, reduce-overhead, an update x1.36 on the fifth run and less host time for the
-    learner thread to take from the collection's for the GIL; ~50 s compiling: last, what a short lease loses)."""
-    ladder, levers = [], {}
-    for key, lever in (("graph_act", {"graph_act": True}), ("overlap", {"overlap": True, "recompute": True}),
-                       ("double_buffered", {"double_buffered": True}), ("scene_steps", HABITAT_SWITCH),
-                       ("compile", {"compile": True})):
-        ladder.append(key)
-        levers = {**levers, **lever}
-        name = "rl_all_levers" if key == "compile" else "rl_" + "_".join(ladder)
-        what = ", ".join(["scale=small"] + [LEVERS[k] for k in LEVERS if k in levers])
-        yield _rl_row(plan, name, what, {**small, **levers}, "rl", "", against=against)
-
-
 def _keep_scene(config, slot) -> None:
     from rvn_data.benchmark.episodes_source import SceneSlot
 
@@ -168,11 +145,10 @@ def fill_scene_caches(plan, settings: dict, root: str) -> str:
 
 def rl_args(plan, settings: dict, updates: int) -> SimpleNamespace:
     """benchmarks/rl.py's arguments (`rl.overrides`) for the RL rows: the plan's envs, workers and scenes, a goal pool
-    of 64, ``settings`` (size, backbone, PPO; renderer, else auto)."""
-    return SimpleNamespace(envs=plan.rl_envs, workers=plan.rl_workers, scenes=plan.rl_scenes, base_planes=32,
-                           threads=plan.rl_threads, updates=updates, goal_pool=64,
-                           cache_dir=getattr(plan, "rl_cache", None),
-                           **{"renderer": "auto", **settings})
+    of 64, ``settings`` (size, backbone, PPO; renderer, else auto; workers, else the plan's)."""
+    return SimpleNamespace(**{"envs": plan.rl_envs, "workers": plan.rl_workers, "scenes": plan.rl_scenes,
+                              "base_planes": 32, "threads": plan.rl_threads, "updates": updates, "goal_pool": 64,
+                              "cache_dir": getattr(plan, "rl_cache", None), "renderer": "auto", **settings})
 
 
 def _skipped_rl_row(key: str, what: str, why: str) -> dict:
@@ -190,9 +166,9 @@ def _rl_row(plan, key: str, what: str, settings: dict, goal_key: str | None, bas
     from rvn_rl.cli import compose
     from rvn_rl.trainer import train
 
-    envs, workers = plan.rl_envs, plan.rl_workers
     # overlapped, a run's last update has no collection beside it: one more, so that one update counts
     args = rl_args(plan, settings, updates=3 if settings.get("overlap") else 2)
+    envs, workers = args.envs, args.workers
     counted = []  # (env steps, seconds, update's metrics) of the updates that count (`rl.steady_updates`)
     warm = plan.rl_warm_seconds  # a run's first seconds: its envs' scene-prefetch helpers starting
     with tempfile.TemporaryDirectory() as tmp, GpuBusy() as busy:

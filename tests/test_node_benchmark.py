@@ -391,11 +391,10 @@ def test_skip_leaves_an_rl_row_out_and_names_it(monkeypatch):
         node_bench.parse(["--skip", "rl"])
 
 
-def test_graph_act_rows_run_rvn_rl_with_the_graphed_act(monkeypatch):
-    """node.py's CUDA rows of train.graph_act (node_rl.graph_act_rows), a ladder: rvn-rl's overrides of each row carry
-    train.graph_act=true, then train.overlap with ppo.recompute_advantages, then train.double_buffered, then Habitat's
-    scene switches, last train.compile; each names its ratio to the rl row. Here the rows' runs are recorded, not run
-    (they need a GPU)."""
+def _recorded_rl_rows(monkeypatch, values: dict | None = None) -> tuple:
+    """node_rl's row functions recorded, not run (the CUDA rows need a GPU): (plan, scale=small's settings, the
+    recorded rows: key, ratio's base, rvn-rl's overrides of train., ppo.rec, env.scene_switch, env.workers and
+    env.num_envs); ``values``: the rate each key's row returns (100 else)."""
     monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
     import node as node_bench
     import node_rl
@@ -406,24 +405,115 @@ def test_graph_act_rows_run_rvn_rl_with_the_graphed_act(monkeypatch):
 
     def record(plan, key, what, settings, goal_key, baseline, against=None):
         args = node_rl.rl_args(plan, settings, updates=2)
-        seen.append((key, against, [o for o in rl_bench.overrides(args, "out")
-                                    if o.startswith(("train.", "ppo.rec", "env.scene_switch"))]))
-        return {"key": key}
+        seen.append((key, against, [o for o in rl_bench.overrides(args, "out") if o.startswith(
+            ("train.", "ppo.rec", "env.scene_switch", "env.workers", "env.num_envs"))], what))
+        return {"key": key, "value": (values or {}).get(key, 100.0)}
+
+    def record_envs(plan, settings, workers=None, per_worker=None, **kw):
+        seen.append((f"rl_envs_{workers}x{per_worker}", None, [], ""))
+        return {"key": f"rl_envs_{workers}x{per_worker}", "value": 1.0}
     monkeypatch.setattr(node_rl, "_rl_row", record)
+    monkeypatch.setattr(node_rl, "_rl_envs_row", record_envs)
     small = dict(size=plan.rl_size, backbone="resnet18", num_steps=plan.rl_num_steps, ppo_epoch=4, mini_batches=1)
-    keys = [r["key"] for r in node_rl.graph_act_rows(plan, small, 100.0)]
+    return plan, small, seen
+
+
+def test_graph_act_rows_run_rvn_rl_with_the_graphed_act(monkeypatch):
+    """node.py's CUDA rows of train.graph_act (node_rl_ladder.graph_act_rows), a ladder: rvn-rl's overrides of each
+    row carry train.graph_act=true, then train.overlap with ppo.recompute_advantages, then train.double_buffered, then
+    Habitat's scene switches, last train.compile; each names its ratio to the rl row. Here the rows' runs are
+    recorded, not run (they need a GPU)."""
+    plan, small, seen = _recorded_rl_rows(monkeypatch)
+    import node_rl_ladder
+
+    keys = [r["key"] for r in node_rl_ladder.graph_act_rows(plan, small, 100.0)]
     assert keys == ["rl_graph_act", "rl_graph_act_overlap", "rl_graph_act_overlap_double_buffered",
                     "rl_graph_act_overlap_double_buffered_scene_steps", "rl_all_levers"]
-    assert all(against == 100.0 and "train.graph_act=true" in o for _, against, o in seen)
+    assert all(against == 100.0 and "train.graph_act=true" in o for _, against, o, _ in seen)
     steps = ("env.scene_switch_steps=10000", "env.scene_switch_every=0")
     ladder = [{"train.overlap=false", "train.double_buffered=false", "train.compile=false"},
               {"train.overlap=true", "ppo.recompute_advantages=true", "train.double_buffered=false", "train.compile=false"},
               {"train.overlap=true", "train.double_buffered=true", "train.compile=false"},
               {"train.overlap=true", "train.double_buffered=true", "train.compile=false", *steps},
               {"train.overlap=true", "train.double_buffered=true", "train.compile=true", *steps}]
-    for (_, _, overrides), want in zip(seen, ladder, strict=True):
+    for (_, _, overrides, _), want in zip(seen, ladder, strict=True):
         assert want <= set(overrides), (want, overrides)
-    assert not any(x.startswith("env.scene_switch") for _, _, o in seen[:3] for x in o)  # rvn-rl's default switches
+        assert f"env.workers={plan.rl_workers}" in overrides  # scale=small's layout: base sets no workers
+    assert not any(x.startswith("env.scene_switch") for _, _, o, _ in seen[:3] for x in o)  # rvn-rl's default switches
+
+
+def test_env_worker_layouts(monkeypatch):
+    """node_rl_ladder's layouts: the fat one (fewer workers, more envs each: fewer GL calls a batched step) and every
+    layout of 2-6 envs a worker that the envs-alone rows time."""
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
+    import node_rl_ladder as ladder
+
+    assert [ladder.fat_workers(n) for n in (30, 32, 16, 2, 3, 1)] == [6, 8, 4, 2, 3, 1]
+    assert ladder.layouts(30, 15) == [(15, 2), (10, 3), (6, 5), (5, 6)]
+    assert ladder.layouts(8, 8) == [(4, 2), (2, 4)] and ladder.layouts(2, 1) == [(1, 2)] and ladder.layouts(7, 7) == []
+
+
+@pytest.mark.parametrize("fat_rate", [150.0, 50.0])
+def test_ladder_builds_on_the_faster_layout(monkeypatch, fat_rate):
+    """With CUDA, node_rl.rl_rows runs the rl row, then ``rl_workers_6`` (its 30 envs in 6 workers of 5, naming its
+    ratio to rl), the envs alone in each layout, then the ladder on the faster of the two runs' layouts: env.workers=6
+    in every ladder row's overrides and label when rl_workers_6 was faster, scale=small's 15 workers when not.
+    --skip rl_layouts leaves the envs-alone layout rows out. Recorded, not run (a 16-CPU CUDA plan)."""
+    plan, small, seen = _recorded_rl_rows(monkeypatch, {"rl": 100.0, "rl_workers_6": fat_rate})
+    import node as node_bench
+    import node_rl
+
+    plan = node_bench.make_plan(node_bench.parse(["--skip", "rl_envs", "rl_paper", "rl_compiled", "rl_overlap",
+                                                  "rl_scene_steps"]), True, 16)
+    monkeypatch.setattr(node_rl, "fill_scene_caches", lambda plan, settings, root: "over a recorded cache root")
+    keys = [r["key"] for r in node_rl.rl_rows(plan)]
+    assert keys[:7] == ["rl", "rl_scene_steps", "rl_bf16", "rl_workers_6", "rl_envs_15x2", "rl_envs_10x3",
+                        "rl_envs_6x5"], keys
+    assert keys[7:11] == ["rl_envs_5x6", "rl_graph_act", "rl_graph_act_overlap",
+                          "rl_graph_act_overlap_double_buffered"], keys
+    rows = {key: (against, o, what) for key, against, o, what in seen}
+    assert rows["rl_workers_6"][0] == 100.0 and {"env.workers=6", "env.num_envs=30"} <= set(rows["rl_workers_6"][1])
+    workers = "env.workers=6" if fat_rate > 100 else "env.workers=15"
+    for key in ("rl_graph_act", "rl_graph_act_overlap_double_buffered", "rl_all_levers"):
+        against, overrides, what = rows[key]
+        assert against == 100.0 and workers in overrides and "env.num_envs=30" in overrides, (key, overrides)
+        assert ("env.workers=6" in what) == (fat_rate > 100), what
+    seen.clear()
+    plan.skip.append("rl_layouts")
+    keys = [r["key"] for r in node_rl.rl_rows(plan)]
+    assert "rl_workers_6" in keys and not any(k.startswith("rl_envs_") for k in keys), keys
+
+
+def test_a_failing_rung_names_its_error_and_the_ladder_goes_on(monkeypatch):
+    """A layout or ladder row that raises (none of them has run on a GPU) becomes a row naming its error, and the rows
+    after it still run; a failed rl_workers_6 leaves the ladder on scale=small's layout."""
+    plan, small, seen = _recorded_rl_rows(monkeypatch)
+    import node_rl
+    import node_rl_ladder
+
+    recorded = node_rl._rl_row
+
+    def failing(plan, key, what, settings, *a, **k):
+        if key in ("rl_workers_6", "rl_graph_act_overlap"):
+            raise RuntimeError(f"CUDA error in {key}\nsecond line")
+        return recorded(plan, key, what, settings, *a, **k)
+    monkeypatch.setattr(node_rl, "_rl_row", failing)
+    plan.rl_envs, plan.rl_workers = 30, 15
+    rows = list(node_rl_ladder.layout_rows(plan, small, {"key": "rl", "value": 100.0}))
+    fat = rows[0]
+    assert fat["key"] == "rl_workers_6" and fat["value"] is None
+    assert fat["error"] == "RuntimeError: CUDA error in rl_workers_6" and "env.workers=6" in fat["label"]
+    assert [r["key"] for r in rows[1:]] == ["rl_envs_15x2", "rl_envs_10x3", "rl_envs_6x5", "rl_envs_5x6"]
+    gen = node_rl_ladder.layout_rows(plan, small, {"key": "rl", "value": 100.0})
+    try:
+        while True:
+            next(gen)
+    except StopIteration as stop:
+        assert stop.value == small  # the failed layout is not the ladder's base
+    ladder = list(node_rl_ladder.graph_act_rows(plan, small, 100.0))
+    assert [r["key"] for r in ladder] == ["rl_graph_act", "rl_graph_act_overlap", "rl_graph_act_overlap_double_buffered",
+                                          "rl_graph_act_overlap_double_buffered_scene_steps", "rl_all_levers"]
+    assert [bool(r.get("error")) for r in ladder] == [False, True, False, False, False]
 
 
 @pytest.mark.slow
