@@ -517,6 +517,39 @@ def test_a_failing_rung_names_its_error_and_the_ladder_goes_on(monkeypatch):
 
 
 @pytest.mark.slow
+def test_layout_rows_run_rvn_rl_in_fewer_workers(monkeypatch, tmp_path):
+    """node_rl_ladder.layout_rows for real at tiny sizes on the CPU (on a node they run with CUDA): rvn-rl's run with
+    the plan's 4 envs in 2 workers of 2 instead of 4 of 1 (row rl_workers_2, its label and settings naming them),
+    then the envs alone in each layout of 2-6 envs a worker (2 x 2, 1 x 4); the ladder's base takes the faster run's
+    workers."""
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
+    from types import SimpleNamespace
+
+    import node as node_bench
+    import node_rl
+    import node_rl_ladder
+
+    plan = node_bench.make_plan(node_bench.parse(["--quick"]), False, 2)
+    plan = SimpleNamespace(**{**vars(plan), "rl_envs": 4, "rl_workers": 4, "rl_scenes": 2})
+    small = dict(size=plan.rl_size, backbone="resnet18", num_steps=plan.rl_num_steps, ppo_epoch=1, mini_batches=1)
+    kept = str(tmp_path / "cache")
+    plan = SimpleNamespace(**vars(plan), rl_cache=kept, rl_filled=node_rl.fill_scene_caches(plan, small, kept))
+    gen = node_rl_ladder.layout_rows(plan, small, {"key": "rl", "value": 1e-6})
+    rows = []
+    try:
+        while True:
+            rows.append(next(gen))
+    except StopIteration as stop:
+        base = stop.value
+    assert [r["key"] for r in rows] == ["rl_workers_2", "rl_envs_2x2", "rl_envs_1x4"]
+    assert all(r["value"] > 0 and not r["error"] for r in rows), rows
+    assert "env.workers=2" in rows[0]["label"] and "x 4 envs, 1 epochs x 1 mini-batches, 2 env worker processes" in \
+        rows[0]["settings"], rows[0]
+    assert "4 envs in 1 worker processes" in rows[2]["settings"], rows[2]
+    assert base == {**small, "workers": 2}  # faster than the 1e-6 env steps/s given as the rl row's
+
+
+@pytest.mark.slow
 def test_env_phases_benchmark_splits_the_envs_step_by_process_count(tmp_path):
     """benchmarks/rl_env_phases.py (what bounds rvn-rl's envs side by side) at a tiny size: the cache root filled, then
     one and two processes of 2 envs each, each line with the rate together and a process's, and the phases' ms; the
