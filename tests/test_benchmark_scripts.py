@@ -30,3 +30,22 @@ def test_decision_parts_of_a_nomad_decision(monkeypatch):
     assert parts["steps"] == load_model_config("nomad_pointgoal", "small")["num_diffusion_iters"]
     assert all(parts[k] > 0 for k in ("encoder", "condition", "denoise", "matmul_gflops"))
     assert 0 < parts["matmul_share"] < 1
+
+
+def test_pool_fallback_counts_draws_with_no_pool_goal_in_range(monkeypatch, capsys):
+    """benchmarks/pool_fallback.py at a tiny size: a pool of one goal has no other goal in range of itself (a reached
+    goal's next draw always falls back: 1/1), a pool of 16 on the same scene leaves fewer starts without one; each
+    line names the counts and a fallback's ms."""
+    monkeypatch.syspath_prepend(str(BENCHMARKS))
+    import pool_fallback
+
+    counts = []
+    for goals in (1, 16):
+        pool_fallback.main(["--scenes", "1", "--goals", str(goals), "--starts", "12"])
+        out = capsys.readouterr().out
+        m = re.search(r"at a pool goal \(a reached goal's next draw\) (\d+)/(\d+) .*at a random start \(a reset's draw\) "
+                      r"(\d+)/12 ", out)
+        assert m and re.search(r"a fallback .*: median [\d.]+ ms, slowest [\d.]+ ms over 1 scenes", out), out
+        counts.append(tuple(int(x) for x in m.groups()))
+    assert counts[0][:2] == (1, 1) and counts[1][1] == 16
+    assert counts[1][2] <= counts[0][2]
