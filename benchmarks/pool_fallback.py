@@ -6,7 +6,7 @@ A reset draws a goal from a random start; a trained policy that reaches a goal d
 at a pool goal. Both are counted per scene: the share of random starts, and of the pool's goals themselves, from which
 no other pool goal lies in the benchmark's range [d_min, d_max] of geodesic distance. Scenes are read through the
 cache root (``--cache-dir``: their navmeshes and pools kept there, as a long run's later visits read them).
-Run: python benchmarks/pool_fallback.py [--scenes 40] [--goals 64] [--starts 100] [--cache-dir DIR]
+Run: python benchmarks/pool_fallback.py [--scenes 40 | --scene SPEC ...] [--goals 64] [--starts 100] [--cache-dir DIR]
 """
 from __future__ import annotations
 
@@ -39,6 +39,8 @@ def scene_fallbacks(config, slot, starts: int, rng: np.random.Generator) -> tupl
 def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--scenes", type=int, default=40, help="procedural train scenes (the first N)")
+    p.add_argument("--scene", action="append", default=None, metavar="SPEC",
+                   help="a scene spec or mesh file instead (repeatable), e.g. ../shared/scenes/dream_apartment.glb")
     p.add_argument("--goals", type=int, default=64, help="pool size (env.goal_pool)")
     p.add_argument("--starts", type=int, default=100, help="random starts a scene")
     p.add_argument("--cache-dir", default=None, help="cache root (default: a temporary one, pools built)")
@@ -49,15 +51,16 @@ def main(argv: list[str] | None = None) -> None:
     from rvn_data.benchmark.episodes_source import EnvConfig
 
     with tempfile.TemporaryDirectory() as tmp:
+        scenes = {"scene_specs": args.scene} if args.scene else {
+            "scenes": {"source": "procedural", "num_scenes": args.scenes}}
         config = EnvConfig.from_kwargs(mode="train", split="train", goal_pool=args.goals,
-                                       scenes={"source": "procedural", "num_scenes": args.scenes},
-                                       cache_dir=args.cache_dir or tmp)
+                                       cache_dir=args.cache_dir or tmp, **scenes)
         rng = np.random.default_rng(0)
         rows = [scene_fallbacks(config, slot, args.starts, rng) for slot in config.scene_slots()]
     at_goal, goals, at_start = (sum(r[k] for r in rows) for k in range(3))
     starts, ms = args.starts * len(rows), [r[3] for r in rows]
     s = config.episodes
-    print(f"{len(rows)} train scenes, pool of {args.goals}, goals {s.d_min:g}-{s.d_max:g} m apart: no pool goal in range "
+    print(f"{len(rows)} {'scene(s) given' if args.scene else 'procedural train scenes'}, pool of {args.goals}, goals {s.d_min:g}-{s.d_max:g} m apart: no pool goal in range "
           f"at a pool goal (a reached goal's next draw) {at_goal}/{goals} ({100 * at_goal / goals:.1f}%), at a random "
           f"start (a reset's draw) {at_start}/{starts} ({100 * at_start / starts:.1f}%), worst scene "
           f"{max(100 * r[2] / args.starts for r in rows):.0f}% of its starts")

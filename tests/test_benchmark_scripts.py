@@ -35,14 +35,16 @@ def test_decision_parts_of_a_nomad_decision(monkeypatch):
 def test_pool_fallback_counts_draws_with_no_pool_goal_in_range(monkeypatch, capsys):
     """benchmarks/pool_fallback.py at a tiny size: a pool of one goal has no other goal in range of itself (a reached
     goal's next draw always falls back: 1/1), a pool of 16 on the same scene leaves fewer starts without one; each
-    line names the counts and a fallback's ms."""
+    line names the counts and a fallback's ms; --scene gives the scenes by spec (a mesh file, or as here the first
+    procedural train scene)."""
     monkeypatch.syspath_prepend(str(BENCHMARKS))
     import pool_fallback
 
     counts = []
-    for goals in (1, 16):
-        pool_fallback.main(["--scenes", "1", "--goals", str(goals), "--starts", "12"])
+    for goals, scenes in ((1, ["--scenes", "1"]), (16, ["--scene", "procedural:train/0"])):
+        pool_fallback.main([*scenes, "--goals", str(goals), "--starts", "12"])
         out = capsys.readouterr().out
+        assert out.startswith("1 procedural train scenes" if goals == 1 else "1 scene(s) given"), out
         m = re.search(r"at a pool goal \(a reached goal's next draw\) (\d+)/(\d+) .*at a random start \(a reset's draw\) "
                       r"(\d+)/12 ", out)
         assert m and re.search(r"a fallback .*: median [\d.]+ ms, slowest [\d.]+ ms over 1 scenes", out), out
