@@ -51,3 +51,20 @@ def test_pool_fallback_counts_draws_with_no_pool_goal_in_range(monkeypatch, caps
         counts.append(tuple(int(x) for x in m.groups()))
     assert counts[0][:2] == (1, 1) and counts[1][1] == 16
     assert counts[1][2] <= counts[0][2]
+
+
+def test_env_state_times_state_steps_and_resets(monkeypatch, capsys):
+    """benchmarks/env_state.py at a tiny size: the microseconds of a state step and of a reset, and the episodes'
+    return, the same in two runs (the figure a change that should not change the episodes keeps)."""
+    monkeypatch.syspath_prepend(str(BENCHMARKS))
+    import env_state
+
+    returns = []
+    for _ in range(2):
+        env_state.main(["--steps", "300", "--rounds", "2", "--goal-pool", "8"])
+        out = capsys.readouterr().out
+        m = re.search(r"([\d.]+) us a step \(median of 2 rounds of 300; [\d.]+-[\d.]+\), a reset (\d+) us; "
+                      r"episodes' return (-?[\d.]+)", out)
+        assert m and float(m.group(1)) > 0 and int(m.group(2)) > 0, out
+        returns.append(m.group(3))
+    assert returns[0] == returns[1]

@@ -260,3 +260,45 @@ def test_goal_draws_read_the_pool_in_one_call_as_field_by_field(tmp_path):
     for p, x in zip(points, drawn):
         assert x is None or (any(np.array_equal(x[0], g) for g in stacked.goals) and 4.0 <= x[1].distance(p) <= 8.0)
     e.close()
+
+
+@pytest.mark.parametrize("metric", ["geodesic", "euclidean"])
+def test_reported_distances_are_fresh_lookups(tmp_path, metric):
+    """A step looks the agent's distance to the goal up once (`RVNEnv._act`: the geodesic success test reuses it,
+    the info reports the kept one): every reward, ending and info equals an env's that looks each distance up again
+    where it is used (the code before 2026-12-05), over oracle-driven episodes (goals reached: new goals, STOPs near
+    and far) and random actions, in train and eval mode."""
+    import dataclasses
+    import types
+
+    act, info_of = RVNEnv._act, RVNEnv._info
+
+    def fresh_act(self, a):
+        return dataclasses.replace(act(self, a), goal_distance=self.success_distance_now())
+
+    def fresh_info(self, step):
+        return {**info_of(self, step), "distance_to_goal": float(self.distance_to_goal())}
+
+    for mode, split in (("eval", "val"), ("train", "train")):
+        kw = dict(mode=mode, split=split, success_metric=metric, goal_pool=8 if mode == "train" else 0)
+        runs = []
+        for fresh in (False, True):
+            e = make_env(tmp_path, **kw)
+            if fresh:  # this env instance only: the kept distances replaced by lookups where they are used
+                e._act, e._info = types.MethodType(fresh_act, e), types.MethodType(fresh_info, e)
+            oracle, rng, seen = OraclePolicy(), np.random.default_rng(3), []
+            oracle.bind(e)
+            obs, info = e.reset(seed=0)
+            oracle.reset()
+            for k in range(600):
+                action = oracle.act(obs) if (k // 100) % 2 == 0 else int(rng.choice([0, 1, 1, 2, 3]))
+                obs, reward, terminated, truncated, info = e.step(action)
+                assert info["distance_to_goal"] == e.distance_to_goal()
+                seen.append((reward, terminated, truncated, {k: v for k, v in info.items() if k != "episode"}))
+                if terminated or truncated:
+                    obs, _ = e.reset()
+                    oracle.reset()
+            runs.append(seen)
+            e.close()
+        assert runs[0] == runs[1]
+        assert any(r == 1.0 for r, *_ in runs[0])  # goals were reached

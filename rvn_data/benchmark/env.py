@@ -257,8 +257,10 @@ class RVNEnv(gym.Env):
             self._pos, self._yaw = np.asarray(res.position, dtype=np.float64), float(res.yaw)
             collided, displacement = bool(res.collided), float(res.displacement)
         dtg = self._dist if a == Action.STOP else self.distance_to_goal()
+        # geodesic success: the distance just looked up (a third of a state step's time when looked up again)
+        success = dtg if self.config.success_metric != "euclidean" else self.success_distance_now()
         return measures.StepRecord(action=int(a), collided=collided, displacement=displacement,
-                                   dtg_before=self._dist, dtg_after=dtg, goal_distance=self.success_distance_now(),
+                                   dtg_before=self._dist, dtg_after=dtg, goal_distance=success,
                                    goal_steps=self._goal_steps + 1, goals_reached=self._goals_reached)
 
     def episode_record(self) -> dict:
@@ -289,7 +291,7 @@ class RVNEnv(gym.Env):
             "collided": step is not None and step.collided,
             "displacement": 0.0 if step is None else step.displacement,
             "goals_reached": int(self._goals_reached),
-            "distance_to_goal": float(self.distance_to_goal()),
+            "distance_to_goal": float(self._dist),  # the agent's, kept wherever its pose or goal changes
             "goal_steps": int(self._goal_steps),
             "episode_id": self._episode_id,
             "scene_id": self._tracker.record["scene_id"],
