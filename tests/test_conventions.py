@@ -63,3 +63,23 @@ def test_expert_adapter_and_goal_follower_steer_and_stop_alike(agent):
         assert (waypoints_to_action(goal[None], goal, control) == Action.STOP) == stops
         assert (follower.act({"pointgoal": goal}) == Action.STOP) == stops
     assert EnvConfig.from_kwargs(agent=agent, split="val").success_distance == pytest.approx(r)
+
+
+def test_relative_goal_is_to_local_of_the_planar_points_to_the_bit():
+    """`relative_goal` (one pose, written out for speed: every env step makes one) gives `to_local(to_planar(goal),
+    to_planar(position), yaw)`'s float32 bits, for float64 and float32 poses, float32 and numpy yaws, and lists."""
+    from rvn_data.conventions import to_planar
+
+    rng = np.random.default_rng(0)
+    for k in range(4000):
+        p, g, yaw = rng.uniform(-60, 60, 3), rng.uniform(-60, 60, 3), float(rng.uniform(-7, 7))
+        if k % 4 == 1:
+            yaw = np.float32(yaw)
+        elif k % 4 == 2:
+            p, g = p.astype(np.float32), g.astype(np.float32)
+        elif k % 4 == 3:
+            p, g, yaw = list(p), list(g), np.float64(yaw)
+        want = to_local(to_planar(g), to_planar(p), yaw).astype(np.float32)
+        got = relative_goal(p, yaw, g)
+        assert got.dtype == np.float32 and got.shape == (2,)
+        assert np.array_equal(got.view(np.uint32), want.view(np.uint32)), (k, p, g, yaw, got, want)
