@@ -49,6 +49,7 @@ def main(argv: list[str] | None = None) -> None:
         p.error("--scenes, --goals and --starts must be positive")
 
     from rvn_data.benchmark.episodes_source import EnvConfig
+    from rvn_data.scenes import SceneError
 
     with tempfile.TemporaryDirectory() as tmp:
         scenes = {"scene_specs": args.scene} if args.scene else {
@@ -56,7 +57,10 @@ def main(argv: list[str] | None = None) -> None:
         config = EnvConfig.from_kwargs(mode="train", split="train", goal_pool=args.goals,
                                        cache_dir=args.cache_dir or tmp, **scenes)
         rng = np.random.default_rng(0)
-        rows = [scene_fallbacks(config, slot, args.starts, rng) for slot in config.scene_slots()]
+        try:
+            rows = [scene_fallbacks(config, slot, args.starts, rng) for slot in config.scene_slots()]
+        except (SceneError, ValueError, OSError) as e:  # a scene that does not load: named, no traceback
+            raise SystemExit(f"pool_fallback.py: {e}") from None
     at_goal, goals, at_start = (sum(r[k] for r in rows) for k in range(3))
     starts, ms = args.starts * len(rows), [r[3] for r in rows]
     s = config.episodes
