@@ -247,7 +247,9 @@ class SceneSlot:
 
     def draw_goal(self, config: EnvConfig, position, rng):
         """(goal, its field or None) for train mode from ``position``: from this scene's goal pool when
-        ``goal_pool`` > 0 and one is in range, else a fresh uniform draw; None if none was found."""
+        ``goal_pool`` > 0 and one is in range, else a fresh uniform draw (two distance fields, 8.9 ms median; with a
+        pool of 64 none of 200 procedural train scenes' 10,000 random starts or 12,800 pool goals, where a trained
+        policy draws its next goal, had none in range: benchmarks/pool_fallback.py); None if none was found."""
         s = config.episodes
         if config.goal_pool:
             found = self.goal_sampler(config).sample(position, rng, s.d_min, s.d_max)

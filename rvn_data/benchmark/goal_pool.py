@@ -6,9 +6,7 @@ Dijkstra solves (~3 ms each on a procedural apartment).
 main island by a generator that is a pure function of (split, scene index, G), so every env
 of every process sees the same pool. A goal for a source pose is drawn uniformly among the
 pool points whose geodesic distance from it lies in [d_min, d_max] (the benchmark's range);
-none in range → a fresh uniform goal, as G = 0 draws (`SceneSlot.draw_goal`: two distance fields, 8.9 ms median; with
-64 goals none of 200 procedural train scenes' 10,000 random starts or 12,800 pool goals, where a trained policy's
-next goal is drawn, had none in range: benchmarks/pool_fallback.py). G = 0 (the default) keeps the benchmark's
+none in range → the caller draws another start. G = 0 (the default) keeps the benchmark's
 sampler: a fresh uniform goal every time. Evaluation never uses a pool: its episodes are fixed.
 
 A pool's fields are solved and smoothed whole when it is built (`rvn_data.navmesh.field_sets.FieldTrees`): 1.45-1.95 s
