@@ -48,7 +48,6 @@ import argparse
 import os
 import sys
 import time
-import traceback
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -58,7 +57,7 @@ import node_cpu  # noqa: E402
 import node_report  # noqa: E402
 import node_warm  # noqa: E402
 from node_rl import SKIPPABLE, rl_rows  # noqa: E402
-from node_rows import decision_rows, gen_rows, render_rows, row, train_rows  # noqa: E402
+from node_rows import decision_rows, failed_row, gen_rows, render_rows, train_rows  # noqa: E402
 
 from rvn_il.train.choices import COMPILE_MODES  # noqa: E402  (torch-free: node.py parses without torch)
 
@@ -199,10 +198,7 @@ def main(argv: list[str] | None = None) -> int:
                 add(r)
                 got += 1
         except Exception as e:  # the other groups still run; the table says what failed
-            traceback.print_exc()
-            failed = row(numbers[name], name, name, "", None)
-            failed["error"] = f"{type(e).__name__}: {str(e).strip().splitlines()[0] if str(e).strip() else ''}"
-            add(failed)
+            add(failed_row(numbers[name], name, name, "", e))
         print(f"[node] {name}: {got} row(s) in {time.perf_counter() - t:.0f} s", file=sys.stderr, flush=True)
     print(node_report.markdown(info, rows, plan_dict), end="")
     if paths:

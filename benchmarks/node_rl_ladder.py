@@ -14,11 +14,10 @@ rows ``rl_envs_<W>x<E>`` (`layouts`) time every layout of 2-6 envs a worker afte
 from __future__ import annotations
 
 import math
-import traceback
 from collections.abc import Iterator
 
 import node_rl
-from node_rows import row
+from node_rows import failed_row
 
 # the ladder's settings (`rl.overrides`' names) as their labels name them
 LEVERS = {"graph_act": "train.graph_act=true", "overlap": "train.overlap=true",
@@ -33,10 +32,7 @@ def guarded(key: str, what: str, run) -> dict:
     try:
         return run()
     except Exception as e:
-        traceback.print_exc()
-        failed = row(5, key, f"{node_rl.RL_LABEL}{what}", "env steps/s")
-        failed["error"] = f"{type(e).__name__}: {str(e).strip().splitlines()[0] if str(e).strip() else ''}"
-        return failed
+        return failed_row(5, key, f"{node_rl.RL_LABEL}{what}", "env steps/s", e)
 
 
 def fat_workers(envs: int) -> int:

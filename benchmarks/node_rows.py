@@ -26,6 +26,15 @@ def row(group: int, key: str, label: str, unit: str, goal_key: str | None = None
                 baseline=baseline, gpu_busy=gpu_busy, skipped=skipped, error=None, profile=profile)
 
 
+def failed_row(group: int, key: str, label: str, unit: str, err: Exception) -> dict:
+    """The row ``key`` that raised ``err``, its error the exception's type and first line (the traceback printed to
+    stderr): the table says what failed and the rows after it still run."""
+    traceback.print_exc()
+    failed = row(group, key, label, unit)
+    failed["error"] = f"{type(err).__name__}: {str(err).strip().splitlines()[0] if str(err).strip() else ''}"
+    return failed
+
+
 @contextlib.contextmanager
 def shared_cores(processes: int):
     """The cores shared between ``processes`` render workers as between rvn-eval's workers (software GL's

@@ -51,11 +51,11 @@ def _in_turn(actor, envs, rollouts, state, run, cfg, d, device, heads, generator
         with torch.no_grad():
             action, logp, values, state = actor.act(to_device(o, device), state, prev.to(device), masks.to(device),
                                                     generator=generator)
-        actions = action.cpu().numpy()
+        action = action.cpu()  # one copy to the host, for the envs and the storage
         t_step = time.perf_counter()
-        obs, reward, cost, done, infos = envs.step(actions)
+        obs, reward, cost, done, infos = envs.step(action.numpy())
         t_env += time.perf_counter() - t_step
-        rollouts.insert(obs, action.cpu(), logp.cpu(), values.cpu(), _rewards(reward, cost, heads), done)
+        rollouts.insert(obs, action, logp.cpu(), values.cpu(), _rewards(reward, cost, heads), done)
         episodes += [info["episode"] for info in infos if "episode" in info]
         if d.should_end_early(step + 1, ppo.num_steps, run.updates, cfg.ddppo.sync_frac):
             break
