@@ -12,8 +12,8 @@ unreached nodes' markers, which compress to ~0.3-0.5 MB for 64 goals against 3-4
 (every value's first byte, then every value's second, ...: 28 % smaller compressed than as floats), ~2-3.5 MB for 64
 goals on a procedural apartment (3.4-6.3 MB raw), so a cache root holds ~2.5-4 MB a train scene. The key hashes
 everything a pool depends on: the navmesh's content (`navmesh_digest`: its layers, links and settings, whether built
-or read from a file), the pool's size, split code and scene index (its goals' seed), the navmesh package's and this
-module's sources and numpy's and scipy's versions.
+or read from a file), the pool's size, split code and scene index (its goals' seed), the code of the navmesh package, the
+goal pool and this module (not their docstrings or comments: `rvn_data.code_digest`) and numpy's and scipy's versions.
 Changing any of them makes a new file; the old one is never read again (the folder is safe to delete). A pool read
 back equals the built one array for array, so every goal draw and episode is unchanged.
 
@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from rvn_data.cache_root import cached_file
+from rvn_data.code_digest import code_digest as source_digest
 from rvn_data.navmesh import disk_cache
 from rvn_data.navmesh.field_sets import FieldTrees
 
@@ -41,11 +42,10 @@ FORMAT = "rvn-goal-pool/2"  # /2: with the smoothed values
 
 @lru_cache(maxsize=1)
 def code_digest() -> str:
-    """The navmesh package's digest (`disk_cache.code_digest`) with the sources of the goal pool and this module."""
-    h = hashlib.sha256(disk_cache.code_digest().encode())
-    for name in ("goal_pool.py", "pool_cache.py"):
-        h.update((Path(__file__).parent / name).read_bytes())
-    return h.hexdigest()
+    """The navmesh package's digest (`disk_cache.code_digest`) with the code of the goal pool and this module
+    (`rvn_data.code_digest`: not their docstrings or comments)."""
+    here = Path(__file__).parent
+    return source_digest([here / "goal_pool.py", here / "pool_cache.py"], extra=disk_cache.code_digest())
 
 
 def navmesh_digest(navmesh) -> str:

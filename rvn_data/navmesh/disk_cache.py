@@ -5,8 +5,8 @@ rvn-eval rows and rvn-gen runs that share a root reuse each other's builds.
 
 A file is ``<scene>-<key>.npz``: the layers' arrays and a JSON record (`FORMAT`). The key hashes everything a
 build depends on: the scene's triangles (`Scene.fingerprint`, as the episode files record it), the build settings (the
-``source``/``file`` choice aside: only built navmeshes are kept), the source of the navmesh package and the
-numpy/scipy versions. Changing any of them makes a new file; the old one is never read again (the folder is
+``source``/``file`` choice aside: only built navmeshes are kept), the code of the navmesh package (not its
+docstrings or comments: `rvn_data.code_digest`) and the numpy/scipy versions. Changing any of them makes a new file; the old one is never read again (the folder is
 safe to delete). A loaded navmesh equals the built one array for array, so every output is unchanged.
 
 Writes are atomic (concurrent envs may write the same file: both are whole and equal). A file that cannot be
@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from rvn_data.cache_root import cached_file
+from rvn_data.code_digest import code_digest as source_digest
 from rvn_data.navmesh.grid import NavGrid
 from rvn_data.navmesh.settings import NavMeshSettings
 
@@ -36,14 +37,12 @@ LAYER_SCALARS = ("x0", "z0", "cs", "r0", "c0")
 
 @lru_cache(maxsize=1)
 def code_digest() -> str:
-    """Digest of what builds a navmesh besides its inputs: the navmesh package's source, numpy's and scipy's versions."""
+    """Digest of what builds a navmesh besides its inputs: the navmesh package's code (`rvn_data.code_digest`: its
+    docstrings and comments left out), numpy's and scipy's versions."""
     import scipy
 
-    h = hashlib.sha256(f"numpy {np.__version__} scipy {scipy.__version__}".encode())
-    for path in sorted(Path(__file__).parent.glob("*.py")):
-        h.update(path.name.encode())
-        h.update(path.read_bytes())
-    return h.hexdigest()
+    return source_digest(sorted(Path(__file__).parent.glob("*.py")),
+                         extra=f"numpy {np.__version__} scipy {scipy.__version__}")
 
 
 def build_key(scene, settings: NavMeshSettings) -> str:
