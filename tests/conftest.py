@@ -22,13 +22,14 @@ DREAM_APARTMENT = Path(os.environ.get(
 
 # The files whose tests take longest on 2 cores, slowest first (each file's time under `-n auto --dist loadfile`,
 # 2026-12-02: test_compiled ~160 s, test_rl ~145, test_node_benchmark ~140, test_experiment_smoke ~105, test_rl_ddppo
-# ~100, test_real_sim_smoke ~90, then ten files of 30-55 s). xdist's loadfile hands files out in queue order, by
+# ~100, test_real_sim_smoke ~90, then ten files of 30-55 s; 2026-12-05: test_node_benchmark's RL tests, ~65 s, moved
+# to test_node_rl). xdist's loadfile hands files out in queue order, by
 # default the files with the most tests first, which left one worker running a long file alone at the end
 # (test_rl_ddppo, later test_rl: 75 s of one idle core). Longest first, the short files fill in behind, and the two
 # workers end within seconds of each other. test_compiled leads: it needs none of numba's kernels (KERNEL_FREE), so
 # on a fresh clone one worker runs it while the kernels compile (pytest_configure).
 LONGEST_FIRST = ("test_compiled.py", "test_rl.py", "test_node_benchmark.py", "test_experiment_smoke.py",
-                 "test_rl_ddppo.py", "test_real_sim_smoke.py", "test_eval.py", "test_il_train.py", "test_agreement.py",
+                 "test_rl_ddppo.py", "test_real_sim_smoke.py", "test_node_rl.py", "test_eval.py", "test_il_train.py", "test_agreement.py",
                  "test_depth_aux.py", "test_gen_readback.py", "test_embodiment.py", "test_il_datasets.py",
                  "test_rl_depth.py", "test_cli_errors.py", "test_worker_threads.py", "test_gen_repair.py",
                  "test_report.py", "test_il_models.py", "test_cli_typos.py", "test_rl_vec_env.py",
