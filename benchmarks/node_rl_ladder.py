@@ -6,12 +6,11 @@ rvn-rl worker renders its envs' views in one call a batched step, so scale=small
 a step: >= ~6.3 ms, <= ~4,800 env steps/s for 30 envs however fast the rest. The fifth run's envs alone agree: a
 median batched step of 6.7 ms in 15 x 2 (1.0 ms in one worker of 2), 10.4 ms in 15 x 4, and 5.2 ms for 32 envs in
 4 x 8 (6,150 env steps/s at that median; its mean was twice it, the helpers' start-up in its window, since left out).
-Fewer, larger workers make fewer calls of more views; each worker then steps more envs on its core (~0.15-0.2 ms an
-env's state step, ~0.05 its observation: 2-core development CPU, `rl_env_phases.py`). So the ladder's base is the
-faster of the rl row and ``rl_workers_<W>`` (the same 30 envs in `fat_workers` workers: 6 x 5), and the envs-alone
-rows ``rl_envs_<W>x<E>`` (`layouts`) time every layout of 2-10 envs a worker after the warm-up: if the calls bound
-the envs, the fewest workers whose own CPU work stays below the GPU's turns win (3 x 10: 1.15 ms of state steps a
-batched step on the development CPU).
+Fewer, larger workers make fewer calls of more views; each worker then steps more envs on its core (~0.12 ms an
+env's state step, ~0.01 its observation: a worker of 10 envs on the 2-core development CPU, `rl_env_phases.py`). So
+the envs-alone rows ``rl_envs_<W>x<E>`` (`layouts`) first time every layout of 2-10 envs a worker after the warm-up:
+if the calls bound the envs, the fewest workers whose own CPU work stays below the GPU's turns win. Then
+``rl_workers_<W>`` runs rvn-rl in the fastest of them, and the ladder's base is the faster of that and the rl row.
 """
 from __future__ import annotations
 
@@ -55,21 +54,29 @@ def layouts(envs: int, workers: int) -> list[tuple[int, int]]:
 
 
 def layout_rows(plan, small: dict, plain: dict) -> Iterator[dict]:
-    """``rl_workers_<W>``: the rl row's run with its envs in `fat_workers` workers (naming its ratio to rl); then,
-    unless node.py --skip rl_layouts, the envs alone in each of `layouts` after ``plan.rl_warm_seconds``. Returns
-    the settings the ladder builds on: the faster of the two rl runs'."""
+    """Unless node.py --skip rl_layouts, the envs alone in each of `layouts` after ``plan.rl_warm_seconds``; then
+    ``rl_workers_<W>``: the rl row's run with its envs in the workers of the fastest of those layouts (on a tie the
+    one with more workers; `fat_workers` where the layouts were skipped or all failed), naming its ratio to rl. No
+    such row where that is the rl row's own layout: fewer workers did not pay. Returns the settings the ladder builds
+    on: the faster of the rl runs'."""
     w = fat_workers(plan.rl_envs)
+    if "rl_layouts" not in plan.skip:
+        timed = []
+        for workers, per_worker in layouts(plan.rl_envs, plan.rl_workers):
+            row = guarded(f"rl_envs_{workers}x{per_worker}", f"envs alone, {workers} x {per_worker}",
+                          lambda: node_rl._rl_envs_row(plan, small, workers=workers, per_worker=per_worker))
+            yield row
+            if row["value"] is not None:
+                timed.append((row["value"], workers))
+        if timed:
+            w = max(timed)[1]
     if w == plan.rl_workers:
         return small
     key, what = f"rl_workers_{w}", f"scale=small, env.workers={w}"
-    fat = guarded(key, what, lambda: node_rl._rl_row(plan, key, what, {**small, "workers": w}, "rl", "",
-                                                     against=plain["value"]))
-    yield fat
-    if "rl_layouts" not in plan.skip:
-        for workers, per_worker in layouts(plan.rl_envs, plan.rl_workers):
-            yield guarded(f"rl_envs_{workers}x{per_worker}", f"envs alone, {workers} x {per_worker}",
-                          lambda: node_rl._rl_envs_row(plan, small, workers=workers, per_worker=per_worker))
-    faster = fat["value"] is not None and (plain["value"] is None or fat["value"] > plain["value"])
+    fewer = guarded(key, what, lambda: node_rl._rl_row(plan, key, what, {**small, "workers": w}, "rl", "",
+                                                       against=plain["value"]))
+    yield fewer
+    faster = fewer["value"] is not None and (plain["value"] is None or fewer["value"] > plain["value"])
     return {**small, "workers": w} if faster else small
 
 

@@ -88,7 +88,7 @@ def test_skip_leaves_an_rl_row_out_and_names_it(monkeypatch):
 def _recorded_rl_rows(monkeypatch, values: dict | None = None) -> tuple:
     """node_rl's row functions recorded, not run (the CUDA rows need a GPU): (plan, scale=small's settings, the
     recorded rows: key, ratio's base, rvn-rl's overrides of train., ppo.rec, env.scene_switch, env.workers and
-    env.num_envs); ``values``: the rate each key's row returns (100 else)."""
+    env.num_envs); ``values``: the rate each key's row returns (100 else, 1 for an envs-alone row)."""
     monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
     import node as node_bench
     import node_rl
@@ -104,8 +104,9 @@ def _recorded_rl_rows(monkeypatch, values: dict | None = None) -> tuple:
         return {"key": key, "value": (values or {}).get(key, 100.0)}
 
     def record_envs(plan, settings, workers=None, per_worker=None, **kw):
-        seen.append((f"rl_envs_{workers}x{per_worker}", None, [], ""))
-        return {"key": f"rl_envs_{workers}x{per_worker}", "value": 1.0}
+        key = f"rl_envs_{workers}x{per_worker}"
+        seen.append((key, None, [], ""))
+        return {"key": key, "value": (values or {}).get(key, 1.0)}
     monkeypatch.setattr(node_rl, "_rl_row", record)
     monkeypatch.setattr(node_rl, "_rl_envs_row", record_envs)
     small = dict(size=plan.rl_size, backbone="resnet18", num_steps=plan.rl_num_steps, ppo_epoch=4, mini_batches=1)
@@ -150,13 +151,15 @@ def test_env_worker_layouts(monkeypatch):
     assert ladder.layouts(32, 8) == [(8, 4), (4, 8)]  # 2 x 16: more than MAX_ENVS_A_WORKER
 
 
-@pytest.mark.parametrize("fat_rate", [150.0, 50.0])
-def test_ladder_builds_on_the_faster_layout(monkeypatch, fat_rate):
-    """With CUDA, node_rl.rl_rows runs the rl row, then ``rl_workers_6`` (its 30 envs in 6 workers of 5, naming its
-    ratio to rl), the envs alone in each layout, then the ladder on the faster of the two runs' layouts: env.workers=6
-    in every ladder row's overrides and label when rl_workers_6 was faster, scale=small's 15 workers when not.
-    --skip rl_layouts leaves the envs-alone layout rows out. Recorded, not run (a 16-CPU CUDA plan)."""
-    plan, small, seen = _recorded_rl_rows(monkeypatch, {"rl": 100.0, "rl_workers_6": fat_rate})
+@pytest.mark.parametrize("fastest, rate", [("rl_envs_5x6", 150.0), ("rl_envs_3x10", 50.0), ("rl_envs_15x2", None)])
+def test_ladder_builds_on_the_faster_layout(monkeypatch, fastest, rate):
+    """With CUDA, node_rl.rl_rows runs the rl row, the envs alone in each layout, then ``rl_workers_<W>`` in the
+    fastest layout's workers (naming its ratio to rl; none where that is rl's own 15 workers), then the ladder on the
+    faster of the two runs' layouts: env.workers=W in every ladder row's overrides and label when rl_workers_<W> was
+    faster, scale=small's 15 workers when not. With --skip rl_layouts, rl_workers_6 (`fat_workers`). Recorded, not
+    run (a 16-CPU CUDA plan)."""
+    workers = {"rl_envs_5x6": 5, "rl_envs_3x10": 3, "rl_envs_15x2": 15}[fastest]
+    plan, small, seen = _recorded_rl_rows(monkeypatch, {"rl": 100.0, fastest: 9.0, f"rl_workers_{workers}": rate})
     import node as node_bench
     import node_rl
 
@@ -164,16 +167,19 @@ def test_ladder_builds_on_the_faster_layout(monkeypatch, fat_rate):
                                                   "rl_scene_steps"]), True, 16)
     monkeypatch.setattr(node_rl, "fill_scene_caches", lambda plan, settings, root: "over a recorded cache root")
     keys = [r["key"] for r in node_rl.rl_rows(plan)]
-    assert keys[:7] == ["rl", "rl_scene_steps", "rl_bf16", "rl_workers_6", "rl_envs_15x2", "rl_envs_10x3",
-                        "rl_envs_6x5"], keys
-    assert keys[7:11] == ["rl_envs_5x6", "rl_envs_3x10", "rl_graph_act", "rl_graph_act_overlap"], keys
+    fewer = [] if rate is None else [f"rl_workers_{workers}"]
+    assert keys[:8 + len(fewer)] == ["rl", "rl_scene_steps", "rl_bf16", "rl_envs_15x2", "rl_envs_10x3", "rl_envs_6x5",
+                                     "rl_envs_5x6", "rl_envs_3x10", *fewer], keys
+    assert keys[8 + len(fewer):10 + len(fewer)] == ["rl_graph_act", "rl_graph_act_overlap"], keys
     rows = {key: (against, o, what) for key, against, o, what in seen}
-    assert rows["rl_workers_6"][0] == 100.0 and {"env.workers=6", "env.num_envs=30"} <= set(rows["rl_workers_6"][1])
-    workers = "env.workers=6" if fat_rate > 100 else "env.workers=15"
+    if fewer:
+        against, overrides, _ = rows[fewer[0]]
+        assert against == 100.0 and {f"env.workers={workers}", "env.num_envs=30"} <= set(overrides)
+    base = workers if rate is not None and rate > 100 else 15
     for key in ("rl_graph_act", "rl_graph_act_overlap_double_buffered", "rl_all_levers"):
         against, overrides, what = rows[key]
-        assert against == 100.0 and workers in overrides and "env.num_envs=30" in overrides, (key, overrides)
-        assert ("env.workers=6" in what) == (fat_rate > 100), what
+        assert against == 100.0 and f"env.workers={base}" in overrides and "env.num_envs=30" in overrides, (key, overrides)
+        assert (f"env.workers={base}" in what) == (base != 15), what
     seen.clear()
     plan.skip.append("rl_layouts")
     keys = [r["key"] for r in node_rl.rl_rows(plan)]
@@ -182,8 +188,8 @@ def test_ladder_builds_on_the_faster_layout(monkeypatch, fat_rate):
 
 def test_a_failing_rung_names_its_error_and_the_ladder_goes_on(monkeypatch):
     """A layout or ladder row that raises (none of them has run on a GPU) becomes a row naming its error, and the rows
-    after it still run; a failed rl_workers_6 leaves the ladder on scale=small's layout."""
-    plan, small, seen = _recorded_rl_rows(monkeypatch)
+    after it still run; a failed rl_workers_6 (6 x 5 the fastest layout) leaves the ladder on scale=small's layout."""
+    plan, small, seen = _recorded_rl_rows(monkeypatch, {"rl_envs_6x5": 9.0})
     import node_rl
     import node_rl_ladder
 
@@ -196,11 +202,11 @@ def test_a_failing_rung_names_its_error_and_the_ladder_goes_on(monkeypatch):
     monkeypatch.setattr(node_rl, "_rl_row", failing)
     plan.rl_envs, plan.rl_workers = 30, 15
     rows = list(node_rl_ladder.layout_rows(plan, small, {"key": "rl", "value": 100.0}))
-    fat = rows[0]
-    assert fat["key"] == "rl_workers_6" and fat["value"] is None
-    assert fat["error"] == "RuntimeError: CUDA error in rl_workers_6" and "env.workers=6" in fat["label"]
-    assert [r["key"] for r in rows[1:]] == ["rl_envs_15x2", "rl_envs_10x3", "rl_envs_6x5", "rl_envs_5x6",
-                                              "rl_envs_3x10"]
+    fewer = rows[-1]
+    assert fewer["key"] == "rl_workers_6" and fewer["value"] is None
+    assert fewer["error"] == "RuntimeError: CUDA error in rl_workers_6" and "env.workers=6" in fewer["label"]
+    assert [r["key"] for r in rows[:-1]] == ["rl_envs_15x2", "rl_envs_10x3", "rl_envs_6x5", "rl_envs_5x6",
+                                             "rl_envs_3x10"]
     gen = node_rl_ladder.layout_rows(plan, small, {"key": "rl", "value": 100.0})
     try:
         while True:
@@ -215,10 +221,10 @@ def test_a_failing_rung_names_its_error_and_the_ladder_goes_on(monkeypatch):
 
 @pytest.mark.slow
 def test_layout_rows_run_rvn_rl_in_fewer_workers(monkeypatch, tmp_path):
-    """node_rl_ladder.layout_rows for real at tiny sizes on the CPU (on a node they run with CUDA): rvn-rl's run with
-    the plan's 4 envs in 2 workers of 2 instead of 4 of 1 (row rl_workers_2, its label and settings naming them),
-    then the envs alone in each layout of 2-10 envs a worker (2 x 2, 1 x 4); the ladder's base takes the faster run's
-    workers."""
+    """node_rl_ladder.layout_rows for real at tiny sizes on the CPU (on a node they run with CUDA): the envs alone in
+    each layout of 2-10 envs a worker of the plan's 4 envs (2 x 2, 1 x 4), then rvn-rl's run in the faster layout's
+    workers instead of 4 of 1 (row rl_workers_<W>, its label and settings naming them); the ladder's base takes the
+    faster run's workers."""
     monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
     from types import SimpleNamespace
 
@@ -238,12 +244,13 @@ def test_layout_rows_run_rvn_rl_in_fewer_workers(monkeypatch, tmp_path):
             rows.append(next(gen))
     except StopIteration as stop:
         base = stop.value
-    assert [r["key"] for r in rows] == ["rl_workers_2", "rl_envs_2x2", "rl_envs_1x4"]
+    assert [r["key"] for r in rows[:2]] == ["rl_envs_2x2", "rl_envs_1x4"]
     assert all(r["value"] > 0 and not r["error"] for r in rows), rows
-    assert "env.workers=2" in rows[0]["label"] and "x 4 envs, 1 epochs x 1 mini-batches, 2 env worker processes" in \
-        rows[0]["settings"], rows[0]
-    assert "4 envs in 1 worker processes" in rows[2]["settings"], rows[2]
-    assert base == {**small, "workers": 2}  # faster than the 1e-6 env steps/s given as the rl row's
+    assert "4 envs in 1 worker processes" in rows[1]["settings"], rows[1]
+    w = 2 if rows[0]["value"] >= rows[1]["value"] else 1  # the fastest layout's workers
+    assert rows[2]["key"] == f"rl_workers_{w}" and f"env.workers={w}" in rows[2]["label"], rows[2]
+    assert f"x 4 envs, 1 epochs x 1 mini-batches, {w} env worker processes" in rows[2]["settings"], rows[2]
+    assert base == {**small, "workers": w}  # faster than the 1e-6 env steps/s given as the rl row's
 
 
 @pytest.mark.slow
