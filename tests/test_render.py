@@ -150,12 +150,12 @@ def test_gl_renderers_in_one_process_share_one_context_and_draw_as_alone():
 @needs_egl
 @pytest.mark.skipif(not DREAM.exists(), reason=f"{DREAM} not present")
 def test_gl_mesh_arrays_made_ahead_draw_the_same_bytes():
-    """A GL renderer given its scene's `gl.mesh_arrays` made ahead and pickled (as rvn-rl's scene prefetch has a
+    """A GL renderer given its scene's `mesh_arrays` made ahead and pickled (as rvn-rl's scene prefetch has a
     helper process make them) draws byte for byte what one that makes them itself draws: the dream apartment, a
     procedural apartment and a room with a textured floor, RGB and depth."""
     import pickle
 
-    from rvn_data.render import gl
+    from rvn_data.render.mesh_arrays import mesh_arrays
     from rvn_data.scenes.loader import load_scene
     from rvn_data.scenes.procedural import make_apartment
 
@@ -163,7 +163,7 @@ def test_gl_mesh_arrays_made_ahead_draw_the_same_bytes():
     room = [([0.3, 0.0, 0.2], y) for y in np.linspace(-3.0, 3.0, 4)]
     textured = 0
     for scene, poses in ((load_scene(DREAM), None), (make_apartment("train", 1), None), (coloured_room(), room)):
-        arrays = pickle.loads(pickle.dumps(gl.mesh_arrays(scene)))
+        arrays = pickle.loads(pickle.dumps(mesh_arrays(scene)))
         textured += any(p is not None and p[1] is not None for p in arrays.parts)
         with make_renderer(scene, cam, "gl") as plain, make_renderer(scene, cam, "gl", gl_arrays=arrays) as ahead:
             for pose in poses or navigable_poses(scene, 4):

@@ -170,7 +170,7 @@ class SceneSlot:
         self.pos, self.spec, self.scene_index = pos, spec, scene_index
         self.scene, self.navmesh, self.simulator, self.renderer = scene, navmesh, simulator, renderer
         self._episodes = self._goal_sampler = None
-        self.gl_arrays = None  # the scene's `gl.mesh_arrays` when made ahead (`prepared_parts`), until `with_renderer`
+        self.gl_arrays = None  # the scene's `mesh_arrays` when made ahead (`prepared_parts`), until `with_renderer`
 
     @property
     def scene_id(self) -> str:
@@ -202,8 +202,8 @@ class SceneSlot:
     def prepared_parts(cls, config: EnvConfig, slot: tuple[str, int], with_pool: bool) -> tuple:
         """(scene, navmesh, goal pool or None, GL mesh arrays or None) of a slot, as `load`, `goal_sampler` and
         `with_renderer` make them: what rvn-rl's scene prefetch has a helper process prepare (`rvn_data.helper_process`)
-        and send back; the pool only ``with_pool``, the GL renderer's arrays (`rvn_data.render.gl.mesh_arrays`, ~9 ms
-        of the ~11 ms a GL renderer took to make at the switch) unless the renderer is raycast.
+        and send back; the pool only ``with_pool``, the GL renderer's arrays (`rvn_data.render.mesh_arrays`, ~9 ms of
+        the ~11 ms a GL renderer took to make at the switch) unless the renderer is raycast.
         The navmesh comes with its geodesic graph built (5-10 MB more to send, ~2 ms to read back), which a pool's
         solves make and the env's first goal draw needs: where this process keeps the pool (``with_pool`` false), the
         env's own thread built it at that draw, 26-110 ms a procedural scene in the middle of a batched step."""
@@ -216,7 +216,7 @@ class SceneSlot:
             pool = GoalPool.build(navmesh, config.goal_pool, config.split_code, slot[1], config.pool_folder())
         arrays = None
         if str(config.renderer.get("backend", "auto")).lower() != "raycast":
-            from rvn_data.render.gl import mesh_arrays
+            from rvn_data.render.mesh_arrays import mesh_arrays
             arrays = mesh_arrays(scene)
         return scene, navmesh, pool, arrays
 

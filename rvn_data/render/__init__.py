@@ -42,7 +42,7 @@ def _camera(camera) -> CameraConfig:
 def make_renderer(scene: Scene, camera: CameraConfig | Mapping | None = None, backend: str = "auto",
                   device: int = 0, gl_arrays=None) -> Renderer:
     """A renderer for `scene`; `backend` is 'auto', 'gl' or 'raycast', `device` the EGL device; ``gl_arrays``: the
-    scene's `gl.mesh_arrays` made ahead, which a gl renderer uploads instead of making them."""
+    scene's `mesh_arrays` made ahead, which a gl renderer uploads instead of making them."""
     camera = _camera(camera)
     backend = str(backend).lower()
     if backend not in BACKENDS:
