@@ -261,9 +261,10 @@ def test_env_phases_benchmark_splits_the_envs_step_by_process_count(tmp_path):
     import subprocess
     import sys
 
+    cache = ["--cache-dir", str(tmp_path / "cache")]  # filled by the first run, read by the second
     proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "rl_env_phases.py"), "--processes", "1", "2",
                            "--envs", "2", "--seconds", "0.5", "--warm", "0", "--scenes", "2", "--size", "64",
-                           "--renderer", "raycast"], capture_output=True, text=True, timeout=600)
+                           "--renderer", "raycast", *cache], capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert re.search(r"cache root filled \(2 scenes' navmeshes and goal pools\)", proc.stdout), proc.stdout
     lines = [line for line in proc.stdout.splitlines() if "process(es):" in line]
@@ -281,8 +282,8 @@ def test_env_phases_benchmark_splits_the_envs_step_by_process_count(tmp_path):
     # Habitat's scene switches (env.scene_switch_steps): none within a short run, and resets are not counted as switches
     proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "rl_env_phases.py"), "--processes", "1",
                            "--envs", "2", "--seconds", "0.5", "--warm", "0", "--scenes", "2", "--size", "64",
-                           "--renderer", "raycast", "--scene-switch-steps", "100000"], capture_output=True, text=True,
-                          timeout=600)
+                           "--renderer", "raycast", "--scene-switch-steps", "100000", *cache], capture_output=True,
+                          text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert "a scene switch at the first reset after ~100000 steps in one" in proc.stdout, proc.stdout
     assert "scene switches in 0.0% of the steps: 0.00 ms a step" in proc.stdout, proc.stdout
