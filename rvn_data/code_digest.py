@@ -7,9 +7,9 @@ source's digest is of its `code_text`: the source with its comments, its docstri
 function's first statement when that is a string) and its blank lines and trailing spaces left out. Any other change,
 code or a string that is not a docstring, changes it. The text is cut from the source at the positions Python's own
 parser and tokenizer give, not re-printed from the syntax tree or joined from tokens, whose forms change between
-Python versions (`ast.unparse`'s, and f-strings' tokens since 3.12); only Python 3.11 has been tried. A process works it out once
-(`lru_cache` at the callers): ~0.11 s for the navmesh package's 18 files (147 kB, 2-core development CPU; hashing
-their bytes had taken ~1 ms).
+Python versions (`ast.unparse`'s, and f-strings' tokens since 3.12); only Python 3.11 has been tried. A process
+works it out once (`lru_cache` at the callers): ~0.11 s for the navmesh package's 18 files (147 kB, 2-core
+development CPU; hashing their bytes had taken ~1 ms).
 """
 from __future__ import annotations
 
@@ -39,7 +39,8 @@ def code_text(source: str, name: str = "<source>") -> str:
     lines = source.split("\n")  # the parser's rows (str.splitlines would also split at form feeds and the like)
     try:
         tree = ast.parse(source, filename=name)
-        comments = [tok for tok in tokenize.generate_tokens(io.StringIO(source).readline) if tok.type == tokenize.COMMENT]
+        tokens = tokenize.generate_tokens(io.StringIO(source).readline)
+        comments = [tok for tok in tokens if tok.type == tokenize.COMMENT]
     except (SyntaxError, tokenize.TokenError) as err:
         raise SyntaxError(f"{name}: not Python source ({err}); its code digest needs it to parse") from None
 

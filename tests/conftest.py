@@ -29,10 +29,10 @@ DREAM_APARTMENT = Path(os.environ.get(
 # workers end within seconds of each other. test_compiled leads: it needs none of numba's kernels (KERNEL_FREE), so
 # on a fresh clone one worker runs it while the kernels compile (pytest_configure).
 LONGEST_FIRST = ("test_compiled.py", "test_rl.py", "test_node_benchmark.py", "test_experiment_smoke.py",
-                 "test_rl_ddppo.py", "test_real_sim_smoke.py", "test_node_rl.py", "test_eval.py", "test_il_train.py", "test_agreement.py",
-                 "test_depth_aux.py", "test_gen_readback.py", "test_embodiment.py", "test_il_datasets.py",
-                 "test_rl_depth.py", "test_cli_errors.py", "test_worker_threads.py", "test_gen_repair.py",
-                 "test_report.py", "test_il_models.py", "test_cli_typos.py", "test_rl_vec_env.py",
+                 "test_rl_ddppo.py", "test_real_sim_smoke.py", "test_node_rl.py", "test_eval.py", "test_il_train.py",
+                 "test_agreement.py", "test_depth_aux.py", "test_gen_readback.py", "test_embodiment.py",
+                 "test_il_datasets.py", "test_rl_depth.py", "test_cli_errors.py", "test_worker_threads.py",
+                 "test_gen_repair.py", "test_report.py", "test_il_models.py", "test_cli_typos.py", "test_rl_vec_env.py",
                  "test_readme_block.py")
 # Test files that call none of numba's kernels (torch.compile on synthetic frames): they start before the kernels are
 # compiled; every other file's tests wait for them (pytest_runtest_setup)

@@ -12,8 +12,9 @@ unreached nodes' markers, which compress to ~0.3-0.5 MB for 64 goals against 3-4
 (every value's first byte, then every value's second, ...: 28 % smaller compressed than as floats), ~2-3.5 MB for 64
 goals on a procedural apartment (3.4-6.3 MB raw), so a cache root holds ~2.5-4 MB a train scene. The key hashes
 everything a pool depends on: the navmesh's content (`navmesh_digest`: its layers, links and settings, whether built
-or read from a file), the pool's size, split code and scene index (its goals' seed), the code of the navmesh package, the
-goal pool and this module (not their docstrings or comments: `rvn_data.code_digest`) and numpy's and scipy's versions.
+or read from a file), the pool's size, split code and scene index (its goals' seed), the code of the navmesh
+package, the goal pool and this module (not their docstrings or comments: `rvn_data.code_digest`) and numpy's and
+scipy's versions.
 Changing any of them makes a new file; the old one is never read again (the folder is safe to delete). A pool read
 back equals the built one array for array, so every goal draw and episode is unchanged.
 

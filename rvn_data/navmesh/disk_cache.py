@@ -6,8 +6,9 @@ rvn-eval rows and rvn-gen runs that share a root reuse each other's builds.
 A file is ``<scene>-<key>.npz``: the layers' arrays and a JSON record (`FORMAT`). The key hashes everything a
 build depends on: the scene's triangles (`Scene.fingerprint`, as the episode files record it), the build settings (the
 ``source``/``file`` choice aside: only built navmeshes are kept), the code of the navmesh package (not its
-docstrings or comments: `rvn_data.code_digest`) and the numpy/scipy versions. Changing any of them makes a new file; the old one is never read again (the folder is
-safe to delete). A loaded navmesh equals the built one array for array, so every output is unchanged.
+docstrings or comments: `rvn_data.code_digest`) and the numpy/scipy versions. Changing any of them makes a new file;
+the old one is never read again (the folder is safe to delete). A loaded navmesh equals the built one array for
+array, so every output is unchanged.
 
 Writes are atomic (concurrent envs may write the same file: both are whole and equal). A file that cannot be
 read is rebuilt and replaced, with a warning; a folder that cannot be written is warned about once and the
