@@ -64,7 +64,8 @@ def main(argv: list[str] | None = None) -> None:
     at_goal, goals, at_start = (sum(r[k] for r in rows) for k in range(3))
     starts, ms = args.starts * len(rows), [r[3] for r in rows]
     s = config.episodes
-    print(f"{len(rows)} {'scene(s) given' if args.scene else 'procedural train scenes'}, pool of {args.goals}, goals {s.d_min:g}-{s.d_max:g} m apart: no pool goal in range "
+    given = "scene(s) given" if args.scene else "procedural train scenes"
+    print(f"{len(rows)} {given}, pool of {args.goals}, goals {s.d_min:g}-{s.d_max:g} m apart: no pool goal in range "
           f"at a pool goal (a reached goal's next draw) {at_goal}/{goals} ({100 * at_goal / goals:.1f}%), at a random "
           f"start (a reset's draw) {at_start}/{starts} ({100 * at_start / starts:.1f}%), worst scene "
           f"{max(100 * r[2] / args.starts for r in rows):.0f}% of its starts")

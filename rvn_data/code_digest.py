@@ -23,7 +23,8 @@ from pathlib import Path
 FORMAT = "rvn-code-text/1"  # bump when code_text changes what it leaves out
 
 
-def _docstring_spans(tree: ast.Module) -> Iterable[ast.Expr]:
+def _docstrings(tree: ast.Module) -> Iterable[ast.Expr]:
+    """Each module's, class's and function's docstring statement."""
     for node in ast.walk(tree):
         if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)) and node.body:
             first = node.body[0]
@@ -47,9 +48,9 @@ def code_text(source: str, name: str = "<source>") -> str:
     def column(row: int, byte_offset: int) -> int:  # ast's columns count UTF-8 bytes, tokenize's characters
         return len(lines[row - 1].encode()[:byte_offset].decode(errors="ignore"))
 
-    spans = [((tok.start[0], tok.start[1]), (tok.end[0], tok.end[1])) for tok in comments]
+    spans = [(tok.start, tok.end) for tok in comments]  # ((row, column), (row, column))
     spans += [((e.lineno, column(e.lineno, e.col_offset)), (e.end_lineno, column(e.end_lineno, e.end_col_offset)))
-              for e in _docstring_spans(tree)]
+              for e in _docstrings(tree)]
     kept = list(lines)
     for (row0, col0), (row1, col1) in sorted(spans, reverse=True):  # from the end: earlier positions stay valid
         if row0 == row1:
