@@ -78,7 +78,7 @@ def collection(cfg, steps: int, with_policy: bool, times: list | None = None, se
     policy's act(); ``times`` (a list) receives each timed batched step's seconds."""
     from rvn_rl.model import PointNavResNetPolicy
     from rvn_rl.trainer import set_trunk
-    from rvn_rl.vec_env import make_envs
+    from rvn_rl.vec_procs import make_envs
 
     envs = make_envs(cfg.env_kwargs(), cfg.env, seed=0)
     n = envs.num_envs

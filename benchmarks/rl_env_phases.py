@@ -15,7 +15,7 @@ processes of 2 envs (191 a worker), 3,139 in 4 of 8 (785 a worker) and 1,007 in 
 the act and the update are hidden. The phase that grows with the count is what the processes share (rendering: the
 GPU's contexts, or the cores for software GL and ray casting; the state steps: the cores, with the prefetch helpers);
 if none grows and the processes together beat the same envs as rvn-rl steps them (each count but 1 is also run
-through `vec_env.make_envs`: worker processes whose observations one process gathers), that process (the workers'
+through `vec_procs.make_envs`: worker processes whose observations one process gathers), that process (the workers'
 pipes, gathering the observations) is the bound.
 Run: python benchmarks/rl_env_phases.py [--processes 1 4 15] [--envs 2] [--seconds 4] [--warm 5] [--renderer auto]
 """
@@ -172,11 +172,11 @@ def measure(args, processes: int, cache_dir: str) -> dict:
 
 
 def gathered(args, processes: int, cache_dir: str) -> tuple[float, float | None]:
-    """The same envs as rvn-rl steps them (`vec_env.make_envs`: ``processes`` worker processes of ``args.envs`` envs
+    """The same envs as rvn-rl steps them (`vec_procs.make_envs`: ``processes`` worker processes of ``args.envs`` envs
     each, their observations gathered by this process every batched step), random actions, after the same warm-up:
     env steps/s and the machine's cores' busy share."""
     from rvn_rl.cli import compose
-    from rvn_rl.vec_env import make_envs
+    from rvn_rl.vec_procs import make_envs
 
     cfg = compose(overrides(args, cache_dir, processes))
     envs = make_envs(cfg.env_kwargs(), cfg.env, seed=cfg.seed)

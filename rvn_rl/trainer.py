@@ -36,7 +36,7 @@ from .ppo import Lagrange, ppo_update
 from .rollout import DeviceRollouts, RolloutStorage
 from .runlog import RunLog, episode_sums, plot_learning_curve, summary
 from .settings import AlgoConfig, PPOConfig, TrainSettings
-from .vec_env import make_envs
+from .vec_procs import make_envs
 
 
 logger = logging.getLogger(__name__)

@@ -24,8 +24,6 @@ from rvn_data.benchmark.goal_pool import cached_pool
 from rvn_data.helper_process import HelperProcess
 from rvn_data.render import render_views
 
-from .settings import EnvSettings
-
 
 class CachedSceneEnv(RVNEnv):
     """`RVNEnv` that keeps up to ``scene_cache`` scenes loaded besides the current one and, with ``prefetch``,
@@ -198,13 +196,3 @@ class BatchEnv:
         for env in self.envs:
             env.close()
         self.envs = []
-
-
-def make_envs(env_kwargs: dict, env: EnvSettings, seed: int, rank: int = 0, depth_fn=None):
-    """A run's ``env.num_envs`` environments (`RVNEnv` keyword arguments ``env_kwargs``, `RLConfig.env_kwargs`): in this
-    process (``env.workers=0``) or split over worker processes; ``depth_fn`` predicts the depth channel."""
-    common = dict(seed=seed, rank=rank, scene_cache=env.scene_cache, depth_fn=depth_fn, prefetch=env.prefetch_scenes)
-    if not env.workers:
-        return BatchEnv(env_kwargs, env.num_envs, **common)
-    from .vec_procs import ProcessBatchEnv
-    return ProcessBatchEnv(env_kwargs, env.num_envs, env.workers, **common)

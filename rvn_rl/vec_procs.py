@@ -3,7 +3,8 @@ so stepping and rendering use several cores while the learner's process waits. S
 interface and same same-step autoreset as `BatchEnv`; worker ``w`` owns envs
 ``[offsets[w], offsets[w+1])`` with the same reset seeds as in one process, and its share of
 the cores, cores // workers CPU threads (`rvn_data.worker_threads`). The depth function (a
-network) runs in the calling process on the gathered RGB batch.
+network) runs in the calling process on the gathered RGB batch. `make_envs` makes a run's envs, in this process
+(`BatchEnv`) or in ``env.workers`` worker processes.
 
 Observations travel through shared memory (`ObsBlocks`): a worker writes its envs' arrays into
 blocks it made at its first reply and sends only rewards, flags and episode records through its
@@ -19,6 +20,7 @@ import numpy as np
 
 from rvn_data.worker_threads import settle_worker_threads, threads_per_worker, worker_threads
 
+from .settings import EnvSettings
 from .vec_env import BatchEnv
 
 
@@ -215,3 +217,12 @@ class ProcessBatchEnv:
             if p.is_alive():
                 p.terminate()
         self.conns, self.procs = [], []
+
+
+def make_envs(env_kwargs: dict, env: EnvSettings, seed: int, rank: int = 0, depth_fn=None):
+    """A run's ``env.num_envs`` environments (`RVNEnv` keyword arguments ``env_kwargs``, `RLConfig.env_kwargs`): in this
+    process (``env.workers=0``) or split over worker processes; ``depth_fn`` predicts the depth channel."""
+    common = dict(seed=seed, rank=rank, scene_cache=env.scene_cache, depth_fn=depth_fn, prefetch=env.prefetch_scenes)
+    if not env.workers:
+        return BatchEnv(env_kwargs, env.num_envs, **common)
+    return ProcessBatchEnv(env_kwargs, env.num_envs, env.workers, **common)
