@@ -60,7 +60,8 @@ def run(cfg: RLConfig, on_checked=None) -> dict:
 
 @hydra.main(config_path=CONF_DIR, config_name="rl", version_base="1.3")
 def _main(cfg: DictConfig) -> None:
-    from rvn_data.cli.common import ConfigError, entered_task, fail, record_run, validating
+    from rvn_data.cli.common import ConfigError, fail, record_run, validating
+    from rvn_data.cli.hydra_app import entered_task
 
     entered_task()
     try:
@@ -80,7 +81,7 @@ def _main(cfg: DictConfig) -> None:
 
 
 def main() -> None:
-    from rvn_data.cli.common import run_hydra
+    from rvn_data.cli.hydra_app import run_hydra
 
     check_choices(sys.argv[1:])
     register_schema()

@@ -31,7 +31,8 @@ from rvn_data.config import CONF_DIR, register_configs, typed
 from rvn_data.config_schemas import EvalConfig
 from rvn_data.embodiment import check_embodiment, describe, embodiment_of
 from rvn_data.scenes.sets import shared_splits, shared_splits_note
-from rvn_data.cli.common import check_writable_dir, entered_task, fail, record_run, run_hydra, validating
+from rvn_data.cli.common import check_writable_dir, fail, record_run, validating
+from rvn_data.cli.hydra_app import entered_task, run_hydra
 
 register_configs()
 

@@ -1,5 +1,6 @@
-"""What RVN's commands share about starting and failing (rvn-gen, rvn-train, rvn-eval and
-rvn-rl are Hydra apps; rvn-scene and the ``python -m`` tools use argparse).
+"""What RVN's commands share about failing and about recording a run (rvn-gen, rvn-train, rvn-eval
+and rvn-rl are Hydra apps, started by `rvn_data.cli.hydra_app.run_hydra`; rvn-scene and the
+``python -m`` tools use argparse).
 
 One exit-status convention for every RVN tool:
 
@@ -23,13 +24,13 @@ import os
 import sys
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Callable, Iterator, NoReturn
+from typing import Iterator, NoReturn
 
 BAD_INPUT = 2
 RUN_FAILED = 1
 LOG_FORMAT = "[%(asctime)s][%(name)s][%(levelname)s] - %(message)s"  # Hydra's default job_logging format
 
-_entered: dict = {"task": False, "log": None}
+_log: dict = {"handler": None}  # the log file handler `record_run` added last
 
 
 class ConfigError(ValueError):
@@ -110,18 +111,13 @@ def record_run(cfg, out_dir: str | Path, tool: str) -> None:
     (record / "hydra.yaml").write_text(OmegaConf.to_yaml(OmegaConf.create({"hydra": hydra_cfg})))
     (record / "overrides.yaml").write_text(OmegaConf.to_yaml(OmegaConf.create(list(hydra_cfg.overrides.task))))
     root = logging.getLogger()
-    if _entered.get("log") is not None:  # an earlier run in this process (tests, multirun): its file no more
-        root.removeHandler(_entered["log"])
-        _entered["log"].close()
+    if _log["handler"] is not None:  # an earlier run in this process (tests, multirun): its file no more
+        root.removeHandler(_log["handler"])
+        _log["handler"].close()
     handler = logging.FileHandler(out_dir / f"{tool}.log")
     handler.setFormatter(logging.Formatter(LOG_FORMAT))
     root.addHandler(handler)
-    _entered["log"] = handler
-
-
-def entered_task() -> None:
-    """Note that Hydra composed the config and called the command (see `run_hydra`)."""
-    _entered["task"] = True
+    _log["handler"] = handler
 
 
 def fail(prog: str, err: BaseException, code: int | None = None) -> NoReturn:
@@ -130,28 +126,5 @@ def fail(prog: str, err: BaseException, code: int | None = None) -> NoReturn:
     sys.exit(code if code is not None else BAD_INPUT if isinstance(err, ConfigError) else RUN_FAILED)
 
 
-def run_hydra(hydra_main: Callable[[], None], prog: str | None = None, config_name: str | None = None,
-              config_dir: str | None = None) -> None:
-    """Call a ``@hydra.main`` function. With ``prog`` and ``config_name``, the command line's overrides
-    are first composed as the command will (`rvn_data.cli.overrides.check`): a typo'd key (with or
-    without ``+``), a value of the wrong type or an unknown group option ends in one line naming the
-    setting and `BAD_INPUT`, before Hydra starts. Whatever Hydra itself still reports with status 1
-    before the command is called is bad input too, so it exits with `BAD_INPUT` like the command's own."""
-    if prog is not None and config_name is not None:
-        from rvn_data.cli.overrides import check
-        from rvn_data.config import CONF_DIR
-
-        try:
-            check(prog, config_name, config_dir or CONF_DIR, sys.argv[1:])
-        except ConfigError as err:
-            fail(prog, err)
-    try:
-        hydra_main()
-    except SystemExit as exc:
-        if exc.code == 1 and not _entered["task"]:
-            sys.exit(BAD_INPUT)
-        raise
-
-
-__all__ = ["BAD_INPUT", "RUN_FAILED", "ConfigError", "check_writable_dir", "entered_task", "fail", "one_line",
-           "record_run", "run_hydra", "validating"]
+__all__ = ["BAD_INPUT", "RUN_FAILED", "ConfigError", "check_writable_dir", "fail", "one_line", "record_run",
+           "validating"]

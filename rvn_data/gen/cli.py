@@ -11,7 +11,8 @@ import sys
 import hydra
 from omegaconf import DictConfig
 
-from rvn_data.cli.common import entered_task, fail, run_hydra, validating
+from rvn_data.cli.common import fail, validating
+from rvn_data.cli.hydra_app import entered_task, run_hydra
 from rvn_data.config import CONF_DIR, register_configs, typed
 from rvn_data.config_schemas import GenConfig
 

@@ -18,7 +18,8 @@ from typing import Sequence
 import hydra
 from omegaconf import DictConfig, OmegaConf
 from rvn_data.config import CONF_DIR, load_config
-from rvn_data.cli.common import entered_task, fail, record_run, run_hydra
+from rvn_data.cli.common import fail, record_run
+from rvn_data.cli.hydra_app import entered_task, run_hydra
 
 from .settings import register_schema
 
