@@ -80,10 +80,11 @@ def numba_kernels(groups: list[str]) -> str | None:
     inside its first update or trajectories, and rvn-gen's sizing run, whose one-process figures stand beside the
     workers', would compile them inside its phases. Cold, this takes about 25 s on the 2-core
     development CPU (a one-trajectory rvn-gen: set-up 59%, planning 37%); cached, about 2 s
-    (`rvn_data.numba_note.warm_kernels`)."""
+    (`rvn_data.warm_kernels.warm_kernels`)."""
     if not set(groups) & set(NUMBA_GROUPS):
         return None
-    from rvn_data.numba_note import kernels_cached, warm_kernels
+    from rvn_data.numba_note import kernels_cached
+    from rvn_data.warm_kernels import warm_kernels
 
     cached, t = kernels_cached(), time.perf_counter()
     warm_kernels()

@@ -41,7 +41,7 @@ KERNEL_FREE = ("test_compiled.py",)
 WARMING = "RVN_TEST_KERNELS_WARMING"
 _WARM_UP = """import pathlib, sys
 try:
-    from rvn_data.numba_note import warm_kernels
+    from rvn_data.warm_kernels import warm_kernels
     warm_kernels()
 finally:
     pathlib.Path(sys.argv[1]).touch()
@@ -61,7 +61,7 @@ def pytest_collection_modifyitems(config, items):
 
 def pytest_configure(config):
     """With xdist's workers (``-n``) and numba's kernels not cached yet (a fresh clone), compile them once, in a process
-    of pytest's main process (`rvn_data.numba_note.warm_kernels`, 30-40 s on 2 cores), while the workers start.
+    of pytest's main process (`rvn_data.warm_kernels.warm_kernels`, 30-40 s on 2 cores), while the workers start.
     Otherwise each worker and each CLI process it starts compiles them side by side until one has cached them (on a
     2-core machine, fresh clones: 895 s of tests without this, 765 s with it, 823 s with the kernels cached
     beforehand). The workers' tests wait for it (:func:`pytest_runtest_setup`), those of :data:`KERNEL_FREE` files
