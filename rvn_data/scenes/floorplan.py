@@ -12,41 +12,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rvn_data.scenes.walls import WallRun, wall_runs
+from rvn_data.scenes.walls import Door, Rect, WallRun, wall_runs
 
 DM = 0.1  # metres per plan unit
 MIN_SIDE = 24  # smallest room side (dm)
 DOOR_MIN, DOOR_MAX = 8, 10  # doorway clear width (dm)
 DOOR_MARGIN = 3  # doorway distance from the ends of a shared wall (dm)
 MIN_SHARED = DOOR_MAX + 2 * DOOR_MARGIN
-
-
-@dataclass(frozen=True)
-class Rect:
-    """Axis-aligned rectangle [x0, x1] x [z0, z1] in dm."""
-
-    x0: int
-    z0: int
-    x1: int
-    z1: int
-
-    @property
-    def area(self) -> int:
-        return (self.x1 - self.x0) * (self.z1 - self.z0)
-
-
-@dataclass(frozen=True)
-class Door:
-    """Doorway on the wall line `axis`=`c`: 'x' = line x=c (the wall runs along z), 'z' = line z=c.
-
-    The gap is [t0, t1] along the wall; it joins rooms `rooms`.
-    """
-
-    axis: str
-    c: int
-    t0: int
-    t1: int
-    rooms: tuple[int, int]
 
 
 @dataclass
@@ -145,9 +117,7 @@ def try_plan(rng: np.random.Generator, split_code: int) -> Plan | None:
         return None
     doors = [_place_door(rng, edges[(a, b)], (a, b)) for a, b in sorted(chosen)]
     kinds = _room_kinds(rng, kept, rect_room, num_rooms, corridor_room)
-    plan = Plan(width, depth, kept, rect_room, kinds, doors)
-    plan.walls = wall_runs(plan)
-    return plan
+    return Plan(width, depth, kept, rect_room, kinds, doors, wall_runs(kept, rect_room, doors))
 
 
 def _footprint(rng: np.random.Generator, split_code: int) -> tuple[float, int, int]:
