@@ -9,7 +9,6 @@ is congruent to the split's code mod 3, so two splits can never share a layout.
 """
 from __future__ import annotations
 
-import colorsys
 from dataclasses import dataclass
 
 import numpy as np
@@ -17,6 +16,7 @@ import numpy as np
 from rvn_data.scenes import meshing, shell, textures
 from rvn_data.scenes.floorplan import DM, Plan, make_plan
 from rvn_data.scenes.furnish import Furnished, furnish
+from rvn_data.scenes.palette import Palette, hsv
 from rvn_data.scenes.scene import Part, Scene, SceneError
 
 SPLITS = {"train": (0, 800), "val": (1, 50), "test": (2, 50)}
@@ -48,38 +48,6 @@ class ApartmentInfo:
     @property
     def num_furniture(self) -> int:
         return len(self.furniture)
-
-
-def _hsv(h, s, v) -> tuple[int, int, int]:
-    return tuple(int(round(255 * c)) for c in colorsys.hsv_to_rgb(h % 1.0, s, v))
-
-
-class Palette:
-    """Per-scene colours: a few wood tints, fabrics, paints and fixed accents."""
-
-    def __init__(self, rng: np.random.Generator, height: float):
-        self.height = height
-        self.woods = [_hsv(rng.uniform(0.05, 0.11), rng.uniform(0.35, 0.7), rng.uniform(0.35, 0.95))
-                      for _ in range(3)]
-        self.fabrics = [_hsv(rng.random(), rng.uniform(0.2, 0.7), rng.uniform(0.35, 0.85)) for _ in range(3)]
-        self.metal = _hsv(0, 0, rng.uniform(0.15, 0.75))
-        self.kitchen = _hsv(rng.random(), rng.uniform(0.0, 0.4), rng.uniform(0.6, 0.95))
-        self.stone = _hsv(rng.uniform(0.05, 0.15), rng.uniform(0.0, 0.2), rng.uniform(0.2, 0.9))
-        self.appliance = _hsv(0, 0, rng.choice([0.85, 0.7, 0.3]))
-        self.pot = _hsv(rng.uniform(0.0, 0.1), rng.uniform(0.3, 0.7), rng.uniform(0.4, 0.8))
-        self.column = _hsv(rng.random(), rng.uniform(0.0, 0.15), rng.uniform(0.75, 0.95))
-        self.trim = _hsv(rng.random(), rng.uniform(0.0, 0.1), rng.uniform(0.85, 1.0))
-
-    def wood(self, rng) -> tuple[int, int, int]:
-        return self.woods[int(rng.integers(len(self.woods)))]
-
-    def fabric(self, rng, light: bool = False) -> tuple[int, int, int]:
-        if light:
-            return _hsv(rng.random(), rng.uniform(0.0, 0.2), rng.uniform(0.85, 1.0))
-        return self.fabrics[int(rng.integers(len(self.fabrics)))]
-
-    def accent(self, rng) -> tuple[int, int, int]:
-        return _hsv(rng.random(), rng.uniform(0.3, 0.8), rng.uniform(0.3, 0.9))
 
 
 def _check(split: str, index: int) -> tuple[int, int]:
@@ -148,7 +116,7 @@ def _build_parts(rng, plan: Plan, pal: Palette, items: Furnished) -> list[Part]:
     cyls = {m: [] for m in mats}
     quads = {m: [] for m in mats}
     _floors(rng, plan, pal.height, quads)
-    paint = [_hsv(rng.random(), rng.uniform(0.03, 0.3), rng.uniform(0.75, 0.97)) for _ in plan.room_kinds]
+    paint = [hsv(rng.random(), rng.uniform(0.03, 0.3), rng.uniform(0.75, 0.97)) for _ in plan.room_kinds]
     colour = lambda room: paint[room] if room >= 0 else (205, 205, 200)  # noqa: E731
     shell.add_walls(rng, plan, pal, boxes, colour)
     shell.add_doorways(rng, plan, pal, boxes, colour)
@@ -175,9 +143,9 @@ def _build_parts(rng, plan: Plan, pal: Palette, items: Furnished) -> list[Part]:
 def _materials(rng) -> dict:
     """The scene's materials: {name: (texture or None, tile size in metres)}."""
     tile_size = float(rng.choice([0.6, 0.8, 1.2]))
-    floor_col = _hsv(rng.uniform(0.04, 0.12), rng.uniform(0.3, 0.65), rng.uniform(0.45, 0.9))
-    tile_col = _hsv(rng.random(), rng.uniform(0.0, 0.25), rng.uniform(0.6, 0.95))
-    tile_col2 = _hsv(rng.random(), rng.uniform(0.0, 0.4), rng.uniform(0.2, 0.6)) if rng.random() < 0.3 else None
+    floor_col = hsv(rng.uniform(0.04, 0.12), rng.uniform(0.3, 0.65), rng.uniform(0.45, 0.9))
+    tile_col = hsv(rng.random(), rng.uniform(0.0, 0.25), rng.uniform(0.6, 0.95))
+    tile_col2 = hsv(rng.random(), rng.uniform(0.0, 0.4), rng.uniform(0.2, 0.6)) if rng.random() < 0.3 else None
     return {  # name: (texture, tile metres)
         "floor_wood": (textures.wood_planks(rng, floor_col), 1.2),
         "floor_tile": (textures.floor_tiles(rng, tile_col, tile_col2), tile_size),
@@ -196,8 +164,8 @@ def _floors(rng, plan: Plan, h: float, quads: dict) -> None:
     for room, kind in enumerate(plan.room_kinds):
         opts = FLOOR_OF_KIND[kind]
         mat = opts[int(rng.integers(len(opts)))]
-        tint = (_hsv(rng.random(), rng.uniform(0.2, 0.6), rng.uniform(0.5, 0.9)) if mat == "floor_carpet"
-                else _hsv(rng.random(), rng.uniform(0.0, 0.08), rng.uniform(0.88, 1.0)))
+        tint = (hsv(rng.random(), rng.uniform(0.2, 0.6), rng.uniform(0.5, 0.9)) if mat == "floor_carpet"
+                else hsv(rng.random(), rng.uniform(0.0, 0.08), rng.uniform(0.88, 1.0)))
         for r in plan.room_rects(room):
             rect = (r.x0 * DM, r.z0 * DM, r.x1 * DM, r.z1 * DM)
             quads[mat].append((rect, 0.0, True, tint))

@@ -1,16 +1,12 @@
 """The shell of a procedural apartment as coloured boxes (metres, plan coordinates: the
 apartment is centred later): wall runs with skirting boards, windows on outside walls and
 framed pictures, doorways' lintels and frames. Boxes go into ``boxes[material]`` as
-``((x0, y0, z0, x1, y1, z1), rgb)``; ``pal`` is the scene's `procedural.Palette`."""
+``((x0, y0, z0, x1, y1, z1), rgb)``; ``pal`` is the scene's `Palette`."""
 from __future__ import annotations
-
-from typing import TYPE_CHECKING
 
 from rvn_data.scenes.floorplan import DM, Plan
 from rvn_data.scenes.furnish import HALF_WALL
-
-if TYPE_CHECKING:
-    from rvn_data.scenes.procedural import Palette
+from rvn_data.scenes.palette import Palette
 
 DOOR_HEIGHT = (2.0, 2.1)
 
