@@ -17,13 +17,13 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator
 
-import node_rl
+import node_rl_runs as runs
 from node_rows import failed_row
 
 # the ladder's settings (`rl.overrides`' names) as their labels name them
 LEVERS = {"graph_act": "train.graph_act=true", "overlap": "train.overlap=true",
           "recompute": "ppo.recompute_advantages=true", "double_buffered": "train.double_buffered=true",
-          "compile": "train.compile=true", "scene_switch_steps": node_rl.HABITAT_LABEL}
+          "compile": "train.compile=true", "scene_switch_steps": runs.HABITAT_LABEL}
 
 
 def guarded(key: str, what: str, run) -> dict:
@@ -33,7 +33,7 @@ def guarded(key: str, what: str, run) -> dict:
     try:
         return run()
     except Exception as e:
-        return failed_row(5, key, f"{node_rl.RL_LABEL}{what}", "env steps/s", e)
+        return failed_row(5, key, f"{runs.RL_LABEL}{what}", "env steps/s", e)
 
 
 def fat_workers(envs: int) -> int:
@@ -64,7 +64,7 @@ def layout_rows(plan, small: dict, plain: dict) -> Iterator[dict]:
         timed = []
         for workers, per_worker in layouts(plan.rl_envs, plan.rl_workers):
             row = guarded(f"rl_envs_{workers}x{per_worker}", f"envs alone, {workers} x {per_worker}",
-                          lambda: node_rl._rl_envs_row(plan, small, workers=workers, per_worker=per_worker))
+                          lambda: runs.rl_envs_row(plan, small, workers=workers, per_worker=per_worker))
             yield row
             if row["value"] is not None:
                 timed.append((row["value"], workers))
@@ -73,7 +73,7 @@ def layout_rows(plan, small: dict, plain: dict) -> Iterator[dict]:
     if w == plan.rl_workers:
         return small
     key, what = f"rl_workers_{w}", f"scale=small, env.workers={w}"
-    fewer = guarded(key, what, lambda: node_rl._rl_row(plan, key, what, {**small, "workers": w}, "rl", "",
+    fewer = guarded(key, what, lambda: runs.rl_row(plan, key, what, {**small, "workers": w}, "rl", "",
                                                        against=plain["value"]))
     yield fewer
     faster = fewer["value"] is not None and (plain["value"] is None or fewer["value"] > plain["value"])
@@ -86,7 +86,7 @@ def graph_act_rows(plan, base: dict, against: float) -> Iterator[dict]:
     graph's replay, where the fourth GPU run's act was ~7.9 ms of host launches against 1.8 ms of kernels); the update
     overlapped (``rl_graph_act_overlap``: train.overlap=true and ppo.recompute_advantages=true, as rl_overlap); the
     collection double-buffered (``..._double_buffered``: one half of the env workers steps while the graphed act runs
-    for the other); Habitat's scene switches (``..._scene_steps``, `node_rl.HABITAT_SWITCH`: on the fifth run the
+    for the other); Habitat's scene switches (``..._scene_steps``, `node_rl_runs.HABITAT_SWITCH`: on the fifth run the
     envs alone took a batched step of 10.5 ms on average, 30 envs at 2,861 env steps/s, against a median of 6.7 ms,
     the helpers' start-up and the scene switches in the difference); last every lever, the learner's trunk compiled
     too (``rl_all_levers``: train.compile=true, reduce-overhead, an update x1.36 on the fifth run and less host time
@@ -96,11 +96,11 @@ def graph_act_rows(plan, base: dict, against: float) -> Iterator[dict]:
     ladder, levers = [], {}
     layout = [f"env.workers={base['workers']}"] if "workers" in base else []
     for key, lever in (("graph_act", {"graph_act": True}), ("overlap", {"overlap": True, "recompute": True}),
-                       ("double_buffered", {"double_buffered": True}), ("scene_steps", node_rl.HABITAT_SWITCH),
+                       ("double_buffered", {"double_buffered": True}), ("scene_steps", runs.HABITAT_SWITCH),
                        ("compile", {"compile": True})):
         ladder.append(key)
         levers = {**levers, **lever}
         name = "rl_all_levers" if key == "compile" else "rl_" + "_".join(ladder)
         what = ", ".join(["scale=small"] + layout + [LEVERS[k] for k in LEVERS if k in levers])
         settings = {**base, **levers}
-        yield guarded(name, what, lambda: node_rl._rl_row(plan, name, what, settings, "rl", "", against=against))
+        yield guarded(name, what, lambda: runs.rl_row(plan, name, what, settings, "rl", "", against=against))

@@ -41,24 +41,24 @@ SWITCH = ("switch", "upload")  # scene switches (`CachedSceneEnv._switch_to`), a
 
 def plan_and_settings(args, cache_dir: str, workers: int = 0) -> tuple[SimpleNamespace, dict]:
     """node.py's RL plan for these envs (``args.envs`` in this process, or in each of ``workers`` worker processes,
-    over ``cache_dir``) and its row settings (scale=small's sizes): what `node_rl.rl_args` turns into
-    benchmarks/rl.py's arguments (`rl.overrides`) and `node_rl.fill_scene_caches` fills the cache root for."""
-    import node_rl
+    over ``cache_dir``) and its row settings (scale=small's sizes): what `node_rl_runs.rl_args` turns into
+    benchmarks/rl.py's arguments (`rl.overrides`) and `node_rl_runs.fill_scene_caches` fills the cache root for."""
+    import node_rl_runs
 
     plan = SimpleNamespace(rl_envs=max(1, workers) * args.envs, rl_workers=workers, rl_scenes=args.scenes, rl_threads=1,
                            rl_cache=cache_dir, cpus=max(1, min(os.cpu_count() or 1, 16)))
     steps = getattr(args, "scene_switch_steps", 0)  # Habitat's scene switches with it, else rvn-rl's default
-    habitat = {**node_rl.HABITAT_SWITCH, "scene_switch_steps": steps} if steps else {}
+    habitat = {**node_rl_runs.HABITAT_SWITCH, "scene_switch_steps": steps} if steps else {}
     return plan, dict(size=args.size, backbone="resnet18", num_steps=64, ppo_epoch=4, mini_batches=1,
                       renderer=args.renderer, **habitat)
 
 
 def overrides(args, cache_dir: str, workers: int = 0) -> list[str]:
-    """rvn-rl's overrides for these envs, as node.py's RL rows make them (`node_rl.rl_args`, `rl.overrides`)."""
-    import node_rl
+    """rvn-rl's overrides for these envs, as node.py's RL rows make them (`node_rl_runs.rl_args`, `rl.overrides`)."""
+    import node_rl_runs
     import rl as rl_bench
 
-    return rl_bench.overrides(node_rl.rl_args(*plan_and_settings(args, cache_dir, workers), updates=1),
+    return rl_bench.overrides(node_rl_runs.rl_args(*plan_and_settings(args, cache_dir, workers), updates=1),
                               os.path.join(cache_dir, "run"))
 
 
@@ -196,10 +196,10 @@ def gathered(args, processes: int, cache_dir: str) -> tuple[float, float | None]
 
 def fill(args, cache_dir: str) -> float:
     """The scenes' navmeshes and goal pools made into ``cache_dir`` first (node.py's RL rows' way); seconds taken."""
-    import node_rl
+    import node_rl_runs
 
     t = time.perf_counter()
-    node_rl.fill_scene_caches(*plan_and_settings(args, cache_dir), cache_dir)
+    node_rl_runs.fill_scene_caches(*plan_and_settings(args, cache_dir), cache_dir)
     return time.perf_counter() - t
 
 

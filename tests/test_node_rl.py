@@ -1,6 +1,7 @@
-"""benchmarks/node.py's RL rows (node_rl.py, node_rl_ladder.py, rl.py, rl_env_phases.py; issue 32): the learner's
-profile, the envs-alone rows, --skip, the env workers' layouts and the ladder of levers (recorded on a CUDA plan where
-they need a GPU, run for real at tiny sizes where they do not). Their figures are not checked (no timed assertions)."""
+"""benchmarks/node.py's RL rows (node_rl.py, node_rl_runs.py, node_rl_ladder.py, rl.py, rl_env_phases.py; issue 32):
+the learner's profile, the envs-alone rows, --skip, the env workers' layouts and the ladder of levers (recorded on a
+CUDA plan where they need a GPU, run for real at tiny sizes where they do not). Their figures are not checked (no
+timed assertions)."""
 import re
 from pathlib import Path
 
@@ -54,18 +55,18 @@ def test_envs_rows_with_more_envs_a_worker_or_another_renderer(monkeypatch, tmp_
     rl_envs row's rate; here on a --quick plan."""
     monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
     import node as node_bench
-    import node_rl
+    import node_rl_runs
 
     from types import SimpleNamespace
 
     plan = node_bench.make_plan(node_bench.parse(["--quick"]), False, 2)
     plan = SimpleNamespace(**vars(plan), rl_cache=str(tmp_path / "cache"), rl_filled="over a cache root of its own")
     small = dict(size=plan.rl_size, backbone="resnet18", num_steps=plan.rl_num_steps, ppo_epoch=4, mini_batches=1)
-    wide = node_rl._rl_envs_row(plan, small, workers=1, per_worker=3, against=100.0)
+    wide = node_rl_runs.rl_envs_row(plan, small, workers=1, per_worker=3, against=100.0)
     assert wide["key"] == "rl_envs_1x3" and wide["value"] > 0, wide
     assert "1 worker(s) x 3 envs" in wide["label"] and "3 envs in 1 worker processes" in wide["settings"]
     assert re.search(r"; x[\d.]+ the rl_envs row's 100$", wide["settings"]), wide["settings"]
-    other = node_rl._rl_envs_row(plan, small, renderer="raycast", against=100.0)
+    other = node_rl_runs.rl_envs_row(plan, small, renderer="raycast", against=100.0)
     assert other["key"] == "rl_envs_raycast" and "renderer=raycast" in other["label"]
     assert "renderer=raycast, 2 envs in 1 worker processes" in other["settings"], other["settings"]
 
@@ -75,11 +76,11 @@ def test_skip_leaves_an_rl_row_out_and_names_it(monkeypatch):
     (rvn-rl's trainer would fail on the missing cache root here); an unknown row is an argparse error."""
     monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
     import node as node_bench
-    import node_rl
+    import node_rl_runs
 
     plan = node_bench.make_plan(node_bench.parse(["--quick", "--skip", "rl_compiled", "rl_overlap"]), False, 2)
     assert plan.skip == ["rl_compiled", "rl_overlap"]
-    r = node_rl._rl_row(plan, "rl_overlap", "scale=small, train.overlap=true", {}, "rl", "")
+    r = node_rl_runs.rl_row(plan, "rl_overlap", "scale=small, train.overlap=true", {}, "rl", "")
     assert r["key"] == "rl_overlap" and r["value"] is None and "--skip" in r["skipped"], r
     with pytest.raises(SystemExit):
         node_bench.parse(["--skip", "rl"])
@@ -91,14 +92,14 @@ def _recorded_rl_rows(monkeypatch, values: dict | None = None) -> tuple:
     env.num_envs); ``values``: the rate each key's row returns (100 else, 1 for an envs-alone row)."""
     monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
     import node as node_bench
-    import node_rl
+    import node_rl_runs
     import rl as rl_bench
 
     plan = node_bench.make_plan(node_bench.parse(["--quick"]), False, 2)
     seen = []
 
     def record(plan, key, what, settings, goal_key, baseline, against=None):
-        args = node_rl.rl_args(plan, settings, updates=2)
+        args = node_rl_runs.rl_args(plan, settings, updates=2)
         seen.append((key, against, [o for o in rl_bench.overrides(args, "out") if o.startswith(
             ("train.", "ppo.rec", "env.scene_switch", "env.workers", "env.num_envs"))], what))
         return {"key": key, "value": (values or {}).get(key, 100.0)}
@@ -107,8 +108,8 @@ def _recorded_rl_rows(monkeypatch, values: dict | None = None) -> tuple:
         key = f"rl_envs_{workers}x{per_worker}"
         seen.append((key, None, [], ""))
         return {"key": key, "value": (values or {}).get(key, 1.0)}
-    monkeypatch.setattr(node_rl, "_rl_row", record)
-    monkeypatch.setattr(node_rl, "_rl_envs_row", record_envs)
+    monkeypatch.setattr(node_rl_runs, "rl_row", record)
+    monkeypatch.setattr(node_rl_runs, "rl_envs_row", record_envs)
     small = dict(size=plan.rl_size, backbone="resnet18", num_steps=plan.rl_num_steps, ppo_epoch=4, mini_batches=1)
     return plan, small, seen
 
@@ -162,10 +163,11 @@ def test_ladder_builds_on_the_faster_layout(monkeypatch, fastest, rate):
     plan, small, seen = _recorded_rl_rows(monkeypatch, {"rl": 100.0, fastest: 9.0, f"rl_workers_{workers}": rate})
     import node as node_bench
     import node_rl
+    import node_rl_runs
 
     plan = node_bench.make_plan(node_bench.parse(["--skip", "rl_envs", "rl_paper", "rl_compiled", "rl_overlap",
                                                   "rl_scene_steps"]), True, 16)
-    monkeypatch.setattr(node_rl, "fill_scene_caches", lambda plan, settings, root: "over a recorded cache root")
+    monkeypatch.setattr(node_rl_runs, "fill_scene_caches", lambda plan, settings, root: "over a recorded cache root")
     keys = [r["key"] for r in node_rl.rl_rows(plan)]
     fewer = [] if rate is None else [f"rl_workers_{workers}"]
     assert keys[:8 + len(fewer)] == ["rl", "rl_scene_steps", "rl_bf16", "rl_envs_15x2", "rl_envs_10x3", "rl_envs_6x5",
@@ -190,16 +192,16 @@ def test_a_failing_rung_names_its_error_and_the_ladder_goes_on(monkeypatch):
     """A layout or ladder row that raises (none of them has run on a GPU) becomes a row naming its error, and the rows
     after it still run; a failed rl_workers_6 (6 x 5 the fastest layout) leaves the ladder on scale=small's layout."""
     plan, small, seen = _recorded_rl_rows(monkeypatch, {"rl_envs_6x5": 9.0})
-    import node_rl
+    import node_rl_runs
     import node_rl_ladder
 
-    recorded = node_rl._rl_row
+    recorded = node_rl_runs.rl_row
 
     def failing(plan, key, what, settings, *a, **k):
         if key in ("rl_workers_6", "rl_graph_act_overlap"):
             raise RuntimeError(f"CUDA error in {key}\nsecond line")
         return recorded(plan, key, what, settings, *a, **k)
-    monkeypatch.setattr(node_rl, "_rl_row", failing)
+    monkeypatch.setattr(node_rl_runs, "rl_row", failing)
     plan.rl_envs, plan.rl_workers = 30, 15
     rows = list(node_rl_ladder.layout_rows(plan, small, {"key": "rl", "value": 100.0}))
     fewer = rows[-1]
@@ -229,14 +231,14 @@ def test_layout_rows_run_rvn_rl_in_fewer_workers(monkeypatch, tmp_path):
     from types import SimpleNamespace
 
     import node as node_bench
-    import node_rl
+    import node_rl_runs
     import node_rl_ladder
 
     plan = node_bench.make_plan(node_bench.parse(["--quick"]), False, 2)
     plan = SimpleNamespace(**{**vars(plan), "rl_envs": 4, "rl_workers": 4, "rl_scenes": 2})
     small = dict(size=plan.rl_size, backbone="resnet18", num_steps=plan.rl_num_steps, ppo_epoch=1, mini_batches=1)
     kept = str(tmp_path / "cache")
-    plan = SimpleNamespace(**vars(plan), rl_cache=kept, rl_filled=node_rl.fill_scene_caches(plan, small, kept))
+    plan = SimpleNamespace(**vars(plan), rl_cache=kept, rl_filled=node_rl_runs.fill_scene_caches(plan, small, kept))
     gen = node_rl_ladder.layout_rows(plan, small, {"key": "rl", "value": 1e-6})
     rows = []
     try:
