@@ -130,6 +130,7 @@ def learner_profile(cfg, device: str = "cpu", rows: int = 30) -> str:
     envs are fast (on the third GPU run: 7 % and 15 % of an update, ~0.5 and ~1.1 s, a bound of ~1,200 env steps/s
     for 30 envs even with envs that took no time)."""
     from op_profile import op_table, phase
+    from rvn_il.train.choices import fused_on
     from rvn_rl.model import PointNavResNetPolicy
     from rvn_rl.ppo import ppo_update
     from rvn_rl.rollout import DeviceRollouts, RolloutStorage, to_device
@@ -139,7 +140,8 @@ def learner_profile(cfg, device: str = "cpu", rows: int = 30) -> str:
     torch.manual_seed(0)
     policy = PointNavResNetPolicy(**cfg.model_kwargs()).to(dev)
     set_trunk(policy, cfg.train)  # a compiled trunk compiles in the warm-up update
-    learner, optimizer = _Evaluate(policy), torch.optim.Adam(policy.parameters(), lr=ppo.lr, eps=ppo.eps)
+    learner = _Evaluate(policy)
+    optimizer = torch.optim.Adam(policy.parameters(), lr=ppo.lr, eps=ppo.eps, fused=fused_on(dev))  # as rvn-rl's
     rng = np.random.default_rng(0)
 
     def observation() -> dict:

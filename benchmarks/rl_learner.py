@@ -1,19 +1,20 @@
-"""rvn-rl's learner alone (issue 32's RL row): one PPO update in float32 and with ``train.precision=bf16`` (the
-visual encoder under torch.autocast(bfloat16)) and, with ``--compile``, both with ``train.compile`` (the visual trunk
+"""rvn-rl's learner alone (issue 32's RL row): one PPO update in float32 and with ``train.precision=bf16`` (the visual
+encoder under torch.autocast(bfloat16)) and, with ``--compile``, both with ``train.compile`` (the visual trunk
 compiled; on a GPU its forward and backward as CUDA graphs) and, with ``--decoupled`` and ``--recompute``, in float32
-with train.overlap's lag corrections ``ppo.decoupled`` (the proximal log-probs recomputed first: one forward pass over
-the rollout without gradients) and ``ppo.recompute_advantages`` (the values recomputed first: the same pass; with both
-flags also both settings, which share it), as
-rvn-rl runs it (`ppo_update` over `DeviceRollouts`) on a rollout of random frames with ~25-step episodes; alternated
-rounds after a warm-up one, best of ``--repeats``. Prints each update's ms, the env steps/s that learning alone would
-allow (rollout steps / update seconds), the ratio, the first update's seconds (compiling, for a compiled one) and how
-far each first update's losses from the same weights are from float32's.
+with train.overlap's lag corrections ``ppo.decoupled`` (the proximal log-probs recomputed first: one forward pass
+over the rollout without gradients) and ``ppo.recompute_advantages`` (the values recomputed first: the same pass;
+with both flags also both settings, which share it), and with ``--unfused``, in float32 with Adam's for-each step
+instead of rvn-rl's fused one (CUDA: `rvn_il.train.choices.fused_on`; on a CPU both are torch's default), as rvn-rl
+runs it (`ppo_update` over `DeviceRollouts`) on a rollout of random frames with ~25-step episodes; alternated rounds
+after a warm-up one, best of ``--repeats``. Prints each update's ms, the env steps/s that learning alone would allow
+(rollout steps / update seconds), the ratio, the first update's seconds (compiling, for a compiled one) and how far
+each first update's losses from the same weights are from float32's.
 
 On the 2-core development CPU an update of scale=small (8 envs x 64 steps, 128², ResNet-18 base 32, 4 x 4
 mini-batches) takes ~15 s in float32, the bound of rvn-rl's README recipe there (collection alone runs at ~150 env
 steps/s); on the third GPU run (H200, 30 envs) the update was 1.1 s of every 1,920 env steps.
 Run: python benchmarks/rl_learner.py [--device cuda --envs 30 --compile] [--decoupled] [--recompute] [--size 128]
-[--threads 2] [--repeats 2] [--no-bf16]
+[--threads 2] [--repeats 2] [--no-bf16] [--unfused]
 """
 from __future__ import annotations
 
@@ -63,10 +64,13 @@ def main() -> None:
     p.add_argument("--decoupled", action="store_true", help="also fp32 with ppo.decoupled (its proximal pass)")
     p.add_argument("--recompute", action="store_true",
                    help="also fp32 with ppo.recompute_advantages (its values pass, on a copy of the rollout)")
+    p.add_argument("--unfused", action="store_true",
+                   help="also fp32 with Adam's for-each step (rvn-rl's Adam is fused on CUDA)")
     p.add_argument("--no-bf16", action="store_true", help="float32 alone (a CPU without native bfloat16 emulates "
                    "it, ~16x slower)")
     args = p.parse_args()
     torch.set_num_threads(args.threads)
+    from rvn_il.train.choices import fused_on
     from rvn_rl.model import PointNavResNetPolicy
     from rvn_rl.ppo import PPOConfig, ppo_update
     from rvn_rl.rollout import DeviceRollouts
@@ -76,21 +80,23 @@ def main() -> None:
     dev, n, T = torch.device(args.device), args.envs, args.steps
     cfg = PPOConfig(ppo_epoch=args.epochs, num_mini_batch=args.mini_batches, num_steps=T)
 
-    def learner(bf16: bool, compiled: bool) -> tuple:
+    def learner(bf16: bool, compiled: bool, unfused: bool = False) -> tuple:
         torch.manual_seed(0)
         policy = PointNavResNetPolicy(obs_size=args.size, backbone=args.backbone, base_planes=args.base_planes,
                                       ngroups=min(16, args.base_planes // 2)).to(dev).train()
         # train.compile's default mode, reduce-overhead: CUDA graphs on a GPU, torch.compile's default on a CPU
         set_trunk(policy, TrainSettings(precision="bf16" if bf16 else "fp32", compile=compiled))
-        return _Evaluate(policy), torch.optim.Adam(policy.parameters(), lr=cfg.lr, eps=cfg.eps)
+        fused = fused_on(dev) if not unfused else None  # rvn-rl's Adam: fused on CUDA (one kernel a step)
+        return _Evaluate(policy), torch.optim.Adam(policy.parameters(), lr=cfg.lr, eps=cfg.eps, fused=fused)
 
     precisions = ["fp32"] + ([] if args.no_bf16 else ["bf16"])
     names = precisions + ([f"{p} compiled" for p in precisions] if args.compile else []) + (
         ["fp32 decoupled"] if args.decoupled else []) + (["fp32 recomputed"] if args.recompute else []) + (
-        ["fp32 decoupled recomputed"] if args.decoupled and args.recompute else [])  # one pass serves both
+        ["fp32 decoupled recomputed"] if args.decoupled and args.recompute else []) + (  # one pass serves both
+        ["fp32 unfused"] if args.unfused else [])
     cfgs = {name: dataclasses.replace(cfg, decoupled="decoupled" in name, recompute_advantages="recomputed" in name)
             for name in names}
-    learners = {name: learner("bf16" in name, "compiled" in name) for name in names}
+    learners = {name: learner("bf16" in name, "compiled" in name, "unfused" in name) for name in names}
     state_shape = tuple(learners["fp32"][0].policy.initial_state(n).shape)
     rollouts = filled_rollouts(n, T, args.size, state_shape)
     # ppo.recompute_advantages rewrites its rollout's values and returns: a copy of its own

@@ -93,6 +93,7 @@ def train_fps(args, baseline: bool) -> tuple[float, float]:
 
 def update_with_plans(args) -> None:
     from rl_learner import filled_rollouts
+    from rvn_il.train.choices import fused_on
     from rvn_rl.model import PointNavResNetPolicy
     from rvn_rl.ppo import PPOConfig, ppo_update
     from rvn_rl.rollout import DeviceRollouts
@@ -102,7 +103,8 @@ def update_with_plans(args) -> None:
     torch.manual_seed(0)
     policy = PointNavResNetPolicy(obs_size=size, backbone="resnet18", base_planes=args.base_planes,
                                   ngroups=args.base_planes // 2).to(dev)
-    learner, optimizer = _Evaluate(policy), torch.optim.Adam(policy.parameters(), lr=2.5e-4, eps=1e-5)
+    learner = _Evaluate(policy)
+    optimizer = torch.optim.Adam(policy.parameters(), lr=2.5e-4, eps=1e-5, fused=fused_on(dev))  # as rvn-rl's
     rollouts = filled_rollouts(N, T, size, tuple(policy.initial_state(N).shape))
     cfg, gen = PPOConfig(ppo_epoch=4, num_mini_batch=4, num_steps=T), torch.Generator().manual_seed(0)
     planned = DeviceRollouts(rollouts, dev)

@@ -90,7 +90,7 @@ def steady_train_rate(root: Path, cfg: dict, batch: int, seconds: float, device:
     `node_report.GpuBusy.share_in`."""
     from op_profile import op_table, phase
     from rvn_il.train.ema import EMA
-    from rvn_il.train.optimisation import fused_on
+    from rvn_il.train.choices import fused_on
 
     dev = torch.device(device)
     ds = make_dataset(root, cfg, {"progress": False, "cache_dir": cache_dir})

@@ -1,6 +1,7 @@
 """The choices of the training settings rvn-train and rvn-rl share, in one place and without torch, so that
 rvn-rl's settings schema (`rvn_rl.settings`, torch-free) and benchmarks/node.py's parser import them as rvn-train's
-checks do (`rvn_il.train.preflight`). `check_precision_on` asks torch, imported when a CUDA device is given."""
+checks do (`rvn_il.train.preflight`). `check_precision_on` asks torch, imported when a CUDA device is given; `fused_on`
+is both optimisers' ``fused``."""
 from __future__ import annotations
 
 PRECISIONS = ("fp32", "bf16")  # train.precision: float32, or bfloat16 autocast (weights and optimiser float32)
@@ -33,6 +34,13 @@ def training_compile_mode(value: str, device_type: str, world: int) -> str:
     if value != "auto":
         return value
     return "reduce-overhead" if device_type == "cuda" and world == 1 else "default"
+
+
+def fused_on(device) -> bool | None:
+    """Adam's and AdamW's ``fused`` for the torch device ``device``: on CUDA one kernel a step for every parameter
+    (rvn-train's AdamW, rvn-rl's Adam: host-bound steps on a GPU node, docs/results/2026-12-04_gpu4); elsewhere
+    torch's default (None: the for-each or per-tensor step)."""
+    return True if getattr(device, "type", None) == "cuda" else None
 
 
 def check_precision_on(value: str, device) -> None:

@@ -13,13 +13,8 @@ from safetensors.torch import load_file
 from ..models import build_model
 from ..models.checkpoint import latest_checkpoint, load_state_dict_checked, read_weights
 from ..models.compiled import compile_for_training
-from .choices import training_compile_mode
+from .choices import fused_on, training_compile_mode
 from .ema import EMA
-
-
-def fused_on(device: torch.device) -> bool | None:
-    """AdamW's ``fused`` for ``device``: on CUDA one kernel per step; elsewhere torch's default (None)."""
-    return True if device.type == "cuda" else None
 
 
 def lr_lambda(warmup: int, max_steps: int):
