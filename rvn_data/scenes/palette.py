@@ -8,6 +8,7 @@ import numpy as np
 
 
 def hsv(h, s, v) -> tuple[int, int, int]:
+    """The RGB (0-255) of hue ``h`` (turns, wrapped), saturation ``s`` and value ``v`` (0-1)."""
     return tuple(int(round(255 * c)) for c in colorsys.hsv_to_rgb(h % 1.0, s, v))
 
 
