@@ -42,10 +42,10 @@ def rl_rows(plan) -> Iterator[dict]:
     alone with fresh goals (``rl_envs_fresh_goals``, env.goal_pool=0) against the pool's 64 solves a scene.
 
     Every row but one runs over one cache root that holds the scenes' built navmeshes and goal pools
-    (`node_rl_runs.fill_scene_caches`, before the rows): what a long run sees after its first pass over its scenes, since both are
-    kept on disk (`rvn_data.navmesh.disk_cache`, `rvn_data.benchmark.pool_cache`). ``rl_envs_first_pass`` times the
-    envs alone over an empty root (each scene's navmesh built and pool solved and smoothed at its first visit, as every
-    row of the first three GPU runs did, the smoothing since 2026-12-02)."""
+    (`node_rl_runs.fill_scene_caches`, before the rows): what a long run sees after its first pass over its scenes,
+    since both are kept on disk (`rvn_data.navmesh.disk_cache`, `rvn_data.benchmark.pool_cache`). ``rl_envs_first_pass``
+    times the envs alone over an empty root (each scene's navmesh built and pool solved and smoothed at its first visit,
+    as every row of the first three GPU runs did, the smoothing since 2026-12-02)."""
     small = dict(size=plan.rl_size, backbone="resnet18", num_steps=plan.rl_num_steps, ppo_epoch=4,
                  mini_batches=min(4, plan.rl_envs))
     paper = dict(size=plan.rl_paper_size, backbone="resnet50", num_steps=2 * plan.rl_num_steps, ppo_epoch=2,

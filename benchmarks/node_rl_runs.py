@@ -125,20 +125,20 @@ def rl_envs_row(plan, settings: dict, workers: int | None = None, prefetch: bool
     ``workers`` (row ``rl_envs_<workers>``), that many worker processes with as many envs each as the rl row's: on the
     first GPU run an env step took ~30 ms in 15 workers against ~9 ms in 2 workers of the 2-core development CPU.
     ``prefetch``: env.prefetch_scenes (row ``rl_envs_no_prefetch`` without it, which names the ratio of
-    ``with_prefetch``, the rate with it, to its own). ``goal_pool=0`` (row ``rl_envs_fresh_goals``, naming the ratio
-    of ``with_pool``, the rate with the recipe's pool of 64, to its own): two Dijkstra solves a goal instead of the pool's
+    ``with_prefetch``, the rate with it, to its own). ``goal_pool=0`` (row ``rl_envs_fresh_goals``, naming the ratio of
+    ``with_pool``, the rate with the recipe's pool of 64, to its own): two Dijkstra solves a goal instead of the pool's
     64 at each scene a worker has not kept (on the 2-core development CPU, 200 scenes: ~500 env steps/s against ~410
     with the pool and prefetch). ``first_pass`` (row ``rl_envs_first_pass``, naming the ratio of ``kept_caches``, the
     rate over the kept caches, to its own): over an empty cache root, each scene's navmesh built and pool solved and
-    smoothed at its first visit. Each row times two rollouts' batched steps and more until ``plan.seconds`` have
-    passed (until the fourth GPU run, 128 steps, ~1 s on the node, held one stall or none). The settings give each
-    batched step's median, 90th and 99th percentile and slowest: vectorised envs step together, so an env whose scene
-    switch waits holds up the batch, in the tail. ``per_worker`` (row ``rl_envs_<workers>x<per_worker>``): that many
-    envs in each worker, whose views a worker renders in one call; ``renderer`` (row ``rl_envs_<renderer>``): that
-    renderer instead of auto's; both name the ratio of their rate to ``against``, the rl_envs row's. On the first GPU
-    run GL with one view a call gave 4,051 frames/s in one process and 2,393 in 16 together, with 32 views a call
-    10,506 in 16 (docs/results/2026-11-27_gpu): these rows ask whether that bounds the envs (on the fourth run 115 env
-    steps/s a worker in 15 workers, against a median batched step of 1.4 ms for 2 envs in one)."""
+    smoothed at its first visit. Each row times two rollouts' batched steps and more until ``plan.seconds`` have passed
+    (until the fourth GPU run, 128 steps, ~1 s on the node, held one stall or none). The settings give each batched
+    step's median, 90th and 99th percentile and slowest: vectorised envs step together, so an env whose scene switch
+    waits holds up the batch, in the tail. ``per_worker`` (row ``rl_envs_<workers>x<per_worker>``): that many envs in
+    each worker, whose views a worker renders in one call; ``renderer`` (row ``rl_envs_<renderer>``): that renderer
+    instead of auto's; both name the ratio of their rate to ``against``, the rl_envs row's. On the first GPU run GL with
+    one view a call gave 4,051 frames/s in one process and 2,393 in 16 together, with 32 views a call 10,506 in 16
+    (docs/results/2026-11-27_gpu): these rows ask whether that bounds the envs (on the fourth run 115 env steps/s a
+    worker in 15 workers, against a median batched step of 1.4 ms for 2 envs in one)."""
     import rl as rl_bench
     from rvn_rl.cli import compose
 

@@ -97,7 +97,7 @@ class Run:
         optimizer = torch.optim.Adam(policy.parameters(), lr=ppo.lr, eps=ppo.eps, fused=fused_on(device))
         if state:
             optimizer.load_state_dict(state["optimizer"])
-            for group in optimizer.param_groups:  # the saved groups carry the saving run's choice; this device's applies
+            for group in optimizer.param_groups:  # the saved groups carry the saving run's choice: this device's
                 group["fused"] = fused_on(device)
         lagrange = None
         if algo.lagrangian:
