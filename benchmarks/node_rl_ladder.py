@@ -74,7 +74,7 @@ def layout_rows(plan, small: dict, plain: dict) -> Iterator[dict]:
         return small
     key, what = f"rl_workers_{w}", f"scale=small, env.workers={w}"
     fewer = guarded(key, what, lambda: runs.rl_row(plan, key, what, {**small, "workers": w}, "rl", "",
-                                                       against=plain["value"]))
+                                                   against=plain["value"]))
     yield fewer
     faster = fewer["value"] is not None and (plain["value"] is None or fewer["value"] > plain["value"])
     return {**small, "workers": w} if faster else small

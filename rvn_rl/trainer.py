@@ -23,7 +23,7 @@ from torch import nn
 from rvn_data.cache_root import ENV as CACHE_ENV, keep_compiled_kernels
 from rvn_data.cli.common import check_writable_dir, validating
 from rvn_data.numba_note import note_first_compile
-from rvn_il.train.choices import check_precision_on, fused_on
+from rvn_il.train.choices import check_precision_on, fused_on, load_optimizer_state
 
 from . import checkpoint as ck
 from .collect import collect
@@ -96,9 +96,7 @@ class Run:
         state = ck.load(resume_from, policy) if resume_from is not None else {}
         optimizer = torch.optim.Adam(policy.parameters(), lr=ppo.lr, eps=ppo.eps, fused=fused_on(device))
         if state:
-            optimizer.load_state_dict(state["optimizer"])
-            for group in optimizer.param_groups:  # the saved groups carry the saving run's choice: this device's
-                group["fused"] = fused_on(device)
+            load_optimizer_state(optimizer, state["optimizer"], device)
         lagrange = None
         if algo.lagrangian:
             lagrange = Lagrange(algo.cost_limit, algo.lambda_init, algo.lambda_lr, algo.lambda_max)

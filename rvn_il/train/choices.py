@@ -1,7 +1,7 @@
 """The choices of the training settings rvn-train and rvn-rl share, in one place and without torch, so that
 rvn-rl's settings schema (`rvn_rl.settings`, torch-free) and benchmarks/node.py's parser import them as rvn-train's
 checks do (`rvn_il.train.preflight`). `check_precision_on` asks torch, imported when a CUDA device is given; `fused_on`
-is both optimisers' ``fused``."""
+is both optimisers' ``fused``, which `load_optimizer_state` applies on resuming."""
 from __future__ import annotations
 
 PRECISIONS = ("fp32", "bf16")  # train.precision: float32, or bfloat16 autocast (weights and optimiser float32)
@@ -41,6 +41,14 @@ def fused_on(device) -> bool | None:
     (rvn-train's AdamW, rvn-rl's Adam: host-bound steps on a GPU node, docs/results/2026-12-04_gpu4); elsewhere
     torch's default (None: the for-each or per-tensor step)."""
     return True if getattr(device, "type", None) == "cuda" else None
+
+
+def load_optimizer_state(optimizer, state: dict, device) -> None:
+    """``optimizer`` resumed from ``state`` (its saved `state_dict`), stepping as ``device``'s runs do: the saved
+    groups carry the saving run's ``fused`` (a GPU run's True), which would otherwise carry over to this device."""
+    optimizer.load_state_dict(state)
+    for group in optimizer.param_groups:
+        group["fused"] = fused_on(device)
 
 
 def check_precision_on(value: str, device) -> None:

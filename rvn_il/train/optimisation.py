@@ -13,7 +13,7 @@ from safetensors.torch import load_file
 from ..models import build_model
 from ..models.checkpoint import latest_checkpoint, load_state_dict_checked, read_weights
 from ..models.compiled import compile_for_training
-from .choices import fused_on, training_compile_mode
+from .choices import fused_on, load_optimizer_state, training_compile_mode
 from .ema import EMA
 
 
@@ -77,9 +77,7 @@ def resume(run: Optimisation, member_dir: Path, model_cfg: Mapping, device: torc
         return
     load_state_dict_checked(run.model, read_weights(ckpt, model_cfg["name"], prefer_ema=False), ckpt)
     state = torch.load(ckpt / "state.pt", map_location=device, weights_only=False)
-    run.opt.load_state_dict(state["optimizer"])
-    for group in run.opt.param_groups:  # the saved groups carry the saving run's choice; this device's applies
-        group["fused"] = fused_on(device)
+    load_optimizer_state(run.opt, state["optimizer"], device)
     run.sched.load_state_dict(state["scheduler"])
     if run.ema is not None and state.get("ema"):
         run.ema.load_state_dict(state["ema"], load_file(str(ckpt / "ema.safetensors"), device=str(device)))
