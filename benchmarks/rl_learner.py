@@ -8,13 +8,17 @@ instead of rvn-rl's fused one (CUDA: `rvn_il.train.choices.fused_on`; on a CPU b
 runs it (`ppo_update` over `DeviceRollouts`) on a rollout of random frames with ~25-step episodes; alternated rounds
 after a warm-up one, best of ``--repeats``. Prints each update's ms, the env steps/s that learning alone would allow
 (rollout steps / update seconds), the ratio, the first update's seconds (compiling, for a compiled one) and how far
-each first update's losses from the same weights are from float32's.
+each first update's losses from the same weights are from float32's. ``--cudnn-benchmark`` runs every variant on
+cuDNN's timed choice of convolution algorithms (``torch.backends.cudnn.benchmark``; the fourth GPU run's profile of
+an update and 64 acts spent 83 of its 430 ms of kernels in FFT convolutions, filter flips and cuDNN's layout
+conversions, which its heuristics chose: profile_rl.txt in docs/results/2026-12-04_gpu4). cuDNN keys its cache of
+choices without the flag, so the flag is a run of its own, compared with a run without it.
 
 On the 2-core development CPU an update of scale=small (8 envs x 64 steps, 128², ResNet-18 base 32, 4 x 4
 mini-batches) takes ~15 s in float32, the bound of rvn-rl's README recipe there (collection alone runs at ~150 env
 steps/s); on the third GPU run (H200, 30 envs) the update was 1.1 s of every 1,920 env steps.
 Run: python benchmarks/rl_learner.py [--device cuda --envs 30 --compile] [--decoupled] [--recompute] [--size 128]
-[--threads 2] [--repeats 2] [--no-bf16] [--unfused]
+[--threads 2] [--repeats 2] [--no-bf16] [--unfused] [--cudnn-benchmark]
 """
 from __future__ import annotations
 
@@ -66,10 +70,14 @@ def main() -> None:
                    help="also fp32 with ppo.recompute_advantages (its values pass, on a copy of the rollout)")
     p.add_argument("--unfused", action="store_true",
                    help="also fp32 with Adam's for-each step (rvn-rl's Adam is fused on CUDA)")
+    p.add_argument("--cudnn-benchmark", action="store_true",
+                   help="torch.backends.cudnn.benchmark for the whole run (its algorithm cache is shared by every "
+                   "variant, so compare with a run without it)")
     p.add_argument("--no-bf16", action="store_true", help="float32 alone (a CPU without native bfloat16 emulates "
                    "it, ~16x slower)")
     args = p.parse_args()
     torch.set_num_threads(args.threads)
+    torch.backends.cudnn.benchmark = args.cudnn_benchmark
     from rvn_il.train.choices import fused_on
     from rvn_rl.model import PointNavResNetPolicy
     from rvn_rl.ppo import PPOConfig, ppo_update
@@ -113,7 +121,8 @@ def main() -> None:
             else:  # said at once: a time limit that cuts a later compile keeps it
                 losses[name], first[name] = out, time.perf_counter() - t
                 print(f"  {name}: first update {first[name]:.1f} s", flush=True)
-    where = torch.cuda.get_device_name(dev) if dev.type == "cuda" else f"cpu, {args.threads} threads"
+    where = torch.cuda.get_device_name(dev) + (", cudnn.benchmark" if args.cudnn_benchmark else "") \
+        if dev.type == "cuda" else f"cpu, {args.threads} threads"
     print(f"One PPO update ({where}; {n} envs x {T} steps, {args.size}², {args.backbone} base {args.base_planes}, "
           f"{args.epochs} epochs x {args.mini_batches} mini-batches; best of {args.repeats}):")
     for name, sec in best.items():
