@@ -116,7 +116,11 @@ class RunDir:
         self.dir.mkdir(parents=True, exist_ok=True)
         done: dict[tuple[int, int], dict] = {}
         started_by = self.provenance
-        if resume and self.run_path.exists():
+        records = read_records(self.records_path, drop_partial_tail=True) \
+            if resume and self.records_path.exists() else []
+        # a run that recorded no episode (it failed before its first, e.g. on a scene's settings) starts over, whatever
+        # its settings were: nothing of it would be mixed with this run's
+        if records and self.run_path.exists():
             stored = moved_targets(json.loads(self.run_path.read_text()))
             earlier, resumed_by = stored.pop("provenance", None), stored.pop("resumed_by", [])
             for key in self.NOTES:
@@ -126,9 +130,8 @@ class RunDir:
             check_settings(self.run_path, stored, self.identity, what="rvn-eval run",
                            hint=f"use another out_dir (e.g. out_dir={other_dir(self.dir, stored, self.identity)}), "
                            "or resume=false to start it over")
-            if self.records_path.exists():
-                for rec in read_records(self.records_path, drop_partial_tail=True):
-                    done[record_key(rec)] = rec
+            for rec in records:
+                done[record_key(rec)] = rec
             if done:  # episodes of the earlier code stay: record both
                 started_by = earlier or {"commit": None, "dirty": None, "version": "unknown", "generator_version": None}
                 self.resumed_by = list(resumed_by)

@@ -4,7 +4,8 @@ Scene-graph transforms are applied; geometry is grouped into one `Part` per mate
 its UVs, texture image (uint8 RGB), PBR base colour and vertex colours. Options:
 `up_axis="z"` rotates z-up files (HM3D/Habitat) to y-up, hab = (x, z_file, -y_file);
 `unit_scale` multiplies coordinates (0.001 for millimetres); `level=True` rotates the scene
-so that its dominant floor normal (area-weighted upward-facing normals) is +y.
+so that its dominant floor normal (area-weighted upward-facing normals) is +y. A file that, so read, spans more
+than an indoor scene or stands on its side is refused, naming the setting to change (`rvn_data.scenes.plausibility`).
 """
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rvn_data.scenes.plausibility import check_extent, check_up_axis
 from rvn_data.scenes.scene import NEUTRAL_GREY, Part, Scene, SceneError
 
 Z_UP_TO_Y_UP = np.array([[1.0, 0, 0], [0, 0, 1.0], [0, -1.0, 0]])
@@ -144,8 +146,10 @@ def load_mesh_file(path: str | Path, up_axis: str = "y", unit_scale: float = 1.0
                           colors=np.concatenate(cols) if has_col else None,
                           base_color=base, texture=tex))
     scene = Scene(scene_id or path.name.split(".")[0], parts, source=str(path))
+    v, f = scene.triangles()
+    check_extent(v, path, float(unit_scale))  # a file not in metres, or not y-up as read: one line, not a hang
+    check_up_axis(v, f, path, up_axis)
     if level:
-        v, f = scene.triangles()
         R = _level_rotation(v.astype(np.float64), f)
         for p in scene.parts:
             p.vertices = np.ascontiguousarray(p.vertices.astype(np.float64) @ R.T, dtype=np.float32)
