@@ -68,3 +68,20 @@ def test_env_state_times_state_steps_and_resets(monkeypatch, capsys):
         assert m and float(m.group(1)) > 0 and int(m.group(2)) > 0, out
         returns.append(m.group(3))
     assert returns[0] == returns[1]
+
+
+def test_scene_checks_prints_the_checks_share_of_a_load(monkeypatch, capsys, tmp_path):
+    """benchmarks/scene_checks.py on a procedural apartment written as a PLY and a mesh given by path (a 3 m room):
+    a row each with its triangles, the load's ms, the checks' ms and their share."""
+    monkeypatch.syspath_prepend(str(BENCHMARKS))
+    import scene_checks
+    import trimesh
+
+    trimesh.creation.box(extents=[3.0, 2.5, 3.0]).export(tmp_path / "room.ply")
+    scene_checks.main(["--procedural", "1", "--repeats", "1", "--mesh", str(tmp_path / "room.ply")])
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].split() == ["mesh", "triangles", "load", "ms", "checks", "ms", "share"]
+    assert [ln.split()[0] for ln in lines[1:]] == ["room", "procedural_train_0"]
+    for ln in lines[1:]:
+        m = re.fullmatch(r"\S+ +[\d,]+ +([\d.]+) +([\d.]+) +(\d+)%", ln)
+        assert m and float(m.group(1)) > 0 and float(m.group(2)) > 0, ln

@@ -1,13 +1,15 @@
 """Mesh files read with the wrong units or up axis are refused, naming the setting (rvn_data.scenes.plausibility).
 
 The data: procedural apartments written as mesh files in metres, centimetres or millimetres, y-up or z-up, and the
-shipped apartment, read right (levelled, or tilted up to 10 deg) and turned on its side."""
+shipped apartment, read right (levelled, or tilted up to 10 deg) and turned on its side; a floor tilted, not levelled,
+is said."""
 from __future__ import annotations
 
 import json
 import math
 import os
 import subprocess
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -64,12 +66,15 @@ def _tilted(v: np.ndarray, deg: float) -> np.ndarray:
 def test_the_shipped_apartment_tilted_read_right_passes_and_on_its_side_is_refused(dream_path, tmp_path, deg):
     v, f = load_mesh_file(dream_path).triangles()
     tilted = _mesh_file(tmp_path / "tilted.ply", _tilted(v, deg), f)
-    assert load_mesh_file(tilted).num_triangles == len(f)
     assert load_mesh_file(tilted, level=True).num_triangles == len(f)
     turned = _mesh_file(tmp_path / "turned.ply", _tilted(v, deg), f, z_up=True)
     with pytest.raises(SceneError, match="Set scenes.up_axis=z"):
         load_mesh_file(turned, level=True)
-    assert load_mesh_file(turned, up_axis="z").num_triangles == len(f)
+    for path, up_axis in ((tilted, "y"), (turned, "z")):  # not levelled: the tilt is said from 1.5 deg
+        with pytest.warns(UserWarning, match=f"tilted {deg}.0 deg") if deg else warnings.catch_warnings():
+            if not deg:
+                warnings.simplefilter("error")
+            assert load_mesh_file(path, up_axis=up_axis).num_triangles == len(f)
 
 
 def _gen(tmp_path: Path, mesh: Path, *overrides: str) -> subprocess.CompletedProcess:
@@ -117,3 +122,18 @@ def test_rvn_eval_refuses_the_scene_and_its_corrected_rerun_takes_the_same_out_d
     assert right.returncode == 0, right.stderr[-2000:]
     assert json.loads((out / "metrics.json").read_text())["episodes"] == 2
     assert json.loads((out / "run.json").read_text())["scenes"]["up_axis"] == "z"
+
+
+def test_a_floor_tilted_not_levelled_is_said_naming_scenes_level(tmp_path):
+    """A scan not levelled: a warning at 3 deg (none at 1 deg, the threshold 1.5), none with scenes.level=true."""
+    v, f = make_apartment("train", 0).triangles()
+    for deg, said in ((1, False), (3, True)):
+        path = _mesh_file(tmp_path / f"tilted_{deg}.ply", _tilted(v, deg), f)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            load_mesh_file(path)
+            load_mesh_file(path, level=True)
+        texts = [str(w.message) for w in caught]
+        assert texts == ([f"mesh file {str(path)!r}: its floor is tilted {deg}.0 deg from level (the area-weighted "
+                          "normal of its upward faces); set scenes.level=true to level it (rvn-scene: --level)"]
+                         if said else []), texts

@@ -5,7 +5,8 @@ its UVs, texture image (uint8 RGB), PBR base colour and vertex colours. Options:
 `up_axis="z"` rotates z-up files (HM3D/Habitat) to y-up, hab = (x, z_file, -y_file);
 `unit_scale` multiplies coordinates (0.001 for millimetres); `level=True` rotates the scene
 so that its dominant floor normal (area-weighted upward-facing normals) is +y. A file that, so read, spans more
-than an indoor scene or stands on its side is refused, naming the setting to change (`rvn_data.scenes.plausibility`).
+than an indoor scene or stands on its side is refused, naming the setting to change, and one whose floor is tilted,
+not levelled, is said (`rvn_data.scenes.plausibility`).
 """
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rvn_data.scenes.plausibility import check_extent, check_up_axis
+from rvn_data.scenes.plausibility import check_scene
 from rvn_data.scenes.scene import NEUTRAL_GREY, Part, Scene, SceneError
 
 Z_UP_TO_Y_UP = np.array([[1.0, 0, 0], [0, 0, 1.0], [0, -1.0, 0]])
@@ -147,8 +148,7 @@ def load_mesh_file(path: str | Path, up_axis: str = "y", unit_scale: float = 1.0
                           base_color=base, texture=tex))
     scene = Scene(scene_id or path.name.split(".")[0], parts, source=str(path))
     v, f = scene.triangles()
-    check_extent(v, path, float(unit_scale))  # a file not in metres, or not y-up as read: one line, not a hang
-    check_up_axis(v, f, path, up_axis)
+    check_scene(v, f, path, up_axis, float(unit_scale), level)  # not in metres, on its side, or tilted: said
     if level:
         R = _level_rotation(v.astype(np.float64), f)
         for p in scene.parts:
