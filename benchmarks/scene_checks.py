@@ -1,7 +1,8 @@
 """What the plausibility checks cost a mesh file's load (`rvn_data.scenes.plausibility.check_scene`: the extent, the
 up axis, the floor's tilt). Prints, for each mesh, its triangles, the load's ms (`load_mesh_file`, checks included),
 the checks' ms alone and their share of the load. The meshes: ``--mesh``'s, else the shipped apartment
-(../shared/scenes, if present), and procedural apartments written as PLY files; medians of ``--repeats`` loads, after one to warm the caches.
+(../shared/scenes, if present), and procedural apartments written as PLY files; medians of ``--repeats`` loads,
+after one to warm the caches.
 
     python benchmarks/scene_checks.py [--procedural 3] [--repeats 7] [--mesh PATH ...]
 """

@@ -47,7 +47,7 @@ def test_an_apartment_read_right_passes_and_on_its_side_is_refused(tmp_path, ind
         load_mesh_file(z_up)
 
 
-def test_units_not_metres_name_the_unit_scale_that_makes_a_building(tmp_path):
+def test_wrong_units_name_the_unit_scale_that_makes_a_building(tmp_path):
     cm = _apartment_file(tmp_path, scale=0.01)
     with pytest.raises(SceneError) as err:
         load_mesh_file(cm)
@@ -56,6 +56,10 @@ def test_units_not_metres_name_the_unit_scale_that_makes_a_building(tmp_path):
     assert "as centimetres (scenes.unit_scale=0.01)" in text and "as inches (scenes.unit_scale=0.0254)" in text
     assert "millimetres" not in text  # 1 m across: not a room
     assert load_mesh_file(cm, unit_scale=0.01).num_triangles > 0
+    metres = _apartment_file(tmp_path, index=1)  # read as millimetres: 12 mm across, no robot's island
+    with pytest.raises(SceneError, match=r"read with scenes.unit_scale=0.001 spans 0.0\d+ x .* smaller than a room "
+                       r"\(at least 1 m\). If scenes.unit_scale is wrong: as metres \(scenes.unit_scale=1\) "):
+        load_mesh_file(metres, unit_scale=0.001)
 
 
 def _tilted(v: np.ndarray, deg: float) -> np.ndarray:

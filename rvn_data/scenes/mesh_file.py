@@ -5,8 +5,8 @@ its UVs, texture image (uint8 RGB), PBR base colour and vertex colours. Options:
 `up_axis="z"` rotates z-up files (HM3D/Habitat) to y-up, hab = (x, z_file, -y_file);
 `unit_scale` multiplies coordinates (0.001 for millimetres); `level=True` rotates the scene
 so that its dominant floor normal (area-weighted upward-facing normals) is +y. A file that, so read, spans more
-than an indoor scene or stands on its side is refused, naming the setting to change, and one whose floor is tilted,
-not levelled, is said (`rvn_data.scenes.plausibility`).
+than an indoor scene or less than a metre, or stands on its side, is refused, naming the setting to change, and one
+whose floor is tilted, not levelled, is said (`rvn_data.scenes.plausibility`).
 """
 from __future__ import annotations
 

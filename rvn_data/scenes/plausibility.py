@@ -3,7 +3,8 @@
 Real scans come in other units and axes, and a wrong setting did not fail before: it went on with the wrong scene.
 
 - **Units.** The apartment in ../shared/scenes, saved in millimetres and read as metres, spans 12.4 x 11.3 x 3.1 km.
-  rvn-gen was still building its navmesh after 5 minutes.
+  rvn-gen was still building its navmesh after 5 minutes. Read in metres as millimetres, it spans 12 mm, and its
+  navmesh failed with "no navigable island", which names areas, not units.
 - **Up axis.** The same file saved z-up and read y-up stands on its side: its floor becomes a wall and a wall becomes
   the floor. rvn-gen wrote 4 trajectories along a 12 x 2.5 m wall and reported them as ok.
 
@@ -40,7 +41,8 @@ import numpy as np
 from rvn_data.scenes.scene import SceneError
 
 MAX_EXTENT_M = 300.0  # an indoor scene's largest side: a home or an office floor spans tens of metres
-UNITS = (("millimetres", 0.001), ("centimetres", 0.01), ("inches", 0.0254))
+MIN_EXTENT_M = 1.0  # ... and its least: a navmesh keeps islands of navmesh.min_island_area (1 m²) and more
+UNITS = (("metres", 1.0), ("millimetres", 0.001), ("centimetres", 0.01), ("inches", 0.0254))
 ROOM_M, BUILDING_M = 2.0, 100.0  # the units suggested are those that make the largest side a room's to a building's
 FLOOR_BAND_M = 0.25  # floors are measured in two neighbouring bands of this height: 0.5 m, for a scan not levelled
 LEVEL_COS = math.cos(math.radians(20))  # a face counts as upward facing within 20 deg of up
@@ -70,16 +72,20 @@ def check_scene(vertices: np.ndarray, faces: np.ndarray, path, up_axis: str, uni
 
 def check_extent(size: np.ndarray, path, unit_scale: float) -> None:
     """SceneError when the scene (its ``size`` along x, y, z in metres, after ``unit_scale``) spans more than
-    `MAX_EXTENT_M`, with the sizes it would have in those of `UNITS` that make it a room to a building (all of them if
-    none does)."""
-    if not size.max() > MAX_EXTENT_M:
+    `MAX_EXTENT_M` or less than `MIN_EXTENT_M`, with the sizes it would have in those other `UNITS` that make it a
+    room to a building (all of them if none does)."""
+    large = size.max() > MAX_EXTENT_M
+    if not large and size.max() >= MIN_EXTENT_M:
         return
-    fits = [(name, scale) for name, scale in UNITS if ROOM_M <= size.max() * scale <= BUILDING_M] or UNITS
-    hint = "; ".join(f"as {name} (scenes.unit_scale={unit_scale * scale:g}) {_sides(size * scale)}"
-                     for name, scale in fits)
-    raise SceneError(f"mesh file {str(path)!r} read with scenes.unit_scale={unit_scale:g} spans {_sides(size)}: "
-                     f"larger than an indoor scene (at most {MAX_EXTENT_M:.0f} m). If its units are not metres: {hint} "
-                     "(rvn-scene: --unit-scale); if they are, some of its geometry lies far from the rest")
+    units = [(name, scale) for name, scale in UNITS if not math.isclose(scale, unit_scale)]
+    in_file = size / unit_scale
+    fits = [(name, scale) for name, scale in units if ROOM_M <= in_file.max() * scale <= BUILDING_M] or units
+    hint = "; ".join(f"as {name} (scenes.unit_scale={scale:g}) {sides(in_file * scale)}" for name, scale in fits)
+    what = (f"larger than an indoor scene (at most {MAX_EXTENT_M:.0f} m)" if large
+            else f"smaller than a room (at least {MIN_EXTENT_M:.0f} m)")
+    far = "; if it is right, some of its geometry lies far from the rest" if large else ""
+    raise SceneError(f"mesh file {str(path)!r} read with scenes.unit_scale={unit_scale:g} spans {sides(size)}: "
+                     f"{what}. If scenes.unit_scale is wrong: {hint} (rvn-scene: --unit-scale){far}")
 
 
 def check_up_axis(size: np.ndarray, geometry: tuple, path, up_axis: str) -> None:
@@ -118,5 +124,6 @@ def _faces(vertices: np.ndarray, faces: np.ndarray) -> tuple:
     return corner, normals, np.sqrt(np.einsum("ij,ij->i", normals, normals))
 
 
-def _sides(size: np.ndarray) -> str:
-    return " x ".join(f"{s:,.1f}" for s in size) + " m"
+def sides(size: np.ndarray) -> str:
+    """``size`` (m) as ``12.4 x 2.8 x 11.3 m`` (sides under a metre to 3 figures: ``0.0124``)."""
+    return " x ".join(f"{s:,.1f}" if s >= 1 else f"{s:.3g}" for s in size) + " m"
