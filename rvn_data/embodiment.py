@@ -32,6 +32,24 @@ AGENT_KEYS = tuple(f.name for f in fields(AgentConfig))
 MISMATCH_CHOICES = ("error", "allow")
 
 
+def check_camera_on_robot(agent: Any, camera: Any) -> None:
+    """ValueError naming the settings when the camera is not on the robot: below the floor, above the robot's top
+    (``h_camera`` > ``h_robot``) or outside its footprint (``|forward_offset|`` > ``r_robot``). The robot's cylinder is
+    what collides, so a camera outside it sees through, or from inside, what the robot passes under or beside: rvn-gen
+    wrote an apartment's ceiling from above as "ok" frames with camera.h_camera=3.0."""
+    a, c = _plain(agent), _plain(camera)
+    h, top, ahead, r = c["h_camera"], a["h_robot"], c.get("forward_offset", 0.0), a["r_robot"]
+    if not 0 < h <= top:
+        where = "at or below the floor" if h <= 0 else f"above the robot's top (agent.h_robot={top:g} m)"
+        raise ValueError(f"camera.h_camera={h:g} m puts the camera {where}: the camera is on the robot, whose "
+                         f"cylinder is what collides; set camera.h_camera in (0, {top:g}], or agent.h_robot to the "
+                         "height of the robot with its camera")
+    if abs(ahead) > r:
+        raise ValueError(f"camera.forward_offset={ahead:g} m puts the camera outside the robot (agent.r_robot={r:g} "
+                         f"m), where it would enter walls the robot's cylinder stops at; set it within +-{r:g}, or "
+                         "agent.r_robot to the robot's radius with its camera")
+
+
 def _plain(obj: Any) -> dict:
     return asdict(obj) if is_dataclass(obj) else dict(obj or {})
 

@@ -1,7 +1,8 @@
 """The embodiment record (rvn_data/embodiment.py) through the CLIs: rvn-gen's data → rvn-train's checkpoint
 (the data's robot and camera; an agent.* given on the command line announced and recorded) → rvn-eval, which
 refuses another camera or d_step with one line before any episode, or runs it with embodiment_mismatch=allow
-and records the difference; rvn-rl refuses a camera size other than env.size."""
+and records the difference; rvn-rl refuses a camera size other than env.size; a camera off the robot (above its
+cylinder, under the floor, outside its footprint) is refused by rvn-gen, rvn-eval and rvn-rl."""
 from __future__ import annotations
 
 import json
@@ -102,6 +103,31 @@ def test_rvn_rl_refuses_a_camera_size_other_than_env_size(tmp_path):
     line = one_line_error(cli("rvn_rl.cli", "env.size=32", "camera.width=48", f"out_dir={tmp_path / 'rl'}"))
     assert "camera.width=48 differs from env.size=32" in line and "set env.size=48" in line
     assert not (tmp_path / "rl").exists()
+
+
+@pytest.mark.parametrize("module, settings, words", [
+    ("rvn_data.gen.cli", ["camera.h_camera=3.0"], ["camera.h_camera=3 m", "above the robot's top (agent.h_robot=1 m)"]),
+    ("rvn_data.gen.cli", ["camera.h_camera=0"], ["camera.h_camera=0 m", "at or below the floor"]),
+    ("rvn_data.benchmark.cli", ["policy=random", "camera.forward_offset=-0.3"],
+     ["camera.forward_offset=-0.3 m", "outside the robot (agent.r_robot=0.18 m)"]),
+    ("rvn_rl.cli", ["agent.h_robot=0.5"], ["camera.h_camera=0.6 m", "above the robot's top (agent.h_robot=0.5 m)"]),
+])
+def test_a_camera_off_the_robot_is_refused_before_anything_is_written(tmp_path, module, settings, words):
+    """rvn-gen, rvn-eval and rvn-rl: a camera above the robot's cylinder, under the floor or outside its footprint
+    sees through what the robot collides with (rvn-gen wrote a ceiling seen from above as ok frames with
+    camera.h_camera=3.0): one line naming the settings, nothing written."""
+    line = one_line_error(cli(module, *settings, f"out_dir={tmp_path / 'out'}"))
+    assert all(w in line for w in words), line
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_taller_robot_carries_a_higher_camera(tmp_path):
+    """agent.h_robot raised to the camera's mount: rvn-gen runs with the camera at 1.5 m."""
+    ok(cli("rvn_data.gen.cli", "agent.h_robot=2.0", "camera.h_camera=1.5", "scenes.num_scenes=1",
+           "trajectories_per_scene=1", "camera.width=32", "camera.height=32", "progress=false",
+           f"out_dir={tmp_path / 'data'}"))
+    meta = json.loads(next((tmp_path / "data").glob("*/rvn_meta.json")).read_text())
+    assert meta["settings"]["camera"]["h_camera"] == 1.5 and meta["settings"]["agent"]["h_robot"] == 2.0
 
 
 def test_rvn_train_refuses_negatives_made_with_another_camera(trained):
