@@ -50,6 +50,22 @@ def check_camera_on_robot(agent: Any, camera: Any) -> None:
                          "agent.r_robot to the robot's radius with its camera")
 
 
+def check_navmesh_for_robot(agent: Any, navmesh: Any) -> None:
+    """ValueError naming the settings when the navmesh to build is not the robot's: another radius (the simulator
+    refused it only at each scene), or less headroom than the robot's height (rvn-gen wrote "ok" trajectories with
+    navmesh.agent_height=0.3 for a 1 m robot, which may pass under a table). conf/navmesh/default.yaml sets both from
+    ``agent``; the callers leave out ``navmesh.source=file``, whose file the simulator checks, scene by scene."""
+    a, n = _plain(agent), _plain(navmesh)
+    if abs(n["agent_radius"] - a["r_robot"]) > 1e-6:
+        raise ValueError(f"navmesh.agent_radius={n['agent_radius']:g} differs from agent.r_robot={a['r_robot']:g}: the "
+                         "navmesh holds the poses a robot of its radius can take; leave navmesh.agent_radius to follow "
+                         "agent.r_robot (conf/navmesh/default.yaml)")
+    if n["agent_height"] < a["h_robot"] - 1e-6:
+        raise ValueError(f"navmesh.agent_height={n['agent_height']:g} is below agent.h_robot={a['h_robot']:g}: the "
+                         "robot would drive under what is lower than itself; leave navmesh.agent_height to follow "
+                         "agent.h_robot (conf/navmesh/default.yaml), or raise it")
+
+
 def _plain(obj: Any) -> dict:
     return asdict(obj) if is_dataclass(obj) else dict(obj or {})
 

@@ -2,7 +2,8 @@
 (the data's robot and camera; an agent.* given on the command line announced and recorded) → rvn-eval, which
 refuses another camera or d_step with one line before any episode, or runs it with embodiment_mismatch=allow
 and records the difference; rvn-rl refuses a camera size other than env.size; a camera off the robot (above its
-cylinder, under the floor, outside its footprint) is refused by rvn-gen, rvn-eval and rvn-rl."""
+cylinder, under the floor, outside its footprint), and a navmesh not built for the robot, are refused by rvn-gen,
+rvn-eval and rvn-rl."""
 from __future__ import annotations
 
 import json
@@ -111,18 +112,24 @@ def test_rvn_rl_refuses_a_camera_size_other_than_env_size(tmp_path):
     ("rvn_data.benchmark.cli", ["policy=random", "camera.forward_offset=-0.3"],
      ["camera.forward_offset=-0.3 m", "outside the robot (agent.r_robot=0.18 m)"]),
     ("rvn_rl.cli", ["agent.h_robot=0.5"], ["camera.h_camera=0.6 m", "above the robot's top (agent.h_robot=0.5 m)"]),
+    ("rvn_data.gen.cli", ["navmesh.agent_height=0.3"], ["navmesh.agent_height=0.3 is below agent.h_robot=1"]),
+    ("rvn_data.benchmark.cli", ["policy=random", "navmesh.agent_radius=0.1"],
+     ["navmesh.agent_radius=0.1 differs from agent.r_robot=0.18"]),
+    ("rvn_rl.cli", ["navmesh.agent_height=0.5"], ["navmesh.agent_height=0.5 is below agent.h_robot=1"]),
 ])
-def test_a_camera_off_the_robot_is_refused_before_anything_is_written(tmp_path, module, settings, words):
+def test_a_camera_or_navmesh_not_the_robots_is_refused_before_anything_is_written(tmp_path, module, settings, words):
     """rvn-gen, rvn-eval and rvn-rl: a camera above the robot's cylinder, under the floor or outside its footprint
     sees through what the robot collides with (rvn-gen wrote a ceiling seen from above as ok frames with
-    camera.h_camera=3.0): one line naming the settings, nothing written."""
+    camera.h_camera=3.0), and a navmesh built lower than the robot lets it under tables (rvn-gen wrote ok trajectories
+    with navmesh.agent_height=0.3): one line naming the settings, nothing written."""
     line = one_line_error(cli(module, *settings, f"out_dir={tmp_path / 'out'}"))
     assert all(w in line for w in words), line
     assert not (tmp_path / "out").exists()
 
 
 def test_a_taller_robot_carries_a_higher_camera(tmp_path):
-    """agent.h_robot raised to the camera's mount: rvn-gen runs with the camera at 1.5 m."""
+    """agent.h_robot raised to the camera's mount: rvn-gen runs with the camera at 1.5 m (its navmesh follows the
+    robot's height, conf/navmesh/default.yaml)."""
     ok(cli("rvn_data.gen.cli", "agent.h_robot=2.0", "camera.h_camera=1.5", "scenes.num_scenes=1",
            "trajectories_per_scene=1", "camera.width=32", "camera.height=32", "progress=false",
            f"out_dir={tmp_path / 'data'}"))
