@@ -12,7 +12,7 @@ from rvn_data.render import RendererConfig
 from rvn_data.scenes.sets import ScenesConfig
 from rvn_data.conventions import AgentConfig
 from rvn_data.dataset.settings import DatasetConfig
-from rvn_data.embodiment import check_camera_on_robot, check_navmesh_for_robot
+from rvn_data.embodiment import check_robot_settings
 from rvn_data.navmesh.settings import NavMeshSettings
 from rvn_data.render.camera import CameraConfig
 
@@ -47,9 +47,7 @@ class GenConfig:
             raise ValueError(f"mode={self.mode!r} must be generate or merge")
         if self.workers < 1:
             raise ValueError(f"workers={self.workers} must be >= 1")
-        check_camera_on_robot(self.agent, self.camera)
-        if self.navmesh.source != "file":  # a navmesh file: the simulator's check, scene by scene
-            check_navmesh_for_robot(self.agent, self.navmesh)
+        check_robot_settings(self.agent, self.camera, self.navmesh)
 
 
 @dataclass(frozen=True)

@@ -32,6 +32,14 @@ AGENT_KEYS = tuple(f.name for f in fields(AgentConfig))
 MISMATCH_CHOICES = ("error", "allow")
 
 
+def check_robot_settings(agent: Any, camera: Any, navmesh: Any = None) -> None:
+    """`check_camera_on_robot`, and `check_navmesh_for_robot` for a navmesh to build (``navmesh.source`` build or
+    auto; a navmesh file is the simulator's to check, scene by scene): rvn-gen's, RVNEnv's and rvn-rl's validation."""
+    check_camera_on_robot(agent, camera)
+    if navmesh is not None and _plain(navmesh).get("source", "build") != "file":
+        check_navmesh_for_robot(agent, navmesh)
+
+
 def check_camera_on_robot(agent: Any, camera: Any) -> None:
     """ValueError naming the settings when the camera is not on the robot: below the floor, above the robot's top
     (``h_camera`` > ``h_robot``) or outside its footprint (``|forward_offset|`` > ``r_robot``). The robot's cylinder is
@@ -54,7 +62,7 @@ def check_navmesh_for_robot(agent: Any, navmesh: Any) -> None:
     """ValueError naming the settings when the navmesh to build is not the robot's: another radius (the simulator
     refused it only at each scene), or less headroom than the robot's height (rvn-gen wrote "ok" trajectories with
     navmesh.agent_height=0.3 for a 1 m robot, which may pass under a table). conf/navmesh/default.yaml sets both from
-    ``agent``; the callers leave out ``navmesh.source=file``, whose file the simulator checks, scene by scene."""
+    ``agent``."""
     a, n = _plain(agent), _plain(navmesh)
     if abs(n["agent_radius"] - a["r_robot"]) > 1e-6:
         raise ValueError(f"navmesh.agent_radius={n['agent_radius']:g} differs from agent.r_robot={a['r_robot']:g}: the "

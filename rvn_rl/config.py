@@ -13,7 +13,7 @@ from rvn_data.benchmark.episodes import EpisodeSettings
 from rvn_data.cache_root import cache_root
 from rvn_data.config import register, register_configs, typed
 from rvn_data.conventions import AgentConfig
-from rvn_data.embodiment import check_camera_on_robot, check_navmesh_for_robot
+from rvn_data.embodiment import check_robot_settings
 from rvn_data.navmesh.settings import NavMeshSettings
 from rvn_data.render import RendererConfig
 from rvn_data.render.camera import CameraConfig
@@ -62,9 +62,7 @@ class RLConfig:
             if value != env.size:
                 raise ValueError(f"camera.{key}={value} differs from env.size={env.size}: the observation is "
                                  f"env.size pixels square; set env.size={value} (camera.width and height follow it)")
-        check_camera_on_robot(self.agent, self.camera)
-        if self.navmesh.source != "file":  # a navmesh file: the simulator's check, scene by scene
-            check_navmesh_for_robot(self.agent, self.navmesh)
+        check_robot_settings(self.agent, self.camera, self.navmesh)
         if not 0 <= env.workers <= env.num_envs:
             raise ValueError(f"env.workers={env.workers!r} must be between 0 (in process) and env.num_envs={env.num_envs}")
         for key in ("num_steps", "ppo_epoch", "num_mini_batch"):

@@ -9,7 +9,7 @@ from rvn_data.cache_root import cache_root
 from rvn_data.render import RendererConfig
 from rvn_data.scenes.sets import ScenesConfig
 from rvn_data.conventions import AgentConfig
-from rvn_data.embodiment import check_camera_on_robot, check_navmesh_for_robot
+from rvn_data.embodiment import check_robot_settings
 from rvn_data.benchmark.episodes import DEFAULT_PER_SCENE, EpisodeSettings, sample_goal, settings_record, split_code
 from rvn_data.benchmark.episodes_store import EpisodeStore
 from rvn_data.navmesh.settings import NavMeshSettings
@@ -125,9 +125,7 @@ class EnvConfig(EpisodeRules):
                              "draw another scene; set one of them (e.g. scene_switch_steps=10000, Habitat's)")
         if not self.success_distance > 0:
             raise ValueError(f"RVNEnv setting success_distance={self.success_distance!r} must be > 0")
-        check_camera_on_robot(self.agent, self.camera)
-        if self.navmesh is not None and self.navmesh.source != "file":  # a navmesh file: the simulator's check
-            check_navmesh_for_robot(self.agent, self.navmesh)
+        check_robot_settings(self.agent, self.camera, self.navmesh)
 
     @property
     def split_code(self) -> int:
