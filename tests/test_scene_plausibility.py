@@ -2,7 +2,7 @@
 
 The data: procedural apartments written as mesh files in metres, centimetres or millimetres, y-up or z-up, and the
 shipped apartment, read right (levelled, or tilted up to 10 deg) and turned on its side; a floor tilted, not levelled,
-is said."""
+is said (rvn-gen: among its summary's notes)."""
 from __future__ import annotations
 
 import json
@@ -141,3 +141,15 @@ def test_a_floor_tilted_not_levelled_is_said_naming_scenes_level(tmp_path):
         assert texts == ([f"mesh file {str(path)!r}: its floor is tilted {deg}.0 deg from level (the area-weighted "
                           "normal of its upward faces); set scenes.level=true to level it (rvn-scene: --level)"]
                          if said else []), texts
+
+
+def test_rvn_gen_lists_a_tilted_floor_in_its_summary(tmp_path):
+    """rvn-gen on a scan not levelled: the loader's warning is one of the summary's notes, named by its scene (not a
+    Python warning printed into the progress bar), and the run goes on."""
+    v, f = make_apartment("train", 0).triangles()
+    mesh = _mesh_file(tmp_path / "tilted.ply", _tilted(v, 3), f)
+    proc = _gen(tmp_path, mesh, "workers=2")
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert ("  notes (1):\n    tilted: mesh file " in proc.stdout and "tilted 3.0 deg from level" in proc.stdout
+            and "set scenes.level=true" in proc.stdout), proc.stdout
+    assert "UserWarning" not in proc.stderr

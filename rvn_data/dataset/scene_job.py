@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 import time
+import warnings
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -45,6 +46,7 @@ class SceneResult:
     frames: int = 0  # frames written by this run
     skipped: int = 0  # trajectories found complete on disk
     redone: dict = field(default_factory=dict)  # name -> what was wrong with it on disk (removed, written again)
+    notes: list = field(default_factory=list)  # what loading the scene warned of (`_Scene.notes`)
 
 
 def _diagnose(s: GenSettings, scene_id: str, reasons: Counter, max_geodesic: float) -> str:
@@ -75,7 +77,10 @@ class _Scene:
         from rvn_data.sim import Simulator
 
         t0 = time.perf_counter()
-        self.scene = load_scene(spec, up_axis=scenes.up_axis, unit_scale=scenes.unit_scale, level=scenes.level)
+        with warnings.catch_warnings(record=True) as said:  # the loader's notes (a tilted floor, a texture it
+            warnings.simplefilter("always")  # cannot decode): the summary lists them, a worker's too
+            self.scene = load_scene(spec, up_axis=scenes.up_axis, unit_scale=scenes.unit_scale, level=scenes.level)
+        self.notes = [str(w.message) for w in said]
         navmesh = open_navmesh(self.scene, settings.navmesh, os.environ.get(CACHE_ENV) or None)  # shared builds
         self.ctx = SceneContext(navmesh=navmesh, sim=Simulator(navmesh, settings.agent), scene=self.scene,
                                 settings=settings)
@@ -145,6 +150,7 @@ def run_scene(spec: str, settings: GenSettings, out_dir: Path, trajectories_per_
                     res.redone[name] = problem
                 if scene is None:
                     scene = _Scene(spec, s, scenes, res.timing)
+                    res.notes = scene.notes
                 meta, rejected = _new_trajectory(scene, gnm, s, spec, split, name, index, res)
                 reasons.update(rejected)
                 if meta is None:

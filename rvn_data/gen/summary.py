@@ -10,7 +10,8 @@ from rvn_data.dataset.settings import GenSettings
 
 def summary(s: GenSettings, out_dir: Path, results: list[SceneResult], specs: list[str], missing: list[str],
             shard_index: int, num_shards: int, seconds: float) -> str:
-    """Scenes, trajectories kept/attempted, frames, failures, time and frames/s of this run."""
+    """Scenes, trajectories kept/attempted, frames, time and frames/s of this run, the notes of the scenes it loaded
+    (`SceneResult.notes`) and its failures."""
     lines = [f"rvn-gen: {s.kind} dataset '{s.name}' -> {out_dir}",
              f"  shard {shard_index}/{num_shards}: {len(results)} of {len(specs)} scenes; margin {s.margin} m, "
              f"paths in [{s.d_min}, {s.d_max}] m" + (f", k_pre {s.k_pre}, k_post {s.k_post}" if s.kind == "negative" else "")]
@@ -56,6 +57,10 @@ def summary(s: GenSettings, out_dir: Path, results: list[SceneResult], specs: li
     else:
         maps = ", maps/*.png" if any((Path(out_dir) / "maps").glob("*.png")) else ""
         lines.append(f"  wrote data_splits/{s.name}/{{train,test}}/traj_names.txt, data_config.yaml, manifest.json{maps}")
+    notes = [(r.slug, note) for r in results for note in r.notes]
+    if notes:
+        lines.append(f"  notes ({len(notes)}):")
+        lines += [f"    {slug}: {note}" for slug, note in notes[:20]]
     failures = [r for r in results if r.error]
     if failures:
         lines.append(f"  FAILED scenes ({len(failures)}):")
