@@ -3,7 +3,7 @@
 refuses another camera or d_step with one line before any episode, or runs it with embodiment_mismatch=allow
 and records the difference; rvn-rl refuses a camera size other than env.size; a camera off the robot (above its
 cylinder, under the floor, outside its footprint), and a navmesh not built for the robot, are refused by rvn-gen,
-rvn-eval and rvn-rl."""
+rvn-eval and rvn-rl; rvn-train refuses negatives as a model's data and expert data as NoMaD_n's."""
 from __future__ import annotations
 
 import json
@@ -147,6 +147,23 @@ def test_rvn_train_refuses_negatives_made_with_another_camera(trained):
                               f"data.negative_root={trained / 'negative_hfov90'}", f"out_dir={out}"))
     assert f"data.negative_root={trained / 'negative_hfov90'} was made with camera.hfov_deg=90" in line, line
     assert f"data.root={trained / 'data'} with 100" in line and not out.exists()
+
+
+def test_rvn_train_refuses_a_dataset_of_the_other_kind(trained):
+    """rvn-gen's negatives (each ends in a collision) as a model's data.root, or its expert data as NoMaD_n's
+    data.negative_root: one line naming the setting, nothing written (rvn-train trained NoMaD-PointGoal on negatives
+    without a word before)."""
+    ok(cli("rvn_data.gen.cli", "dataset=negative", "split=train", "scenes.num_scenes=1", "trajectories_per_scene=1",
+           "camera.width=32", "camera.height=32", "camera.hfov_deg=100", "dataset.train_fraction=1.0",
+           "progress=false", f"out_dir={trained / 'negative_hfov100'}"))
+    expert, negative, out = trained / "data", trained / "negative_hfov100", trained / "kinds"
+    line = one_line_error(cli("rvn_il.train.cli", *TRAIN, f"data.root={negative}", f"out_dir={out}"))
+    assert f"data.root={negative} holds negative trajectories" in line and "model=nomad_pointgoal" in line, line
+    train = [o for o in TRAIN if not o.startswith("model=")]
+    line = one_line_error(cli("rvn_il.train.cli", *train, "model=nomad_neg", f"data.root={expert}",
+                              f"data.negative_root={expert}", f"out_dir={out}"))
+    assert f"data.negative_root={expert} holds expert trajectories" in line, line
+    assert not out.exists()
 
 
 def test_rvn_eval_names_evaluated_scenes_the_model_trained_on(trained, tmp_path):

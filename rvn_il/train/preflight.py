@@ -3,7 +3,8 @@ minutes of training (or, for nomad_neg, after its first member is trained).
 
 `preflight` checks the device, the model size, the out_dir (writable, not another model's
 checkpoints), the datasets of every member (``data.root``; ``data.negative_root`` for
-nomad_neg) with the setting that names them, ``data.depth_root``, ``train.expert_from``, ``data.val_root`` and the
+nomad_neg) with the setting that names them and the kind of trajectories each holds (`check_kinds`: no negatives but
+NoMaD_n's), ``data.depth_root``, ``train.expert_from``, ``data.val_root`` and the
 loop settings, and raises `rvn_data.cli.common.ConfigError` (exit status 2) with one line
 naming the setting. Every trajectory a dataset's split lists must be whole (`rvn_data.dataset.verify`:
 folder, pose file, every frame's header and end, depth maps when the model uses them); the
@@ -18,7 +19,7 @@ from typing import Mapping
 import torch
 
 from rvn_data.cache_root import cache_root
-from rvn_data.dataset.reader import list_trajectories, load_gnm, rvn_trajectories, split_file
+from rvn_data.dataset.reader import list_trajectories, load_gnm, read_meta, rvn_trajectories, split_file
 from rvn_data.dataset.remake import remake_hint
 from rvn_data.dataset.verify import MISSING, Expect, damaged
 from rvn_data.cli.common import ConfigError, check_writable_dir, validating
@@ -60,6 +61,7 @@ def preflight(cfg: Mapping) -> tuple[torch.device, dict | None, dict, list[dict]
         check_settings(cfg)
         check_precision_on(cfg["train"]["precision"], device)
         check_datasets(cfg)
+        check_kinds(cfg)
         check_out_dir(cfg, name)
         record = data_embodiment(cfg)
         agent, overrides = resolve_agent(cfg["agent"], record)
@@ -73,9 +75,8 @@ def data_embodiment(cfg: Mapping) -> dict | None:
     data, found = cfg["data"], {}
     for entries in member_entries(cfg, adopted=True).values():
         e = entries[0]
-        _, names = list_trajectories(Path(e["root"]).expanduser(), e["split"],
-                                     Path(e["splits_dir"]) if e["splits_dir"] else None, e["name"], folders=False)
-        found[(e["key"], e["root"])] = dataset_embodiment(e["root"], names[0]) if names else None
+        first = first_trajectory(e)
+        found[(e["key"], e["root"])] = dataset_embodiment(e["root"], first) if first else None
     if data["depth_root"] and Path(str(data["depth_root"])).expanduser().is_dir():  # frames of the depth head
         names = rvn_trajectories(data["depth_root"])
         found[("data.depth_root", data["depth_root"])] = dataset_embodiment(data["depth_root"], names[0]) if names else None
@@ -87,6 +88,37 @@ def data_embodiment(cfg: Mapping) -> dict | None:
             raise ConfigError(f"{key}={root} was made with {d['setting']}={d['here']}, {first}={first_root} with "
                               f"{d['trained']}; generate both with one robot and camera")
     return record
+
+
+def check_kinds(cfg: Mapping) -> None:
+    """Each member learns from the trajectories it is for: NoMaD_n (``data.negative_root``) from rvn-gen's negatives,
+    every other member from no negatives (they end in a collision: a model trained on them imitates it; rvn-train
+    trained NoMaD-PointGoal on data.root=<negatives> without a word). A dataset without rvn-gen's sidecar (other GNM
+    data) is not checked; each dataset's first trajectory names its kind."""
+    model = cfg["model"]["name"]
+    for member, entries in member_entries(cfg).items():
+        for e in entries:
+            first = first_trajectory(e)
+            try:
+                kind = read_meta(Path(e["root"]).expanduser() / first).get("kind") if first else None
+            except ValueError:  # no sidecar: not rvn-gen's
+                kind = None
+            if member == "negative" and kind not in (None, "negative"):
+                raise ConfigError(f"{e['key']}={e['root']} holds {kind} trajectories (rvn-gen dataset={kind}): NoMaD_n "
+                                  "learns the collisions of rvn-gen dataset=negative; give a negative dataset")
+            if member != "negative" and kind == "negative":
+                raise ConfigError(f"{e['key']}={e['root']} holds negative trajectories (rvn-gen dataset=negative: each "
+                                  f"ends in a collision), which model={model} would learn to drive; give an expert "
+                                  "dataset (rvn-gen's default), and the negatives as data.negative_root with "
+                                  "model=nomad_neg")
+
+
+def first_trajectory(entry: Mapping) -> str | None:
+    """The first trajectory a resolved dataset entry's split lists, or None."""
+    _, names = list_trajectories(Path(entry["root"]).expanduser(), entry["split"],
+                                 Path(entry["splits_dir"]) if entry["splits_dir"] else None, entry["name"],
+                                 folders=False)
+    return names[0] if names else None
 
 
 def member_entries(cfg: Mapping, adopted: bool = False) -> dict[str, list[dict]]:
