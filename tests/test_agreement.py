@@ -58,12 +58,16 @@ def test_agreement_bad_input_is_one_line(trained):
 
 def test_training_logs_val_loss_and_the_agreement_tool_figure(trained):
     """rvn-train data.val_root=...: held-out loss and open-loop agreement at every val_every step and the
-    last, in val.json; the last agreement is what the agreement tool reports for the saved checkpoint."""
+    last, in val.json; the last agreement is what the agreement tool reports for the saved checkpoint. Here the val
+    data is the training data, which rvn-train says."""
     out = trained / "run_val"
-    run("-m", "rvn_il.train.cli", "model=nomad_pointgoal", "model.size=small", f"data.root={trained / 'data'}",
-        f"data.val_root={trained / 'data'}", "train.val_every=2", "train.val_trajectories=2", "train.val_batches=2",
-        f"out_dir={out}", "train.max_steps=3", "train.batch_size=4", "data.num_workers=0", "device=cpu",
-        "train.precision=bf16")
+    proc = run("-m", "rvn_il.train.cli", "model=nomad_pointgoal", "model.size=small", f"data.root={trained / 'data'}",
+               f"data.val_root={trained / 'data'}", "train.val_every=2", "train.val_trajectories=2",
+               "train.val_batches=2", f"out_dir={out}", "train.max_steps=3", "train.batch_size=4", "data.num_workers=0",
+               "device=cpu", "train.precision=bf16")
+    # validating on the training data's own scene is said (rvn-gen split=val would give other scenes)
+    assert (f"data.val_root={trained / 'data'} holds 1 scene(s) of the training data (proc_train_0000): validation on "
+            "them is not held out") in proc.stderr + proc.stdout
     history = json.loads((out / "model" / "val.json").read_text())
     assert list(history) == ["2", "3"]
     for figures in history.values():
@@ -86,3 +90,19 @@ def test_training_settings_fail_before_any_work(trained):
     assert not (trained / "bad1" / "model").exists()
     proc = run(*base, f"out_dir={trained / 'bad2'}", "train.precision=fp16", check=False)
     assert proc.returncode == 2 and "train.precision='fp16'" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_val_data_on_other_scenes_is_not_said(trained, tmp_path):
+    """`val_training_scenes`, which rvn-train's warning names: none for rvn-gen split=val data, the shared scene for the
+    training data itself."""
+    from rvn_il.train.cli import compose
+    from rvn_il.train.preflight import val_training_scenes
+    from rvn_il.train.settings import complete_config
+
+    run("-m", "rvn_data.gen.cli", "split=val", f"out_dir={tmp_path / 'val'}", "scenes.num_scenes=1",
+        "trajectories_per_scene=1", "camera.width=64", "camera.height=64", "progress=false")
+    cfg = complete_config(compose(["model=nomad_pointgoal", f"data.root={trained / 'data'}",
+                                   f"data.val_root={tmp_path / 'val'}"]))
+    assert val_training_scenes(cfg) == []
+    cfg["data"]["val_root"] = str(trained / "data")
+    assert val_training_scenes(cfg) == ["proc_train_0000"]

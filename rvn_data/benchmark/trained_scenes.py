@@ -19,14 +19,14 @@ from pathlib import Path
 from rvn_data.dataset.naming import scene_slug
 
 
-def dataset_scenes(root: str | Path) -> dict[str, str] | None:
-    """{scene name: scene spec} of the GNM train split of rvn-gen's dataset at ``root``; None without a readable
-    manifest.json there."""
+def dataset_scenes(root: str | Path, gnm_split: str | None = "train") -> dict[str, str] | None:
+    """{scene name: scene spec} of the GNM split ``gnm_split`` (None or ``all``: every split) of rvn-gen's dataset at
+    ``root``; None without a readable manifest.json there."""
     try:
         manifest = json.loads((Path(root).expanduser() / "manifest.json").read_text())
         per_scene = manifest["per_scene"]
         return {str(slug): str(rec.get("scene", slug)) for slug, rec in per_scene.items()
-                if rec.get("gnm_split", "train") == "train"}
+                if gnm_split in (None, "all") or rec.get("gnm_split", "train") == gnm_split}
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return None
 

@@ -18,6 +18,7 @@ from typing import Mapping
 
 import torch
 
+from rvn_data.benchmark.trained_scenes import dataset_scenes
 from rvn_data.cache_root import cache_root
 from rvn_data.dataset.reader import list_trajectories, load_gnm, read_meta, rvn_trajectories, split_file
 from rvn_data.dataset.remake import remake_hint
@@ -111,6 +112,21 @@ def check_kinds(cfg: Mapping) -> None:
                                   f"ends in a collision), which model={model} would learn to drive; give an expert "
                                   "dataset (rvn-gen's default), and the negatives as data.negative_root with "
                                   "model=nomad_neg")
+
+
+def val_training_scenes(cfg: Mapping) -> list[str]:
+    """The scenes of ``data.val_root`` (its ``data.val_split``) that the training data's GNM train splits hold, by name
+    (`rvn_data.benchmark.trained_scenes.dataset_scenes`; datasets without rvn-gen's manifest.json are not compared):
+    validation on them is not held out (rvn-train validated on data.val_root=data.root without a word)."""
+    val_root = cfg["data"]["val_root"]
+    val = dataset_scenes(val_root, cfg["data"]["val_split"]) if val_root else None
+    if not val:
+        return []
+    trained = set()
+    for entries in member_entries(cfg).values():
+        for e in entries:
+            trained |= set(dataset_scenes(e["root"]) or {})
+    return sorted(trained & set(val))
 
 
 def first_trajectory(entry: Mapping) -> str | None:

@@ -30,7 +30,7 @@ from ..models.checkpoint import read_config, save_checkpoint, write_config
 from ..models.encoders import IMAGENET_MEAN, IMAGENET_STD
 from .adopt import adopt_expert
 from .optimisation import Optimisation, optimisation, resume
-from .preflight import data_roots, member_entries, preflight
+from .preflight import data_roots, member_entries, preflight, val_training_scenes
 from .settings import complete_config
 from .validate import Validator
 
@@ -86,6 +86,11 @@ def run_training(cfg: Mapping[str, Any], on_checked: Callable[[dict], None] | No
     for o in overrides if rank == 0 else ():
         log.warning("%s=%s overrides the data's %s (%s): the checkpoint records both", o["setting"], o["given"], o["data"],
                     cfg["data"]["root"])
+    shared = val_training_scenes(cfg) if rank == 0 else []
+    if shared:
+        log.warning("data.val_root=%s holds %d scene(s) of the training data (%s): validation on them is not held out; "
+                    "generate it on other scenes (rvn-gen split=val)", cfg["data"]["val_root"], len(shared),
+                    ", ".join(shared[:5]) + (f" and {len(shared) - 5} more" if len(shared) > 5 else ""))
     if rank == 0:
         resuming = any((out_dir / m / "latest").is_file() for m in ("model", "expert", "negative"))
         earlier = read_config(out_dir) if resuming and (out_dir / "config.yaml").is_file() else None
