@@ -60,10 +60,15 @@ def trained_scenes_evaluated(training_data: Iterable[str] | None, specs: Sequenc
     return out
 
 
+def shown_names(names: Sequence[str], first: int = 5) -> str:
+    """``names`` for a note: the first ``first``, then how many more."""
+    return ", ".join(names[:first]) + (f" and {len(names) - first} more" if len(names) > first else "")
+
+
 def trained_scenes_note(method: str, record: dict) -> str:
     """rvn-eval's note on ``record`` (`trained_scenes_evaluated`)."""
     names = record["scenes"]
-    shown = ", ".join(names[:5]) + (f" and {len(names) - 5} more" if len(names) > 5 else "")
+    shown = shown_names(names)
     return (f"policy {method!r} trained on {len(names)} of the {record['evaluated']} evaluated scenes ({shown}; "
             f"matched by name in what it trained on: {', '.join(record['sources'])}): this row is not a held-out "
             "figure; evaluate on another split, or train on other scenes")

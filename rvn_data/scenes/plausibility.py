@@ -80,11 +80,11 @@ def check_extent(size: np.ndarray, path, unit_scale: float) -> None:
     units = [(name, scale) for name, scale in UNITS if not math.isclose(scale, unit_scale)]
     in_file = size / unit_scale
     fits = [(name, scale) for name, scale in units if ROOM_M <= in_file.max() * scale <= BUILDING_M] or units
-    hint = "; ".join(f"as {name} (scenes.unit_scale={scale:g}) {sides(in_file * scale)}" for name, scale in fits)
+    hint = "; ".join(f"as {name} (scenes.unit_scale={scale:g}) {_sides(in_file * scale)}" for name, scale in fits)
     what = (f"larger than an indoor scene (at most {MAX_EXTENT_M:.0f} m)" if large
             else f"smaller than a room (at least {MIN_EXTENT_M:.0f} m)")
     far = "; if it is right, some of its geometry lies far from the rest" if large else ""
-    raise SceneError(f"mesh file {str(path)!r} read with scenes.unit_scale={unit_scale:g} spans {sides(size)}: "
+    raise SceneError(f"mesh file {str(path)!r} read with scenes.unit_scale={unit_scale:g} spans {_sides(size)}: "
                      f"{what}. If scenes.unit_scale is wrong: {hint} (rvn-scene: --unit-scale){far}")
 
 
@@ -124,6 +124,6 @@ def _faces(vertices: np.ndarray, faces: np.ndarray) -> tuple:
     return corner, normals, np.sqrt(np.einsum("ij,ij->i", normals, normals))
 
 
-def sides(size: np.ndarray) -> str:
+def _sides(size: np.ndarray) -> str:
     """``size`` (m) as ``12.4 x 2.8 x 11.3 m`` (sides under a metre to 3 figures: ``0.0124``)."""
     return " x ".join(f"{s:,.1f}" if s >= 1 else f"{s:.3g}" for s in size) + " m"

@@ -23,6 +23,7 @@ from ..data import (BatchView, EpochSampler, MixtureDataset, crop_setting, depth
                     make_training_data, recorded_hfov)
 from ..data.report import dataset_report
 from ..data.sources import ignored_official_keys
+from rvn_data.benchmark.trained_scenes import shown_names
 from rvn_data.cache_root import cache_root, keep_compiled_kernels
 from rvn_data.provenance import provenance_record
 from ..models import resolve_size
@@ -90,7 +91,7 @@ def run_training(cfg: Mapping[str, Any], on_checked: Callable[[dict], None] | No
     if shared:
         log.warning("data.val_root=%s holds %d scene(s) of the training data (%s): validation on them is not held out; "
                     "generate it on other scenes (rvn-gen split=val)", cfg["data"]["val_root"], len(shared),
-                    ", ".join(shared[:5]) + (f" and {len(shared) - 5} more" if len(shared) > 5 else ""))
+                    shown_names(shared))
     if rank == 0:
         resuming = any((out_dir / m / "latest").is_file() for m in ("model", "expert", "negative"))
         earlier = read_config(out_dir) if resuming and (out_dir / "config.yaml").is_file() else None
