@@ -17,6 +17,7 @@ the checkout or the dataset.
 from __future__ import annotations
 
 import argparse
+import importlib
 import shutil
 import sys
 import tempfile
@@ -40,7 +41,7 @@ def official_dataset_class(visualnav: Path, data_config: dict, scratch: Path):
     configs.write_text(configs.read_text() + "\n" + yaml.safe_dump(data_config))
     sys.path.insert(0, str(scratch))
     try:
-        import torchvision  # noqa: F401
+        importlib.import_module("torchvision")
     except RuntimeError as err:  # a CUDA build of torchvision beside a CPU torch: its C operators do not load
         if "torchvision::" not in str(err):
             raise
