@@ -1,7 +1,8 @@
 """HM3D layout: `<root>/<split>/<NNNNN-id>/<id>.glb` (z-up on disk, rotated on load).
 
-The plain `<id>.glb` is preferred over `<id>.basis.glb` (Basis textures cannot be decoded
-with trimesh/PIL); the `<id>.basis.navmesh` Habitat ships beside it is used with
+The plain `<id>.glb` (HM3D's glb download: JPEG textures) is preferred over `<id>.basis.glb` (its Habitat download:
+Basis Universal textures, decoded with the optional `rvn[basis]`, rvn_data/scenes/basis_textures.py); the
+`<id>.basis.navmesh` Habitat ships beside it is used with
 `navmesh.source=auto` (the default, `build`, builds from the mesh) (see rvn_data/navmesh/source.py).
 """
 from __future__ import annotations

@@ -1,7 +1,8 @@
 """Load a mesh file (GLB/glTF/OBJ/PLY) into a `Scene` with trimesh.
 
 Scene-graph transforms are applied; geometry is grouped into one `Part` per material with
-its UVs, texture image (uint8 RGB), PBR base colour and vertex colours. Options:
+its UVs, texture image (uint8 RGB; Basis Universal ones, as in HM3D's .basis.glb, through
+`rvn_data.scenes.basis_textures`), PBR base colour and vertex colours. Options:
 `up_axis="z"` rotates z-up files (HM3D/Habitat) to y-up, hab = (x, z_file, -y_file);
 `unit_scale` multiplies coordinates (0.001 for millimetres); `level=True` rotates the scene
 so that its dominant floor normal (area-weighted upward-facing normals) is +y. A file that, so read, spans more
@@ -10,12 +11,14 @@ whose floor is tilted, not levelled, is said (`rvn_data.scenes.plausibility`).
 """
 from __future__ import annotations
 
+import io
 import math
 import warnings
 from pathlib import Path
 
 import numpy as np
 
+from rvn_data.scenes import basis_textures
 from rvn_data.scenes.plausibility import check_scene
 from rvn_data.scenes.scene import NEUTRAL_GREY, Part, Scene, SceneError
 
@@ -121,7 +124,14 @@ def load_mesh_file(path: str | Path, up_axis: str = "y", unit_scale: float = 1.0
     import trimesh  # here, not at module import: procedural scenes (every CLI's default) never need it (0.3 s of start-up)
 
     try:
-        loaded = trimesh.load(str(path), force="scene", process=False)
+        decoded = basis_textures.decoded_gltf(path)  # Basis Universal textures (HM3D's .basis.glb) decoded first
+        if decoded is None:
+            loaded = trimesh.load(str(path), force="scene", process=False)
+        else:
+            loaded = trimesh.load(io.BytesIO(decoded[0]), file_type=decoded[1], force="scene", process=False,
+                                  resolver=trimesh.resolvers.FilePathResolver(path))
+    except SceneError:
+        raise
     except Exception as exc:
         raise SceneError(f"cannot read mesh file {str(path)!r}: {type(exc).__name__}: {exc}; "
                          "expected a valid GLB/glTF/OBJ/PLY file") from exc
