@@ -75,6 +75,22 @@ def test_texture_uv_and_grey_default(tmp_path):
     assert others[0].base_color == pytest.approx(NEUTRAL_GREY, abs=0.01) or others[0].colors is not None
 
 
+def test_a_texture_larger_than_pils_bomb_limit_is_kept(tmp_path, monkeypatch):
+    """PIL refuses images over twice MAX_IMAGE_PIXELS (179 megapixels; Gibson ships a 16k x 16k texture) and trimesh
+    then dropped the texture without a word: a scan's textures load whatever their size, PIL's limit kept after."""
+    import PIL.Image
+
+    monkeypatch.setattr(PIL.Image, "MAX_IMAGE_PIXELS", 100)  # the 16 x 16 texture below is 2.56 times it
+    tex = np.full((16, 16, 3), (10, 200, 30), np.uint8)
+    room = _room_mesh()
+    room.visual = trimesh.visual.TextureVisuals(uv=np.full((len(room.vertices), 2), 0.5), material=
+                                                trimesh.visual.material.PBRMaterial(baseColorTexture=Image.fromarray(tex)))
+    room.export(tmp_path / "big_texture.glb")
+    scene = load_mesh_file(tmp_path / "big_texture.glb")
+    assert np.array_equal(scene.parts[0].texture, tex)
+    assert PIL.Image.MAX_IMAGE_PIXELS == 100
+
+
 def test_undecodable_texture_warns_and_falls_back():
     class Broken:
         def convert(self, mode):

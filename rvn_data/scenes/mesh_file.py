@@ -11,6 +11,7 @@ whose floor is tilted, not levelled, is said (`rvn_data.scenes.plausibility`).
 """
 from __future__ import annotations
 
+import contextlib
 import io
 import math
 import warnings
@@ -24,6 +25,19 @@ from rvn_data.scenes.scene import NEUTRAL_GREY, Part, Scene, SceneError
 
 Z_UP_TO_Y_UP = np.array([[1.0, 0, 0], [0, 0, 1.0], [0, -1.0, 0]])
 SUFFIXES = (".glb", ".gltf", ".obj", ".ply")
+
+
+@contextlib.contextmanager
+def _no_image_size_limit():
+    """PIL refuses an image over 179 megapixels as a decompression bomb, and trimesh then drops that texture without
+    a word; a scan's own textures are trusted input (Gibson's scenes include a 16k x 16k one), so none is refused."""
+    import PIL.Image
+
+    limit, PIL.Image.MAX_IMAGE_PIXELS = PIL.Image.MAX_IMAGE_PIXELS, None
+    try:
+        yield
+    finally:
+        PIL.Image.MAX_IMAGE_PIXELS = limit
 
 
 def _texture(image, material_name: str) -> np.ndarray | None:
@@ -125,11 +139,12 @@ def load_mesh_file(path: str | Path, up_axis: str = "y", unit_scale: float = 1.0
 
     try:
         decoded = basis_textures.decoded_gltf(path)  # Basis Universal textures (HM3D's .basis.glb) decoded first
-        if decoded is None:
-            loaded = trimesh.load(str(path), force="scene", process=False)
-        else:
-            loaded = trimesh.load(io.BytesIO(decoded[0]), file_type=decoded[1], force="scene", process=False,
-                                  resolver=trimesh.resolvers.FilePathResolver(path))
+        with _no_image_size_limit():
+            if decoded is None:
+                loaded = trimesh.load(str(path), force="scene", process=False)
+            else:
+                loaded = trimesh.load(io.BytesIO(decoded[0]), file_type=decoded[1], force="scene", process=False,
+                                      resolver=trimesh.resolvers.FilePathResolver(path))
     except SceneError:
         raise
     except Exception as exc:
