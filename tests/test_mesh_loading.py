@@ -1,6 +1,7 @@
 """Mesh files (GLB/OBJ/PLY), up-axis / unit / levelling options, scene lists, HM3D layout."""
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -12,6 +13,7 @@ from conftest import box_scene, room_boxes
 from rvn_data.navmesh import NavMesh
 from rvn_data.scenes import NEUTRAL_GREY, SceneError, load_mesh_file, load_scene, scene_specs
 from rvn_data.scenes import mesh_file
+from rvn_data.scenes.basis_textures import split_glb
 from rvn_data.scenes.sets import shared_splits
 
 
@@ -89,6 +91,30 @@ def test_a_texture_larger_than_pils_bomb_limit_is_kept(tmp_path, monkeypatch):
     scene = load_mesh_file(tmp_path / "big_texture.glb")
     assert np.array_equal(scene.parts[0].texture, tex)
     assert PIL.Image.MAX_IMAGE_PIXELS == 100
+
+
+@pytest.mark.parametrize("kind", ["obj", "gltf"])
+def test_a_texture_file_missing_beside_the_scan_is_said(tmp_path, kind):
+    """trimesh reads a texture image it cannot open (here missing beside the OBJ's MTL or the glTF) as none, saying
+    so only in a debug record: the loader warns, naming the file, and the material renders in its base colour."""
+    room = _room_mesh()
+    room.visual = trimesh.visual.TextureVisuals(uv=np.full((len(room.vertices), 2), 0.5), material=
+                                                trimesh.visual.material.SimpleMaterial(
+                                                    name="wall", image=Image.fromarray(np.zeros((4, 4, 3), np.uint8))))
+    if kind == "obj":
+        room.export(tmp_path / "room.obj")
+        image = next(tmp_path.glob("*.png"))
+        image.unlink()
+    else:  # the GLB as a .gltf whose image is a file beside it, not there
+        doc, binary = split_glb(trimesh.Scene([room]).export(file_type="glb"), tmp_path / "room.glb")
+        image = tmp_path / "albedo.png"
+        doc["images"][0] = {"uri": image.name}
+        doc["buffers"][0]["uri"] = "room.bin"
+        (tmp_path / "room.bin").write_bytes(binary)
+        (tmp_path / "room.gltf").write_text(json.dumps(doc))
+    with pytest.warns(UserWarning, match=rf"room\.{kind}.*texture image cannot be read.*{image.name}.*base colour"):
+        scene = load_mesh_file(tmp_path / f"room.{kind}")
+    assert all(p.texture is None for p in scene.parts)
 
 
 def test_undecodable_texture_warns_and_falls_back():

@@ -1,8 +1,8 @@
 """Load a mesh file (GLB/glTF/OBJ/PLY) into a `Scene` with trimesh.
 
 Scene-graph transforms are applied; geometry is grouped into one `Part` per material with
-its UVs, texture image (uint8 RGB; Basis Universal ones, as in HM3D's .basis.glb, through
-`rvn_data.scenes.basis_textures`), PBR base colour and vertex colours. Options:
+its UVs, texture image (uint8 RGB; read by `mesh_read`: Basis Universal ones, as in HM3D's .basis.glb, decoded,
+and one trimesh could not read said), PBR base colour and vertex colours. Options:
 `up_axis="z"` rotates z-up files (HM3D/Habitat) to y-up, hab = (x, z_file, -y_file);
 `unit_scale` multiplies coordinates (0.001 for millimetres); `level=True` rotates the scene
 so that its dominant floor normal (area-weighted upward-facing normals) is +y. A file that, so read, spans more
@@ -11,33 +11,18 @@ whose floor is tilted, not levelled, is said (`rvn_data.scenes.plausibility`).
 """
 from __future__ import annotations
 
-import contextlib
-import io
 import math
 import warnings
 from pathlib import Path
 
 import numpy as np
 
-from rvn_data.scenes import basis_textures
+from rvn_data.scenes.mesh_read import read_scene
 from rvn_data.scenes.plausibility import check_scene
 from rvn_data.scenes.scene import NEUTRAL_GREY, Part, Scene, SceneError
 
 Z_UP_TO_Y_UP = np.array([[1.0, 0, 0], [0, 0, 1.0], [0, -1.0, 0]])
 SUFFIXES = (".glb", ".gltf", ".obj", ".ply")
-
-
-@contextlib.contextmanager
-def _no_image_size_limit():
-    """PIL refuses an image over 179 megapixels as a decompression bomb, and trimesh then drops that texture without
-    a word; a scan's own textures are trusted input (Gibson's scenes include a 16k x 16k one), so none is refused."""
-    import PIL.Image
-
-    limit, PIL.Image.MAX_IMAGE_PIXELS = PIL.Image.MAX_IMAGE_PIXELS, None
-    try:
-        yield
-    finally:
-        PIL.Image.MAX_IMAGE_PIXELS = limit
 
 
 def _texture(image, material_name: str) -> np.ndarray | None:
@@ -135,21 +120,16 @@ def load_mesh_file(path: str | Path, up_axis: str = "y", unit_scale: float = 1.0
         raise ValueError(f"unit_scale={unit_scale!r} must be a positive number (0.001 for millimetres)")
     if not path.is_file():
         raise SceneError(f"mesh file {str(path)!r} not found; check the path (GLB/glTF/OBJ/PLY expected)")
-    import trimesh  # here, not at module import: procedural scenes (every CLI's default) never need it (0.3 s of start-up)
-
     try:
-        decoded = basis_textures.decoded_gltf(path)  # Basis Universal textures (HM3D's .basis.glb) decoded first
-        with _no_image_size_limit():
-            if decoded is None:
-                loaded = trimesh.load(str(path), force="scene", process=False)
-            else:
-                loaded = trimesh.load(io.BytesIO(decoded[0]), file_type=decoded[1], force="scene", process=False,
-                                      resolver=trimesh.resolvers.FilePathResolver(path))
+        loaded, dropped = read_scene(path)
     except SceneError:
         raise
     except Exception as exc:
         raise SceneError(f"cannot read mesh file {str(path)!r}: {type(exc).__name__}: {exc}; "
                          "expected a valid GLB/glTF/OBJ/PLY file") from exc
+    for reason in dropped:
+        warnings.warn(f"mesh file {str(path)!r}: a texture image cannot be read ({reason}); its material renders in "
+                      f"its base colour: put the image where the file names it, in a format PIL reads", stacklevel=2)
     rot = (Z_UP_TO_Y_UP if up_axis == "z" else np.eye(3)) * float(unit_scale)
     groups: dict = {}
     for verts, faces, uv, colors, mat in _pieces(loaded):
