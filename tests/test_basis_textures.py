@@ -166,3 +166,17 @@ def test_benchmark_prints_ms_per_megapixel_and_a_scans_share(scans, monkeypatch,
     assert [ln.split(":")[0] for ln in lines] == ["kodim23.ktx2", "kodim01_mipmapped.basis", "room.basis.glb"]
     assert all(re.search(r"768x512, [\d.]+ ms = [\d.]+ ms per megapixel", ln) for ln in lines[:2]), lines
     assert re.search(r"load_scene [\d.]+ ms, of which decoding its Basis textures [\d.]+ ms \(\d+%\)", lines[2])
+
+
+def test_rvn_scene_info_counts_the_textured_materials(scans, capsys):
+    """rvn-scene info says how a scan's materials are coloured: its Basis texture read, or (without the transcoder's
+    decoding, as before) every material in a base colour alone."""
+    from rvn_data.cli.scene import main
+
+    assert main(["info", str(scans[0]), "--json"]) == 0
+    materials = json.loads(capsys.readouterr().out)["materials"]
+    assert materials == {"textured": 1, "vertex_colored": 0, "base_color": 0, "texture_megapixels": 0.393,
+                         "textured_area_share": 1.0}
+    assert main(["info", str(scans[0])]) == 0
+    assert "materials  1 textured (0.4 megapixels), 0 vertex-coloured, 0 in a base colour alone; 100% of the " \
+           "surface textured" in capsys.readouterr().out

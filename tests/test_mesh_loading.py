@@ -115,6 +115,10 @@ def test_a_texture_file_missing_beside_the_scan_is_said(tmp_path, kind):
     with pytest.warns(UserWarning, match=rf"room\.{kind}.*texture image cannot be read.*{image.name}.*base colour"):
         scene = load_mesh_file(tmp_path / f"room.{kind}")
     assert all(p.texture is None for p in scene.parts)
+    from rvn_data.cli.scene import material_summary  # what rvn-scene info shows of it
+
+    assert material_summary(scene) | {"texture_megapixels": 0} == {
+        "textured": 0, "vertex_colored": 0, "base_color": 1, "texture_megapixels": 0, "textured_area_share": 0.0}
 
 
 def test_undecodable_texture_warns_and_falls_back():

@@ -81,6 +81,25 @@ def _load(args):
     return scene, settings, open_navmesh
 
 
+def material_summary(scene) -> dict:
+    """How the scene's parts (one a material) are coloured: by a texture, by vertex colours, or by their base colour
+    alone (a scan whose textures were not read shows here), with the texture megapixels and the textured share of
+    the surface."""
+    kinds, area, textured_area, pixels = {"textured": 0, "vertex_colored": 0, "base_color": 0}, 0.0, 0.0, 0
+    for part in scene.parts:
+        tri = part.vertices[part.faces].astype(np.float64)
+        a = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum()
+        area += a
+        if part.texture is not None and part.uv is not None:
+            kinds["textured"] += 1
+            textured_area += a
+            pixels += part.texture.shape[0] * part.texture.shape[1]
+        else:
+            kinds["vertex_colored" if part.colors is not None else "base_color"] += 1
+    return {**kinds, "texture_megapixels": round(pixels / 1e6, 3),
+            "textured_area_share": round(textured_area / area, 4) if area > 0 else 0.0}
+
+
 def cmd_info(args) -> None:
     scene, settings, open_navmesh = _load(args)
     nm = open_navmesh(scene, settings)
@@ -89,6 +108,7 @@ def cmd_info(args) -> None:
         "source": scene.source,
         "triangles": scene.num_triangles,
         "parts": len(scene.parts),
+        "materials": material_summary(scene),
         "bounds": np.round(scene.bounds, 4).tolist(),
         "islands": [round(a, 4) for a in nm.island_areas],
         "navigable_area_m2": round(nm.navigable_area, 4),
@@ -103,6 +123,10 @@ def cmd_info(args) -> None:
     lo, hi = scene.bounds
     print(f"scene      {info['scene']}  ({info['source'] or 'generated'})")
     print(f"triangles  {info['triangles']:,} in {info['parts']} part(s)")
+    m = info["materials"]
+    print(f"materials  {m['textured']} textured ({m['texture_megapixels']:.1f} megapixels), {m['vertex_colored']} "
+          f"vertex-coloured, {m['base_color']} in a base colour alone; {m['textured_area_share']:.0%} of the surface "
+          f"textured")
     print(f"bounds     x {lo[0]:.2f}..{hi[0]:.2f}  y {lo[1]:.2f}..{hi[1]:.2f}  z {lo[2]:.2f}..{hi[2]:.2f} m"
           f"  (size {hi[0] - lo[0]:.2f} x {hi[1] - lo[1]:.2f} x {hi[2] - lo[2]:.2f})")
     print(f"islands    {len(nm.island_areas)} (>= {settings.min_island_area} m², agent radius "
