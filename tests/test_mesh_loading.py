@@ -141,6 +141,17 @@ def test_missing_and_unreadable_files(tmp_path):
         load_scene("procedural:train")
 
 
+def test_a_mesh_folder_of_habitat_downloads_lists_each_scan_once(tmp_path):
+    """HM3D's folders hold <id>.glb and/or <id>.basis.glb (the same scan; the latter alone in its Habitat download)
+    and <id>.semantic.glb (object ids as colours); MP3D's <id>_semantic.ply: a scene each, its semantic mesh none."""
+    names = ["A.glb", "A.basis.glb", "A.semantic.glb", "B.basis.glb", "B.semantic.glb", "C.glb", "C_semantic.ply",
+             "D.ply", "E.semantic.glb"]
+    for name in names:
+        (tmp_path / name).write_bytes(b"")
+    listed = [p.split("/")[-1] for p in scene_specs("mesh_dir", "val", root=tmp_path)]
+    assert listed == ["A.glb", "B.basis.glb", "C.glb", "D.ply", "E.semantic.glb"]  # E: no scan beside it, kept
+
+
 def test_scene_specs(tmp_path):
     assert len(scene_specs("procedural", "train")) == 800
     assert scene_specs("procedural", "test", num_scenes=2, first_scene=48) == ["procedural:test/48", "procedural:test/49"]

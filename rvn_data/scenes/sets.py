@@ -1,7 +1,8 @@
 """Scene lists of a split: `scene_specs(source, split, ...)` → specs for `load_scene`.
 
 Sources: `procedural` (`procedural:<split>/<i>`; 800 train / 50 val / 50 test), `mesh_dir`
-(a directory of GLB/glTF/OBJ/PLY files: `<root>/<split>/` when it exists, else the meshes directly in `<root>`,
+(a directory of GLB/glTF/OBJ/PLY files, each scan once (`scene_meshes`: Habitat's `<id>.basis.glb` where no
+`<id>.glb`, semantic meshes left out): `<root>/<split>/` when it exists, else the meshes directly in `<root>`,
 as for every split without its folder, and the commands say so (`shared_splits`); one mesh file, or a text file
 listing paths), `list_file` (a text file listing paths; relative paths are relative to the file; blank lines and
 `#` comments ignored) and `hm3d` (`<root>/<split>/<NNNNN-id>/<id>.glb`).
@@ -54,6 +55,34 @@ def _list_file(path: Path) -> list[str]:
     return out
 
 
+def _scene_name(path: Path) -> tuple[str, str]:
+    """(scene, role) of a mesh file as Habitat's datasets name them: ``<id>.glb`` the scene, ``<id>.basis.glb`` the
+    same scene with Basis textures, ``<id>.semantic.glb`` / ``<id>_semantic.ply`` its semantic annotation mesh."""
+    name = path.name.lower()
+    for suffix, role in ((".basis.glb", "basis"), (".semantic.glb", "semantic"), ("_semantic.ply", "semantic")):
+        if name.endswith(suffix):
+            return name[:-len(suffix)], role
+    return name.rsplit(".", 1)[0], "mesh"
+
+
+def scene_meshes(paths: list[Path]) -> list[str]:
+    """The scenes among a folder's mesh files, sorted: a ``<id>.basis.glb`` only where no ``<id>.glb`` (the same
+    scan, as HM3D ships both), and no semantic annotation mesh of a scene that is there (HM3D's ``<id>.semantic.glb``,
+    MP3D's ``<id>_semantic.ply``: object ids as colours, not the scan's)."""
+    roles: dict[str, set[str]] = {}
+    for p in paths:
+        scene, role = _scene_name(p)
+        roles.setdefault(scene, set()).add(role)
+    keep = []
+    for p in paths:
+        scene, role = _scene_name(p)
+        has = roles[scene]
+        if (role == "basis" and "mesh" in has) or (role == "semantic" and has & {"mesh", "basis"}):
+            continue
+        keep.append(str(p))
+    return sorted(keep)
+
+
 def _mesh_dir(root: Path, split: str) -> list[str]:
     if root.is_file() and root.name.lower().endswith(SUFFIXES):
         return [str(root)]  # one mesh: a set of one scene
@@ -63,8 +92,7 @@ def _mesh_dir(root: Path, split: str) -> list[str]:
         raise SceneError(f"scene folder {str(root)!r} not found; set scenes.root to a folder of "
                          "mesh files or a text file listing them")
     base = root / split if (root / split).is_dir() else root
-    files = sorted(str(p) for p in base.iterdir() if p.is_file() and p.name.lower().endswith(SUFFIXES)
-                   and not p.name.lower().endswith(".basis.glb"))
+    files = scene_meshes([p for p in base.iterdir() if p.is_file() and p.name.lower().endswith(SUFFIXES)])
     if not files:
         raise SceneError(f"no mesh files ({', '.join(SUFFIXES)}) in {str(base)!r}")
     return files
