@@ -112,7 +112,7 @@ def test_a_texture_file_missing_beside_the_scan_is_said(tmp_path, kind):
         doc["buffers"][0]["uri"] = "room.bin"
         (tmp_path / "room.bin").write_bytes(binary)
         (tmp_path / "room.gltf").write_text(json.dumps(doc))
-    with pytest.warns(UserWarning, match=rf"room\.{kind}.*texture image cannot be read.*{image.name}.*base colour"):
+    with pytest.warns(UserWarning, match=rf"room\.{kind}.*1 texture image\(s\) cannot be read.*{image.name}.*base colours"):
         scene = load_mesh_file(tmp_path / f"room.{kind}")
     assert all(p.texture is None for p in scene.parts)
     from rvn_data.cli.scene import material_summary  # what rvn-scene info shows of it

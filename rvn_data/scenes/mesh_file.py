@@ -127,9 +127,11 @@ def load_mesh_file(path: str | Path, up_axis: str = "y", unit_scale: float = 1.0
     except Exception as exc:
         raise SceneError(f"cannot read mesh file {str(path)!r}: {type(exc).__name__}: {exc}; "
                          "expected a valid GLB/glTF/OBJ/PLY file") from exc
-    for reason in dropped:
-        warnings.warn(f"mesh file {str(path)!r}: a texture image cannot be read ({reason}); its material renders in "
-                      f"its base colour: put the image where the file names it, in a format PIL reads", stacklevel=2)
+    if dropped:  # one warning a file, however many of its images
+        more = f"; and {len(dropped) - 1} more" if len(dropped) > 1 else ""
+        warnings.warn(f"mesh file {str(path)!r}: {len(dropped)} texture image(s) cannot be read ({dropped[0]}{more}); "
+                      f"their materials render in their base colours: put each image where the file names it, in a "
+                      f"format PIL reads", stacklevel=2)
     rot = (Z_UP_TO_Y_UP if up_axis == "z" else np.eye(3)) * float(unit_scale)
     groups: dict = {}
     for verts, faces, uv, colors, mat in _pieces(loaded):
