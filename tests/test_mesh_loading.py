@@ -150,6 +150,19 @@ def test_a_mesh_folder_of_habitat_downloads_lists_each_scan_once(tmp_path):
         (tmp_path / name).write_bytes(b"")
     listed = [p.split("/")[-1] for p in scene_specs("mesh_dir", "val", root=tmp_path)]
     assert listed == ["A.glb", "B.basis.glb", "C.glb", "D.ply", "E.semantic.glb"]  # E: no scan beside it, kept
+    # a folder a scan (MP3D: <id>/<id>.glb; HM3D's Habitat download: <split>/<NNNNN-id>/<id>.basis.glb)
+    for folder, files in (("mp3d/17DRP5sb8fy", ["17DRP5sb8fy.glb", "17DRP5sb8fy_semantic.ply", "17DRP5sb8fy.navmesh"]),
+                          ("mp3d/1LXtFkjw3qL", ["1LXtFkjw3qL.glb"]),
+                          ("hm3d/val/00800-TEEsavR23oF", ["TEEsavR23oF.basis.glb", "TEEsavR23oF.semantic.glb"])):
+        (tmp_path / folder).mkdir(parents=True)
+        for name in files:
+            (tmp_path / folder / name).write_bytes(b"")
+    assert [p.split("/")[-1] for p in scene_specs("mesh_dir", "val", root=tmp_path / "mp3d")] == [
+        "17DRP5sb8fy.glb", "1LXtFkjw3qL.glb"]
+    assert [p.split("/")[-1] for p in scene_specs("mesh_dir", "val", root=tmp_path / "hm3d")] == ["TEEsavR23oF.basis.glb"]
+    (tmp_path / "empty" / "sub").mkdir(parents=True)
+    with pytest.raises(SceneError, match="no mesh files.*empty.*or in its folders"):
+        scene_specs("mesh_dir", "val", root=tmp_path / "empty")
 
 
 def test_scene_specs(tmp_path):

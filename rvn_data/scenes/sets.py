@@ -1,8 +1,9 @@
 """Scene lists of a split: `scene_specs(source, split, ...)` → specs for `load_scene`.
 
 Sources: `procedural` (`procedural:<split>/<i>`; 800 train / 50 val / 50 test), `mesh_dir`
-(a directory of GLB/glTF/OBJ/PLY files, each scan once (`scene_meshes`: Habitat's `<id>.basis.glb` where no
-`<id>.glb`, semantic meshes left out): `<root>/<split>/` when it exists, else the meshes directly in `<root>`,
+(a directory of GLB/glTF/OBJ/PLY files, or of folders of them (a folder a scan, as Habitat's MP3D and HM3D), each
+scan once (`scene_meshes`: Habitat's `<id>.basis.glb` where no `<id>.glb`, semantic meshes left out):
+`<root>/<split>/` when it exists, else the meshes directly in `<root>`,
 as for every split without its folder, and the commands say so (`shared_splits`); one mesh file, or a text file
 listing paths), `list_file` (a text file listing paths; relative paths are relative to the file; blank lines and
 `#` comments ignored) and `hm3d` (`<root>/<split>/<NNNNN-id>/<id>.glb`).
@@ -83,6 +84,10 @@ def scene_meshes(paths: list[Path]) -> list[str]:
     return sorted(keep)
 
 
+def _meshes_in(folder: Path) -> list[Path]:
+    return [p for p in folder.iterdir() if p.is_file() and p.name.lower().endswith(SUFFIXES)]
+
+
 def _mesh_dir(root: Path, split: str) -> list[str]:
     if root.is_file() and root.name.lower().endswith(SUFFIXES):
         return [str(root)]  # one mesh: a set of one scene
@@ -92,9 +97,11 @@ def _mesh_dir(root: Path, split: str) -> list[str]:
         raise SceneError(f"scene folder {str(root)!r} not found; set scenes.root to a folder of "
                          "mesh files or a text file listing them")
     base = root / split if (root / split).is_dir() else root
-    files = scene_meshes([p for p in base.iterdir() if p.is_file() and p.name.lower().endswith(SUFFIXES)])
+    files = scene_meshes(_meshes_in(base))
+    if not files:  # a folder a scan, as Habitat's MP3D (<id>/<id>.glb) and HM3D (<NNNNN-id>/<id>.basis.glb) lay out
+        files = [f for folder in sorted(p for p in base.iterdir() if p.is_dir()) for f in scene_meshes(_meshes_in(folder))]
     if not files:
-        raise SceneError(f"no mesh files ({', '.join(SUFFIXES)}) in {str(base)!r}")
+        raise SceneError(f"no mesh files ({', '.join(SUFFIXES)}) in {str(base)!r} or in its folders")
     return files
 
 
