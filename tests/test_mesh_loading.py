@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 
 import numpy as np
 import pytest
@@ -13,7 +14,7 @@ from conftest import box_scene, room_boxes
 from rvn_data.navmesh import NavMesh
 from rvn_data.scenes import NEUTRAL_GREY, SceneError, load_mesh_file, load_scene, scene_specs
 from rvn_data.scenes import mesh_file
-from rvn_data.scenes.basis_textures import split_glb
+from rvn_data.scenes.basis_textures import join_glb, split_glb
 from rvn_data.scenes.sets import shared_splits
 
 
@@ -119,6 +120,26 @@ def test_a_texture_file_missing_beside_the_scan_is_said(tmp_path, kind):
 
     assert material_summary(scene) | {"texture_megapixels": 0} == {
         "textured": 0, "vertex_colored": 0, "base_color": 1, "texture_megapixels": 0, "textured_area_share": 0.0}
+
+
+@pytest.mark.parametrize("required, said", [
+    (["EXT_meshopt_compression"], r"requires the glTF extension\(s\) EXT_meshopt_compression.*save the scene without"),
+    (["KHR_draco_mesh_compression"], r"KHR_draco_mesh_compression.*pip install DracoPy"),
+    (["KHR_mesh_quantization", "KHR_draco_mesh_compression"], r"KHR_draco_mesh_compression, KHR_mesh_quantization.*"
+                                                                r"without them.*DracoPy decodes the Draco one"),
+    (["KHR_materials_pbrSpecularGlossiness"], None)])
+def test_a_gltf_requiring_an_extension_trimesh_does_not_decode_is_refused(tmp_path, monkeypatch, required, said):
+    """trimesh reads a compressed or quantised glTF's geometry as placeholder zeros (a log line at most): refused,
+    naming the extension; one it reads loads."""
+    monkeypatch.setitem(sys.modules, "DracoPy", None)  # not installed, here as on CI
+    doc, binary = split_glb(_room_mesh().export(file_type="glb"), tmp_path / "room.glb")
+    doc["extensionsUsed"] = doc["extensionsRequired"] = required
+    (tmp_path / "room.glb").write_bytes(join_glb(doc, binary))
+    if said is None:
+        assert load_mesh_file(tmp_path / "room.glb").num_triangles == len(_room_mesh().faces)
+        return
+    with pytest.raises(SceneError, match=r"room\.glb.*" + said):
+        load_mesh_file(tmp_path / "room.glb")
 
 
 def test_undecodable_texture_warns_and_falls_back():

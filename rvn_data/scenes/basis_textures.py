@@ -51,6 +51,24 @@ def join_glb(doc: dict, binary: bytes) -> bytes:
     return struct.pack("<4sII", _GLB_MAGIC, 2, 12 + len(body)) + body
 
 
+def gltf_json(path: Path) -> dict | None:
+    """The JSON of a GLB (its first chunk, the binary chunk not read) or .gltf file; None for other files and for
+    what does not parse (trimesh then says why)."""
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".gltf":
+            return json.loads(path.read_bytes())
+        if suffix == ".glb":
+            with open(path, "rb") as f:
+                head = f.read(20)
+                if len(head) < 20 or head[:4] != _GLB_MAGIC or head[16:20] != _JSON:
+                    return None
+                return json.loads(f.read(struct.unpack_from("<I", head, 12)[0]))
+    except (ValueError, UnicodeDecodeError):
+        return None
+    return None
+
+
 def basis_images(doc: dict) -> list[int]:
     """Indices of the glTF's images in a Basis Universal format (by MIME type, file suffix or the textures'
     Basis extensions)."""
@@ -101,16 +119,14 @@ def decoded_gltf(path: str | Path) -> tuple[bytes, str] | None:
     when it holds none (trimesh reads the file itself). SceneError without ``opengl_basisu``, naming the install."""
     path = Path(path)
     suffix = path.suffix.lower()
-    if suffix not in (".glb", ".gltf"):
-        return None
-    blob = path.read_bytes()
-    try:
-        doc, binary = split_glb(blob, path) if suffix == ".glb" else (json.loads(blob), b"")
-    except (ValueError, UnicodeDecodeError):
-        return None  # not glTF as it claims: trimesh says why
-    targets = basis_images(doc)
+    doc = gltf_json(path)  # the JSON alone: a file without Basis images is not read further here
+    targets = basis_images(doc) if doc is not None else []
     if not targets:
         return None
+    if suffix == ".glb":
+        doc, binary = split_glb(path.read_bytes(), path)
+    else:
+        binary = b""
     if importlib.util.find_spec("opengl_basisu") is None:
         raise SceneError(f"mesh file {str(path)!r} stores its {len(targets)} texture(s) as Basis Universal images "
                          f"(as HM3D's and Habitat's .basis.glb do), which RVN decodes with an optional package: "

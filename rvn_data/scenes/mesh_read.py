@@ -15,6 +15,7 @@ import logging
 from pathlib import Path
 
 from rvn_data.scenes import basis_textures
+from rvn_data.scenes.scene import SceneError
 
 DROPPED_WORDS = ("fail", "unable", "unsupported")  # trimesh's debug records of an image it could not read
 
@@ -65,11 +66,39 @@ def _no_image_size_limit():
         PIL.Image.MAX_IMAGE_PIXELS = limit
 
 
+# glTF extensions a file may require (extensionsRequired) that trimesh and RVN read: the Basis textures (decoded
+# first), the materials trimesh converts or RVN's shading ignores; KHR_draco_mesh_compression where DracoPy is
+# installed (trimesh's decoder). Any other required one (meshopt compression, quantised attributes, texture
+# transforms) trimesh reads as placeholder zeros or ignores, with a log line at most: such a file is refused.
+READ_EXTENSIONS = {"KHR_texture_basisu", "GOOGLE_texture_basis", "EXT_texture_webp", "KHR_materials_pbrSpecularGlossiness",
+                   "KHR_materials_unlit", "KHR_materials_emissive_strength", "KHR_materials_ior", "KHR_materials_specular"}
+
+
+def check_required_extensions(path: Path) -> None:
+    """SceneError when a GLB/glTF file requires a glTF extension that is not read (see :data:`READ_EXTENSIONS`)."""
+    doc = basis_textures.gltf_json(path)
+    required = set(doc.get("extensionsRequired", [])) if doc else set()
+    missing = sorted(required - READ_EXTENSIONS - ({"KHR_draco_mesh_compression"} if _has("DracoPy") else set()))
+    if missing:
+        hint = ("pip install DracoPy (trimesh's Draco decoder)" if missing == ["KHR_draco_mesh_compression"] else
+                "save the scene without them (gltf-transform, Blender)" + (
+                    "; pip install DracoPy decodes the Draco one" if "KHR_draco_mesh_compression" in missing else ""))
+        raise SceneError(f"mesh file {str(path)!r} requires the glTF extension(s) {', '.join(missing)}, which RVN's "
+                         f"reader (trimesh) does not decode (it would read zeros or ignore them): {hint}")
+
+
+def _has(module: str) -> bool:
+    import importlib.util
+
+    return importlib.util.find_spec(module) is not None
+
+
 def read_scene(path: Path):
-    """(trimesh.Scene of ``path``, the reasons of the texture images trimesh dropped). SceneError from
-    :mod:`.basis_textures`; trimesh's own errors as they are."""
+    """(trimesh.Scene of ``path``, the reasons of the texture images trimesh dropped). SceneError for a glTF
+    extension it requires that is not read, and from :mod:`.basis_textures`; trimesh's own errors as they are."""
     import trimesh  # here, not at module import: procedural scenes (every CLI's default) never need it (0.3 s of start-up)
 
+    check_required_extensions(path)
     decoded = basis_textures.decoded_gltf(path)  # Basis Universal textures (HM3D's .basis.glb) decoded first
     with _no_image_size_limit(), _dropped_images() as dropped:
         if decoded is None:
