@@ -118,6 +118,8 @@ def test_a_gltf_with_its_basis_image_beside_it(scans, tmp_path):
     doc["buffers"][0]["uri"] = "room.bin"
     (tmp_path / "room.gltf").write_text(json.dumps(doc))
     assert np.array_equal(load_scene(tmp_path / "room.gltf").parts[0].texture, rgb)
+    (tmp_path / "external.glb").write_bytes(join_glb(doc, b""))  # a GLB whose buffer is that file: no BIN chunk
+    assert np.array_equal(load_scene(tmp_path / "external.glb").parts[0].texture, rgb)
 
 
 def test_rvn_scene_views_of_a_basis_scan_are_its_png_twins(scans, tmp_path):

@@ -47,7 +47,9 @@ def join_glb(doc: dict, binary: bytes) -> bytes:
     text = json.dumps(doc, separators=(",", ":")).encode()
     text += b" " * (-len(text) % 4)
     binary += b"\0" * (-len(binary) % 4)
-    body = struct.pack("<I4s", len(text), _JSON) + text + struct.pack("<I4s", len(binary), _BIN) + binary
+    body = struct.pack("<I4s", len(text), _JSON) + text
+    if binary:  # no BIN chunk where buffer 0 is a file of its own
+        body += struct.pack("<I4s", len(binary), _BIN) + binary
     return struct.pack("<4sII", _GLB_MAGIC, 2, 12 + len(body)) + body
 
 
