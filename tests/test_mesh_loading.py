@@ -95,7 +95,7 @@ def test_a_texture_larger_than_pils_bomb_limit_is_kept(tmp_path, monkeypatch):
 
 
 @pytest.mark.parametrize("kind", ["obj", "gltf"])
-def test_a_texture_file_missing_beside_the_scan_is_said(tmp_path, kind):
+def test_a_texture_file_missing_beside_the_scan_is_said(tmp_path, kind, capsys):
     """trimesh reads a texture image it cannot open (here missing beside the OBJ's MTL or the glTF) as none, saying
     so only in a debug record: the loader warns, naming the file, and the material renders in its base colour."""
     room = _room_mesh()
@@ -116,7 +116,12 @@ def test_a_texture_file_missing_beside_the_scan_is_said(tmp_path, kind):
     with pytest.warns(UserWarning, match=rf"room\.{kind}.*1 texture image\(s\) cannot be read.*{image.name}.*base colours"):
         scene = load_mesh_file(tmp_path / f"room.{kind}")
     assert all(p.texture is None for p in scene.parts)
-    from rvn_data.cli.scene import material_summary  # what rvn-scene info shows of it
+    from rvn_data.cli.scene import main, material_summary  # what rvn-scene info shows of it
+
+    assert main(["info", str(tmp_path / f"room.{kind}")]) == 0  # the warning in one line, named by the command
+    said = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+    assert len(said) == 1 and said[0].startswith(f"rvn-scene info: warning: mesh file '{tmp_path / f'room.{kind}'}': 1 "
+                                                 f"texture image(s) cannot be read"), said
 
     assert material_summary(scene) | {"texture_megapixels": 0} == {
         "textured": 0, "vertex_colored": 0, "base_color": 1, "texture_megapixels": 0, "textured_area_share": 0.0}

@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -184,10 +185,15 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     from rvn_data.cli.common import BAD_INPUT
 
+    def say(message, category, filename, lineno, file=None, line=None):  # a warning in one line, named by command
+        print(f"rvn-scene {args.command}: warning: {' '.join(str(message).split())}", file=sys.stderr)
+
     try:
-        if getattr(args, "output", None) is not None:
-            _check_output(args)
-        {"info": cmd_info, "map": cmd_map, "views": cmd_views, "navmesh": cmd_navmesh}[args.command](args)
+        with warnings.catch_warnings():
+            warnings.showwarning = say
+            if getattr(args, "output", None) is not None:
+                _check_output(args)
+            {"info": cmd_info, "map": cmd_map, "views": cmd_views, "navmesh": cmd_navmesh}[args.command](args)
     except (ValueError, OSError, RuntimeError) as exc:  # SceneError is a ValueError; RuntimeError: no EGL for gl
         msg = " ".join(str(exc).split())
         print(f"rvn-scene {args.command}: error: {msg}", file=sys.stderr)
