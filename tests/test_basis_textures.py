@@ -98,6 +98,18 @@ def test_a_basis_scan_loads_the_pixels_of_its_png_twin(scans):
         assert all(np.array_equal(x, y) for x, y in zip(a, b))
 
 
+def test_the_texture_is_the_picture_it_was_encoded_from(scans):
+    """Independent of the transcoder's own flags: the texture read from the scan, shrunk to 96 x 64, is the Kodak
+    picture its Basis file was encoded from (tests/data/basis/*_thumb.png: the original PNG shrunk the same way) to
+    within the codec's loss; upside down or in BGR order it is 20-45 levels off."""
+    basis = scans[0]
+    picture = "kodim23" if "ktx2" in str(basis.parent.name) else "kodim01"
+    thumb = np.asarray(Image.open(DATA / f"{picture}_thumb.png").convert("RGB")).astype(int)
+    ours = cv2.resize(load_scene(basis).parts[0].texture, (96, 64), interpolation=cv2.INTER_AREA).astype(int)
+    assert np.abs(ours - thumb).mean() < 3  # 0.9 (KTX 2) and 1.6 (.basis) levels of 255
+    assert np.abs(ours[::-1] - thumb).mean() > 20 and np.abs(ours[..., ::-1] - thumb).mean() > 20
+
+
 def test_a_y_flipped_basis_image_is_turned_top_row_first(tmp_path):
     blob = (DATA / KINDS["basis"][0]).read_bytes()
     rgb = pixels(blob)
