@@ -147,6 +147,17 @@ def test_a_gltf_requiring_an_extension_trimesh_does_not_decode_is_refused(tmp_pa
         load_mesh_file(tmp_path / "room.glb")
 
 
+def test_geometry_read_as_zeros_is_not_blamed_on_units(tmp_path):
+    """A position accessor without data (a compressed file's placeholder, extension not declared required) reads as
+    zeros: the error says the geometry was not read, not which scenes.unit_scale would make a point a room."""
+    doc, binary = split_glb(_room_mesh().export(file_type="glb"), tmp_path / "room.glb")
+    doc["accessors"][doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"]].pop("bufferView")
+    (tmp_path / "zeros.glb").write_bytes(join_glb(doc, binary))
+    with pytest.raises(SceneError, match=r"zeros\.glb': every vertex lies at one point, so its geometry was not read") as err:
+        load_mesh_file(tmp_path / "zeros.glb")
+    assert "unit_scale" not in str(err.value)
+
+
 def test_undecodable_texture_warns_and_falls_back():
     class Broken:
         def convert(self, mode):

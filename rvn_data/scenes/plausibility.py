@@ -77,6 +77,9 @@ def check_extent(size: np.ndarray, path, unit_scale: float) -> None:
     large = size.max() > MAX_EXTENT_M
     if not large and size.max() >= MIN_EXTENT_M:
         return
+    if not size.max() > 0:  # no units make a point a room
+        raise SceneError(f"mesh file {str(path)!r}: every vertex lies at one point, so its geometry was not read; "
+                         "re-export it without compression or quantisation (the reader is trimesh)")
     units = [(name, scale) for name, scale in UNITS if not math.isclose(scale, unit_scale)]
     in_file = size / unit_scale
     fits = [(name, scale) for name, scale in units if ROOM_M <= in_file.max() * scale <= BUILDING_M] or units
