@@ -197,6 +197,11 @@ def test_a_mesh_folder_of_habitat_downloads_lists_each_scan_once(tmp_path):
     assert [p.split("/")[-1] for p in scene_specs("mesh_dir", "val", root=tmp_path / "mp3d")] == [
         "17DRP5sb8fy.glb", "1LXtFkjw3qL.glb"]
     assert [p.split("/")[-1] for p in scene_specs("mesh_dir", "val", root=tmp_path / "hm3d")] == ["TEEsavR23oF.basis.glb"]
+    for room in ("room_0", "room_1"):  # Replica: <room>/mesh.ply, one scene name for both
+        (tmp_path / "replica" / room).mkdir(parents=True)
+        (tmp_path / "replica" / room / "mesh.ply").write_bytes(b"")
+    with pytest.raises(SceneError, match=r"replica.*room_0/mesh.ply' and .*room_1/mesh.ply' would both be scene 'mesh'"):
+        scene_specs("mesh_dir", "val", root=tmp_path / "replica")
     (tmp_path / "empty" / "sub").mkdir(parents=True)
     with pytest.raises(SceneError, match="no mesh files.*empty.*or in its folders"):
         scene_specs("mesh_dir", "val", root=tmp_path / "empty")

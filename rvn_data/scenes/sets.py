@@ -126,6 +126,20 @@ def shared_splits_note(root: str | Path, split: str, others: list[str]) -> str:
             f"split's meshes in a folder of its own ({root}/train, {root}/val, {root}/test) to keep them apart")
 
 
+def _check_distinct_names(specs: list[str], where: str) -> None:
+    """SceneError when two meshes would get one scene name (the file name up to its first dot, as the loader names a
+    scene: `mesh_file.load_mesh_file`), e.g. Replica's <room>/mesh.ply: their trajectories, seeds and episodes are
+    named by it, so the second would pass for the first."""
+    seen: dict[str, str] = {}
+    for spec in specs:
+        name = Path(spec).name.split(".")[0].lower()
+        if name in seen:
+            raise SceneError(f"{where}: {seen[name]!r} and {spec!r} would both be scene {name!r}, and RVN names a "
+                             f"scene's trajectories, episodes and random draws by it; give each scan a file name of its "
+                             f"own (a link named after its folder will do)")
+        seen[name] = spec
+
+
 def scene_specs(source: str, split: str, root: str | Path | None = None,
                 num_scenes: int | None = None, first_scene: int = 0, setting: str = "scenes.first_scene") -> list[str]:
     """Specs (`procedural:<split>/<i>` or mesh paths) of a split, `first_scene` onward, at most
@@ -151,6 +165,7 @@ def scene_specs(source: str, split: str, root: str | Path | None = None,
             specs = _list_file(root)
         else:
             specs = _mesh_dir(root, split)
+        _check_distinct_names(specs, f"scenes.root={root}")
     if first_scene > 0 and first_scene >= len(specs):
         raise ValueError(f"{setting}={first_scene} is past the last scene: the {split} split has {len(specs)} scenes "
                          f"(indices 0 to {len(specs) - 1}); choose {setting} from 0 to {len(specs) - 1}")
