@@ -176,6 +176,9 @@ def main() -> None:
     its input ends."""
     source, sink = sys.stdin.buffer, sys.stdout.buffer
     sys.stdout = sys.stderr  # what the functions print goes to the parent's stderr, not into the answers' pipe
+    from rvn_data.warning_lines import install_from_env
+
+    install_from_env()  # a scene's warnings as the parent's run says them, once (rvn_data.warning_lines)
     last = None  # the last answer's shared file, deleted by the caller when it took the answer
     try:
         while True:

@@ -70,8 +70,11 @@ def _main(cfg: DictConfig) -> None:
             settings.validate(world_size_from_env())
     except ConfigError as err:
         fail("rvn-rl", err)
+    from rvn_data.warning_lines import said_once
+
     try:
-        result = run(settings, lambda: record_run(cfg, Path(settings.out_dir).expanduser(), "rvn-rl"))
+        with said_once("rvn-rl"):  # a scene's warnings in one line, once for the run, its env workers and helpers
+            result = run(settings, lambda: record_run(cfg, Path(settings.out_dir).expanduser(), "rvn-rl"))
     except (ValueError, TypeError, OSError) as err:  # SceneError is a ValueError; ConfigError: status 2
         fail("rvn-rl", err)
     if "summary" in result:

@@ -18,6 +18,7 @@ from multiprocessing import shared_memory
 
 import numpy as np
 
+from rvn_data.warning_lines import install_from_env
 from rvn_data.worker_threads import settle_worker_threads, threads_per_worker, worker_threads
 
 from .settings import EnvSettings
@@ -71,6 +72,7 @@ def gather_obs(blocks: list[ObsBlocks], layouts: list) -> dict:
 
 def _worker(conn, env_kwargs: dict, indices: list[int], seed: int, rank: int, scene_cache: int, threads: int,
             prefetch: bool = True) -> None:
+    install_from_env()  # the run's warnings, said once (rvn_data.warning_lines)
     settle_worker_threads(threads)
     envs, blocks = None, ObsBlocks()
     try:

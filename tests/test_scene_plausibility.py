@@ -153,3 +153,19 @@ def test_rvn_gen_lists_a_tilted_floor_in_its_summary(tmp_path):
     assert ("  notes (1):\n    tilted: mesh file " in proc.stdout and "tilted 3.0 deg from level" in proc.stdout
             and "set scenes.level=true" in proc.stdout), proc.stdout
     assert "UserWarning" not in proc.stderr
+
+
+def test_rvn_eval_says_a_tilted_floor_once_in_one_line(tmp_path):
+    """rvn-eval with 2 workers on a scan not levelled: the loader's warning in one line named by the command, once for
+    the run (its main process and each worker load the scene; Python printed it in two lines, once in each)."""
+    v, f = make_apartment("train", 0).triangles()
+    mesh = _mesh_file(tmp_path / "tilted.ply", _tilted(v, 3), f)
+    proc = subprocess.run(["rvn-eval", "scenes=mesh_dir", f"scenes.root={mesh}", "policy=goal_follower", "workers=2",
+                           f"out_dir={tmp_path / 'eval'}", "episodes.per_scene=2", "progress=false"],
+                          capture_output=True, text=True, timeout=600,
+                          env={**os.environ, "RVN_CACHE_DIR": str(tmp_path / "cache")})
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    said = [line for line in proc.stderr.splitlines() if "tilted 3.0 deg" in line]
+    assert said == [f"rvn-eval: warning: mesh file {str(mesh)!r}: its floor is tilted 3.0 deg from level (the "
+                    "area-weighted normal of its upward faces); set scenes.level=true to level it (rvn-scene: --level)"]
+    assert "UserWarning" not in proc.stderr

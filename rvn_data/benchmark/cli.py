@@ -122,11 +122,14 @@ def _typed_config(cfg: DictConfig) -> tuple[EvalConfig, str]:
 
 @hydra.main(config_path=CONF_DIR, config_name="eval", version_base="1.3")
 def _main(cfg: DictConfig) -> None:
+    from rvn_data.warning_lines import said_once
+
     entered_task()
     try:
         with validating():  # e.g. policy.checkpoint_path=??? not given: one line naming the key
             config, choice = _typed_config(cfg)
-        metrics = evaluate(config, choice, lambda: record_run(cfg, Path(config.out_dir), "rvn-eval"))
+        with said_once("rvn-eval"):  # a scene's warnings in one line, once for the run and its workers
+            metrics = evaluate(config, choice, lambda: record_run(cfg, Path(config.out_dir), "rvn-eval"))
     except (ValueError, TypeError, OSError) as err:  # SceneError is a ValueError; ConfigError: status 2
         fail("rvn-eval", err)
     keys = ("SR_1", "E_G", "CPK", "SPL_1", "episodes")

@@ -20,6 +20,7 @@ import numpy as np
 from rvn_data.benchmark.episodes_source import EnvConfig
 from rvn_data.conventions import Action
 from rvn_data.numba_note import note_first_compile
+from rvn_data.warning_lines import install_from_env
 from rvn_data.worker_threads import settle_worker_threads, threads_per_worker, worker_threads
 
 
@@ -179,9 +180,17 @@ def _pool(workers: int, job: EvalJob | None = None):
     ctx = mp.get_context("spawn")  # GL contexts and torch do not survive fork
     threads = threads_per_worker(workers)
     with worker_threads(threads):
-        if job is None:
-            return ctx.Pool(workers, initializer=settle_worker_threads, initargs=(threads,))
-        return ctx.Pool(workers, initializer=_init_worker, initargs=(job, threads))
+        return ctx.Pool(workers, initializer=_start_worker, initargs=(threads, job))
+
+
+def _start_worker(threads: int, job: EvalJob | None) -> None:
+    """A worker's start: the run's warnings as the run says them (`rvn_data.warning_lines`), its CPU threads, and with
+    ``job`` its env and policy."""
+    install_from_env()
+    if job is None:
+        settle_worker_threads(threads)
+    else:
+        _init_worker(job, threads)
 
 
 def prepare_episodes(env: EnvConfig, slots: list, workers: int, progress: Callable | None = None) -> None:

@@ -10,7 +10,6 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -185,12 +184,10 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     from rvn_data.cli.common import BAD_INPUT
 
-    def say(message, category, filename, lineno, file=None, line=None):  # a warning in one line, named by command
-        print(f"rvn-scene {args.command}: warning: {' '.join(str(message).split())}", file=sys.stderr)
+    from rvn_data.warning_lines import said_once
 
     try:
-        with warnings.catch_warnings():
-            warnings.showwarning = say
+        with said_once(f"rvn-scene {args.command}"):  # a scan's warnings in one line, named by the command
             if getattr(args, "output", None) is not None:
                 _check_output(args)
             {"info": cmd_info, "map": cmd_map, "views": cmd_views, "navmesh": cmd_navmesh}[args.command](args)
