@@ -40,7 +40,7 @@ def _show(message, category, filename, lineno, file=None, line=None) -> None:
 
 def install_from_env() -> None:
     """In a worker process of a run within :func:`said_once`: its warnings as the run's (nothing otherwise)."""
-    if os.environ.get(ONCE_DIR):
+    if os.environ.get(PROG):
         warnings.showwarning = _show
 
 
@@ -48,7 +48,10 @@ def install_from_env() -> None:
 def said_once(prog: str):
     """Within: warnings as one line beginning ``<prog>: warning:``, each message once across this process and the
     workers it starts (which call :func:`install_from_env`)."""
-    folder = tempfile.mkdtemp(prefix="rvn-warnings-")
+    try:
+        folder = tempfile.mkdtemp(prefix="rvn-warnings-")
+    except OSError:  # no writable temporary folder: each process says its warnings once, as Python would
+        folder = ""
     saved = {key: os.environ.get(key) for key in (ONCE_DIR, PROG)}
     os.environ[ONCE_DIR], os.environ[PROG] = folder, prog
     try:
@@ -61,4 +64,5 @@ def said_once(prog: str):
                 os.environ.pop(key, None)
             else:
                 os.environ[key] = value
-        shutil.rmtree(folder, ignore_errors=True)
+        if folder:
+            shutil.rmtree(folder, ignore_errors=True)

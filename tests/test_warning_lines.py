@@ -26,5 +26,19 @@ def test_each_message_once_across_the_run_and_its_workers(capsys):
 
 def test_outside_a_run_a_worker_warns_as_python_does():
     proc = subprocess.run([sys.executable, "-c", WORKER], capture_output=True, text=True, timeout=60,
-                          env={k: v for k, v in os.environ.items() if k != ONCE_DIR})
+                          env={k: v for k, v in os.environ.items() if k not in (ONCE_DIR, PROG)})
     assert proc.stderr.count("UserWarning: scene") == 2 and "rvn-test" not in proc.stderr
+
+
+def test_without_a_writable_temporary_folder_each_process_says_it_in_one_line(monkeypatch, capsys):
+    import tempfile
+
+    def unwritable(*args, **kwargs):
+        raise PermissionError("read-only /tmp")
+
+    monkeypatch.setattr(tempfile, "mkdtemp", unwritable)
+    with said_once("rvn-test"):
+        warnings.warn("scene c: tilted")
+        worker = subprocess.run([sys.executable, "-c", WORKER], capture_output=True, text=True, timeout=60)
+    assert capsys.readouterr().err.splitlines() == ["rvn-test: warning: scene c: tilted"]
+    assert worker.stderr.splitlines() == ["rvn-test: warning: scene a: tilted", "rvn-test: warning: scene b: tilted"]
