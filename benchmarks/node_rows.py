@@ -7,13 +7,13 @@ from __future__ import annotations
 
 import contextlib
 import math
-import os
 import tempfile
 import traceback
 from collections.abc import Iterator
 from pathlib import Path
 
 from node_report import HABITAT, GpuBusy
+from rvn_data.worker_threads import environ
 
 NO_CUDA = "no CUDA on this machine (a GPU row)"
 
@@ -46,21 +46,6 @@ def shared_cores(processes: int):
 
     with worker_threads(threads_per_worker(processes)):
         yield
-
-
-@contextlib.contextmanager
-def environ(env: dict | None):
-    """``env`` set in this process's environment (and so in the workers it starts) while the block runs."""
-    old = {k: os.environ.get(k) for k in env or {}}
-    os.environ.update(env or {})
-    try:
-        yield
-    finally:
-        for k, v in old.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
 
 
 # NVIDIA's GL driver waits for the GPU with sched_yield() by default, a spin that keeps a core busy; usleep(0) frees it

@@ -18,6 +18,8 @@ import sys
 import tempfile
 import warnings
 
+from rvn_data.worker_threads import environ
+
 ONCE_DIR = "RVN_WARNINGS_ONCE_DIR"  # the run's folder of said messages
 PROG = "RVN_WARNINGS_PROG"  # the command's name, as its lines begin
 
@@ -52,17 +54,10 @@ def said_once(prog: str):
         folder = tempfile.mkdtemp(prefix="rvn-warnings-")
     except OSError:  # no writable temporary folder: each process says its warnings once, as Python would
         folder = ""
-    saved = {key: os.environ.get(key) for key in (ONCE_DIR, PROG)}
-    os.environ[ONCE_DIR], os.environ[PROG] = folder, prog
     try:
-        with warnings.catch_warnings():
+        with environ({ONCE_DIR: folder, PROG: prog}), warnings.catch_warnings():
             warnings.showwarning = _show
             yield
     finally:
-        for key, value in saved.items():
-            if value is None:
-                os.environ.pop(key, None)
-            else:
-                os.environ[key] = value
         if folder:
             shutil.rmtree(folder, ignore_errors=True)

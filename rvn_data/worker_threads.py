@@ -52,6 +52,22 @@ def threads_per_worker(workers: int) -> int:
 
 
 @contextmanager
+def environ(env: dict | None) -> Iterator[None]:
+    """``env`` set in this process's environment (and so in the workers it starts) while the block runs; afterwards
+    each variable as it was (unset where it was unset)."""
+    old = {k: os.environ.get(k) for k in env or {}}
+    os.environ.update(env or {})
+    try:
+        yield
+    finally:
+        for k, v in old.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
+@contextmanager
 def worker_threads(threads: int) -> Iterator[None]:
     """In the parent, around starting worker processes (they inherit its environment): the variables of
     `THREAD_VARS` the user has not set hold ``threads`` (TORCHINDUCTOR_COMPILE_THREADS `compile_threads`'s count for
