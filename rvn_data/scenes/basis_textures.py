@@ -116,12 +116,14 @@ def _image_bytes(doc: dict, binary: bytes, image: dict, base: Path, what: str) -
     return file.read_bytes()
 
 
-def decoded_gltf(path: str | Path) -> tuple[bytes, str] | None:
+def decoded_gltf(path: str | Path, doc: dict | None = None) -> tuple[bytes, str] | None:
     """The GLB/glTF file at ``path`` with its Basis Universal images decoded, as (bytes, trimesh file type); None
-    when it holds none (trimesh reads the file itself). SceneError without ``opengl_basisu``, naming the install."""
+    when it holds none (trimesh reads the file itself). ``doc``: its JSON, where the caller read it (`gltf_json`).
+    SceneError without ``opengl_basisu``, naming the install."""
     path = Path(path)
     suffix = path.suffix.lower()
-    doc = gltf_json(path)  # the JSON alone: a file without Basis images is not read further here
+    if doc is None:
+        doc = gltf_json(path)  # the JSON alone: a file without Basis images is not read further here
     targets = basis_images(doc) if doc is not None else []
     if not targets:
         return None

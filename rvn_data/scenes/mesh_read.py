@@ -10,6 +10,7 @@ scenes include a 16k x 16k one), and returns what trimesh dropped, which the loa
 from __future__ import annotations
 
 import contextlib
+import importlib.util
 import io
 import logging
 from pathlib import Path
@@ -74,11 +75,12 @@ READ_EXTENSIONS = {"KHR_texture_basisu", "GOOGLE_texture_basis", "EXT_texture_we
                    "KHR_materials_unlit", "KHR_materials_emissive_strength", "KHR_materials_ior", "KHR_materials_specular"}
 
 
-def check_required_extensions(path: Path) -> None:
-    """SceneError when a GLB/glTF file requires a glTF extension that is not read (see :data:`READ_EXTENSIONS`)."""
-    doc = basis_textures.gltf_json(path)
+def check_required_extensions(path: Path, doc: dict | None) -> None:
+    """SceneError when the GLB/glTF file at ``path``, its JSON ``doc`` (`basis_textures.gltf_json`), requires a glTF
+    extension that is not read (see :data:`READ_EXTENSIONS`)."""
     required = set(doc.get("extensionsRequired", [])) if doc else set()
-    missing = sorted(required - READ_EXTENSIONS - ({"KHR_draco_mesh_compression"} if _has("DracoPy") else set()))
+    draco = {"KHR_draco_mesh_compression"} if importlib.util.find_spec("DracoPy") is not None else set()
+    missing = sorted(required - READ_EXTENSIONS - draco)
     if missing:
         hint = ("pip install DracoPy (trimesh's Draco decoder)" if missing == ["KHR_draco_mesh_compression"] else
                 "save the scene without them (gltf-transform, Blender)" + (
@@ -87,19 +89,14 @@ def check_required_extensions(path: Path) -> None:
                          f"reader (trimesh) does not decode (it would read zeros or ignore them): {hint}")
 
 
-def _has(module: str) -> bool:
-    import importlib.util
-
-    return importlib.util.find_spec(module) is not None
-
-
 def read_scene(path: Path):
     """(trimesh.Scene of ``path``, the reasons of the texture images trimesh dropped). SceneError for a glTF
     extension it requires that is not read, and from :mod:`.basis_textures`; trimesh's own errors as they are."""
     import trimesh  # here, not at module import: procedural scenes (every CLI's default) never need it (0.3 s of start-up)
 
-    check_required_extensions(path)
-    decoded = basis_textures.decoded_gltf(path)  # Basis Universal textures (HM3D's .basis.glb) decoded first
+    doc = basis_textures.gltf_json(path)  # read once: the JSON chunk alone (None for OBJ/PLY)
+    check_required_extensions(path, doc)
+    decoded = basis_textures.decoded_gltf(path, doc)  # Basis Universal textures (HM3D's .basis.glb) decoded first
     with _no_image_size_limit(), _dropped_images() as dropped:
         if decoded is None:
             loaded = trimesh.load(str(path), force="scene", process=False)
