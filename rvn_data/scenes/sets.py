@@ -127,9 +127,10 @@ def shared_splits_note(root: str | Path, split: str, others: list[str]) -> str:
 
 
 def _check_distinct_names(specs: list[str], where: str) -> None:
-    """SceneError when two meshes would get one scene name (the file name up to its first dot, as the loader names a
-    scene: `mesh_file.load_mesh_file`), e.g. Replica's <room>/mesh.ply: their trajectories, seeds and episodes are
-    named by it, so the second would pass for the first."""
+    """SceneError when two meshes would get one scene name, e.g. Replica's <room>/mesh.ply: their trajectories, seeds
+    and episodes are named by it, so the second would pass for the first. The name compared is the file name up to its
+    first dot, case aside: the loader's scene id outside HM3D's <NNNNN-id> folders (`hm3d.hm3d_scene_id`), and what
+    rvn-gen's trajectory names begin with (`rvn_data.dataset.naming.scene_slug`, the file's stem) in them too."""
     seen: dict[str, str] = {}
     for spec in specs:
         name = Path(spec).name.split(".")[0].lower()
