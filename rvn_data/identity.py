@@ -9,7 +9,20 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
-MISSING = "<missing>"
+
+
+class _Missing:
+    """A setting a record leaves out: one at its default (records omit a few of those: `navmesh.settings.recorded`)
+    or one the file's version did not have."""
+
+    def __repr__(self) -> str:
+        return "its default"
+
+    def __str__(self) -> str:
+        return "default"
+
+
+MISSING = _Missing()
 
 
 def flatten(d: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:

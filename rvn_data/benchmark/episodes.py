@@ -1,11 +1,12 @@
 """Benchmark episodes: a start pose and N_goal sequential goals.
 
 Each goal lies at geodesic distance in [d_min, d_max] from the previous one (the first
-from the start), on the main island (island 0). Episode ``e`` of scene ``s`` (its index
-in the split) of split ``split`` is a pure function of the settings and of
+from the start), on the start's island; starts are drawn over the navmesh's sampled islands
+(`NavMesh.sampled_islands`: the main island, island 0, unless navmesh.islands=all). Episode
+``e`` of scene ``s`` (its index in the split) of split ``split`` is a pure function of the settings and of
 ``np.random.default_rng([seed, SPLIT_CODES[split], s, e])``, so episode ``e`` is the same
 whatever the number of episodes or scenes asked for. Goals are drawn by rejection:
-uniform navigable points of the main island, kept when the geodesic distance field of
+uniform navigable points of the start's island, kept when the geodesic distance field of
 the previous goal puts them in range. Files and caching: `rvn_data.benchmark.episodes_store`.
 """
 from __future__ import annotations
@@ -126,11 +127,11 @@ def episode_rng(seed: int, split: str, scene_index: int, episode_index: int) -> 
 
 
 def sample_goal(navmesh, source_field, rng: np.random.Generator, d_min: float, d_max: float,
-                max_tries: int) -> tuple[np.ndarray, float] | None:
-    """A main-island point at geodesic distance in [d_min, d_max] from the field's source,
-    with that distance; None after ``max_tries`` rejected candidates."""
+                max_tries: int, island: int = 0) -> tuple[np.ndarray, float] | None:
+    """A point of ``island`` (the source's) at geodesic distance in [d_min, d_max] from the field's
+    source, with that distance; None after ``max_tries`` rejected candidates."""
     for _ in range(max_tries):
-        p = np.asarray(navmesh.sample(rng, island=0), dtype=np.float64)
+        p = np.asarray(navmesh.sample(rng, island=island), dtype=np.float64)
         d = float(source_field.distance(p))
         if d_min <= d <= d_max:
             return p, d
@@ -138,8 +139,8 @@ def sample_goal(navmesh, source_field, rng: np.random.Generator, d_min: float, d
 
 
 def sample_start(navmesh, rng: np.random.Generator) -> tuple[np.ndarray, float]:
-    """A uniform main-island position and a uniform yaw in [-π, π)."""
-    p = np.asarray(navmesh.sample(rng, island=0), dtype=np.float64)
+    """A position uniform over the navmesh's sampled islands and a uniform yaw in [-π, π)."""
+    p = np.asarray(navmesh.sample(rng), dtype=np.float64)
     return p, float(rng.uniform(-math.pi, math.pi))
 
 
@@ -151,10 +152,11 @@ def sample_episode(navmesh, settings: EpisodeSettings, split: str, scene_id: str
     rng = episode_rng(settings.seed, split, scene_index, episode_index)
     for _ in range(settings.max_restarts):
         start, yaw = sample_start(navmesh, rng)
+        island = navmesh.goal_island(start)
         source, goals, dists, goal_fields = start, [], [], []
         src_field = navmesh.distance_field(start)
         while len(goals) < settings.n_goals:
-            found = sample_goal(navmesh, src_field, rng, settings.d_min, settings.d_max, settings.max_tries)
+            found = sample_goal(navmesh, src_field, rng, settings.d_min, settings.d_max, settings.max_tries, island)
             if found is None:
                 break
             source, d = found
@@ -167,7 +169,8 @@ def sample_episode(navmesh, settings: EpisodeSettings, split: str, scene_id: str
             return ep, goal_fields
     raise SceneError(
         f"scene {scene_id}: no chain of {settings.n_goals} goals {settings.d_min}-{settings.d_max} m "
-        f"apart found on the main island after {settings.max_restarts} restarts "
+        f"apart found on {'the main island' if navmesh.sampled_islands == [0] else 'its islands'} after "
+        f"{settings.max_restarts} restarts "
         f"(episode {episode_index}); the scene is too small for d_min/d_max: lower episodes.d_min/d_max")
 
 

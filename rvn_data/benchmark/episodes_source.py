@@ -257,7 +257,8 @@ class SceneSlot:
             found = self.goal_sampler(config).sample(position, rng, s.d_min, s.d_max)
             if found is not None:
                 return found
-        found = sample_goal(self.navmesh, self.navmesh.distance_field(position), rng, s.d_min, s.d_max, s.max_tries)
+        found = sample_goal(self.navmesh, self.navmesh.distance_field(position), rng, s.d_min, s.d_max, s.max_tries,
+                            self.navmesh.goal_island(position))
         return None if found is None else (found[0], None)
 
     def close(self) -> None:

@@ -3,8 +3,9 @@ once per process, so an RL reset costs a start draw and a few look-ups instead o
 Dijkstra solves (~3 ms each on a procedural apartment).
 
 `RVNEnv(goal_pool=G)` with G > 0: each scene gets G goal points drawn uniformly over its
-main island by a generator that is a pure function of (split, scene index, G), so every env
-of every process sees the same pool. A goal for a source pose is drawn uniformly among the
+sampled islands (`NavMesh.sampled_islands`: the main island unless navmesh.islands=all; a goal
+on another island than the source is out of range, its distance infinite) by a generator that
+is a pure function of (split, scene index, G), so every env of every process sees the same pool. A goal for a source pose is drawn uniformly among the
 pool points whose geodesic distance from it lies in [d_min, d_max] (the benchmark's range);
 none in range → the caller draws a fresh goal from two distance fields (`SceneSlot.draw_goal`; with a
 pool of 64, none of 200 procedural train scenes' 10,000 random starts had none in range:
@@ -69,7 +70,7 @@ class GoalPool:
         ``goal_pools``), read from there when kept, else built and kept there (`rvn_data.benchmark.pool_cache`)."""
         def goals():
             rng = np.random.default_rng([0x600A1, int(split_code), int(scene_index), int(size)])
-            return [navmesh.sample(rng, island=0) for _ in range(size)]
+            return [navmesh.sample(rng) for _ in range(size)]
 
         if folder is None:
             return cls(FieldTrees(navmesh, goals()))

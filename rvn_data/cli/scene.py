@@ -29,6 +29,9 @@ def _add_scene_args(p: argparse.ArgumentParser) -> None:
                    help="auto: --navmesh, else a .navmesh beside the scene file, else build")
     p.add_argument("--profile", choices=("rvn", "habitat"), default="rvn",
                    help="how a built navmesh erodes: rvn (exact radius) or habitat (Recast's whole cells)")
+    p.add_argument("--islands", choices=("main", "all"), default="main",
+                   help="where points are drawn (views; info marks them): main (the largest island) or all "
+                        "(Habitat's rule: also every island of radius >= 1.5 m, e.g. a scan's other floors)")
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -76,7 +79,8 @@ def _load(args):
     from rvn_data.scenes import load_scene
 
     settings = NavMeshSettings(agent_radius=args.agent_radius, agent_height=args.agent_height,
-                               source=args.navmesh_source, file=args.navmesh, profile=args.profile)
+                               source=args.navmesh_source, file=args.navmesh, profile=args.profile,
+                               islands=args.islands)
     scene = load_scene(args.scene, up_axis=args.up_axis, unit_scale=args.unit_scale, level=args.level)
     return scene, settings, open_navmesh
 
@@ -111,6 +115,9 @@ def cmd_info(args) -> None:
         "materials": material_summary(scene),
         "bounds": np.round(scene.bounds, 4).tolist(),
         "islands": [round(a, 4) for a in nm.island_areas],
+        "island_radii": [round(r, 4) for r in nm.island_shapes.radii],
+        "island_heights": [round(h, 4) for h in nm.island_shapes.heights],
+        "sampled_islands": nm.sampled_islands,
         "navigable_area_m2": round(nm.navigable_area, 4),
         "layers": len(nm.layers),
         "navmesh": settings.to_dict(),
@@ -132,12 +139,25 @@ def cmd_info(args) -> None:
     print(f"islands    {len(nm.island_areas)} (>= {settings.min_island_area} m², agent radius "
           f"{settings.agent_radius} m, height {settings.agent_height} m)")
     for i, a in enumerate(nm.island_areas):
-        print(f"  island {i}: {a:8.2f} m²" + ("  (main)" if i == 0 else ""))
+        radius, y = info["island_radii"][i], info["island_heights"][i]
+        print(f"  island {i}: {a:8.2f} m²  radius {radius:5.2f} m  floor y {y:6.2f} m" + ("  (main)" if i == 0 else ""))
+    print(f"sampled    {_sampled_line(nm, settings)}")
     what = ("the area of the file's polygons" if nm.source_file is not None else
             "its boundary placed inside the cells; a .navmesh written from it holds whole cells")
     print(f"navigable  {nm.navigable_area:.2f} m² on the main island ({what})")
     built = f"built from the scene (profile {settings.profile})"
     print(f"navmesh    {built if nm.source_file is None else 'read from ' + nm.source_file}")
+
+
+def _sampled_line(nm, settings) -> str:
+    """Which islands starts and goals are drawn on, and what navmesh.islands=all would add."""
+    if settings.islands == "all":
+        return (f"islands {', '.join(map(str, nm.sampled_islands))} (navmesh.islands=all: the main island and every "
+                f"island of radius >= {settings.min_island_radius:g} m)")
+    others = [i for i in range(1, nm.num_islands) if nm.island_shapes.radii[i] >= settings.min_island_radius]
+    more = (f"; --islands all (navmesh.islands=all) adds island{'s' if len(others) > 1 else ''} "
+            f"{', '.join(map(str, others))}, of radius >= {settings.min_island_radius:g} m" if others else "")
+    return f"the main island (navmesh.islands=main){more}"
 
 
 def cmd_map(args) -> None:

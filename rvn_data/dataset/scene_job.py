@@ -24,7 +24,7 @@ from rvn_data.dataset import naming, writer
 from rvn_data.dataset.gnm_writer import GNMWriter
 from rvn_data.dataset.reader import load_traj_data
 from rvn_data.dataset.settings import GenSettings
-from rvn_data.dataset.topdown import render_map
+from rvn_data.dataset.topdown import render_panels
 from rvn_data.dataset.trajectory import Rollout, SceneContext, attempt
 from rvn_data.render.base import CALL_VIEWS
 from rvn_data.scenes.scene import SceneError
@@ -239,27 +239,41 @@ def _render(renderer, r: Rollout, s: GenSettings, timing: dict) -> tuple[list[by
     return jpegs, np.stack(depths)
 
 
-def _navigable_on(grid, navmesh) -> np.ndarray:
-    """The navmesh's main island resampled on the occupancy grid's cells."""
-    ng = navmesh.grid(0)
+def _navigable_on(grid, navmesh, island: int = 0) -> np.ndarray:
+    """The navmesh's sampled islands resampled on the occupancy grid's cells, from the layer holding most of
+    ``island`` (the floor the grid is at)."""
+    ng = navmesh.grid(island)
     rows, cols = np.indices(grid.shape)
     rc = ng.world_to_grid(grid.to_world(np.stack([rows, cols], -1)))
     inside = ng.contains(rc)
     out = np.zeros(grid.shape, bool)
-    out[inside] = ng.island[rc[inside][:, 0], rc[inside][:, 1]] == 0
+    out[inside] = np.isin(ng.island[rc[inside][:, 0], rc[inside][:, 1]], navmesh.sampled_islands)
     return out
 
 
 def _map_png(out_dir: Path, scene: _Scene, kept: list[dict]) -> bytes:
-    """Top-down map of the scene with every kept trajectory and its collision point."""
+    """Top-down map of the scene with every kept trajectory and its collision point: a panel a navmesh layer
+    (floor) the trajectories' islands lie on, lowest first (one unless navmesh.islands=all takes several floors)."""
     nav = scene.ctx.navmesh
-    y = kept[0]["start"][1] if kept else float(nav.sample(np.random.default_rng(0))[1])
-    grid, free = scene.ctx.grid_at(y)
-    trajs = []
+    floors: dict[int, list[dict]] = {}
     for m in kept:
-        planar = load_traj_data(out_dir / m["name"])[0]
-        hit = None
-        if m["t_c"] is not None:
-            hit = m["contact"] or [planar[m["t_c"]][0], y, -planar[m["t_c"]][1]]
-        trajs.append({"planar": planar, "start": m["start"], "goal": m["goal"], "collision": hit})
-    return render_map(grid, free, _navigable_on(grid, nav), trajs)
+        island = nav.goal_island(np.asarray(m["start"], dtype=np.float64))
+        floors.setdefault(nav.layers.index(nav.grid(island)), []).append(m)
+    if not floors:
+        floors[nav.layers.index(nav.grid(0))] = []
+    panels = []
+    for layer in sorted(floors, key=lambda k: float(np.nanmean(nav.layers[k].height))):
+        group = floors[layer]
+        y = group[0]["start"][1] if group else float(nav.sample(np.random.default_rng(0), 0)[1])
+        grid, free = scene.ctx.grid_at(y)
+        trajs = []
+        for m in group:
+            planar = load_traj_data(out_dir / m["name"])[0]
+            hit = None
+            if m["t_c"] is not None:
+                hit = m["contact"] or [planar[m["t_c"]][0], y, -planar[m["t_c"]][1]]
+            trajs.append({"planar": planar, "start": m["start"], "goal": m["goal"], "collision": hit})
+        island = nav.goal_island(np.asarray(group[0]["start"], dtype=np.float64)) if group else 0
+        caption = f"floor at y = {y:.2f} m: {len(group)} trajectories" if len(floors) > 1 else None
+        panels.append((grid, free, _navigable_on(grid, nav, island), trajs, caption))
+    return render_panels(panels, "off main island" if nav.sampled_islands == [0] else "off the sampled islands")

@@ -1,8 +1,10 @@
 """Top-down PNG of one scene's trajectories (looking at a dataset before training on it).
 
 Background: dark = occupied or no floor (occupancy grid), mid grey = not on the navmesh's
-main island, light grey = navigable but within the planner's inflation margin, white =
-navigable and free for the planner.
+sampled islands (the main island unless navmesh.islands=all), light grey = navigable but within
+the planner's inflation margin, white = navigable and free for the planner. A scene whose
+trajectories lie on several floors (navmesh.islands=all on a multi-storey scan) gets a panel a
+floor, side by side, each captioned with its floor height (`render_panels`).
 Each trajectory is a coloured polyline (planar poses), its start a green dot, its goal a
 blue square; collision points are red crosses. A legend strip under the map says so
 (`legend_strip`, also used by the clip animations of `rvn_data.inspect`).
@@ -73,12 +75,12 @@ def legend_strip(width: int, entries: list[tuple[str, tuple, str]]) -> np.ndarra
     return img
 
 
-def map_legend(width: int) -> np.ndarray:
-    """The legend strip of a dataset map (BGR)."""
+def map_legend(width: int, off_island: str = "off main island") -> np.ndarray:
+    """The legend strip of a dataset map (BGR); ``off_island``: what the mid grey says."""
     return legend_strip(width, [("dot", START, "start"), ("square", GOAL, "goal"),
                                 ("line", _colour(0), "path (one colour each)"), ("cross", COLLISION, "collision"),
                                 ("swatch", FREE, "free"), ("swatch", MARGIN, "within margin"),
-                                ("swatch", OFF_ISLAND, "off main island"), ("swatch", OCCUPIED, "occupied / no floor")])
+                                ("swatch", OFF_ISLAND, off_island), ("swatch", OCCUPIED, "occupied / no floor")])
 
 
 def _colour(i: int) -> tuple[int, int, int]:
@@ -86,10 +88,36 @@ def _colour(i: int) -> tuple[int, int, int]:
     return int(b * 255), int(g * 255), int(r * 255)  # BGR
 
 
-def render_map(grid: OccupancyGrid, free: np.ndarray, navigable: np.ndarray, trajectories: list[dict]) -> bytes:
-    """PNG bytes. `free`: planner's free cells; `navigable`: main-island cells (both on
-    `grid`). Each trajectory dict: ``planar`` [T, 2], ``start``/``goal`` world [3],
-    optional ``collision`` world [3]."""
+def render_panels(panels: list[tuple], off_island: str = "off main island") -> bytes:
+    """PNG bytes of maps side by side (top aligned) over one legend. A panel: (grid, free, navigable, trajectories,
+    caption or None); `free`: the planner's free cells, `navigable`: the sampled islands' cells (both on `grid`);
+    each trajectory a dict: ``planar`` [T, 2], ``start``/``goal`` world [3], optional ``collision`` world [3].
+    Trajectory colours run on across panels."""
+    images, first = [], 0
+    for grid, free, navigable, trajectories, caption in panels:
+        img = _panel(grid, free, navigable, trajectories, first)
+        first += len(trajectories)
+        if caption is not None:
+            head = np.full((_ROW + 4, img.shape[1], 3), 255, np.uint8)
+            cv2.putText(head, caption, (4, _ROW - 2), _FONT, _FONT_SCALE, (0, 0, 0), 1, cv2.LINE_AA)
+            img = np.concatenate([head, img], 0)
+        images.append(img)
+    if len(images) > 1:
+        height, gap = max(i.shape[0] for i in images), np.full((1, 8, 3), 255, np.uint8)
+        padded = [np.concatenate([i, np.full((height - i.shape[0], i.shape[1], 3), 255, np.uint8)], 0) for i in images]
+        img = np.concatenate([x for i in padded for x in (i, np.repeat(gap, height, 0))][:-1], 1)
+    else:
+        img = images[0]
+    img = np.concatenate([img, map_legend(img.shape[1], off_island)], 0)  # under the map: it never hides a path
+    ok, buf = cv2.imencode(".png", img)
+    if not ok:
+        raise RuntimeError("PNG encoding failed")
+    return buf.tobytes()
+
+
+def _panel(grid: OccupancyGrid, free: np.ndarray, navigable: np.ndarray, trajectories: list[dict],
+           first: int) -> np.ndarray:
+    """One map's image (BGR, no legend); trajectory i drawn in colour ``first + i``."""
     img = np.full(grid.shape + (3,), OFF_ISLAND, np.uint8)
     img[navigable] = MARGIN
     img[navigable & free] = FREE
@@ -103,7 +131,7 @@ def render_map(grid: OccupancyGrid, free: np.ndarray, navigable: np.ndarray, tra
         return np.round(np.stack([col, row], -1)).astype(np.int32)
 
     for i, t in enumerate(trajectories):
-        colour = _colour(i)
+        colour = _colour(first + i)
         pts = px(from_planar(np.asarray(t["planar"], np.float64)))
         cv2.polylines(img, [pts.reshape(-1, 1, 2)], False, colour, 1, cv2.LINE_AA)
         s, g = px(t["start"])[0], px(t["goal"])[0]
@@ -114,8 +142,4 @@ def render_map(grid: OccupancyGrid, free: np.ndarray, navigable: np.ndarray, tra
             c = px(t["collision"])[0]
             cv2.drawMarker(img, (int(c[0]), int(c[1])), COLLISION, cv2.MARKER_TILTED_CROSS, 10, 2)
     # row 0 is the smallest z, i.e. the largest planar y: planar x points right, planar y up
-    img = np.concatenate([img, map_legend(img.shape[1])], 0)  # under the map: it never hides a path
-    ok, buf = cv2.imencode(".png", img)
-    if not ok:
-        raise RuntimeError("PNG encoding failed")
-    return buf.tobytes()
+    return img

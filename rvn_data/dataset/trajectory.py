@@ -11,7 +11,8 @@ p_t for t > t_c are the poses the follower commands from there with no obstacle 
 way (the intended motion through the obstacle), and I_t = I_{t_c}. The clip kept is
 t_i = max(0, t_c − k_pre) … t_f = min(T − 1, t_c + k_post).
 
-Starts are drawn like the benchmark's: any navigable pose, any yaw. A start inside the
+Starts are drawn like the benchmark's: any navigable pose of the navmesh's sampled islands (the main
+island unless navmesh.islands=all), any yaw; goal candidates on the start's island. A start inside the
 expert margin (closer to an obstacle than `margin`, e.g. facing a wall at 0.2 m) is planned
 from the nearest cell outside it, so the trajectory first leaves the margin; such states
 are where a learned policy most often collides, and without them the expert data never
@@ -97,7 +98,8 @@ def attempt(ctx: SceneContext, rng: np.random.Generator) -> Rollout | str:
     entry = planner.entry(start, leave_margin=s.start_anywhere)
     if entry is None:
         return "start_blocked"
-    candidates = np.array([ctx.navmesh.sample(rng) for _ in range(s.goal_candidates)], dtype=np.float64)
+    island = ctx.navmesh.goal_island(start)  # the start's (navmesh.islands=all: any of several)
+    candidates = np.array([ctx.navmesh.sample(rng, island) for _ in range(s.goal_candidates)], dtype=np.float64)
     dists = np.asarray(ctx.navmesh.distance_field(start, keep=False).distance(candidates),
                        dtype=np.float64).reshape(-1)
     finite = dists[np.isfinite(dists)]

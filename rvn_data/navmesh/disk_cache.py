@@ -29,7 +29,7 @@ import numpy as np
 from rvn_data.cache_root import cached_file
 from rvn_data.code_digest import code_digest as source_digest
 from rvn_data.navmesh.grid import NavGrid
-from rvn_data.navmesh.settings import NavMeshSettings
+from rvn_data.navmesh.settings import SAMPLING, NavMeshSettings
 
 FORMAT = "rvn-navmesh/1"
 LAYER_ARRAYS = ("free", "height", "clearance", "island")
@@ -48,7 +48,7 @@ def code_digest() -> str:
 
 def build_key(scene, settings: NavMeshSettings) -> str:
     """Hash of the scene's triangles (`Scene.fingerprint`), the build settings and `code_digest`."""
-    record = {k: v for k, v in asdict(settings).items() if k not in ("source", "file")}
+    record = {k: v for k, v in asdict(settings).items() if k not in ("source", "file", *SAMPLING)}
     text = json.dumps([FORMAT, code_digest(), record, scene.fingerprint()], sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 

@@ -7,6 +7,7 @@ most of an island, the grid planners and top-down maps use.
 from __future__ import annotations
 
 import math
+from functools import cached_property
 
 import numpy as np
 from numba import njit
@@ -16,6 +17,7 @@ from rvn_data.navmesh import kernels as K
 from rvn_data.navmesh.build import build_layers
 from rvn_data.navmesh.geodesic import FieldTree, GeodesicField, build_graph, node_cells, node_centres, run_dijkstra
 from rvn_data.navmesh.grid import NavGrid, pack
+from rvn_data.navmesh.islands import IslandShapes, island_shapes, sample_point
 from rvn_data.navmesh.settings import NavMeshSettings
 from rvn_data.scenes.scene import Scene
 
@@ -53,7 +55,7 @@ class NavMesh:
         self.offsets = self.packed.meta[:, 4].copy()
         self._graph = None
         self._fields: dict[int, tuple] = {}
-        self._island_cells: dict[int, np.ndarray] = {}
+        self._island_cells: dict[tuple, np.ndarray] = {}  # `islands.sample_point`'s cells of a set of islands
         self._nearest: dict[int, tuple] = {}
 
     @classmethod
@@ -134,26 +136,31 @@ class NavMesh:
             return np.array([best[0] + d[0] / length * t, y, best[2] + d[1] / length * t])
         return best
 
-    def sample(self, rng: np.random.Generator, island: int = 0) -> np.ndarray:
-        """A point uniformly distributed over an island's navigable cells."""
-        if not 0 <= island < self.num_islands:
-            raise ValueError(f"island={island} out of range: navmesh of {self.scene_id!r} has "
-                             f"{self.num_islands} island(s)")
-        if island not in self._island_cells:
-            self._island_cells[island] = np.concatenate(
-                [off + np.flatnonzero(g.island.ravel() == island) for g, off in zip(self.layers, self.offsets)])
-        cells = self._island_cells[island]
-        P = self.packed
-        for _ in range(64):
-            f = int(cells[rng.integers(len(cells))])
-            k = int(np.searchsorted(self.offsets, f, side="right") - 1)
-            g = self.layers[k]
-            i, j = divmod(f - int(self.offsets[k]), g.shape[1])
-            u = rng.random(2)
-            p = np.array([g.x0 + (j + u[0]) * g.cs, P.height[f], g.z0 + (i + u[1]) * g.cs])
-            if self.island_of(p) == island:
-                return p
-        return g.grid_to_world(np.array([i, j]))
+    @cached_property
+    def island_shapes(self) -> IslandShapes:
+        """Each island's radius (Habitat's rule's measure) and floor height (`rvn_data.navmesh.islands`)."""
+        return island_shapes(self)
+
+    @property
+    def sampled_islands(self) -> list[int]:
+        """The islands starts and goals are drawn on (`NavMeshSettings.islands`): [0], the main island, or with
+        islands=all also every other island whose radius is at least ``min_island_radius``."""
+        st = self.settings
+        if st.islands == "main":
+            return [0]
+        return [0] + [i for i in range(1, self.num_islands) if self.island_shapes.radii[i] >= st.min_island_radius]
+
+    def goal_island(self, p: np.ndarray) -> int:
+        """The island goals from ``p`` are drawn on: the main island (0) where it is the only one sampled, else
+        p's own (0 where p is on none, as a cell-centre fallback of `sample` may be)."""
+        if self.sampled_islands == [0]:
+            return 0
+        return max(int(self.island_of(np.asarray(p, dtype=np.float64).reshape(3))), 0)
+
+    def sample(self, rng: np.random.Generator, island: int | None = None) -> np.ndarray:
+        """A point uniformly distributed over the navigable cells of ``island``, or by default of the
+        `sampled_islands` together (so an island's share of the points is its share of their area)."""
+        return sample_point(self, rng, self.sampled_islands if island is None else [island])
 
     def grid(self, island: int = 0) -> NavGrid:
         """The layer holding most cells of `island` (for single-floor planners and maps)."""

@@ -27,6 +27,12 @@ class NavMeshSettings:
     rounded) or "habitat" (Recast's build semantics as habitat-sim bakes it: cell height 0.2 m,
     radius rounded up to whole cells, climb in cell-height units, cells partly covered count as
     blocked, corners cut square, gaps narrower than the rounded diameter closed).
+    islands: where starts and goals are drawn (episodes, trajectories, RL resets, goal pools):
+    "main" (the largest island alone) or "all" (Habitat's PointNav rule: the main island and
+    every other island whose radius, the largest distance of its cells from their centroid, is
+    at least `min_island_radius`; a point is drawn uniformly over their area, so an island's
+    share of starts is its share of the area, and goals on the start's island). A multi-storey
+    scan's floors are islands of their own; "main" uses one of them. Neither changes the navmesh.
     """
 
     cell_size: float = 0.05  # m, horizontal grid cell
@@ -39,19 +45,24 @@ class NavMeshSettings:
     source: str = "build"  # build | auto | file: auto uses `file`, else <scene>.navmesh beside the scene file, else builds
     file: str | None = None  # path of a Habitat/Recast .navmesh (source=file, or auto)
     profile: str = "rvn"  # rvn (exact clearance) | habitat (Recast's cell-rounded build)
+    islands: str = "main"  # main | all: where starts and goals are drawn (all: + every island of min_island_radius)
+    min_island_radius: float = 1.5  # m, islands=all: Habitat's ISLAND_RADIUS_LIMIT (pointnav_generator.py)
 
     def __post_init__(self) -> None:
         if self.source not in SOURCES:
             raise ValueError(f"navmesh setting source={self.source!r} must be one of {list(SOURCES)}")
         if self.profile not in PROFILES:
             raise ValueError(f"navmesh setting profile={self.profile!r} must be one of {list(PROFILES)}")
+        if self.islands not in ISLANDS:
+            raise ValueError(f"navmesh setting islands={self.islands!r} must be one of {list(ISLANDS)} "
+                             "(main: the largest island; all: every island of radius >= navmesh.min_island_radius)")
         if self.file is not None and not isinstance(self.file, str):
             object.__setattr__(self, "file", str(self.file))
         if self.file is not None and self.source == "build":
             raise ValueError(f"navmesh.file={self.file!r} is set but navmesh.source=build ignores it; "
                              "add navmesh.source=file (or auto)")
         for f in fields(self):
-            if f.name in ("source", "file", "profile"):
+            if f.name in TEXT:
                 continue
             value = getattr(self, f.name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
@@ -60,7 +71,7 @@ class NavMeshSettings:
         for name in ("cell_size", "cell_height", "agent_height"):
             if getattr(self, name) <= 0:
                 raise ValueError(f"navmesh setting {name}={getattr(self, name)!r} must be > 0")
-        for name in ("agent_radius", "max_climb", "min_island_area"):
+        for name in ("agent_radius", "max_climb", "min_island_area", "min_island_radius"):
             if getattr(self, name) < 0:
                 raise ValueError(f"navmesh setting {name}={getattr(self, name)!r} must be >= 0")
         if not 0 < self.max_slope_deg < 90:
@@ -84,7 +95,7 @@ class NavMeshSettings:
         if unknown:
             raise ValueError(f"unknown navmesh setting(s) {unknown}; known: {sorted(known)}")
         return cls(**{k: (float(v) if isinstance(v, (int, float)) and not isinstance(v, bool)
-                          and k not in ("source", "file", "profile") else v)
+                          and k not in TEXT else v)
                       for k, v in values.items()})
 
     def to_dict(self) -> dict[str, float]:
@@ -93,15 +104,22 @@ class NavMeshSettings:
 
 SOURCES = ("auto", "build", "file")
 PROFILES = ("rvn", "habitat")
+ISLANDS = ("main", "all")
+TEXT = ("source", "file", "profile", "islands")  # the settings that are not numbers
+SAMPLING = ("islands", "min_island_radius")  # where points are drawn: not part of a navmesh's build
 
 
 def recorded(navmesh: Mapping[str, Any]) -> dict[str, Any]:
     """Navmesh settings as recorded in episode and run files: `source` and `file` only when
-    they differ from their defaults (build, none), `profile` only when it is not "rvn", so
-    records made before they existed match."""
+    they differ from their defaults (build, none), `profile` only when it is not "rvn",
+    `islands` and `min_island_radius` only with islands=all, so records made before they
+    existed match."""
     out = dict(navmesh)
     if out.get("profile", "rvn") == "rvn":
         out.pop("profile", None)
+    if out.get("islands", "main") == "main":
+        out.pop("islands", None)
+        out.pop("min_island_radius", None)
     if out.get("source", "build") == "build" and out.get("file") is None:
         out.pop("source", None)
         out.pop("file", None)
