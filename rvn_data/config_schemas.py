@@ -84,6 +84,10 @@ class EvalConfig:
     workers: int = 1  # worker processes, each with its own env and renderer
     resume: bool = True  # skip episodes already in out_dir/episodes.jsonl
     progress: bool = True
+    # record each episode's poses (out_dir/paths/) and draw a map a scene of where they went and how they ended
+    # (out_dir/maps/; collision clips: python -m rvn_data.benchmark.trace_maps out_dir --clips N); not in the run's
+    # identity: it changes no result
+    paths: bool = False
     # a policy trained for another robot or camera (rvn_data/embodiment.py): error (one line, before any episode) |
     # allow (announced, recorded in run.json and metrics.json as embodiment_mismatch)
     embodiment_mismatch: str = "error"

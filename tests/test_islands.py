@@ -160,7 +160,7 @@ def test_rvn_scene_rvn_gen_and_rvn_eval_on_both_floors(house, tmp_path):
     ev = subprocess.run([sys.executable, "-c", "from rvn_data.benchmark.cli import main; main()", "scenes=mesh_dir",
                          f"scenes.root={house.parent}", "policy=oracle", "split=val", "episodes.per_scene=8",
                          "episodes.n_goals=2", "episodes.d_min=2", "episodes.d_max=5", "navmesh.islands=all",
-                         "camera.width=32", "camera.height=32", "progress=false", f"out_dir={tmp_path / 'eval'}"],
+                         "camera.width=32", "camera.height=32", "progress=false", "paths=true", f"out_dir={tmp_path / 'eval'}"],
                         capture_output=True, text=True, timeout=600, env=env)
     assert ev.returncode == 0, ev.stderr[-3000:]
     records = [json.loads(line) for line in (tmp_path / "eval" / "episodes.jsonl").read_text().splitlines()]
@@ -169,3 +169,5 @@ def test_rvn_scene_rvn_gen_and_rvn_eval_on_both_floors(house, tmp_path):
     [episode_file] = (tmp_path / "cache" / "episodes").rglob("*_house.json.gz")
     episodes = json.loads(gzip.decompress(episode_file.read_bytes()))["episodes"]
     assert {floor_of(e["start_position"][1]) for e in episodes} == {0, 1}
+    img = cv2.imread(str(tmp_path / "eval" / "maps" / "house.png"))  # paths=true: a panel a floor
+    assert img.shape[1] > img.shape[0] * 2

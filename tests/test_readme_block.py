@@ -103,8 +103,8 @@ def test_readme_using_it_block_runs_in_order(tmp_path):
             out = norm(cfg["out_dir"])
             assert out not in made, f"{line!r} writes into {out}, as {made[out]!r} does"
             made[out] = line
-        elif tool in ("rvn_il.eval.agreement", "rvn_data.benchmark.report"):
-            paths = [a for i, a in enumerate(args) if not a.startswith("-") and (i == 0 or args[i - 1] not in ("-o",))]
+        elif tool in ("rvn_il.eval.agreement", "rvn_data.benchmark.report", "rvn_data.benchmark.trace_maps"):
+            paths = [a for i, a in enumerate(args) if not a.startswith("-") and (i == 0 or not args[i - 1].startswith("-"))]
             for path in paths:
                 assert exists(path), f"{line!r} reads {path}, which no earlier line creates"
             if "-o" in args:

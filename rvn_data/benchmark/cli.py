@@ -25,6 +25,8 @@ from rvn_data.benchmark.policy_registry import registered_name, unregistered_not
 from rvn_data.benchmark.results import RunDir, record_key, run_identity
 from rvn_data.benchmark.runner import EvalJob, make_policy, prepare_episodes, run_episodes
 from rvn_data.benchmark.table import render_table
+from rvn_data.benchmark.trace_maps import draw_maps
+from rvn_data.benchmark.traces import trace_file, write_trace
 from rvn_data.benchmark.trained_scenes import trained_scenes_evaluated, trained_scenes_note
 from rvn_data.cache_root import cache_root, keep_compiled_kernels
 from rvn_data.config import CONF_DIR, register_configs, typed
@@ -51,7 +53,7 @@ def evaluate(config: EvalConfig, choice: str = "policy", on_checked=None) -> dic
         env_cfg = config.env_config()
         slots = env_cfg.scene_slots("episodes.first_scene")
         keys = [(slots[pos][1], e) for pos, e in eval_schedule(slots, env_cfg.per_scene)]
-        job = EvalJob(env_cfg, config.policy, config.method, config.seed)
+        job = EvalJob(env_cfg, config.policy, config.method, config.seed, config.paths)
         policy = make_policy(job.policy, None, job.name)  # a checkpoint that does not load fails here
         diffs = check_embodiment(getattr(policy, "embodiment", None), embodiment_of(env_cfg.agent, env_cfg.camera),
                                  _policy_what(config), config.embodiment_mismatch)
@@ -84,6 +86,9 @@ def evaluate(config: EvalConfig, choice: str = "policy", on_checked=None) -> dic
     with tqdm(total=len(keys), initial=len(keys) - len(todo), desc=f"eval {config.method} {config.split}",
               unit="ep", disable=not config.progress) as bar:
         for _, rec in run_episodes(job, todo, config.workers, policy):
+            trace = rec.pop("trace", None)
+            if trace is not None:  # before the record: a record in episodes.jsonl implies its trace
+                write_trace(config.out_dir, rec, trace)
             run.append(rec)
             done[record_key(rec)] = rec
             bar.update(1)
@@ -98,6 +103,14 @@ def evaluate(config: EvalConfig, choice: str = "policy", on_checked=None) -> dic
     if trained:  # the report warns: the model trained on these scenes
         metrics["trained_scenes"] = trained
     run.finish(records, metrics, render_table([metrics]))
+    if config.paths:
+        maps = draw_maps(config.out_dir, env_cfg.scenes, env_cfg.navmesh, env_cfg.cache_folder())
+        traced = sum(trace_file(config.out_dir, *key).is_file() for key in keys)
+        missing = f" ({len(keys) - traced} of {len(keys)} episodes ran without paths=true: not drawn)" \
+            if traced < len(keys) else ""
+        print(f"rvn-eval: {len(maps)} map(s) of the episodes' paths in {Path(config.out_dir) / 'maps'}{missing} "
+              f"(clips of collisions: python -m rvn_data.benchmark.trace_maps {config.out_dir} --clips 10)",
+              file=sys.stderr)
     return metrics
 
 

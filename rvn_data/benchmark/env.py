@@ -93,6 +93,8 @@ class RVNEnv(gym.Env):
     yaw = property(lambda self: self._yaw, doc="The agent's heading (rad).")
     goal = property(lambda self: self._goal, doc="The current goal [3].")
     goal_field = property(lambda self: self._field, doc="Geodesic distance field to the goal (``.distance(p)``).")
+    episode = property(lambda self: self._episode, doc="Eval mode: the current `Episode` (start, goals).")
+    scene_spec = property(lambda self: self._scene.spec, doc="The current scene's spec (what `open_scene` reads).")
 
     @property
     def episode_key(self) -> tuple[int, int, int]:

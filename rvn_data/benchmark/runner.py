@@ -38,6 +38,7 @@ class EvalJob:
     policy: dict
     name: str
     seed: int = 0
+    paths: bool = False  # each record carries its episode's trace under "trace" (`rvn_data.benchmark.traces`)
 
 
 def make_policy(policy_cfg: dict, env, name: str):
@@ -129,21 +130,29 @@ def seed_frameworks(key: Iterable[int]) -> None:
         torch.manual_seed(int(np.random.default_rng(list(key)).integers(2**31 - 1)))
 
 
-def run_episode(env, policy, k: int, name: str, seed: int = 0) -> dict:
+def run_episode(env, policy, k: int, name: str, seed: int = 0, trace: bool = False) -> dict:
     """Run episode ``k`` of the env's eval schedule to its end; returns its record. A policy with
     ``episode_stats() -> dict`` (counts since its ``reset()``, e.g. depth vetoes) has them recorded
-    under ``policy_stats``."""
+    under ``policy_stats``. ``trace``: the record carries the episode's poses under ``"trace"``
+    (`rvn_data.benchmark.traces`; rvn-eval writes them to a file of their own)."""
+    from rvn_data.benchmark.traces import TraceRecorder
+
     obs, _ = env.reset(options={"episode": int(k)})
     seed_frameworks([seed, *env.unwrapped.episode_key])
     policy.reset()
+    poses = TraceRecorder(env) if trace else None
     while True:
         action = check_action(policy.act(obs), name)
         obs, _, terminated, truncated, info = env.step(action)
+        if poses is not None:
+            poses.step(info)
         if terminated or truncated:
             rec = info["episode"]
             stats = getattr(policy, "episode_stats", None)
             if callable(stats):
                 rec["policy_stats"] = {str(key): int(v) for key, v in dict(stats()).items()}
+            if poses is not None:
+                rec["trace"] = poses.arrays(rec)
             return rec
 
 
@@ -159,12 +168,12 @@ def _init_worker(job: EvalJob, threads: int | None = None, policy=None) -> None:
         settle_worker_threads(threads)
     env = RVNEnv(config=job.env)
     policy = make_policy(job.policy, env, job.name) if policy is None else bind_policy(policy, env)
-    _WORKER.update(env=env, policy=policy, name=job.name, seed=job.seed)
+    _WORKER.update(env=env, policy=policy, name=job.name, seed=job.seed, paths=job.paths)
 
 
 def _run_task(k: int) -> tuple[int, dict]:
     w = _WORKER
-    return k, run_episode(w["env"], w["policy"], k, w["name"], w["seed"])
+    return k, run_episode(w["env"], w["policy"], k, w["name"], w["seed"], w["paths"])
 
 
 def _prepare_task(args) -> int:

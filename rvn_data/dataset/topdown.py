@@ -34,6 +34,8 @@ def _icon(img: np.ndarray, kind: str, colour: tuple, x: int, y: int) -> None:
         cv2.rectangle(img, (c[0] - 3, y - 3), (c[0] + 3, y + 3), colour, -1)
     elif kind == "cross":
         cv2.drawMarker(img, c, colour, cv2.MARKER_TILTED_CROSS, 9, 2)
+    elif kind == "hollow":
+        cv2.rectangle(img, (c[0] - 4, y - 4), (c[0] + 4, y + 4), colour, 1)
     elif kind == "ring":
         cv2.circle(img, c, 5, colour, 2, cv2.LINE_AA)
     elif kind == "line":
@@ -54,7 +56,7 @@ def _icon(img: np.ndarray, kind: str, colour: tuple, x: int, y: int) -> None:
 
 def legend_strip(width: int, entries: list[tuple[str, tuple, str]]) -> np.ndarray:
     """White uint8 image [h, width, 3] with the legend ``entries`` = (icon, colour, text), the
-    icons "dot", "square", "cross", "ring", "line", "thin", "dashed", "arrow" or "swatch", in
+    icons "dot", "square", "hollow" (square), "cross", "ring", "line", "thin", "dashed", "arrow" or "swatch", in
     the colour order of the image it goes under; entries wrap onto as many rows as needed."""
     rows, row, used = [], [], 4
     for icon, colour, text in entries:
@@ -78,12 +80,12 @@ def legend_strip(width: int, entries: list[tuple[str, tuple, str]]) -> np.ndarra
 def map_legend(width: int, off_island: str = "off main island") -> np.ndarray:
     """The legend strip of a dataset map (BGR); ``off_island``: what the mid grey says."""
     return legend_strip(width, [("dot", START, "start"), ("square", GOAL, "goal"),
-                                ("line", _colour(0), "path (one colour each)"), ("cross", COLLISION, "collision"),
+                                ("line", path_colour(0), "path (one colour each)"), ("cross", COLLISION, "collision"),
                                 ("swatch", FREE, "free"), ("swatch", MARGIN, "within margin"),
                                 ("swatch", OFF_ISLAND, off_island), ("swatch", OCCUPIED, "occupied / no floor")])
 
 
-def _colour(i: int) -> tuple[int, int, int]:
+def path_colour(i: int) -> tuple[int, int, int]:
     r, g, b = colorsys.hsv_to_rgb((i * 0.618034) % 1.0, 0.85, 0.8)
     return int(b * 255), int(g * 255), int(r * 255)  # BGR
 
@@ -93,26 +95,52 @@ def render_panels(panels: list[tuple], off_island: str = "off main island") -> b
     caption or None); `free`: the planner's free cells, `navigable`: the sampled islands' cells (both on `grid`);
     each trajectory a dict: ``planar`` [T, 2], ``start``/``goal`` world [3], optional ``collision`` world [3].
     Trajectory colours run on across panels."""
-    images, first = [], 0
+    images, captions, first = [], [], 0
     for grid, free, navigable, trajectories, caption in panels:
-        img = _panel(grid, free, navigable, trajectories, first)
+        images.append(_panel(grid, free, navigable, trajectories, first))
+        captions.append(caption)
         first += len(trajectories)
-        if caption is not None:
-            head = np.full((_ROW + 4, img.shape[1], 3), 255, np.uint8)
-            cv2.putText(head, caption, (4, _ROW - 2), _FONT, _FONT_SCALE, (0, 0, 0), 1, cv2.LINE_AA)
-            img = np.concatenate([head, img], 0)
-        images.append(img)
-    if len(images) > 1:
-        height, gap = max(i.shape[0] for i in images), np.full((1, 8, 3), 255, np.uint8)
-        padded = [np.concatenate([i, np.full((height - i.shape[0], i.shape[1], 3), 255, np.uint8)], 0) for i in images]
-        img = np.concatenate([x for i in padded for x in (i, np.repeat(gap, height, 0))][:-1], 1)
-    else:
-        img = images[0]
-    img = np.concatenate([img, map_legend(img.shape[1], off_island)], 0)  # under the map: it never hides a path
+    img = side_by_side(images, captions)
+    return encode_png(np.concatenate([img, map_legend(img.shape[1], off_island)], 0))  # under the map: it never hides a path
+
+
+def encode_png(img: np.ndarray) -> bytes:
+    """PNG bytes of a BGR image."""
     ok, buf = cv2.imencode(".png", img)
     if not ok:
         raise RuntimeError("PNG encoding failed")
     return buf.tobytes()
+
+
+def side_by_side(images: list[np.ndarray], captions: list[str | None]) -> np.ndarray:
+    """BGR images left to right, top aligned on white, 8 px apart, each under its caption (None: none)."""
+    out = []
+    for img, caption in zip(images, captions):
+        if caption is not None:
+            lines = _wrapped(caption, img.shape[1] - 8)
+            head = np.full((_ROW * len(lines) + 4, img.shape[1], 3), 255, np.uint8)
+            for i, line in enumerate(lines):
+                cv2.putText(head, line, (4, _ROW * (i + 1) - 2), _FONT, _FONT_SCALE, (0, 0, 0), 1, cv2.LINE_AA)
+            img = np.concatenate([head, img], 0)
+        out.append(img)
+    if len(out) == 1:
+        return out[0]
+    height = max(i.shape[0] for i in out)
+    padded = [np.concatenate([i, np.full((height - i.shape[0], i.shape[1], 3), 255, np.uint8)], 0) for i in out]
+    gap = np.full((height, 8, 3), 255, np.uint8)
+    return np.concatenate([x for i in padded for x in (i, gap)][:-1], 1)
+
+
+def _wrapped(text: str, width: int) -> list[str]:
+    """``text`` broken between words into lines at most ``width`` px wide (a word wider stays whole)."""
+    lines = [""]
+    for word in text.split():
+        trial = f"{lines[-1]} {word}".strip()
+        if lines[-1] and cv2.getTextSize(trial, _FONT, _FONT_SCALE, 1)[0][0] > width:
+            lines.append(word)
+        else:
+            lines[-1] = trial
+    return lines
 
 
 def _panel(grid: OccupancyGrid, free: np.ndarray, navigable: np.ndarray, trajectories: list[dict],
@@ -131,7 +159,7 @@ def _panel(grid: OccupancyGrid, free: np.ndarray, navigable: np.ndarray, traject
         return np.round(np.stack([col, row], -1)).astype(np.int32)
 
     for i, t in enumerate(trajectories):
-        colour = _colour(first + i)
+        colour = path_colour(first + i)
         pts = px(from_planar(np.asarray(t["planar"], np.float64)))
         cv2.polylines(img, [pts.reshape(-1, 1, 2)], False, colour, 1, cv2.LINE_AA)
         s, g = px(t["start"])[0], px(t["goal"])[0]
