@@ -57,7 +57,7 @@ def main(argv: list[str] | None = None) -> None:
         per_map = (time.perf_counter() - t0) / len(maps)
         hits = sum(r["termination"] == "collision" for r in records)
         t0 = time.perf_counter()
-        clips = draw_clips(out, {}, NavMeshSettings(), CameraConfig(**camera), hits, args.backend, Path(tmp) / "cache")
+        clips = draw_clips(out, {}, NavMeshSettings(), CameraConfig(**camera), {"collision": hits}, args.backend, Path(tmp) / "cache")
         per_clip = (time.perf_counter() - t0) / max(len(clips), 1)
         print(f"maps: {per_map * 1e3:.0f} ms a scene ({len(maps)} scenes, {args.per_scene} episodes each, navmesh "
               f"read from the cache root); clips: {per_clip * 1e3:.0f} ms a collision ({len(clips)} of {n} episodes)")

@@ -92,13 +92,32 @@ def test_maps_and_clips_drawn_again_from_the_folder(run, tmp_path):
     assert "wrote 2 map(s)" in proc.stdout and "2 clip(s)" in proc.stdout
     assert {m.name: m.read_bytes() for m in sorted((run / "maps").glob("*.png"))} == first  # the same pictures
     clips = sorted((run / "clips").glob("*.gif"))
-    assert len(clips) == 2
+    assert len(clips) == 2 and all(c.name.endswith("-collision.gif") for c in clips)
     collided = [t for t in load_traces(run) if t["termination"] == "collision"][:2]
     for clip, t in zip(clips, collided):
         frames = gif_frames(clip)
         assert len(frames) == min(9, len(t["positions"]))
         last = frames[-1]
         assert last.shape[0] >= 192 and (abs(last[:3, :100].astype(int) - (230, 0, 0)).sum(-1) < 60).mean() > 0.9
+
+
+def test_timed_out_episodes_on_the_map_and_in_clips(run, tmp_path):
+    out = tmp_path / "short"
+    proc = rvn_eval(run.parent, out, "paths=true", "env.t_max=2")  # 2 steps a goal: most episodes time out
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    timed_out = [t for t in load_traces(out) if t["termination"] == "timeout"]
+    assert len(timed_out) >= 2
+    img = cv2.imread(str(out / "maps" / f"procedural_val_{timed_out[0]['scene_id'][-1]}.png"))
+    body = img[:-len(trace_legend(img.shape[1]))]
+    assert ((body == (0, 140, 255)).all(-1)).any()  # an orange ring where an episode timed out
+    proc = trace_maps(str(out), "--timeout-clips", "2", "--backend", "raycast")
+    assert proc.returncode == 0 and "2 clip(s)" in proc.stdout, proc.stderr
+    clips = sorted((out / "clips").glob("*.gif"))
+    assert len(clips) == 2 and all(c.name.endswith("-timeout.gif") for c in clips)
+    for clip, t in zip(clips, timed_out):
+        frames = gif_frames(clip)
+        assert len(frames) == min(17, len(t["positions"]))
+        assert (abs(frames[-1][:3, :100].astype(int) - (255, 140, 0)).sum(-1) < 60).mean() > 0.9
 
 
 def test_the_same_run_writes_the_same_traces(run, tmp_path):

@@ -1,6 +1,7 @@
 """Pictures of an rvn-eval run from its episodes' traces (``paths=true``; `rvn_data.benchmark.traces`): where each
 episode went and how it ended, a map a scene (``out_dir/maps/<scene>.png``), and the last steps before a collision
-as a clip (``out_dir/clips/<scene>-<episode>.gif``). rvn-eval draws the maps at the end of a run with
+as a clip (``out_dir/clips/<scene>-<episode>-collision.gif``; the last steps of a timed-out one with
+``--timeout-clips N``). rvn-eval draws the maps at the end of a run with
 ``paths=true``; ``python -m rvn_data.benchmark.trace_maps RUN_DIR [--clips N]`` draws them again from the folder
 (its ``run.json`` gives the scene options, navmesh and camera), and with ``--clips N`` the clips of its first N
 collisions.
@@ -10,7 +11,8 @@ light grey = floor within r_robot of an obstacle, dark = obstacle or no floor. E
 its start (green dot) through the goals it reached (blue squares) to where it ended: a collision (red cross), a
 timeout (orange ring) or its last goal; the goal a failed episode was heading for is a hollow blue square. A clip
 shows the agent's view over its last ``k_pre`` = 8 steps before the collision and the colliding step (red frame),
-enlarged to at least 192 px, beside the same stretch on the map.
+or a timed-out episode's last 16 (the final view framed orange: is it turning in place, wavering, stuck?),
+enlarged to at least 192 px, beside the map with the agent's pose.
 """
 from __future__ import annotations
 
@@ -116,37 +118,50 @@ def draw_maps(out_dir: str | Path, scenes: dict, navmesh_settings, cache_dir: st
     return written
 
 
-def draw_clips(out_dir: str | Path, scenes: dict, navmesh_settings, camera, count: int, backend: str = "auto",
-               cache_dir: str | Path | None = None) -> list[Path]:
-    """Write ``out_dir/clips/<scene>-<episode>.gif`` for the first ``count`` collisions; the paths written."""
+CLIPS = {"collision": (K_PRE, (230, 0, 0)), "timeout": (2 * K_PRE, (255, 140, 0))}  # steps shown before the end, RGB
+
+
+def draw_clips(out_dir: str | Path, scenes: dict, navmesh_settings, camera, counts: dict[str, int],
+               backend: str = "auto", cache_dir: str | Path | None = None) -> list[Path]:
+    """Write ``out_dir/clips/<scene>-<episode>-<ending>.gif`` for the first ``counts[ending]`` episodes that ended so
+    (``collision``: the last 8 steps and the colliding one, framed red; ``timeout``: the last 16, the final view framed
+    orange); the paths written."""
     from rvn_data.inspect.plots import write_animation
     from rvn_data.navmesh.source import open_scene
     from rvn_data.render import make_renderer
 
-    hits = [(p, t) for p, t in ((p, read_trace(p)) for p in sorted((Path(out_dir) / FOLDER).glob("*.npz")))
-            if t["termination"] == "collision"][:count]
+    unknown = sorted(set(counts) - set(CLIPS))
+    if unknown:
+        raise ValueError(f"clips of {unknown}: the endings with clips are {sorted(CLIPS)}")
+    chosen, left = [], dict(counts)
+    for path in sorted((Path(out_dir) / FOLDER).glob("*.npz")):
+        t = read_trace(path)
+        if left.get(t["termination"], 0) > 0:
+            left[t["termination"]] -= 1
+            chosen.append((path, t))
     written, opened = [], {}
-    for path, t in hits:
+    for path, t in chosen:
         if t["spec"] not in opened:
-            for _, (_, _, renderer) in opened.items():
+            for _, _, renderer in opened.values():
                 renderer.close()
             opened.clear()
             scene, navmesh = open_scene(t["spec"], scenes, navmesh_settings, cache_dir)
             opened[t["spec"]] = (scene, navmesh, make_renderer(scene, camera, backend=backend))
         _, navmesh, renderer = opened[t["spec"]]
-        frames = _clip_frames(navmesh, renderer, t)
-        out = Path(out_dir) / "clips" / f"{_slug(t['scene_id'])}-{path.stem.split('-')[1]}.gif"
-        written.append(write_animation(frames, out, fps=2.0))
+        steps, colour = CLIPS[t["termination"]]
+        frames = _clip_frames(navmesh, renderer, t, steps, colour)
+        name = f"{_slug(t['scene_id'])}-{path.stem.split('-')[1]}-{t['termination']}.gif"
+        written.append(write_animation(frames, Path(out_dir) / "clips" / name, fps=2.0))
     for _, _, renderer in opened.values():
         renderer.close()
     return written
 
 
-def _clip_frames(navmesh, renderer, t: dict) -> list[np.ndarray]:
-    """RGB frames: the view at each of the last K_PRE + 1 poses (the last one the colliding step's, framed red),
-    enlarged, beside the map of the episode's last steps with the pose so far."""
+def _clip_frames(navmesh, renderer, t: dict, steps: int, colour: tuple) -> list[np.ndarray]:
+    """RGB frames: the view at each of the last ``steps`` + 1 poses (the last one framed in ``colour``), enlarged,
+    beside the map of the episode with the pose so far."""
     n = len(t["positions"])
-    first = max(0, n - 1 - K_PRE)
+    first = max(0, n - 1 - steps)
     positions, yaws = t["positions"][first:].astype(np.float64), t["yaws"][first:].astype(np.float64)
     views = [renderer.render(p, float(y), depth=False)[0] for p, y in zip(positions, yaws)]
     h, w = views[0].shape[:2]
@@ -166,7 +181,7 @@ def _clip_frames(navmesh, renderer, t: dict) -> list[np.ndarray]:
     for i, (view, p, yaw) in enumerate(zip(views, positions, yaws)):
         big = cv2.resize(view, (w * zoom, h * zoom), interpolation=cv2.INTER_NEAREST)
         if i == len(views) - 1:
-            cv2.rectangle(big, (0, 0), (big.shape[1] - 1, big.shape[0] - 1), (230, 0, 0), 4)
+            cv2.rectangle(big, (0, 0), (big.shape[1] - 1, big.shape[0] - 1), colour, 4)
         m = crop.copy()
         x, z = (p[0] - layer.x0) / layer.cs * SCALE - c0, (p[2] - layer.z0) / layer.cs * SCALE - r0
         tip = (int(x + 10 * math.cos(yaw)), int(z - 10 * math.sin(yaw)))
@@ -183,6 +198,8 @@ def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(prog="python -m rvn_data.benchmark.trace_maps", description=__doc__.split("\n\n")[0])
     ap.add_argument("run_dir", help="an rvn-eval out_dir of a run with paths=true")
     ap.add_argument("--clips", type=int, default=0, metavar="N", help="also a clip of each of the first N collisions")
+    ap.add_argument("--timeout-clips", type=int, default=0, metavar="N",
+                    help="also a clip of the last 16 steps of each of the first N timed-out episodes")
     ap.add_argument("--backend", choices=("auto", "gl", "raycast"), default="auto", help="renderer of the clips")
     ap.add_argument("--cache-dir", default=None, help="where built navmeshes are kept (default: none)")
     args = ap.parse_args(argv)
@@ -192,14 +209,16 @@ def main(argv: list[str] | None = None) -> None:
             raise ConfigError(f"{run}: no run.json; give the out_dir of an rvn-eval run")
         if not any((run / FOLDER).glob("*.npz")):
             raise ConfigError(f"{run}: no episode traces in {run / FOLDER}; run rvn-eval with paths=true")
-        if args.clips < 0:
-            raise ConfigError(f"--clips {args.clips} must be >= 0")
+        for flag, value in (("--clips", args.clips), ("--timeout-clips", args.timeout_clips)):
+            if value < 0:
+                raise ConfigError(f"{flag} {value} must be >= 0")
         cfg = json.loads((run / "run.json").read_text())
         scenes = {k: v for k, v in cfg["scenes"].items() if k in ("up_axis", "unit_scale", "level", "source")}
         navmesh = NavMeshSettings.from_config(cfg["navmesh"])
         maps = draw_maps(run, scenes, navmesh, args.cache_dir)
-        clips = draw_clips(run, scenes, navmesh, CameraConfig(**cfg["camera"]), args.clips, args.backend,
-                           args.cache_dir) if args.clips else []
+        counts = {"collision": args.clips, "timeout": args.timeout_clips}
+        clips = draw_clips(run, scenes, navmesh, CameraConfig(**cfg["camera"]), counts, args.backend,
+                           args.cache_dir) if any(counts.values()) else []
     except (ValueError, OSError) as err:
         fail("trace_maps", err)
     print(f"wrote {len(maps)} map(s) in {run / 'maps'}" + (f" and {len(clips)} clip(s) in {run / 'clips'}" if clips else ""))
