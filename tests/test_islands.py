@@ -86,6 +86,12 @@ def test_settings_records_and_keys(house):
     assert settings_record(eps, agent, NavMeshSettings(islands="all"), {}, "val")["navmesh"]["islands"] == "all"
     scene, _ = open_scene(str(house), {}, NavMeshSettings())
     assert build_key(scene, NavMeshSettings(islands="all")) == build_key(scene, NavMeshSettings())  # one navmesh
+    from rvn_data.render import CameraConfig, RendererConfig
+    from rvn_rl.depth.pairs import pair_meta
+
+    pairs = ("train", [("procedural:train/0", 0)], 4, 0, CameraConfig(), RendererConfig())
+    assert pair_meta(*pairs, NavMeshSettings()) == pair_meta(*pairs)  # the depth pairs' files made before: kept
+    assert pair_meta(*pairs, NavMeshSettings(islands="all"))["navmesh_islands"] == ["all", 1.5]  # others: made anew
     with pytest.raises(ValueError, match=r"navmesh setting islands='floors' must be one of \['main', 'all'\]"):
         NavMeshSettings(islands="floors")
     with pytest.raises(ValueError, match="min_island_radius=-1.0 must be >= 0"):

@@ -1,4 +1,5 @@
-"""Top-down map of a navmesh: islands in colour, eroded walkable margin, obstacles, scale bar."""
+"""Top-down map of a navmesh: islands in colour (each with its floor height where the navmesh has several layers;
+an upper floor is drawn over a lower one), eroded walkable margin, obstacles, scale bar."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -24,11 +25,14 @@ def map_image(scene, navmesh) -> tuple[np.ndarray, list[tuple[str, tuple]]]:
     cmap = matplotlib.colormaps["tab10"]
     legend = [("obstacle / non-walkable", (0.25, 0.25, 0.28)),
               (f"walkable, < {st.agent_radius} m from obstacles", (0.78, 0.78, 0.78))]
+    sampled = navmesh.sampled_islands
     for i, area in enumerate(navmesh.island_areas):
         color = cmap(i % 10)[:3]
         img[island == i] = color
         if i < 8:
-            legend.append((f"island {i}: {area:.1f} m²" + (" (main)" if i == 0 else ""), color))
+            where = f", floor y {navmesh.island_shapes.heights[i]:.2f} m" if len(navmesh.layers) > 1 else ""
+            tag = " (main)" if i == 0 else " (sampled: navmesh.islands=all)" if i in sampled else ""
+            legend.append((f"island {i}: {area:.1f} m²{where}{tag}", color))
     return img, legend
 
 

@@ -1,7 +1,8 @@
 """(RGB, exact depth) pairs for the depth model: camera poses sampled on the navmesh of a
 split's scenes, rendered with `rvn_data.render.make_renderer`, stored in one HDF5 file.
 
-Pose k of scene s: a point uniform over the navmesh's main island and a yaw uniform in
+Pose k of scene s: a point uniform over the navmesh's sampled islands (the main island unless
+navmesh.islands=all) and a yaw uniform in
 [-pi, pi), both drawn from ``np.random.default_rng([seed, split_code, scene_index])`` in
 that order, so a file is reproducible from its settings. The camera is the robot's (the
 ``camera`` group: height above the floor, field of view) at ``image_size`` pixels square.
@@ -27,10 +28,14 @@ from rvn_data.render.camera import CameraConfig
 
 
 def pair_meta(split: str, specs: list[tuple[str, int]], per_scene: int, seed: int, camera: CameraConfig,
-              renderer: RendererConfig) -> dict:
-    """The settings that determine a pairs file (compared to decide whether to reuse it)."""
-    return {"split": split, "scenes": [[s, int(i)] for s, i in specs], "per_scene": int(per_scene),
+              renderer: RendererConfig, navmesh_settings: NavMeshSettings | None = None) -> dict:
+    """The settings that determine a pairs file (compared to decide whether to reuse it); the navmesh's islands
+    only when they are not the main island's alone (files made before the setting existed keep their meta)."""
+    meta = {"split": split, "scenes": [[s, int(i)] for s, i in specs], "per_scene": int(per_scene),
             "seed": int(seed), "camera": asdict(camera), "renderer_backend": str(renderer.backend)}
+    if navmesh_settings is not None and navmesh_settings.islands != "main":
+        meta["navmesh_islands"] = [navmesh_settings.islands, navmesh_settings.min_island_radius]
+    return meta
 
 
 def split_scenes(source: str, split: str, num_scenes: int, first_scene: int = 0, root=None) -> list[tuple[str, int]]:
@@ -85,7 +90,7 @@ def make_pairs(path: str | Path, split: str, specs: list[tuple[str, int]], per_s
     from tqdm import tqdm
 
     path = Path(path)
-    meta = pair_meta(split, specs, per_scene, seed, camera, renderer)
+    meta = pair_meta(split, specs, per_scene, seed, camera, renderer, navmesh_settings)
     if read_meta(path) == meta:
         return path, True
     n, h, w = len(specs) * per_scene, camera.height, camera.width
