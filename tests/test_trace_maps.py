@@ -101,6 +101,14 @@ def test_maps_and_clips_drawn_again_from_the_folder(run, tmp_path):
         assert last.shape[0] >= 192 and (abs(last[:3, :100].astype(int) - (230, 0, 0)).sum(-1) < 60).mean() > 0.9
 
 
+def test_the_report_links_the_maps(run, tmp_path):
+    from rvn_data.benchmark.report import main as report_main
+
+    assert report_main([str(run), "-o", str(tmp_path / "report.md")]) in (0, None)
+    text = (tmp_path / "report.md").read_text()
+    assert f"[maps]({os.path.relpath(run / 'maps', tmp_path)}/)" in text
+
+
 def test_timed_out_episodes_on_the_map_and_in_clips(run, tmp_path):
     out = tmp_path / "short"
     proc = rvn_eval(run.parent, out, "paths=true", "env.t_max=2")  # 2 steps a goal: most episodes time out

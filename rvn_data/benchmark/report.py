@@ -45,14 +45,18 @@ def beside_paper(runs: list[Run]) -> str:
 
 
 def run_details(runs: list[Run], base: Path) -> str:
-    """Markdown table of each run's set-up, secondary metrics, terminations and log path."""
+    """Markdown table of each run's set-up, secondary metrics, terminations and log path (and its maps of the
+    episodes' paths, where rvn-eval ran with paths=true)."""
     lines = ["| Method | Policy | Split | Scenes × episodes | N_goal | Episodes | SPL_1 | Path/episode (m) | "
              "Collisions | Steps | " + " / ".join(TERMINATIONS) + " | Commit | Generator | Episode set | Per-episode log |",
              "|---|---|---|---|---:|---:|---:|---:|---:|---:|---|---|---|---|---|"]
     for r in runs:
         m = r.metrics
         ends = Counter(rec["termination"] for rec in r.records)
-        logs = ", ".join(f"[{x}]({x})" for x in (_rel(d / "episodes.jsonl", base) for d in (r.shards or [r.dir])))
+        dirs = r.shards or [r.dir]
+        logs = ", ".join(f"[{x}]({x})" for x in (_rel(d / "episodes.jsonl", base) for d in dirs))
+        maps = [_rel(d / "maps", base) for d in dirs if any((d / "maps").glob("*.png"))]  # rvn-eval paths=true
+        logs += "".join(f", [maps]({x}/)" for x in maps)
         lines.append(f"| {r.method} | {m.get('policy', '')} | {r.split} | {m.get('scenes', '?')} × {m.get('per_scene', '?')} "
                      f"| {m.get('n_goals', '?')} | {m['episodes']} | {format_metric(m.get('SPL_1'), 3)} "
                      f"| {format_metric(m.get('path_length'), 2)} | {m.get('collisions', '')} | {m.get('steps', '')} "
