@@ -135,6 +135,17 @@ def test_the_same_run_writes_the_same_traces(run, tmp_path):
         assert (tmp_path / "again" / "paths" / f.name).read_bytes() == f.read_bytes(), f.name
 
 
+def test_a_run_started_over_drops_the_traces_and_maps_of_the_one_before(run, tmp_path):
+    out = tmp_path / "over"
+    assert rvn_eval(run.parent, out, "paths=true").returncode == 0
+    (out / "paths" / "00000-0000.npz").replace(out / "paths" / "00009-0009.npz")  # as a run of other episodes left
+    assert rvn_eval(run.parent, out, "paths=true").returncode == 0  # resumed: every episode done, a trace too many
+    assert not (out / "paths" / "00009-0009.npz").exists() and not (out / "paths" / "00000-0000.npz").exists()
+    assert rvn_eval(run.parent, out, "resume=false", "episodes.per_scene=1").returncode == 0  # over, without paths
+    assert not (out / "paths").exists() or not any((out / "paths").iterdir())
+    assert not (out / "maps").exists()
+
+
 def test_bad_input_is_one_line(run, tmp_path):
     plain = tmp_path / "plain"
     assert rvn_eval(run.parent, plain).returncode == 0

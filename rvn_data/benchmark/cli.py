@@ -26,7 +26,7 @@ from rvn_data.benchmark.results import RunDir, record_key, run_identity
 from rvn_data.benchmark.runner import EvalJob, make_policy, prepare_episodes, run_episodes
 from rvn_data.benchmark.table import render_table
 from rvn_data.benchmark.trace_maps import draw_maps
-from rvn_data.benchmark.traces import trace_file, write_trace
+from rvn_data.benchmark.traces import prune_traces, trace_file, write_trace
 from rvn_data.benchmark.trained_scenes import trained_scenes_evaluated, trained_scenes_note
 from rvn_data.cache_root import cache_root, keep_compiled_kernels
 from rvn_data.config import CONF_DIR, register_configs, typed
@@ -61,6 +61,7 @@ def evaluate(config: EvalConfig, choice: str = "policy", on_checked=None) -> dic
         run = RunDir(config.out_dir, run_identity(config.record()), {"embodiment_mismatch": diffs})
         done = run.open(resume=config.resume)
     keep_compiled_kernels(cache_root(config.cache_dir, config.out_dir))  # after the checks: torch makes the folder
+    prune_traces(config.out_dir, done)  # a run started over: the traces and maps of the one before go
     target = dict(config.policy).get("_target_")  # make_policy built it: a registered policy, else its dotted path
     if registered_name(str(target)) is None:  # a policy of one's own, imported by its dotted path
         print(f"rvn-eval: note: {unregistered_note(target)}", file=sys.stderr)

@@ -5,8 +5,9 @@ A trace holds the agent's pose before its first step and after every step (posit
 float32 [T+1], goals reached so far int16 [T+1]), the episode's goals float32 [N_goal, 3], its scene's spec and id
 and how it ended. One file an episode, ``out_dir/paths/<scene index>-<episode index>.npz``, written atomically
 before the episode's line in ``episodes.jsonl``: a record implies its trace, and an interrupted run resumes with
-both (an episode run again writes the same file). A run resumed with ``paths=true`` after episodes ran without it
-has no trace of those; the maps say how many.
+both (an episode run again writes the same file). A run started over (``resume=false``) removes the traces and
+pictures of the one before (`prune_traces`). A run resumed with ``paths=true`` after episodes ran without it has no
+trace of those; the maps say how many.
 """
 from __future__ import annotations
 
@@ -59,6 +60,25 @@ def write_trace(out_dir: str | Path, record: dict, trace: dict) -> Path:
                        compress_type=zipfile.ZIP_DEFLATED)
     write_bytes_atomic(path, buf.getvalue())
     return path
+
+
+def prune_traces(out_dir: str | Path, done) -> int:
+    """Before a run's episodes: remove the traces of episodes whose record is not among ``done`` (keys (scene index,
+    episode index)), of a run started over (resume=false) or written just before an interruption (run again, the
+    episode writes it again), and with no episode done the pictures drawn from them (``maps/``, ``clips/``); how many
+    traces were removed."""
+    import shutil
+
+    out, removed = Path(out_dir), 0
+    for path in sorted((out / FOLDER).glob("*.npz")):
+        scene, episode = (int(x) for x in path.stem.split("-"))
+        if (scene, episode) not in done:
+            path.unlink()
+            removed += 1
+    if not done:
+        for folder in ("maps", "clips"):
+            shutil.rmtree(out / folder, ignore_errors=True)
+    return removed
 
 
 def read_trace(path: str | Path) -> dict:
