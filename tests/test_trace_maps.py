@@ -118,6 +118,10 @@ def test_timed_out_episodes_on_the_map_and_in_clips(run, tmp_path):
     img = cv2.imread(str(out / "maps" / f"procedural_val_{timed_out[0]['scene_id'][-1]}.png"))
     body = img[:-len(trace_legend(img.shape[1]))]
     assert ((body == (0, 140, 255)).all(-1)).any()  # an orange ring where an episode timed out
+    proc = trace_maps(str(out), "--timeout-clips", "2", "--backend", "raycast", "--format", "mp4")
+    assert proc.returncode == 0 and "2 clip(s)" in proc.stdout, proc.stderr
+    videos = sorted((out / "clips").glob("*-timeout.mp4"))
+    assert len(videos) == 2 and all(cv2.VideoCapture(str(v)).get(cv2.CAP_PROP_FRAME_COUNT) >= 2 for v in videos)
     proc = trace_maps(str(out), "--timeout-clips", "2", "--backend", "raycast")
     assert proc.returncode == 0 and "2 clip(s)" in proc.stdout, proc.stderr
     clips = sorted((out / "clips").glob("*.gif"))

@@ -122,10 +122,10 @@ CLIPS = {"collision": (K_PRE, (230, 0, 0)), "timeout": (2 * K_PRE, (255, 140, 0)
 
 
 def draw_clips(out_dir: str | Path, scenes: dict, navmesh_settings, camera, counts: dict[str, int],
-               backend: str = "auto", cache_dir: str | Path | None = None) -> list[Path]:
+               backend: str = "auto", cache_dir: str | Path | None = None, suffix: str = ".gif") -> list[Path]:
     """Write ``out_dir/clips/<scene>-<episode>-<ending>.gif`` for the first ``counts[ending]`` episodes that ended so
     (``collision``: the last 8 steps and the colliding one, framed red; ``timeout``: the last 16, the final view framed
-    orange); the paths written."""
+    orange; ``suffix`` ".mp4": MP4 files instead); the paths written."""
     from rvn_data.inspect.plots import write_animation
     from rvn_data.navmesh.source import open_scene
     from rvn_data.render import make_renderer
@@ -150,7 +150,7 @@ def draw_clips(out_dir: str | Path, scenes: dict, navmesh_settings, camera, coun
         _, navmesh, renderer = opened[t["spec"]]
         steps, colour = CLIPS[t["termination"]]
         frames = _clip_frames(navmesh, renderer, t, steps, colour)
-        name = f"{_slug(t['scene_id'])}-{path.stem.split('-')[1]}-{t['termination']}.gif"
+        name = f"{_slug(t['scene_id'])}-{path.stem.split('-')[1]}-{t['termination']}{suffix}"
         written.append(write_animation(frames, Path(out_dir) / "clips" / name, fps=2.0))
     for _, _, renderer in opened.values():
         renderer.close()
@@ -201,6 +201,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--timeout-clips", type=int, default=0, metavar="N",
                     help="also a clip of the last 16 steps of each of the first N timed-out episodes")
     ap.add_argument("--backend", choices=("auto", "gl", "raycast"), default="auto", help="renderer of the clips")
+    ap.add_argument("--format", choices=("gif", "mp4"), default="gif", help="the clips' file format")
     ap.add_argument("--cache-dir", default=None, help="where built navmeshes are kept (default: none)")
     args = ap.parse_args(argv)
     run = Path(args.run_dir)
@@ -218,7 +219,7 @@ def main(argv: list[str] | None = None) -> None:
         maps = draw_maps(run, scenes, navmesh, args.cache_dir)
         counts = {"collision": args.clips, "timeout": args.timeout_clips}
         clips = draw_clips(run, scenes, navmesh, CameraConfig(**cfg["camera"]), counts, args.backend,
-                           args.cache_dir) if any(counts.values()) else []
+                           args.cache_dir, f".{args.format}") if any(counts.values()) else []
     except (ValueError, OSError) as err:
         fail("trace_maps", err)
     print(f"wrote {len(maps)} map(s) in {run / 'maps'}" + (f" and {len(clips)} clip(s) in {run / 'clips'}" if clips else ""))
