@@ -191,6 +191,7 @@ def _clip_frames(navmesh, renderer, t: dict, steps: int, colour: tuple) -> list[
 
 
 def main(argv: list[str] | None = None) -> None:
+    from rvn_data.cache_root import cache_root
     from rvn_data.cli.common import ConfigError, fail
     from rvn_data.navmesh.settings import NavMeshSettings
     from rvn_data.render import CameraConfig
@@ -202,7 +203,9 @@ def main(argv: list[str] | None = None) -> None:
                     help="also a clip of the last 16 steps of each of the first N timed-out episodes")
     ap.add_argument("--backend", choices=("auto", "gl", "raycast"), default="auto", help="renderer of the clips")
     ap.add_argument("--format", choices=("gif", "mp4"), default="gif", help="the clips' file format")
-    ap.add_argument("--cache-dir", default=None, help="where built navmeshes are kept (default: none)")
+    ap.add_argument("--cache-dir", default=None,
+                    help="cache root whose navmesh/ the scenes' navmeshes are read from and kept in, as rvn-eval's "
+                         "cache_dir= (default: $RVN_CACHE_DIR, else RUN_DIR/cache)")
     args = ap.parse_args(argv)
     run = Path(args.run_dir)
     try:
@@ -216,10 +219,11 @@ def main(argv: list[str] | None = None) -> None:
         cfg = json.loads((run / "run.json").read_text())
         scenes = {k: v for k, v in cfg["scenes"].items() if k in ("up_axis", "unit_scale", "level", "source")}
         navmesh = NavMeshSettings.from_config(cfg["navmesh"])
-        maps = draw_maps(run, scenes, navmesh, args.cache_dir)
+        root = cache_root(args.cache_dir, run)
+        maps = draw_maps(run, scenes, navmesh, root)
         counts = {"collision": args.clips, "timeout": args.timeout_clips}
         clips = draw_clips(run, scenes, navmesh, CameraConfig(**cfg["camera"]), counts, args.backend,
-                           args.cache_dir, f".{args.format}") if any(counts.values()) else []
+                           root, f".{args.format}") if any(counts.values()) else []
     except (ValueError, OSError) as err:
         fail("trace_maps", err)
     print(f"wrote {len(maps)} map(s) in {run / 'maps'}" + (f" and {len(clips)} clip(s) in {run / 'clips'}" if clips else ""))
