@@ -47,6 +47,19 @@ def house_glb(path: Path) -> Path:
     return path
 
 
+def mezzanine_glb(path: Path) -> Path:
+    """A 10 x 4 m room with a 3.5 x 4 m mezzanine at 1.2 m over its east end and 8 steps of 0.15 m up to it: one
+    island over two floors."""
+    parts = [_box((10.0, 0.02, 4.0), (0, -0.01, 0)), *_walls(10.0, 4.0, 0.0, 3.5), _box((3.5, 0.1, 4.0), (3.25, 1.15, 0))]
+    for k in range(8):
+        parts.append(_box((0.3, 0.15 * (k + 1), 1.4), (1.35 - 0.3 * (7 - k), 0.075 * (k + 1), -1.2)))
+    mesh = trimesh.util.concatenate(parts)
+    mesh.visual.vertex_colors = np.tile([180, 160, 140, 255], (len(mesh.vertices), 1)).astype(np.uint8)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    mesh.export(path)
+    return path
+
+
 @pytest.fixture(scope="module")
 def house(tmp_path_factory) -> Path:
     return house_glb(tmp_path_factory.mktemp("house") / "scenes" / "house.glb")
@@ -177,3 +190,24 @@ def test_rvn_scene_rvn_gen_and_rvn_eval_on_both_floors(house, tmp_path):
     assert {floor_of(e["start_position"][1]) for e in episodes} == {0, 1}
     img = cv2.imread(str(tmp_path / "eval" / "maps" / "house.png"))  # paths=true: a panel a floor
     assert img.shape[1] > img.shape[0] * 2
+
+
+@pytest.mark.slow
+def test_rvn_gen_keeps_goals_on_the_start_floor_of_an_island_with_stairs(tmp_path):
+    """A goal up the stairs is on the start's island, but the expert plans on the start floor's grid: it was planned
+    to the point beneath it (recorded with a goal 1.2 m above the path's end, e.g. a 2.2 m path for a 7.96 m geodesic
+    distance); goals are now within 0.5 m of their start's height, as Habitat's PointNav generator keeps them."""
+    scene = mezzanine_glb(tmp_path / "scenes" / "mezzanine.glb")
+    _, nm = open_scene(str(scene), {}, NavMeshSettings())
+    assert nm.num_islands == 1 and nm.island_shapes.heights[0] > 0.1  # both floors, one island
+    out = tmp_path / "gen"
+    proc = subprocess.run([sys.executable, "-m", "rvn_data.gen.cli", f"out_dir={out}", "scenes=mesh_dir",
+                           f"scenes.root={scene.parent}", "scenes.num_scenes=null", "dataset.d_min=2", "dataset.d_max=8",
+                           "trajectories_per_scene=40", "camera.width=32", "camera.height=32", "progress=false"],
+                          capture_output=True, text=True, timeout=600,
+                          env={**os.environ, "RVN_CACHE_DIR": str(tmp_path / "cache")})
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    metas = [json.loads(p.read_text()) for p in sorted(out.glob("mezzanine_expert_*/rvn_meta.json"))]
+    assert len(metas) == 40
+    assert {round(m["start"][1]) for m in metas} == {0, 1}  # starts below and up on the mezzanine
+    assert all(abs(m["goal"][1] - m["start"][1]) <= 0.5 for m in metas)

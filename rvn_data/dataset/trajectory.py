@@ -12,7 +12,10 @@ way (the intended motion through the obstacle), and I_t = I_{t_c}. The clip kept
 t_i = max(0, t_c − k_pre) … t_f = min(T − 1, t_c + k_post).
 
 Starts are drawn like the benchmark's: any navigable pose of the navmesh's sampled islands (the main
-island unless navmesh.islands=all), any yaw; goal candidates on the start's island. A start inside the
+island unless navmesh.islands=all), any yaw; goal candidates on the start's island and floor: within
+`SAME_FLOOR` = 0.5 m of its height, Habitat's PointNav rule (a goal up a flight of stairs is on the same island,
+but the expert plans on the start floor's occupancy grid, so it would be planned to, and recorded at, the point
+below it). A start inside the
 expert margin (closer to an obstacle than `margin`, e.g. facing a wall at 0.2 m) is planned
 from the nearest cell outside it, so the trajectory first leaves the margin; such states
 are where a learned policy most often collides, and without them the expert data never
@@ -40,6 +43,7 @@ from rvn_data.planning.expert import ExpertPlanner
 from rvn_data.planning.follower import PathFollower, integrate
 from rvn_data.planning.occupancy import OccupancyGrid
 
+SAME_FLOOR = 0.5  # m, largest height between a start and its goal (habitat-lab pointnav_generator: "different floor")
 REASONS = ("start_blocked", "no_goal", "no_path", "path_length", "collided", "timeout", "no_collision")
 
 
@@ -106,8 +110,9 @@ def attempt(ctx: SceneContext, rng: np.random.Generator) -> Rollout | str:
     if finite.size:
         ctx.stats["max_geodesic_seen"] = max(ctx.stats["max_geodesic_seen"], float(finite.max()))
     goal, geodesic = None, math.inf
-    for g, d in zip(candidates, dists):  # the first candidate in range and free under the margin
-        if s.d_min <= d <= s.d_max and planner.is_free(g, floor_y=float(start[1])):
+    for g, d in zip(candidates, dists):  # the first candidate in range, on the start's floor, free under the margin
+        same_floor = abs(g[1] - start[1]) <= SAME_FLOOR
+        if s.d_min <= d <= s.d_max and same_floor and planner.is_free(g, floor_y=float(start[1])):
             goal, geodesic = g, float(d)
             break
     if goal is None:
