@@ -8,6 +8,7 @@ loaded), the convention of every RVN tool (`rvn_data.cli.common`).
 from __future__ import annotations
 
 import argparse
+import math
 import json
 import sys
 from pathlib import Path
@@ -118,6 +119,7 @@ def cmd_info(args) -> None:
         "island_radii": [round(r, 4) for r in nm.island_shapes.radii],
         "island_heights": [round(h, 4) for h in nm.island_shapes.heights],
         "sampled_islands": nm.sampled_islands,
+        "narrow_islands": _narrow(nm, settings),
         "navigable_area_m2": round(nm.navigable_area, 4),
         "layers": len(nm.layers),
         "navmesh": settings.to_dict(),
@@ -140,13 +142,27 @@ def cmd_info(args) -> None:
           f"{settings.agent_radius} m, height {settings.agent_height} m)")
     for i, a in enumerate(nm.island_areas):
         radius, y = info["island_radii"][i], info["island_heights"][i]
-        print(f"  island {i}: {a:8.2f} m²  radius {radius:5.2f} m  floor y {y:6.2f} m" + ("  (main)" if i == 0 else ""))
+        thin = "  (narrow: a ledge or wall top?)" if i in _narrow(nm, settings) else ""
+        print(f"  island {i}: {a:8.2f} m²  radius {radius:5.2f} m  floor y {y:6.2f} m" + ("  (main)" if i == 0 else thin))
     print(f"sampled    {_sampled_line(nm, settings)}")
+    if _narrow(nm, settings):
+        print(f"           islands=all would draw on narrow islands ({', '.join(map(str, _narrow(nm, settings)))}): "
+              f"to leave them out, raise navmesh.min_island_area above their area (it drops islands from the navmesh)")
     what = ("the area of the file's polygons" if nm.source_file is not None else
             "its boundary placed inside the cells; a .navmesh written from it holds whole cells")
     print(f"navigable  {nm.navigable_area:.2f} m² on the main island ({what})")
     built = f"built from the scene (profile {settings.profile})"
     print(f"navmesh    {built if nm.source_file is None else 'read from ' + nm.source_file}")
+
+
+NARROW = 0.15  # an island whose area is under this share of the circle of its radius: a strip (docs/SCANS.md)
+
+
+def _narrow(nm, settings) -> list[int]:
+    """The islands islands=all would sample besides the main one that are strips: a ledge, a wall's top."""
+    radii = nm.island_shapes.radii
+    return [i for i in range(1, nm.num_islands)
+            if radii[i] >= settings.min_island_radius and nm.island_areas[i] < NARROW * math.pi * radii[i] ** 2]
 
 
 def _sampled_line(nm, settings) -> str:
