@@ -128,5 +128,9 @@ def test_bad_dataset_settings_are_one_line(data, tmp_path, second, message):
     r = rvn_train(*SMALL, mixture(data, **second), f"out_dir={tmp_path / 'o'}")
     assert r.returncode == 2 and message in r.stderr, r.stderr
     assert len(r.stderr.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
+
+
+def test_a_dataset_folder_that_does_not_exist_is_one_line(tmp_path):
     r = rvn_train(*SMALL, f"data.datasets=[{{root: {tmp_path / 'nowhere'}}}]", f"out_dir={tmp_path / 'o'}")
     assert r.returncode == 2 and f"data.datasets[0].root={tmp_path / 'nowhere'} does not exist" in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
