@@ -148,6 +148,11 @@ def test_a_run_started_over_drops_the_traces_and_maps_of_the_one_before(run, tmp
     assert rvn_eval(run.parent, out, "resume=false", "episodes.per_scene=1").returncode == 0  # over, without paths
     assert not (out / "paths").exists() or not any((out / "paths").iterdir())
     assert not (out / "maps").exists()
+    theirs = tmp_path / "theirs"  # a folder of the user's own maps/, no run of ours: nothing of it removed
+    (theirs / "maps").mkdir(parents=True)
+    (theirs / "maps" / "plan.png").write_bytes(b"not ours")
+    assert rvn_eval(run.parent, theirs, "resume=false").returncode == 0
+    assert (theirs / "maps" / "plan.png").read_bytes() == b"not ours"
 
 
 def test_bad_input_is_one_line(run, tmp_path):

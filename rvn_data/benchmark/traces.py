@@ -67,17 +67,20 @@ def prune_traces(out_dir: str | Path, done) -> int:
     episode index)), of a run started over (resume=false) or written just before an interruption (run again, the
     episode writes it again), and with no episode done the pictures drawn from them (``maps/``, ``clips/``); how many
     traces were removed."""
-    import shutil
-
     out, removed = Path(out_dir), 0
-    for path in sorted((out / FOLDER).glob("*.npz")):
+    traces = sorted((out / FOLDER).glob("[0-9]*-[0-9]*.npz"))
+    for path in traces:
         scene, episode = (int(x) for x in path.stem.split("-"))
         if (scene, episode) not in done:
             path.unlink()
             removed += 1
-    if not done:
-        for folder in ("maps", "clips"):
-            shutil.rmtree(out / folder, ignore_errors=True)
+    if traces and not done:  # the pictures of a run of ours (it left traces), only the files trace_maps writes
+        for folder, patterns in (("maps", ("*.png",)), ("clips", ("*.gif", "*.mp4"))):
+            for pattern in patterns:
+                for f in (out / folder).glob(pattern):
+                    f.unlink()
+            if (out / folder).is_dir() and not any((out / folder).iterdir()):
+                (out / folder).rmdir()
     return removed
 
 
