@@ -29,6 +29,7 @@ from rvn_data.atomic import write_bytes_atomic
 from rvn_data.benchmark.traces import FOLDER, read_trace
 from rvn_data.dataset.topdown import (COLLISION, GOAL, START, encode_png, legend_strip, path_colour,
                                       side_by_side)
+from rvn_data.navmesh.islands import by_floor
 
 SCALE = 2  # output pixels per navmesh cell
 TIMEOUT = (0, 140, 255)  # BGR orange
@@ -37,8 +38,8 @@ K_PRE = 8  # steps before a collision a clip shows (the negative datasets' k_pre
 
 
 def load_traces(out_dir: str | Path) -> list[dict]:
-    """Every trace of a run folder, in (scene, episode) order."""
-    return [read_trace(p) for p in sorted((Path(out_dir) / FOLDER).glob("*.npz"))]
+    """Every trace of a run folder, in (scene, episode) order, each with its file's ``name`` (`traces.trace_file`)."""
+    return [dict(read_trace(p), name=p.stem) for p in sorted((Path(out_dir) / FOLDER).glob("*.npz"))]
 
 
 def _panel(layer, traces: list[dict], first: int) -> np.ndarray:
@@ -81,13 +82,10 @@ def trace_legend(width: int) -> np.ndarray:
 
 def scene_map(navmesh, traces: list[dict]) -> bytes:
     """PNG bytes of one scene's map: a panel a navmesh layer its episodes start on, lowest first."""
-    floors: dict[int, list[dict]] = {}
-    for t in traces:
-        island = max(int(navmesh.island_of(np.asarray(t["positions"][0], np.float64))), 0)
-        floors.setdefault(navmesh.layers.index(navmesh.grid(island)), []).append(t)
+    floors = by_floor(navmesh, [t["positions"][0].astype(np.float64) for t in traces])
     images, captions, first = [], [], 0
-    for k in sorted(floors, key=lambda k: float(np.nanmean(navmesh.layers[k].height))):
-        group = floors[k]
+    for k, members in floors:
+        group = [traces[i] for i in members]
         images.append(_panel(navmesh.layers[k], group, first))
         first += len(group)
         ends = {e: sum(t["termination"] == e for t in group) for e in ("success", "collision", "timeout")}
@@ -102,12 +100,14 @@ def _slug(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_.")[-80:] or "scene"
 
 
-def draw_maps(out_dir: str | Path, scenes: dict, navmesh_settings, cache_dir: str | Path | None = None) -> list[Path]:
-    """Write ``out_dir/maps/<scene>.png`` for every scene with traces; the paths written."""
+def draw_maps(out_dir: str | Path, scenes: dict, navmesh_settings, cache_dir: str | Path | None = None,
+              traces: list[dict] | None = None) -> list[Path]:
+    """Write ``out_dir/maps/<scene>.png`` for every scene with traces (``traces``: `load_traces`'s, when read
+    already); the paths written."""
     from rvn_data.navmesh.source import open_scene
 
     by_scene: dict[str, list[dict]] = {}
-    for t in load_traces(out_dir):
+    for t in load_traces(out_dir) if traces is None else traces:
         by_scene.setdefault(t["spec"], []).append(t)
     written = []
     for spec, traces in by_scene.items():
@@ -122,10 +122,12 @@ CLIPS = {"collision": (K_PRE, (230, 0, 0)), "timeout": (2 * K_PRE, (255, 140, 0)
 
 
 def draw_clips(out_dir: str | Path, scenes: dict, navmesh_settings, camera, counts: dict[str, int],
-               backend: str = "auto", cache_dir: str | Path | None = None, suffix: str = ".gif") -> list[Path]:
+               backend: str = "auto", cache_dir: str | Path | None = None, suffix: str = ".gif",
+               traces: list[dict] | None = None) -> list[Path]:
     """Write ``out_dir/clips/<scene>-<episode>-<ending>.gif`` for the first ``counts[ending]`` episodes that ended so
     (``collision``: the last 8 steps and the colliding one, framed red; ``timeout``: the last 16, the final view framed
-    orange; ``suffix`` ".mp4": MP4 files instead); the paths written."""
+    orange; ``suffix`` ".mp4": MP4 files instead; ``traces``: `load_traces`'s, when read already); the paths
+    written."""
     from rvn_data.inspect.plots import write_animation
     from rvn_data.navmesh.source import open_scene
     from rvn_data.render import make_renderer
@@ -134,26 +136,26 @@ def draw_clips(out_dir: str | Path, scenes: dict, navmesh_settings, camera, coun
     if unknown:
         raise ValueError(f"clips of {unknown}: the endings with clips are {sorted(CLIPS)}")
     chosen, left = [], dict(counts)
-    for path in sorted((Path(out_dir) / FOLDER).glob("*.npz")):
-        t = read_trace(path)
+    for t in load_traces(out_dir) if traces is None else traces:
         if left.get(t["termination"], 0) > 0:
             left[t["termination"]] -= 1
-            chosen.append((path, t))
-    written, opened = [], {}
-    for path, t in chosen:
-        if t["spec"] not in opened:
-            for _, _, renderer in opened.values():
-                renderer.close()
-            opened.clear()
-            scene, navmesh = open_scene(t["spec"], scenes, navmesh_settings, cache_dir)
-            opened[t["spec"]] = (scene, navmesh, make_renderer(scene, camera, backend=backend))
-        _, navmesh, renderer = opened[t["spec"]]
-        steps, colour = CLIPS[t["termination"]]
-        frames = _clip_frames(navmesh, renderer, t, steps, colour)
-        name = f"{_slug(t['scene_id'])}-{path.stem.split('-')[1]}-{t['termination']}{suffix}"
-        written.append(write_animation(frames, Path(out_dir) / "clips" / name, fps=2.0))
-    for _, _, renderer in opened.values():
-        renderer.close()
+            chosen.append(t)
+    written, spec, navmesh, renderer = [], None, None, None  # the scene of the clips in hand (traces come by scene)
+    try:
+        for t in chosen:
+            if t["spec"] != spec:
+                if renderer is not None:
+                    renderer.close()
+                spec, renderer = t["spec"], None
+                scene, navmesh = open_scene(spec, scenes, navmesh_settings, cache_dir)
+                renderer = make_renderer(scene, camera, backend=backend)
+            steps, colour = CLIPS[t["termination"]]
+            frames = _clip_frames(navmesh, renderer, t, steps, colour)
+            name = f"{_slug(t['scene_id'])}-{t['name'].split('-')[1]}-{t['termination']}{suffix}"
+            written.append(write_animation(frames, Path(out_dir) / "clips" / name, fps=2.0))
+    finally:
+        if renderer is not None:
+            renderer.close()
     return written
 
 
@@ -166,8 +168,7 @@ def _clip_frames(navmesh, renderer, t: dict, steps: int, colour: tuple) -> list[
     views = [renderer.render(p, float(y), depth=False)[0] for p, y in zip(positions, yaws)]
     h, w = views[0].shape[:2]
     zoom = max(1, math.ceil(192 / max(h, w)))
-    island = max(int(navmesh.island_of(positions[0])), 0)
-    layer = navmesh.grid(island)
+    layer = navmesh.grid(max(int(navmesh.island_of(positions[0])), 0))
     base = cv2.cvtColor(_panel(layer, [t], 0), cv2.COLOR_BGR2RGB)
     lo = np.floor(np.stack([(positions[:, 0] - layer.x0), (positions[:, 2] - layer.z0)], -1).min(0) / layer.cs * SCALE)
     hi = np.ceil(np.stack([(positions[:, 0] - layer.x0), (positions[:, 2] - layer.z0)], -1).max(0) / layer.cs * SCALE)
@@ -219,11 +220,11 @@ def main(argv: list[str] | None = None) -> None:
         cfg = json.loads((run / "run.json").read_text())
         scenes = {k: v for k, v in cfg["scenes"].items() if k in ("up_axis", "unit_scale", "level", "source")}
         navmesh = NavMeshSettings.from_config(cfg["navmesh"])
-        root = cache_root(args.cache_dir, run)
-        maps = draw_maps(run, scenes, navmesh, root)
+        root, traces = cache_root(args.cache_dir, run), load_traces(run)
+        maps = draw_maps(run, scenes, navmesh, root, traces)
         counts = {"collision": args.clips, "timeout": args.timeout_clips}
         clips = draw_clips(run, scenes, navmesh, CameraConfig(**cfg["camera"]), counts, args.backend,
-                           root, f".{args.format}") if any(counts.values()) else []
+                           root, f".{args.format}", traces) if any(counts.values()) else []
     except (ValueError, OSError) as err:
         fail("trace_maps", err)
     print(f"wrote {len(maps)} map(s) in {run / 'maps'}" + (f" and {len(clips)} clip(s) in {run / 'clips'}" if clips else ""))

@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from rvn_data.navmesh.islands import wide_islands
+
 
 def _add_scene_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("scene", nargs="?", default="procedural:train/0",
@@ -119,7 +121,7 @@ def cmd_info(args) -> None:
         "island_radii": [round(r, 4) for r in nm.island_shapes.radii],
         "island_heights": [round(h, 4) for h in nm.island_shapes.heights],
         "sampled_islands": nm.sampled_islands,
-        "narrow_islands": _narrow(nm, settings),
+        "narrow_islands": _narrow(nm, wide_islands(nm, settings.min_island_radius)),
         "navigable_area_m2": round(nm.navigable_area, 4),
         "layers": len(nm.layers),
         "navmesh": settings.to_dict(),
@@ -142,11 +144,11 @@ def cmd_info(args) -> None:
           f"{settings.agent_radius} m, height {settings.agent_height} m)")
     for i, a in enumerate(nm.island_areas):
         radius, y = info["island_radii"][i], info["island_heights"][i]
-        thin = "  (narrow: a ledge or wall top?)" if i in _narrow(nm, settings) else ""
+        thin = "  (narrow: a ledge or wall top?)" if i in info["narrow_islands"] else ""
         print(f"  island {i}: {a:8.2f} m²  radius {radius:5.2f} m  floor y {y:6.2f} m" + ("  (main)" if i == 0 else thin))
     print(f"sampled    {_sampled_line(nm, settings)}")
-    if _narrow(nm, settings):
-        print(f"           islands=all would draw on narrow islands ({', '.join(map(str, _narrow(nm, settings)))}): "
+    if info["narrow_islands"]:
+        print(f"           islands=all would draw on narrow islands ({', '.join(map(str, info['narrow_islands']))}): "
               f"to leave them out, raise navmesh.min_island_area above their area (it drops islands from the navmesh)")
     what = ("the area of the file's polygons" if nm.source_file is not None else
             "its boundary placed inside the cells; a .navmesh written from it holds whole cells")
@@ -158,11 +160,10 @@ def cmd_info(args) -> None:
 NARROW = 0.15  # an island whose area is under this share of the circle of its radius: a strip (docs/SCANS.md)
 
 
-def _narrow(nm, settings) -> list[int]:
-    """The islands islands=all would sample besides the main one that are strips: a ledge, a wall's top."""
+def _narrow(nm, islands: list[int]) -> list[int]:
+    """Those of ``islands`` (what islands=all adds: `wide_islands`) that are strips: a ledge, a wall's top."""
     radii = nm.island_shapes.radii
-    return [i for i in range(1, nm.num_islands)
-            if radii[i] >= settings.min_island_radius and nm.island_areas[i] < NARROW * math.pi * radii[i] ** 2]
+    return [i for i in islands if nm.island_areas[i] < NARROW * math.pi * radii[i] ** 2]
 
 
 def _sampled_line(nm, settings) -> str:
@@ -170,7 +171,7 @@ def _sampled_line(nm, settings) -> str:
     if settings.islands == "all":
         return (f"islands {', '.join(map(str, nm.sampled_islands))} (navmesh.islands=all: the main island and every "
                 f"island of radius >= {settings.min_island_radius:g} m)")
-    others = [i for i in range(1, nm.num_islands) if nm.island_shapes.radii[i] >= settings.min_island_radius]
+    others = wide_islands(nm, settings.min_island_radius)
     more = (f"; --islands all (navmesh.islands=all) adds island{'s' if len(others) > 1 else ''} "
             f"{', '.join(map(str, others))}, of radius >= {settings.min_island_radius:g} m" if others else "")
     return f"the main island (navmesh.islands=main){more}"

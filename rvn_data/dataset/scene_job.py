@@ -26,6 +26,7 @@ from rvn_data.dataset.reader import load_traj_data
 from rvn_data.dataset.settings import GenSettings
 from rvn_data.dataset.topdown import render_panels
 from rvn_data.dataset.trajectory import Rollout, SceneContext, attempt
+from rvn_data.navmesh.islands import by_floor
 from rvn_data.render.base import CALL_VIEWS
 from rvn_data.scenes.scene import SceneError
 from rvn_data.scenes.sets import ScenesConfig
@@ -239,10 +240,10 @@ def _render(renderer, r: Rollout, s: GenSettings, timing: dict) -> tuple[list[by
     return jpegs, np.stack(depths)
 
 
-def _navigable_on(grid, navmesh, island: int = 0) -> np.ndarray:
-    """The navmesh's sampled islands resampled on the occupancy grid's cells, from the layer holding most of
-    ``island`` (the floor the grid is at)."""
-    ng = navmesh.grid(island)
+def _navigable_on(grid, navmesh, layer: int) -> np.ndarray:
+    """The navmesh's sampled islands resampled on the occupancy grid's cells, from navmesh layer ``layer`` (the floor
+    the grid is at)."""
+    ng = navmesh.layers[layer]
     rows, cols = np.indices(grid.shape)
     rc = ng.world_to_grid(grid.to_world(np.stack([rows, cols], -1)))
     inside = ng.contains(rc)
@@ -255,15 +256,10 @@ def _map_png(out_dir: Path, scene: _Scene, kept: list[dict]) -> bytes:
     """Top-down map of the scene with every kept trajectory and its collision point: a panel a navmesh layer
     (floor) the trajectories' islands lie on, lowest first (one unless navmesh.islands=all takes several floors)."""
     nav = scene.ctx.navmesh
-    floors: dict[int, list[dict]] = {}
-    for m in kept:
-        island = nav.goal_island(np.asarray(m["start"], dtype=np.float64))
-        floors.setdefault(nav.layers.index(nav.grid(island)), []).append(m)
-    if not floors:
-        floors[nav.layers.index(nav.grid(0))] = []
+    floors = by_floor(nav, [np.asarray(m["start"], dtype=np.float64) for m in kept]) or [(nav.layer_of(0), [])]
     panels = []
-    for layer in sorted(floors, key=lambda k: float(np.nanmean(nav.layers[k].height))):
-        group = floors[layer]
+    for layer, members in floors:
+        group = [kept[i] for i in members]
         y = group[0]["start"][1] if group else float(nav.sample(np.random.default_rng(0), 0)[1])
         grid, free = scene.ctx.grid_at(y)
         trajs = []
@@ -273,7 +269,6 @@ def _map_png(out_dir: Path, scene: _Scene, kept: list[dict]) -> bytes:
             if m["t_c"] is not None:
                 hit = m["contact"] or [planar[m["t_c"]][0], y, -planar[m["t_c"]][1]]
             trajs.append({"planar": planar, "start": m["start"], "goal": m["goal"], "collision": hit})
-        island = nav.goal_island(np.asarray(group[0]["start"], dtype=np.float64)) if group else 0
         caption = f"floor at y = {y:.2f} m: {len(group)} trajectories" if len(floors) > 1 else None
-        panels.append((grid, free, _navigable_on(grid, nav, island), trajs, caption))
+        panels.append((grid, free, _navigable_on(grid, nav, layer), trajs, caption))
     return render_panels(panels, "off main island" if nav.sampled_islands == [0] else "off the sampled islands")

@@ -17,7 +17,7 @@ from rvn_data.navmesh import kernels as K
 from rvn_data.navmesh.build import build_layers
 from rvn_data.navmesh.geodesic import FieldTree, GeodesicField, build_graph, node_cells, node_centres, run_dijkstra
 from rvn_data.navmesh.grid import NavGrid, pack
-from rvn_data.navmesh.islands import IslandShapes, island_shapes, sample_point
+from rvn_data.navmesh.islands import IslandShapes, island_shapes, sample_point, wide_islands
 from rvn_data.navmesh.settings import NavMeshSettings
 from rvn_data.scenes.scene import Scene
 
@@ -56,6 +56,7 @@ class NavMesh:
         self._graph = None
         self._fields: dict[int, tuple] = {}
         self._island_cells: dict[tuple, np.ndarray] = {}  # `islands.sample_point`'s cells of a set of islands
+        self._island_layer: dict[int, int] = {}  # `layer_of`
         self._nearest: dict[int, tuple] = {}
 
     @classmethod
@@ -141,14 +142,12 @@ class NavMesh:
         """Each island's radius (Habitat's rule's measure) and floor height (`rvn_data.navmesh.islands`)."""
         return island_shapes(self)
 
-    @property
+    @cached_property
     def sampled_islands(self) -> list[int]:
         """The islands starts and goals are drawn on (`NavMeshSettings.islands`): [0], the main island, or with
-        islands=all also every other island whose radius is at least ``min_island_radius``."""
+        islands=all also every other island whose radius is at least ``min_island_radius`` (`islands.wide_islands`)."""
         st = self.settings
-        if st.islands == "main":
-            return [0]
-        return [0] + [i for i in range(1, self.num_islands) if self.island_shapes.radii[i] >= st.min_island_radius]
+        return [0] if st.islands == "main" else [0, *wide_islands(self, st.min_island_radius)]
 
     def goal_island(self, p: np.ndarray) -> int:
         """The island goals from ``p`` are drawn on: the main island (0) where it is the only one sampled, else
@@ -164,8 +163,13 @@ class NavMesh:
 
     def grid(self, island: int = 0) -> NavGrid:
         """The layer holding most cells of `island` (for single-floor planners and maps)."""
-        counts = [int((g.island == island).sum()) for g in self.layers]
-        return self.layers[int(np.argmax(counts))]
+        return self.layers[self.layer_of(island)]
+
+    def layer_of(self, island: int) -> int:
+        """The index of `grid(island)` (counted once an island)."""
+        if island not in self._island_layer:
+            self._island_layer[island] = int(np.argmax([int((g.island == island).sum()) for g in self.layers]))
+        return self._island_layer[island]
 
     def topdown(self) -> tuple[np.ndarray, np.ndarray]:
         """Scene-wide (island id int32 [rows, cols], -1 elsewhere; walkable surface bool) with
