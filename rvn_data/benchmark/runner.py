@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rvn_data.benchmark.episodes_source import EnvConfig
+from rvn_data.benchmark.traces import TraceRecorder
 from rvn_data.conventions import Action
 from rvn_data.numba_note import note_first_compile
 from rvn_data.warning_lines import install_from_env
@@ -135,8 +136,6 @@ def run_episode(env, policy, k: int, name: str, seed: int = 0, trace: bool = Fal
     ``episode_stats() -> dict`` (counts since its ``reset()``, e.g. depth vetoes) has them recorded
     under ``policy_stats``. ``trace``: the record carries the episode's poses under ``"trace"``
     (`rvn_data.benchmark.traces`; rvn-eval writes them to a file of their own)."""
-    from rvn_data.benchmark.traces import TraceRecorder
-
     obs, _ = env.reset(options={"episode": int(k)})
     seed_frameworks([seed, *env.unwrapped.episode_key])
     policy.reset()
