@@ -10,6 +10,11 @@ A MOVE_FORWARD of ``d_step`` from yaw θ changes the planar position by
 ``d_step·(cos θ, sin θ)``; TURN_LEFT adds ``+θ_step`` to the yaw.
 
 Robot-relative goal (``pointgoal``): ``(x_g, y_g)`` with x forward and y left, metres.
+
+A goal lies on its start's floor: within ``SAME_FLOOR`` of its height (habitat-lab's PointNav generator,
+`is_compatible_episode`: "check height difference to assure s and t are from same floor"). Stairs the navmesh climbs
+join two floors into one island, and the point goal (x_g, y_g) of a goal upstairs could lie right above the robot.
+rvn-gen's trajectories, the benchmark's episodes and the RL env's goals keep it.
 """
 from __future__ import annotations
 
@@ -18,6 +23,9 @@ from dataclasses import dataclass
 from enum import IntEnum
 
 import numpy as np
+
+
+SAME_FLOOR = 0.5  # m, the largest height between a start (or the robot) and its goal
 
 
 class Action(IntEnum):

@@ -65,6 +65,11 @@ def house(tmp_path_factory) -> Path:
     return house_glb(tmp_path_factory.mktemp("house") / "scenes" / "house.glb")
 
 
+@pytest.fixture(scope="module")
+def mezzanine(tmp_path_factory) -> Path:
+    return mezzanine_glb(tmp_path_factory.mktemp("mezzanine") / "scenes" / "mezzanine.glb")
+
+
 def floor_of(y) -> int:
     """0 on the ground floor, 1 upstairs."""
     return int(round(float(y) / UPPER_Y))
@@ -199,12 +204,34 @@ def test_rvn_scene_rvn_gen_and_rvn_eval_on_both_floors(house, tmp_path):
     assert img.shape[1] > img.shape[0] * 2
 
 
+def test_episodes_and_rl_goals_stay_on_the_start_floor_of_an_island_with_stairs(mezzanine, tmp_path):
+    """Stairs join the mezzanine to the floor below in one island: a benchmark episode's goals (23 of 72 before the
+    rule) and an RL env's goals, from its pool (34 of 100 draws) or drawn fresh, lie within 0.5 m of the start's (the
+    robot's) height, Habitat's PointNav rule."""
+    scene, nm = open_scene(str(mezzanine), {}, NavMeshSettings())
+    eps = sample_episodes(nm, EpisodeSettings(d_min=2.0, d_max=8.0, n_goals=6), "val", scene.scene_id, 0, range(12))
+    assert {round(e.start_position[1], 1) for e in eps} == {0.0, 1.2}  # starts below and up on the mezzanine
+    assert all(abs(g[1] - e.start_position[1]) <= 0.5 for e in eps for g in e.goals)
+    for pool in (16, 0):
+        env = RVNEnv(mode="train", scene_specs=[str(mezzanine)], goal_pool=pool, episodes={"d_min": 2.0, "d_max": 8.0},
+                     camera={"width": 16, "height": 16}, renderer={"backend": "raycast"}, cache_dir=str(tmp_path))
+        try:
+            seen = set()
+            for i in range(24):
+                env.reset(seed=5) if i == 0 else env.reset()
+                seen.add(round(float(env.position[1]), 1))
+                assert abs(env.goal[1] - env.position[1]) <= 0.5, (pool, env.position, env.goal)
+        finally:
+            env.close()
+        assert {0.0, 1.2} <= seen, pool  # and on the stairs
+
+
 @pytest.mark.slow
-def test_rvn_gen_keeps_goals_on_the_start_floor_of_an_island_with_stairs(tmp_path):
+def test_rvn_gen_keeps_goals_on_the_start_floor_of_an_island_with_stairs(mezzanine, tmp_path):
     """A goal up the stairs is on the start's island, but the expert plans on the start floor's grid: it was planned
     to the point beneath it (recorded with a goal 1.2 m above the path's end, e.g. a 2.2 m path for a 7.96 m geodesic
     distance); goals are now within 0.5 m of their start's height, as Habitat's PointNav generator keeps them."""
-    scene = mezzanine_glb(tmp_path / "scenes" / "mezzanine.glb")
+    scene = mezzanine
     _, nm = open_scene(str(scene), {}, NavMeshSettings())
     assert nm.num_islands == 1 and nm.island_shapes.heights[0] > 0.1  # both floors, one island
     out = tmp_path / "gen"

@@ -1,7 +1,9 @@
 """Benchmark episodes: a start pose and N_goal sequential goals.
 
 Each goal lies at geodesic distance in [d_min, d_max] from the previous one (the first
-from the start), on the start's island; starts are drawn over the navmesh's sampled islands
+from the start), on the start's island and floor (within `SAME_FLOOR` = 0.5 m of the start's height, Habitat's
+PointNav rule: stairs join floors into one island, and a point goal (x, y) upstairs would lie above the agent);
+starts are drawn over the navmesh's sampled islands
 (`NavMesh.sampled_islands`: the main island, island 0, unless navmesh.islands=all). Episode
 ``e`` of scene ``s`` (its index in the split) of split ``split`` is a pure function of the settings and of
 ``np.random.default_rng([seed, SPLIT_CODES[split], s, e])``, so episode ``e`` is the same
@@ -16,13 +18,15 @@ from dataclasses import asdict, dataclass, field, fields
 
 import numpy as np
 
-from rvn_data.conventions import AgentConfig
+from rvn_data.conventions import SAME_FLOOR, AgentConfig
 from rvn_data.navmesh.settings import NavMeshSettings, recorded
 from rvn_data.scenes import SceneError
 
 # Part of every episode set's key: bump when the same settings draw other episodes. 2: the
-# navmesh's doorway fix (issue 17: a lintel no longer widens one jamb) moves procedural edges.
-GENERATOR_VERSION = 2
+# navmesh's doorway fix (issue 17: a lintel no longer widens one jamb) moves procedural edges. 3: goals on the
+# start's floor (SAME_FLOOR), which changes the episodes of scenes with stairs only (single-floor scenes draw the
+# same episodes: the rule rejects none of their candidates and draws nothing from the random stream).
+GENERATOR_VERSION = 3
 SCENE_OPTION_KEYS = ("source", "up_axis", "unit_scale", "level")  # scene loading options an episode depends on
 SPLIT_CODES = {"train": 0, "val": 1, "test": 2}
 DEFAULT_PER_SCENE = {"train": 2, "val": 20, "test": 20}
@@ -127,11 +131,14 @@ def episode_rng(seed: int, split: str, scene_index: int, episode_index: int) -> 
 
 
 def sample_goal(navmesh, source_field, rng: np.random.Generator, d_min: float, d_max: float,
-                max_tries: int, island: int = 0) -> tuple[np.ndarray, float] | None:
+                max_tries: int, island: int = 0, floor_y: float | None = None) -> tuple[np.ndarray, float] | None:
     """A point of ``island`` (the source's) at geodesic distance in [d_min, d_max] from the field's
-    source, with that distance; None after ``max_tries`` rejected candidates."""
+    source, within `SAME_FLOOR` of the height ``floor_y`` (None: any height), with that distance; None after
+    ``max_tries`` rejected candidates."""
     for _ in range(max_tries):
         p = np.asarray(navmesh.sample(rng, island=island), dtype=np.float64)
+        if floor_y is not None and abs(p[1] - floor_y) > SAME_FLOOR:
+            continue
         d = float(source_field.distance(p))
         if d_min <= d <= d_max:
             return p, d
@@ -156,7 +163,8 @@ def sample_episode(navmesh, settings: EpisodeSettings, split: str, scene_id: str
         source, goals, dists, goal_fields = start, [], [], []
         src_field = navmesh.distance_field(start)
         while len(goals) < settings.n_goals:
-            found = sample_goal(navmesh, src_field, rng, settings.d_min, settings.d_max, settings.max_tries, island)
+            found = sample_goal(navmesh, src_field, rng, settings.d_min, settings.d_max, settings.max_tries, island,
+                                float(start[1]))
             if found is None:
                 break
             source, d = found

@@ -258,7 +258,7 @@ class SceneSlot:
             if found is not None:
                 return found
         found = sample_goal(self.navmesh, self.navmesh.distance_field(position), rng, s.d_min, s.d_max, s.max_tries,
-                            self.navmesh.goal_island(position))
+                            self.navmesh.goal_island(position), float(position[1]))
         return None if found is None else (found[0], None)
 
     def close(self) -> None:

@@ -4,7 +4,8 @@ Dijkstra solves (~3 ms each on a procedural apartment).
 
 `RVNEnv(goal_pool=G)` with G > 0: each scene gets G goal points drawn uniformly over its
 sampled islands (`NavMesh.sampled_islands`: the main island unless navmesh.islands=all; a goal
-on another island than the source is out of range, its distance infinite) by a generator that
+on another island than the source is out of range, its distance infinite, and so is one on another floor than the
+source's: `rvn_data.conventions.SAME_FLOOR`) by a generator that
 is a pure function of (split, scene index, G), so every env of every process sees the same pool. A goal for a source pose is drawn uniformly among the
 pool points whose geodesic distance from it lies in [d_min, d_max] (the benchmark's range);
 none in range → the caller draws a fresh goal from two distance fields (`SceneSlot.draw_goal`; with a
@@ -31,6 +32,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from rvn_data.conventions import SAME_FLOOR
 from rvn_data.navmesh.field_sets import FieldTrees, fields_distance
 from rvn_data.navmesh.geodesic import GeodesicField
 
@@ -115,9 +117,11 @@ class PoolSampler:
 
     def sample(self, source: np.ndarray, rng: np.random.Generator, d_min: float,
                d_max: float) -> tuple[np.ndarray, GeodesicField] | None:
-        """A pool goal in [d_min, d_max] of ``source`` and its field; None if no goal is in range."""
+        """A pool goal in [d_min, d_max] of ``source`` on its floor (within `SAME_FLOOR` of its height) and its
+        field; None if no goal is in range."""
         d = fields_distance(self.navmesh, self.stack, source)  # every field's, in one call
-        ok = np.flatnonzero((d >= d_min) & (d <= d_max))
+        floor = np.abs(self.goals[:, 1] - source[1]) <= SAME_FLOOR
+        ok = np.flatnonzero((d >= d_min) & (d <= d_max) & floor)
         if ok.size == 0:
             return None
         k = int(ok[rng.integers(ok.size)])

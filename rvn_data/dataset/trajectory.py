@@ -36,14 +36,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rvn_data.conventions import Action, to_planar, wrap_angle
+from rvn_data.conventions import SAME_FLOOR, Action, to_planar, wrap_angle
 from rvn_data.dataset.settings import GenSettings
 from rvn_data.planning.astar import Plan
 from rvn_data.planning.expert import ExpertPlanner
 from rvn_data.planning.follower import PathFollower, integrate
 from rvn_data.planning.occupancy import OccupancyGrid
 
-SAME_FLOOR = 0.5  # m, largest height between a start and its goal (habitat-lab pointnav_generator: "different floor")
 REASONS = ("start_blocked", "no_goal", "no_path", "path_length", "collided", "timeout", "no_collision")
 
 
