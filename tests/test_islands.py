@@ -110,6 +110,8 @@ def test_settings_records_and_keys(house):
     pairs = ("train", [("procedural:train/0", 0)], 4, 0, CameraConfig(), RendererConfig())
     assert pair_meta(*pairs, NavMeshSettings()) == pair_meta(*pairs)  # the depth pairs' files made before: kept
     assert pair_meta(*pairs, NavMeshSettings(islands="all"))["navmesh_islands"] == ["all", 1.5]  # others: made anew
+    wider = pair_meta(*pairs, NavMeshSettings(agent_radius=0.25))  # poses drawn on another navmesh: made anew
+    assert wider["navmesh"]["agent_radius"] == 0.25 and "navmesh_islands" not in wider
     with pytest.raises(ValueError, match=r"navmesh setting islands='floors' must be one of \['main', 'all'\]"):
         NavMeshSettings(islands="floors")
     with pytest.raises(ValueError, match="min_island_radius=-1.0 must be >= 0"):

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from rvn_data.atomic import atomic_path
-from rvn_data.navmesh.settings import NavMeshSettings
+from rvn_data.navmesh.settings import SAMPLING, NavMeshSettings
 from rvn_data.render import RendererConfig
 from rvn_data.render.base import CALL_VIEWS
 from rvn_data.render.camera import CameraConfig
@@ -29,11 +29,17 @@ from rvn_data.render.camera import CameraConfig
 
 def pair_meta(split: str, specs: list[tuple[str, int]], per_scene: int, seed: int, camera: CameraConfig,
               renderer: RendererConfig, navmesh_settings: NavMeshSettings | None = None) -> dict:
-    """The settings that determine a pairs file (compared to decide whether to reuse it); the navmesh's islands
-    only when they are not the main island's alone (files made before the setting existed keep their meta)."""
+    """The settings that determine a pairs file (compared to decide whether to reuse it); the navmesh's build
+    settings (its poses are drawn on it) only when they are not the defaults, and its islands only when they are not
+    the main island's alone, so files made with the defaults before either was named keep their meta."""
     meta = {"split": split, "scenes": [[s, int(i)] for s, i in specs], "per_scene": int(per_scene),
             "seed": int(seed), "camera": asdict(camera), "renderer_backend": str(renderer.backend)}
-    if navmesh_settings is not None and navmesh_settings.islands != "main":
+    if navmesh_settings is None:
+        return meta
+    build = {k: v for k, v in navmesh_settings.to_dict().items() if k not in SAMPLING}
+    if build != {k: v for k, v in NavMeshSettings().to_dict().items() if k not in SAMPLING}:
+        meta["navmesh"] = build
+    if navmesh_settings.islands != "main":
         meta["navmesh_islands"] = [navmesh_settings.islands, navmesh_settings.min_island_radius]
     return meta
 
