@@ -17,6 +17,7 @@ from rvn_data.benchmark.env import RVNEnv
 from rvn_data.benchmark.goal_pool import GoalPool
 from rvn_data.conventions import AgentConfig
 from rvn_data.benchmark.episodes import EpisodeSettings, sample_episodes, settings_record
+from rvn_data.dataset.floors import by_floor, floor_grid, floor_heights
 from rvn_data.dataset.reader import load_traj_data
 from rvn_data.navmesh.disk_cache import build_key
 from rvn_data.navmesh.settings import NavMeshSettings
@@ -228,6 +229,29 @@ def test_episodes_and_rl_goals_stay_on_the_start_floor_of_an_island_with_stairs(
         assert {0.0, 1.2} <= seen, pool  # and on the stairs
 
 
+def test_maps_tell_the_floors_of_an_island_with_stairs_apart(mezzanine, house):
+    """The maps' panels are floors, told apart by height: stairs join the mezzanine and the floor below into one
+    island (and the navmesh's layers are not floors either), which drew both floors' paths on one panel."""
+    _, nm = open_scene(str(mezzanine), {}, NavMeshSettings())
+    floors = floor_heights(nm)
+    assert [round(h, 2) for h in floors] == [0.0, 1.2]
+    rng = np.random.default_rng(0)
+    points = [nm.sample(rng) for _ in range(80)]
+    groups = by_floor(nm, points)
+    assert [round(h, 2) for h, _ in groups] == [0.0, 1.2] and sum(len(i) for _, i in groups) == 80
+    for h, members in groups:
+        assert all(abs(points[i][1] - h) == min(abs(points[i][1] - f) for f in floors) for i in members)
+        panel = floor_grid(nm, h)
+        assert np.nanmax(np.abs(panel.height[panel.free] - h)) <= 0.5
+        centres = panel.grid_to_world(np.argwhere(panel.free))[::50]
+        assert np.allclose(nm.floor_height(centres), centres[:, 1], atol=1e-6)  # the navmesh's own cells
+    upper = floor_grid(nm, 1.2)
+    assert 10 < upper.free.sum() * upper.cs ** 2 < 16  # the 3.5 x 4 m mezzanine and the stairs' top steps
+    for islands, heights in (("main", [0.0]), ("all", [0.0, UPPER_Y])):  # floors of the sampled islands (a bed's not)
+        _, nm = open_scene(str(house), {}, NavMeshSettings(islands=islands))
+        assert [round(h, 2) for h in floor_heights(nm)] == heights
+
+
 @pytest.mark.slow
 def test_rvn_gen_keeps_goals_on_the_start_floor_of_an_island_with_stairs(mezzanine, tmp_path):
     """A goal up the stairs is on the start's island, but the expert plans on the start floor's grid: it was planned
@@ -247,3 +271,5 @@ def test_rvn_gen_keeps_goals_on_the_start_floor_of_an_island_with_stairs(mezzani
     assert len(metas) == 40
     assert {round(m["start"][1]) for m in metas} == {0, 1}  # starts below and up on the mezzanine
     assert all(abs(m["goal"][1] - m["start"][1]) <= 0.5 for m in metas)
+    img = cv2.imread(str(out / "maps" / "mezzanine.png"))  # a panel a floor (was one, at the first start's floor)
+    assert img.shape[1] > img.shape[0] * 3

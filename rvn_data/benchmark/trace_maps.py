@@ -6,7 +6,8 @@ as a clip (``out_dir/clips/<scene>-<episode>-collision.gif``; the last steps of 
 (its ``run.json`` gives the scene options, navmesh and camera), and with ``--clips N`` the clips of its first N
 collisions.
 
-A map is the navmesh's layer the episodes lie on (a panel a floor): white = where the robot's centre may be,
+A map draws a panel a floor the episodes start on (`rvn_data.dataset.floors`; stairs join floors into one island, so
+floors are told apart by height), lowest first: white = where the robot's centre may be,
 light grey = floor within r_robot of an obstacle, dark = obstacle or no floor. Each episode is a coloured path from
 its start (green dot) through the goals it reached (blue squares) to where it ended: a collision (red cross), a
 timeout (orange ring) or its last goal; the goal a failed episode was heading for is a hollow blue square. A clip
@@ -27,9 +28,9 @@ import numpy as np
 
 from rvn_data.atomic import write_bytes_atomic
 from rvn_data.benchmark.traces import FOLDER, read_trace
+from rvn_data.dataset.floors import by_floor, floor_at, floor_grid
 from rvn_data.dataset.topdown import (COLLISION, GOAL, START, encode_png, legend_strip, path_colour,
                                       side_by_side)
-from rvn_data.navmesh.islands import by_floor
 
 SCALE = 2  # output pixels per navmesh cell
 TIMEOUT = (0, 140, 255)  # BGR orange
@@ -81,15 +82,15 @@ def trace_legend(width: int) -> np.ndarray:
 
 
 def scene_map(navmesh, traces: list[dict]) -> bytes:
-    """PNG bytes of one scene's map: a panel a navmesh layer its episodes start on, lowest first."""
+    """PNG bytes of one scene's map: a panel a floor its episodes start on, lowest first (`rvn_data.dataset.floors`)."""
     floors = by_floor(navmesh, [t["positions"][0].astype(np.float64) for t in traces])
     images, captions, first = [], [], 0
-    for k, members in floors:
+    for floor_y, members in floors:
         group = [traces[i] for i in members]
-        images.append(_panel(navmesh.layers[k], group, first))
+        images.append(_panel(floor_grid(navmesh, floor_y), group, first))
         first += len(group)
         ends = {e: sum(t["termination"] == e for t in group) for e in ("success", "collision", "timeout")}
-        where = f"floor y = {float(group[0]['positions'][0][1]):.2f} m" if len(floors) > 1 else navmesh.scene_id
+        where = f"floor y = {floor_y:.2f} m" if len(floors) > 1 else navmesh.scene_id
         captions.append(f"{where}: {len(group)} episodes, {ends['success']} succeeded, {ends['collision']} collided, "
                         f"{ends['timeout']} timed out")
     img = side_by_side(images, captions)
@@ -168,7 +169,7 @@ def _clip_frames(navmesh, renderer, t: dict, steps: int, colour: tuple) -> list[
     views = [renderer.render(p, float(y), depth=False)[0] for p, y in zip(positions, yaws)]
     h, w = views[0].shape[:2]
     zoom = max(1, math.ceil(192 / max(h, w)))
-    layer = navmesh.grid(max(int(navmesh.island_of(positions[0])), 0))
+    layer = floor_grid(navmesh, floor_at(navmesh, positions[0][1]))
     base = cv2.cvtColor(_panel(layer, [t], 0), cv2.COLOR_BGR2RGB)
     lo = np.floor(np.stack([(positions[:, 0] - layer.x0), (positions[:, 2] - layer.z0)], -1).min(0) / layer.cs * SCALE)
     hi = np.ceil(np.stack([(positions[:, 0] - layer.x0), (positions[:, 2] - layer.z0)], -1).max(0) / layer.cs * SCALE)

@@ -21,12 +21,12 @@ import numpy as np
 from rvn_data.cache_root import ENV as CACHE_ENV
 from rvn_data.conventions import to_planar
 from rvn_data.dataset import naming, writer
+from rvn_data.dataset.floors import by_floor, floor_grid, floor_heights
 from rvn_data.dataset.gnm_writer import GNMWriter
 from rvn_data.dataset.reader import load_traj_data
 from rvn_data.dataset.settings import GenSettings
 from rvn_data.dataset.topdown import render_panels
 from rvn_data.dataset.trajectory import Rollout, SceneContext, attempt
-from rvn_data.navmesh.islands import by_floor
 from rvn_data.render.base import CALL_VIEWS
 from rvn_data.scenes.scene import SceneError
 from rvn_data.scenes.sets import ScenesConfig
@@ -240,10 +240,10 @@ def _render(renderer, r: Rollout, s: GenSettings, timing: dict) -> tuple[list[by
     return jpegs, np.stack(depths)
 
 
-def _navigable_on(grid, navmesh, layer: int) -> np.ndarray:
-    """The navmesh's sampled islands resampled on the occupancy grid's cells, from navmesh layer ``layer`` (the floor
-    the grid is at)."""
-    ng = navmesh.layers[layer]
+def _navigable_on(grid, navmesh, floor_y: float) -> np.ndarray:
+    """The navmesh's sampled islands resampled on the occupancy grid's cells, from its cells on the floor at
+    ``floor_y`` (the floor the grid is at: `rvn_data.dataset.floors.floor_grid`)."""
+    ng = floor_grid(navmesh, floor_y)
     rows, cols = np.indices(grid.shape)
     rc = ng.world_to_grid(grid.to_world(np.stack([rows, cols], -1)))
     inside = ng.contains(rc)
@@ -253,22 +253,21 @@ def _navigable_on(grid, navmesh, layer: int) -> np.ndarray:
 
 
 def _map_png(out_dir: Path, scene: _Scene, kept: list[dict]) -> bytes:
-    """Top-down map of the scene with every kept trajectory and its collision point: a panel a navmesh layer
-    (floor) the trajectories' islands lie on, lowest first (one unless navmesh.islands=all takes several floors)."""
+    """Top-down map of the scene with every kept trajectory and its collision point: a panel a floor the trajectories
+    start on, lowest first (`rvn_data.dataset.floors`: one unless the sampled islands lie on several floors)."""
     nav = scene.ctx.navmesh
-    floors = by_floor(nav, [np.asarray(m["start"], dtype=np.float64) for m in kept]) or [(nav.layer_of(0), [])]
+    floors = by_floor(nav, [np.asarray(m["start"], dtype=np.float64) for m in kept])
     panels = []
-    for layer, members in floors:
+    for floor_y, members in floors or [(floor_heights(nav)[0], [])]:
         group = [kept[i] for i in members]
-        y = group[0]["start"][1] if group else float(nav.sample(np.random.default_rng(0), 0)[1])
-        grid, free = scene.ctx.grid_at(y)
+        grid, free = scene.ctx.grid_at(floor_y)
         trajs = []
         for m in group:
             planar = load_traj_data(out_dir / m["name"])[0]
             hit = None
             if m["t_c"] is not None:
-                hit = m["contact"] or [planar[m["t_c"]][0], y, -planar[m["t_c"]][1]]
+                hit = m["contact"] or [planar[m["t_c"]][0], m["start"][1], -planar[m["t_c"]][1]]
             trajs.append({"planar": planar, "start": m["start"], "goal": m["goal"], "collision": hit})
-        caption = f"floor at y = {y:.2f} m: {len(group)} trajectories" if len(floors) > 1 else None
-        panels.append((grid, free, _navigable_on(grid, nav, layer), trajs, caption))
+        caption = f"floor at y = {floor_y:.2f} m: {len(group)} trajectories" if len(floors) > 1 else None
+        panels.append((grid, free, _navigable_on(grid, nav, floor_y), trajs, caption))
     return render_panels(panels, "off main island" if nav.sampled_islands == [0] else "off the sampled islands")

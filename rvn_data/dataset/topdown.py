@@ -3,8 +3,8 @@
 Background: dark = occupied or no floor (occupancy grid), mid grey = not on the navmesh's
 sampled islands (the main island unless navmesh.islands=all), light grey = navigable but within
 the planner's inflation margin, white = navigable and free for the planner. A scene whose
-trajectories lie on several floors (navmesh.islands=all on a multi-storey scan) gets a panel a
-floor, side by side, each captioned with its floor height (`render_panels`).
+trajectories lie on several floors (a multi-storey scan with navmesh.islands=all, or stairs) gets
+a panel a floor (`rvn_data.dataset.floors`), side by side, each captioned with its floor height (`render_panels`).
 Each trajectory is a coloured polyline (planar poses), its start a green dot, its goal a
 blue square; collision points are red crosses. A legend strip under the map says so
 (`legend_strip`, also used by the clip animations of `rvn_data.inspect`).

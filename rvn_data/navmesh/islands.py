@@ -44,15 +44,6 @@ def wide_islands(navmesh, min_radius: float) -> list[int]:
     return [i for i in range(1, navmesh.num_islands) if radii[i] >= min_radius]
 
 
-def by_floor(navmesh, points) -> list[tuple[int, list[int]]]:
-    """(layer index, indices of ``points``) for each navmesh layer (floor) holding the island goals from a point are
-    drawn on (`NavMesh.goal_island`, `NavMesh.layer_of`), lowest floor first: the panels of a map a floor."""
-    groups: dict[int, list[int]] = {}
-    for i, p in enumerate(points):
-        groups.setdefault(navmesh.layer_of(navmesh.goal_island(p)), []).append(i)
-    return sorted(groups.items(), key=lambda kv: float(np.nanmean(navmesh.layers[kv[0]].height)))
-
-
 def sample_point(navmesh, rng: np.random.Generator, islands: list[int]) -> np.ndarray:
     """A point [3] uniformly distributed over the navigable cells of ``islands`` together: a cell drawn uniformly,
     then a point uniform in it, redrawn while it is off the cell's island (a cell at a clearance edge); after 64
