@@ -160,6 +160,7 @@ def test_rvn_scene_rvn_gen_and_rvn_eval_on_both_floors(house, tmp_path):
     info = subprocess.run([sys.executable, "-m", "rvn_data.cli.scene", "info", str(house), "--islands", "all", "--json"],
                           capture_output=True, text=True, timeout=300, env=env)
     assert json.loads(info.stdout)["sampled_islands"] == [0, 1] and json.loads(info.stdout)["narrow_islands"] == []
+    assert json.loads(info.stdout)["floors"] == [0.0, UPPER_Y]
     ledge = tmp_path / "ledge.glb"  # a room with a 0.6 m thick, 8 m long block 2.2 m high: its top is a strip
     mesh = trimesh.util.concatenate([_box((10.0, 0.02, 6.0), (0, -0.01, 0)), *_walls(10.0, 6.0, 0.0, 2.8),
                                      _box((8.0, 2.2, 0.6), (0, 1.1, 0))])

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rvn_data.dataset.floors import floor_heights
 from rvn_data.navmesh.islands import wide_islands
 
 
@@ -122,6 +123,7 @@ def cmd_info(args) -> None:
         "island_heights": [round(h, 4) for h in nm.island_shapes.heights],
         "sampled_islands": nm.sampled_islands,
         "narrow_islands": _narrow(nm, wide_islands(nm, settings.min_island_radius)),
+        "floors": [round(h, 4) for h in floor_heights(nm)],
         "navigable_area_m2": round(nm.navigable_area, 4),
         "layers": len(nm.layers),
         "navmesh": settings.to_dict(),
@@ -150,6 +152,9 @@ def cmd_info(args) -> None:
     if info["narrow_islands"]:
         print(f"           islands=all would draw on narrow islands ({', '.join(map(str, info['narrow_islands']))}): "
               f"to leave them out, raise navmesh.min_island_area above their area (it drops islands from the navmesh)")
+    floors = info["floors"]
+    print(f"floors     {', '.join(f'{h:.2f}' for h in floors)} m (heights of the sampled islands' floors"
+          + ("; a goal stays on its start's floor, maps draw a panel a floor)" if len(floors) > 1 else ")"))
     what = ("the area of the file's polygons" if nm.source_file is not None else
             "its boundary placed inside the cells; a .navmesh written from it holds whole cells")
     print(f"navigable  {nm.navigable_area:.2f} m² on the main island ({what})")
