@@ -28,7 +28,8 @@ def floor_heights(navmesh) -> list[float]:
     heights = P.height[on]
     if heights.size == 0:
         return [0.0]
-    bins, counts = np.unique(np.round(heights / BIN).astype(np.int64), return_counts=True)
+    binned = np.round(heights / BIN).astype(np.int64)
+    bins, counts = np.unique(binned, return_counts=True)
     area = counts * navmesh.settings.cell_size ** 2
     kept = bins[area >= FLOOR_AREA]
     if kept.size == 0:  # no flat part that large: one floor, at the area's mean height
@@ -40,11 +41,7 @@ def floor_heights(navmesh) -> list[float]:
             group = []
         group.append(b)
     floors.append(group)
-    out = []
-    for group in floors:
-        near = np.isin(np.round(heights / BIN).astype(np.int64), group)
-        out.append(float(heights[near].mean()))
-    return out
+    return [float(heights[np.isin(binned, group)].mean()) for group in floors]
 
 
 def floor_at(navmesh, y: float) -> float:
