@@ -7,7 +7,9 @@ with torch imported before the command runs: a lower bound of what rvn-train's a
 2026-11-29, when rvn-train's module imported its trainer and rvn-rl checked its values in the trainer, both with
 torch (this script on main 02ddc9f, 2-core development VM: rvn-train's typo 1.80 s, rvn-rl's bad value 2.84 s;
 now 0.44 and 0.61). rvn-gen and rvn-eval never loaded torch to check: their baseline shows torch's share for
-scale. The two run in turns after one untimed pair (disk cache); the medians and their ratio are printed. Nothing
+scale. Nor need they load the planning chain (scipy.ndimage, numba) before their checks: since 2026-12-05 rvn-gen
+imports its run module after the settings' checks and rvn-eval its trace maps when it draws them (medians of 5 on
+1422775 against be7897f and after: rvn-gen's bad value 0.97 -> 0.54 s, rvn-eval's typo 0.82 -> 0.47). The two run in turns after one untimed pair (disk cache); the medians and their ratio are printed. Nothing
 is written: every case exits with status 2 before its out_dir is made.
 Run: python benchmarks/cli_start.py [--rounds 5]
 """
@@ -25,6 +27,7 @@ from pathlib import Path
 SCRIPTS = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml").read_text())["project"]["scripts"]
 CASES = [  # (command, what is wrong, the override)
     ("rvn-gen", "typo", "trajectories_per_scen=4"),
+    ("rvn-gen", "value", "trajectories_per_scene=-1"),
     ("rvn-eval", "typo", "episodes.per_scen=4"),
     ("rvn-train", "typo", "train.max_step=3"),
     ("rvn-rl", "typo", "train.total_step=64"),

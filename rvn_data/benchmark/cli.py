@@ -25,7 +25,6 @@ from rvn_data.benchmark.policy_registry import registered_name, unregistered_not
 from rvn_data.benchmark.results import RunDir, record_key, run_identity
 from rvn_data.benchmark.runner import EvalJob, make_policy, prepare_episodes, run_episodes
 from rvn_data.benchmark.table import render_table
-from rvn_data.benchmark.trace_maps import draw_maps
 from rvn_data.benchmark.traces import prune_traces, trace_file, write_trace
 from rvn_data.benchmark.trained_scenes import trained_scenes_evaluated, trained_scenes_note
 from rvn_data.cache_root import cache_root, keep_compiled_kernels
@@ -105,6 +104,8 @@ def evaluate(config: EvalConfig, choice: str = "policy", on_checked=None) -> dic
         metrics["trained_scenes"] = trained
     run.finish(records, metrics, render_table([metrics]))
     if config.paths:
+        from rvn_data.benchmark.trace_maps import draw_maps  # cv2 and the occupancy grid's chain: at the end, when drawn
+
         maps = draw_maps(config.out_dir, env_cfg.scenes, env_cfg.navmesh, env_cfg.cache_folder())
         traced = sum(trace_file(config.out_dir, *key).is_file() for key in keys)
         missing = f" ({len(keys) - traced} of {len(keys)} episodes ran without paths=true: not drawn)" \
