@@ -8,8 +8,8 @@ with torch imported before the command runs: a lower bound of what rvn-train's a
 torch (this script on main 02ddc9f, 2-core development VM: rvn-train's typo 1.80 s, rvn-rl's bad value 2.84 s;
 now 0.44 and 0.61). rvn-gen and rvn-eval never loaded torch to check: their baseline shows torch's share for
 scale. Nor need they load the planning chain (scipy.ndimage, numba) before their checks: since 2026-12-05 rvn-gen
-imports its run module after the settings' checks and rvn-eval its trace maps when it draws them (medians of 5 on
-1422775 against be7897f and after: rvn-gen's bad value 0.97 -> 0.54 s, rvn-eval's typo 0.82 -> 0.47). The two run in turns after one untimed pair (disk cache); the medians and their ratio are printed. Nothing
+imports its run module after the settings' checks and rvn-eval its trace maps when it draws them (medians of 5,
+2-core development VM: rvn-gen's bad value 0.97 s on 1422775, 0.54 after; rvn-eval's typo 0.82 s, 0.47 after). The two run in turns after one untimed pair (disk cache); the medians and their ratio are printed. Nothing
 is written: every case exits with status 2 before its out_dir is made.
 Run: python benchmarks/cli_start.py [--rounds 5]
 """
