@@ -28,7 +28,7 @@ import numpy as np
 
 from rvn_data.atomic import write_bytes_atomic
 from rvn_data.benchmark.traces import FOLDER, read_trace
-from rvn_data.dataset.floors import by_floor, floor_at, floor_grid
+from rvn_data.dataset.floors import by_floor, floor_grid, floor_heights, nearest_floor
 from rvn_data.dataset.topdown import (COLLISION, GOAL, START, encode_png, legend_strip, path_colour,
                                       side_by_side)
 
@@ -141,7 +141,7 @@ def draw_clips(out_dir: str | Path, scenes: dict, navmesh_settings, camera, coun
         if left.get(t["termination"], 0) > 0:
             left[t["termination"]] -= 1
             chosen.append(t)
-    written, spec, navmesh, renderer = [], None, None, None  # the scene of the clips in hand (traces come by scene)
+    written, spec, renderer = [], None, None  # the scene of the clips in hand (traces come by scene)
     try:
         for t in chosen:
             if t["spec"] != spec:
@@ -150,8 +150,12 @@ def draw_clips(out_dir: str | Path, scenes: dict, navmesh_settings, camera, coun
                 spec, renderer = t["spec"], None
                 scene, navmesh = open_scene(spec, scenes, navmesh_settings, cache_dir)
                 renderer = make_renderer(scene, camera, backend=backend)
+                floors, panels = floor_heights(navmesh), {}  # a floor's panel made once for the scene's clips
+            y = nearest_floor(floors, t["positions"][0][1])
+            if y not in panels:
+                panels[y] = floor_grid(navmesh, y)
             steps, colour = CLIPS[t["termination"]]
-            frames = _clip_frames(navmesh, renderer, t, steps, colour)
+            frames = _clip_frames(panels[y], renderer, t, steps, colour)
             name = f"{_slug(t['scene_id'])}-{t['name'].split('-')[1]}-{t['termination']}{suffix}"
             written.append(write_animation(frames, Path(out_dir) / "clips" / name, fps=2.0))
     finally:
@@ -160,16 +164,15 @@ def draw_clips(out_dir: str | Path, scenes: dict, navmesh_settings, camera, coun
     return written
 
 
-def _clip_frames(navmesh, renderer, t: dict, steps: int, colour: tuple) -> list[np.ndarray]:
+def _clip_frames(layer, renderer, t: dict, steps: int, colour: tuple) -> list[np.ndarray]:
     """RGB frames: the view at each of the last ``steps`` + 1 poses (the last one framed in ``colour``), enlarged,
-    beside the map of the episode with the pose so far."""
+    beside the map of the episode (on ``layer``, its floor's `floor_grid`) with the pose so far."""
     n = len(t["positions"])
     first = max(0, n - 1 - steps)
     positions, yaws = t["positions"][first:].astype(np.float64), t["yaws"][first:].astype(np.float64)
     views = [renderer.render(p, float(y), depth=False)[0] for p, y in zip(positions, yaws)]
     h, w = views[0].shape[:2]
     zoom = max(1, math.ceil(192 / max(h, w)))
-    layer = floor_grid(navmesh, floor_at(navmesh, positions[0][1]))
     base = cv2.cvtColor(_panel(layer, [t], 0), cv2.COLOR_BGR2RGB)
     lo = np.floor(np.stack([(positions[:, 0] - layer.x0), (positions[:, 2] - layer.z0)], -1).min(0) / layer.cs * SCALE)
     hi = np.ceil(np.stack([(positions[:, 0] - layer.x0), (positions[:, 2] - layer.z0)], -1).max(0) / layer.cs * SCALE)

@@ -44,26 +44,25 @@ def floor_heights(navmesh) -> list[float]:
     return [float(heights[np.isin(binned, group)].mean()) for group in floors]
 
 
-def floor_at(navmesh, y: float) -> float:
-    """The height of the floor nearest ``y``."""
-    floors = np.asarray(floor_heights(navmesh))
-    return float(floors[int(np.argmin(np.abs(floors - float(y))))])
+def nearest_floor(floors: list[float], y: float) -> float:
+    """The height among ``floors`` (`floor_heights`) nearest ``y``."""
+    return min(floors, key=lambda h: abs(h - float(y)))
 
 
 def by_floor(navmesh, points) -> list[tuple[float, list[int]]]:
     """(floor height, indices of ``points``) for each floor holding some of ``points`` (world [3], each on the floor
     nearest its height), lowest first: the panels of a map a floor."""
-    floors = np.asarray(floor_heights(navmesh))
-    groups: dict[int, list[int]] = {}
+    floors = floor_heights(navmesh)
+    groups: dict[float, list[int]] = {}
     for i, p in enumerate(points):
-        groups.setdefault(int(np.argmin(np.abs(floors - float(p[1])))), []).append(i)
-    return [(float(floors[k]), groups[k]) for k in sorted(groups)]
+        groups.setdefault(nearest_floor(floors, p[1]), []).append(i)
+    return sorted(groups.items())
 
 
 def floor_grid(navmesh, y: float) -> NavGrid:
-    """The navmesh's walkable cells within `SAME_FLOOR` of height ``y`` (in a column with several, the nearest; other
-    cells no floor, clearance 0), from every
-    layer, as one layer cropped to them with a margin of `MARGIN` cells (a single-floor scene's: its layer's extent)."""
+    """The navmesh's walkable cells within `SAME_FLOOR` of height ``y`` from every layer (in a column with several,
+    the nearest; other cells no floor, clearance 0), as one layer cropped to them with a margin of `MARGIN` cells (a
+    single-floor scene's: its layer's extent)."""
     rows, cols = navmesh.scene_grid_shape
     free = np.zeros((rows, cols), bool)
     height = np.full((rows, cols), np.nan, np.float32)

@@ -36,9 +36,11 @@ def pair_meta(split: str, specs: list[tuple[str, int]], per_scene: int, seed: in
             "seed": int(seed), "camera": asdict(camera), "renderer_backend": str(renderer.backend)}
     if navmesh_settings is None:
         return meta
-    build = {k: v for k, v in navmesh_settings.to_dict().items() if k not in SAMPLING}
-    if build != {k: v for k, v in NavMeshSettings().to_dict().items() if k not in SAMPLING}:
-        meta["navmesh"] = build
+    def build(settings: NavMeshSettings) -> dict:
+        return {k: v for k, v in settings.to_dict().items() if k not in SAMPLING}
+
+    if build(navmesh_settings) != build(NavMeshSettings()):
+        meta["navmesh"] = build(navmesh_settings)
     if navmesh_settings.islands != "main":
         meta["navmesh_islands"] = [navmesh_settings.islands, navmesh_settings.min_island_radius]
     return meta
