@@ -56,7 +56,6 @@ class NavMesh:
         self._graph = None
         self._fields: dict[int, tuple] = {}
         self._island_cells: dict[tuple, np.ndarray] = {}  # `islands.sample_point`'s cells of a set of islands
-        self._island_layer: dict[int, int] = {}  # `layer_of`
         self._nearest: dict[int, tuple] = {}
 
     @classmethod
@@ -163,13 +162,8 @@ class NavMesh:
 
     def grid(self, island: int = 0) -> NavGrid:
         """The layer holding most cells of `island` (for single-floor planners and maps)."""
-        return self.layers[self.layer_of(island)]
-
-    def layer_of(self, island: int) -> int:
-        """The index of `grid(island)` (counted once an island)."""
-        if island not in self._island_layer:
-            self._island_layer[island] = int(np.argmax([int((g.island == island).sum()) for g in self.layers]))
-        return self._island_layer[island]
+        counts = [int((g.island == island).sum()) for g in self.layers]
+        return self.layers[int(np.argmax(counts))]
 
     def topdown(self) -> tuple[np.ndarray, np.ndarray]:
         """Scene-wide (island id int32 [rows, cols], -1 elsewhere; walkable surface bool) with
