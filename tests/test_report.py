@@ -226,3 +226,35 @@ def test_paired_tests_on_the_same_episodes():
     same = paired(a, row("a2", dict(a.per_episode)))
     assert same["cpk_ratio"] == pytest.approx(1.0) and same["cpk_paired_p"] == 1.0 and same["mcnemar_p"] == 1.0
     assert paired(a, row("c", {f"x{i}": (True, 0, 0.05) for i in range(n)})) is None  # other episodes: not paired
+
+
+def test_the_cpk_ratio_lies_in_its_interval_with_few_collisions():
+    """The interval is of the ratio the table prints (its bootstrap once added 0.5 to each side's collisions: a ratio
+    of 0 at [0.05, 0.33]); with no collision in A it is the exact conditional interval of two Poisson rates."""
+    from rvn_data.benchmark.significance import Row, paired
+
+    def row(label, collided):
+        per = {f"e{i}": (True, int(i < collided), 0.02) for i in range(100)}
+        return Row(label, 100, 100, collided, 2.0, per)
+
+    for ca, cb in ((0, 5), (2, 5), (20, 5), (5, 40)):
+        res = paired(row("a", ca), row("b", cb))
+        lo, hi = res["cpk_ratio_ci"]
+        assert res["cpk_ratio"] == pytest.approx(ca / cb) and lo <= res["cpk_ratio"] <= hi, (ca, cb, res)
+    lo, hi = paired(row("a", 0), row("b", 5))["cpk_ratio_ci"]
+    assert lo == 0.0 and 0.5 < hi < 2.0  # 0 of 5 collisions at equal exposure: the rate ratio up to ~1.09
+
+
+def test_rows_on_other_episodes_under_the_same_ids_are_not_paired(tmp_path):
+    """Runs of one split with another episode seed (or goal distances) name their episodes alike: the report's paired
+    tests match an episode by its id and first goal's distance, as the episode-set digest does."""
+    from rvn_data.benchmark.report import tests
+    from rvn_data.benchmark.runs import Run
+
+    def run(name, shift):
+        records = [{"episode_id": f"s#{i}", "scene_id": "s", "episode_index": i, "first_goal_success": i % 2 == 0,
+                    "collisions": i % 3 == 0, "path_length": 20.0, "d0": 4.0 + i / 10 + shift} for i in range(30)]
+        return Run(tmp_path / name, {"method": name, "split": "val", "collisions": 10, "distance_km": 0.6}, records)
+
+    assert tests([run("a", 0.0), run("b", 0.0)]).splitlines()[-1].endswith("| 0–0, 1 | 1.00 [1.00, 1.00], 1 |")
+    assert tests([run("a", 0.0), run("c", 0.5)]).splitlines()[-1].endswith("| – | – |")

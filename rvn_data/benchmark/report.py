@@ -93,7 +93,8 @@ def tests(runs: list[Run], compare: list[tuple[str, str]] | None = None) -> str:
     for split in dict.fromkeys(r.split for r in runs):
         rows = [Row(r.method, sum(bool(e["first_goal_success"]) for e in r.records), len(r.records),
                     int(r.metrics.get("collisions", 0)), float(r.metrics.get("distance_km", 0.0)),
-                    {e["episode_id"]: (bool(e["first_goal_success"]), int(e["collisions"]), float(e["path_length"]) / 1e3)
+                    {(e["episode_id"], round(float(e["d0"] or 0.0), 4)):  # an id and its first goal: the same episode
+                     (bool(e["first_goal_success"]), int(e["collisions"]), float(e["path_length"]) / 1e3)
                      for e in r.records})
                 for r in runs if r.split == split]
         wanted = None if compare is None else [(a, b) for a, b in compare if {a, b} <= {row.label for row in rows}]
