@@ -1,6 +1,7 @@
 """Benchmark metrics from hand-written per-episode records."""
 import json
 import math
+import os
 
 import pytest
 
@@ -161,3 +162,20 @@ def test_run_records_the_code_and_who_resumed_it(tmp_path, monkeypatch):
     run = results.RunDir(tmp_path, ident)
     run.open(resume=False)
     assert "resumed_by" not in json.loads((tmp_path / "run.json").read_text())
+
+
+def test_a_record_written_in_parts_is_appended_whole(tmp_path, monkeypatch):
+    """os.write may store part of what it is given (a full disk): the rest follows, so the next record does not sit
+    behind a torn line that a resume could not drop (only a torn last line is dropped)."""
+    from rvn_data.benchmark import results
+
+    ident = {"policy": {"_target_": "rvn_data.benchmark.policies.RandomPolicy"}, "split": "val"}
+    run = results.RunDir(tmp_path, ident)
+    run.open()
+    write = os.write
+    monkeypatch.setattr(results.os, "write", lambda fd, data: write(fd, bytes(data[:7])))
+    run.append(RECORDS[0])
+    run.append(RECORDS[1])
+    monkeypatch.undo()
+    assert list(results.RunDir(tmp_path, ident).open()) == [(0, 0), (0, 1)]
+    assert [json.loads(line) for line in (tmp_path / "episodes.jsonl").read_text().splitlines()] == RECORDS[:2]

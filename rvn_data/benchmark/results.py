@@ -148,11 +148,13 @@ class RunDir:
         return done
 
     def append(self, rec: dict) -> None:
-        """Append one record as a single write, flushed to disk."""
-        data = (dumps_record(rec) + "\n").encode()
+        """Append one record, flushed to disk. A write that stores part of it (a full disk) is continued until the
+        line is whole, or its OSError raised: a torn line followed by the next record could not be resumed."""
+        data = memoryview((dumps_record(rec) + "\n").encode())
         fd = os.open(self.records_path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
         try:
-            os.write(fd, data)
+            while data:
+                data = data[os.write(fd, data):]
             os.fsync(fd)
         finally:
             os.close(fd)
