@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import gzip
 import json
-import os
 import re
 from pathlib import Path
 
@@ -59,15 +58,8 @@ class EpisodeStore:
         self.index_path = self.dir / "index.json"
 
     def scene_path(self, scene_index: int, spec: str) -> Path:
-        path = self.dir / f"{int(scene_index):05d}_{scene_slug(spec)}.json.gz"
-        if not path.exists():  # written before scene names were one function (00003_procedural_val_3)
-            older = sorted(self.dir.glob(f"{int(scene_index):05d}_*.json.gz"))
-            if len(older) == 1:
-                try:
-                    os.replace(older[0], path)  # renamed once; another worker may have done it
-                except FileNotFoundError:
-                    pass
-        return path
+        """The scene's file in this set (its index in the split's scene list, its name)."""
+        return self.dir / f"{int(scene_index):05d}_{scene_slug(spec)}.json.gz"
 
     def _index_settings(self) -> list[tuple[Path, dict]]:
         """[(index.json, the settings it records)], or [] when there is no index yet."""
