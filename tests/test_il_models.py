@@ -306,3 +306,24 @@ def test_train_compile_gives_each_torchrun_rank_its_share_of_the_compile_pool(mo
         monkeypatch.setenv("LOCAL_WORLD_SIZE", "1")  # one process: inductor's own choice
         compile_for_training(build_model(load_model_config("vint_pointgoal", "small")))
         assert config.compile_threads == 999
+
+
+@pytest.mark.parametrize("name", ["nomad_pointgoal", "vint_pointgoal"])
+def test_imagenet_weights_reach_the_encoder_group_norm_or_not(name, tmp_path):
+    """model.imagenet_weights: NoMaD's encoder (BatchNorm replaced by GroupNorm) keeps the file's normalisation scale
+    and shift, as ViNT's (BatchNorm) does; the weights were loaded before the replacement, which then reset them."""
+    from efficientnet_pytorch import EfficientNet
+    from safetensors.torch import save_file
+
+    cfg = load_model_config(name, "small")
+    size = cfg["image_size"]
+    net = EfficientNet.from_name("efficientnet-b0", image_size=[size[1], size[0]], width_coefficient=cfg["width_coefficient"],
+                                 depth_coefficient=cfg["depth_coefficient"])
+    state = {k: v.clone() for k, v in net.state_dict().items()}
+    state["_bn0.weight"].fill_(3.0)
+    state["_bn0.bias"].fill_(0.25)
+    save_file(state, str(tmp_path / "b0.safetensors"))
+    model = build_model(load_model_config(name, "small", imagenet_weights=str(tmp_path / "b0.safetensors")))
+    encoders = [m for m in model.modules() if type(m).__name__ == "ObsEncoder"]
+    assert encoders and all(e.net._bn0.weight.detach().eq(3.0).all() and e.net._bn0.bias.detach().eq(0.25).all() for e in encoders)
+    assert any(type(e.net._bn0).__name__ == "GroupNorm" for e in encoders) == (name == "nomad_pointgoal")

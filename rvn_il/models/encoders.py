@@ -36,7 +36,8 @@ def replace_bn_with_gn(module: nn.Module, group_size: int = 16) -> nn.Module:
 
 def load_imagenet_weights(net: nn.Module, path: str | Path) -> None:
     """Load a local efficientnet-pytorch ImageNet state dict (``.pth`` or ``.safetensors``);
-    the classifier and tensors whose shape differs (e.g. GroupNorm statistics) are skipped."""
+    the classifier, tensors whose shape differs and those the encoder lacks (BatchNorm's running statistics where
+    GroupNorm replaced it) are skipped."""
     path = Path(path).expanduser()
     if not path.is_file():
         raise ValueError(f"model.imagenet_weights={path} does not exist (weights are never downloaded; give a local file)")
@@ -61,10 +62,10 @@ class ObsEncoder(nn.Module):
         w, h = int(image_size[0]), int(image_size[1])
         self.net = EfficientNet.from_name("efficientnet-b0", in_channels=3, image_size=[h, w],
                                           width_coefficient=width_coefficient, depth_coefficient=depth_coefficient)
+        if group_norm:  # before the weights: GroupNorm takes BatchNorm's scale and shift (its statistics have no use)
+            replace_bn_with_gn(self.net)
         if imagenet_weights:
             load_imagenet_weights(self.net, imagenet_weights)
-        if group_norm:
-            replace_bn_with_gn(self.net)
         self.net._fc = nn.Identity()  # unused classifier: keep it out of the parameters
         self.compress = nn.Linear(self.net._conv_head.out_channels, encoding_size)
         self.register_buffer("mean", torch.tensor(IMAGENET_MEAN).view(1, 3, 1, 1), persistent=False)
