@@ -123,6 +123,7 @@ def test_vote_follows_the_action_most_samples_lead_to():
     medoid = PointGoalPolicy([], CTRL, aggregate="medoid")
     np.testing.assert_array_equal(medoid.choose([np.stack([right, straight, bent, left, straight])], goal), bent)
     np.testing.assert_array_equal(medoid.choose([np.stack([left, left, right])], goal), left)
+    np.testing.assert_array_equal(medoid.choose([np.stack([right])], goal), right)  # one sample (ViNT): itself
 
 
 def test_trajectory_oracle_predicts_the_expert_planners_path(tmp_path):

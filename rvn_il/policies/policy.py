@@ -141,6 +141,8 @@ class PointGoalPolicy:
             return samples[0][0]
         pooled = [wp for member in samples for wp in member]
         if self.aggregate == "medoid":  # CoR's expert term alone: nearest the other samples (rms_distance)
+            if len(pooled) == 1:  # ViNT's one prediction, or num_samples=1: nothing to be near
+                return pooled[0]
             stack = torch.as_tensor(np.stack(pooled))
             return pooled[int(torch.argmin(rms_distance(stack, stack, exclude_self=True)))]
         actions = [int(waypoints_to_action(wp, pointgoal, self.control)) for wp in pooled]
