@@ -169,6 +169,9 @@ def test_ppo_lag_logs_lambda_and_episode_cost(tmp_path):
     # episodes end at the first collision, so J_c > cost limit until the policy stops colliding: lambda grows
     if r[0]["J_c"] > 0:
         assert r[-1]["lambda"] > 0.001
+    # the second rollout ended no episode (the log's window of episodes did not grow): no J_c measured, no step of
+    # lambda (Adam stepped it by ~lambda_lr on the first rollout's J_c again: 0.501 -> 1.0)
+    assert r[1]["episodes"] == r[0]["episodes"] and r[1]["lambda"] == r[0]["lambda"]
     assert "lambda" in proc.stdout
     cfg = yaml.safe_load((out / "config.yaml").read_text())
     assert cfg["policy"]["cost_critic"] is True and cfg["algo"]["cost_limit"] == 1e-4
