@@ -18,7 +18,7 @@ from rvn_il.data import make_dataset, make_depth_frames
 from rvn_il.models import build_model, load_model_config
 from rvn_il.models.checkpoint import latest_checkpoint
 from rvn_il.policies import load_policy
-from rvn_il.policies.depth_veto import check_depth_veto as depth_veto_rule
+from rvn_il.policies.depth_veto import check_depth_veto as depth_veto_rule, clearance
 
 pytestmark = pytest.mark.slow  # end-to-end runs of the CLIs; the fast tier is -m "not slow"
 
@@ -129,6 +129,7 @@ def test_train_with_depth_loss_end_to_end(data, tmp_path):
     frame = np.full((32, 32, 3), 128, np.uint8)
     assert policy.act({"rgb": frame, "pointgoal": np.array([2.0, 0.5], np.float32)}) in (0, 1, 2, 3)
     check_depth_veto(out, frame)
+    check_free_past_the_floor(out, data / "depth", frame)
 
 
 def check_depth_veto(out, frame):
@@ -191,6 +192,28 @@ def check_escape(out, frame, first_actions):
     assert [plain.act(behind) for _ in range(6)] == [2] * 6 and "escapes" not in plain.episode_stats()
     with pytest.raises(ValueError, match=r"policy.escape_after=0: give a whole number >= 1"):
         load_policy(out, escape_after=0)
+
+
+def check_free_past_the_floor(out, root, frame):
+    """The escape's free metres and the veto look past the bare floor the depth grid's lower rows see (`Floor`, from
+    the camera the checkpoint recorded). rvn-gen's rendered grids of this flat read the model's bare-floor depths in
+    their lower rows, the bottom one 0.64 m whatever stands beyond: the nearest depth of their central columns never
+    passed it, so escape_clearance (1 m) was met by no heading and a veto of 0.65 m or more blocked every step."""
+    grids = np.concatenate([np.load(t / "depth.npy").astype(np.float32) for t in trajectories(root)])
+    policy = load_policy(out, escape_after=3, depth_veto=0.7, aggregate="vote", lookahead_min_dist=50.0)
+    floor = policy.floor
+    np.testing.assert_allclose(np.median(grids[:, -3:, 4:12], axis=(0, 2)), floor.depths(16)[-3:], rtol=0.01)
+    assert max(clearance(g) for g in grids) < 0.65
+    free = [clearance(floor.standing(g)) if (g > 0).all() else 0.0 for g in grids]
+    view = grids[int(np.argmax(free))]
+    assert max(free) > 1.5 and policy.depth_veto.blocked(view) and not policy.depth_veto.blocked(floor.standing(view))
+    last = policy.members[0].model.depth_head[2]  # the head forced to predict that view
+    with torch.no_grad():
+        last.weight.zero_()
+        last.bias.copy_(torch.log(torch.from_numpy(view.reshape(-1))))
+    policy.reset()
+    assert policy.act({"rgb": frame, "pointgoal": np.array([-3.0, 0.1], np.float32)}) == 2  # the goal behind: a turn
+    assert policy.escape.seen[0][1] == pytest.approx(max(free), rel=1e-3)
 
 
 def test_escape_state_machine():

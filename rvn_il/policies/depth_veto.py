@@ -14,6 +14,9 @@ Where the step goes (``policy.depth_veto_rule``):
 - ``swept``: the rectangle the step sweeps, |x| ≤ r_robot + m and depth < z, with the margin
   m = max(0, z − d_step − r_robot), each column's lateral offset x = depth · tan of its angle. It needs
   the camera's hfov (``policy.depth_veto_hfov``, else what the checkpoint recorded from its training data).
+Both look past the bare floor that the grid's lower rows see (`Floor`, from the camera the checkpoint's data was
+rendered with: a cell counts where it reads under 80 % of its row's bare-floor depth; a checkpoint without that
+record is read as before).
 A MOVE_FORWARD of d_step 0.25 m hits what lies within d_step + r_robot = 0.43 m ahead; the expert keeps
 more clearance (``docs/results/2026-11-25_small_experiment_7`` and ``_8`` measure both rules and the head).
 """
@@ -21,14 +24,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
+from typing import Mapping
 
 import numpy as np
 import torch
 
 from rvn_data.conventions import Action, AgentConfig
+from rvn_data.render.camera import CameraConfig
 
 BAND = 0.5  # central share of the depth grid's columns that the band rule checks
 RULES = ("band", "swept")
+FLOOR_SHARE = 0.8  # a cell reading under this share of its row's bare-floor depth sees something standing there
 
 
 @dataclass(frozen=True)
@@ -96,10 +103,47 @@ def predicted_depth(depth_head: torch.nn.Module, token: torch.Tensor) -> np.ndar
 
 
 def clearance(depth: np.ndarray) -> float:
-    """Nearest depth (metres) in the central :data:`BAND` of the columns of ``depth`` [S,S]."""
+    """Nearest depth (metres) in the central :data:`BAND` of the columns of ``depth`` [S,S] (inf: none)."""
     s = depth.shape[1]
     lo = int(round(s * (1 - BAND) / 2))
     return float(depth[:, lo:s - lo].min())
+
+
+@dataclass(frozen=True)
+class Floor:
+    """Where the depth grid sees bare floor, for the camera the depth head learned from. Its lower rows see the floor
+    a little ahead whatever stands beyond: with the default camera (0.6 m high, level, 90 degrees) the bottom row of a
+    16 x 16 grid reads ~0.64 m in an empty room, so the nearest depth of a column was never above that, and a clearance
+    of 0.65 m or more (`Escape`'s 1 m) found nothing free. `standing` keeps the cells that read less than
+    :data:`FLOOR_SHARE` of their row's bare-floor depth (something stands on the floor there)."""
+
+    h_camera: float
+    pitch_deg: float
+    fy: float  # pixels
+    cy: float
+    height: int
+
+    @classmethod
+    def of(cls, camera: Mapping) -> "Floor":
+        """From a camera record (`rvn_data.embodiment`; the settings it lacks at `CameraConfig`'s defaults)."""
+        cam = CameraConfig.from_dict(camera)
+        return cls(cam.h_camera, cam.pitch_deg, cam.focal[1], cam.principal[1], cam.height)
+
+    @lru_cache(maxsize=4)
+    def depths(self, side: int) -> np.ndarray:
+        """[side] Each grid row's depth on bare floor: the mean, over its block of pixel rows (as
+        `rvn_data.dataset.writer.downsample_depth` pools the rendered frame), of the planar depth at which a pixel
+        row's ray meets the floor h_camera below; inf for a block that reaches the horizon."""
+        up = -(np.arange(self.height) + 0.5 - self.cy) / self.fy  # camera frame, per metre of planar depth
+        pitch = math.radians(self.pitch_deg)
+        drop = -(up * math.cos(pitch) + math.sin(pitch))  # metres down in the world per metre of planar depth
+        rows = np.where(drop > 1e-9, self.h_camera / np.maximum(drop, 1e-9), np.inf)
+        edges = np.linspace(0, self.height, side + 1)
+        return np.array([rows[int(a):max(int(math.ceil(b)), int(a) + 1)].mean() for a, b in zip(edges[:-1], edges[1:])])
+
+    def standing(self, depth: np.ndarray) -> np.ndarray:
+        """``depth`` [S,S] with the cells that read bare floor set to inf."""
+        return np.where(depth < FLOOR_SHARE * self.depths(depth.shape[0])[:, None], depth, np.inf)
 
 
 def turn_instead(sample_actions: list[int], depth: np.ndarray) -> int:

@@ -4,7 +4,8 @@ An IL policy that cannot see a way toward its goal often turns in place until th
 in the best small-scale rows half the episodes ended that way, their last goal's stretch ~98 % turns
 (docs/results/2026-11-26_main/). With ``escape_after = N``, after N turns in place in a row (12: a full
 circle at 30°) the policy stops deferring to the model for a moment: it turns to the heading it saw
-most open (the model's depth head's nearest depth in the central columns, :func:`.depth_veto.clearance`)
+most open (the model's depth head's nearest depth in the central columns past the bare floor,
+:func:`.depth_veto.clearance` of :meth:`.depth_veto.Floor.standing`)
 among those with at least ``escape_clearance`` metres free, the one nearest the goal's bearing (without
 a depth head: the goal's bearing), then drives ``escape_steps`` forward steps there, unless the forward
 veto (``policy.depth_veto``) calls a step blocked, and hands control back to the model.

@@ -45,7 +45,7 @@ from ..models.checkpoint import (latest_checkpoint, load_state_dict_checked, mem
 from ..models.compiled import check_compile, compile_for_inference
 from ..models.nomad import check_sampler
 from .control import ControlConfig
-from .depth_veto import check_depth_veto
+from .depth_veto import Floor, check_depth_veto
 from .escape import Escape
 from .policy import Member, NoMaDNegPolicy, PointGoalPolicy
 
@@ -154,8 +154,9 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
     escape = None
     if pol.get("escape_after") is not None:  # rvn_il/policies/escape.py
         escape = Escape(pol["escape_after"], agent.theta_step, pol.get("escape_steps", 4), pol.get("escape_clearance", 1.0))
+    camera = (trained_embodiment(cfg, members[0]) or {}).get("camera")  # what the depth head learned to see
     common = dict(num_samples=int(pol.get("num_samples", 8)), seed=int(pol["seed"]), device=dev,
-                  threads=pol.get("threads", 1), depth_veto=veto, escape=escape)
+                  threads=pol.get("threads", 1), depth_veto=veto, escape=escape, floor=Floor.of(camera) if camera else None)
     extra = ensemble_dirs(pol.get("ensemble"))
     if name == "nomad_neg":
         if extra:

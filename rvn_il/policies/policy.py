@@ -31,7 +31,7 @@ from ..data.images import check_crop, preprocess_image
 from ..models import PointGoalModel
 from .control import ControlConfig, waypoints_to_action
 from .cor import SELECTIONS, rms_distance, select_expert
-from .depth_veto import DepthVeto, check_depth_veto, clearance, predicted_depth, turn_instead
+from .depth_veto import DepthVeto, Floor, check_depth_veto, clearance, predicted_depth, turn_instead
 from .escape import Escape
 
 
@@ -83,7 +83,7 @@ class PointGoalPolicy:
 
     def __init__(self, members: list[Member], control: ControlConfig, num_samples: int = 8, seed: int = 0,
                  device: str | torch.device = "cpu", aggregate: str = "first", threads: int | None = 1,
-                 depth_veto: float | DepthVeto | None = None, escape: Escape | None = None):
+                 depth_veto: float | DepthVeto | None = None, escape: Escape | None = None, floor: Floor | None = None):
         if aggregate not in self.AGGREGATES:
             raise ValueError(f"policy aggregate={aggregate!r}; choose one of {self.AGGREGATES}")
         if threads is not None and not (isinstance(threads, int) and threads >= 1):
@@ -93,6 +93,7 @@ class PointGoalPolicy:
         self.num_samples, self.seed, self.device = int(num_samples), int(seed), torch.device(device)
         self.depth_veto = check_depth_veto(depth_veto, bool(members) and members[0].model.depth_head is not None)
         self.escape = escape
+        self.floor = floor  # the veto and the escape look past the bare floor the depth grid's lower rows see
         self.last_waypoints: np.ndarray | None = None  # metres, robot frame (for plots/debugging)
         self.reset()
 
@@ -174,13 +175,14 @@ class PointGoalPolicy:
             depth = None
             if head is not None and (self.escape is not None or (action == Action.MOVE_FORWARD and self.depth_veto)):
                 depth = predicted_depth(head, tokens[0][0, -1])
-            blocked = self.depth_veto is not None and depth is not None and self.depth_veto.blocked(depth)
+            standing = depth if depth is None or self.floor is None else self.floor.standing(depth)
+            blocked = self.depth_veto is not None and depth is not None and self.depth_veto.blocked(standing)
             if action == Action.MOVE_FORWARD and blocked:
                 self.vetoes += 1
                 actions = [int(waypoints_to_action(wp, pointgoal, self.control)) for wp in samples[0]]
                 action = turn_instead(actions, depth)
             if self.escape is not None:
-                free = None if depth is None else clearance(depth)
+                free = None if depth is None else clearance(standing)
                 action = self.escape.act(action, math.atan2(pointgoal[1], pointgoal[0]), free, blocked)
         return action
 
@@ -191,13 +193,15 @@ class NoMaDNegPolicy(PointGoalPolicy):
 
     def __init__(self, members: list[Member], control: ControlConfig, num_samples: int = 8, seed: int = 0,
                  device: str | torch.device = "cpu", selection: str = "argmax", cor_alpha: float = 1.0,
-                 threads: int | None = 1, depth_veto: float | DepthVeto | None = None, escape: Escape | None = None):
+                 threads: int | None = 1, depth_veto: float | DepthVeto | None = None, escape: Escape | None = None,
+                 floor: Floor | None = None):
         if len(members) != 2:
             raise ValueError("NoMaD-Neg needs two members: expert and negative")
         if selection not in SELECTIONS:
             raise ValueError(f"policy selection={selection!r}; choose argmax or argmin")
         self.selection, self.cor_alpha = selection, float(cor_alpha)
-        super().__init__(members, control, num_samples, seed, device, threads=threads, depth_veto=depth_veto, escape=escape)
+        super().__init__(members, control, num_samples, seed, device, threads=threads, depth_veto=depth_veto, escape=escape,
+                         floor=floor)
 
     def reset(self) -> None:
         super().reset()
