@@ -59,12 +59,17 @@ def test_agreement_bad_input_is_one_line(trained):
 def test_training_logs_val_loss_and_the_agreement_tool_figure(trained):
     """rvn-train data.val_root=...: held-out loss and open-loop agreement at every val_every step and the
     last, in val.json; the last agreement is what the agreement tool reports for the saved checkpoint. Here the val
-    data is the training data, which rvn-train says."""
+    data is the training data, which rvn-train says. The dataset's entry crops as visualnav-transformer
+    (data.official_config gives each of its datasets that crop): validation crops as the policy will (it took
+    data.crop, aspect, while training took the entry's)."""
     out = trained / "run_val"
-    proc = run("-m", "rvn_il.train.cli", "model=nomad_pointgoal", "model.size=small", f"data.root={trained / 'data'}",
+    proc = run("-m", "rvn_il.train.cli", "model=nomad_pointgoal", "model.size=small",
+               f"data.datasets=[{{root: {trained / 'data'}, crop: official}}]", f"cache_dir={trained / 'cache_val'}",
                f"data.val_root={trained / 'data'}", "train.val_every=2", "train.val_trajectories=2",
                "train.val_batches=2", f"out_dir={out}", "train.max_steps=3", "train.batch_size=4", "data.num_workers=0",
                "device=cpu", "train.precision=bf16")
+    packed = sorted(p.name for p in (trained / "cache_val" / "packed").rglob("*.h5"))
+    assert len(packed) == 2 and all(name.endswith("_official.h5") for name in packed), packed  # training's, validation's
     # validating on the training data's own scene is said (rvn-gen split=val would give other scenes)
     assert (f"data.val_root={trained / 'data'} holds 1 scene(s) of the training data (proc_train_0000): validation on "
             "them is not held out") in proc.stderr + proc.stdout

@@ -143,10 +143,11 @@ def train_member(cfg: Mapping, member: str, index: int, entries: list[dict], out
                      int(data_cfg["depth_batch"]))
     if run.step >= run.max_steps:
         return
+    crop = crop_setting(entry_settings(entries[0], data_cfg), model_cfg)  # the policy's, so validation's too
     stats = {"model": model_cfg["name"], "member": member, "metric_waypoint_spacing": dataset.spacing,
              "action_stats": {"min": run.model.action_min.tolist(), "max": run.model.action_max.tolist()}
              if hasattr(run.model, "action_min") else None, "image_size": list(model_cfg["image_size"]),
-             "crop": crop_setting(entry_settings(entries[0], data_cfg), model_cfg), "context_size": model_cfg["context_size"],
+             "crop": crop, "context_size": model_cfg["context_size"],
              "len_traj_pred": model_cfg["len_traj_pred"], "imagenet_mean": IMAGENET_MEAN, "imagenet_std": IMAGENET_STD,
              "dataset": str(Path(root).expanduser().resolve()), "num_samples": len(dataset),
              "hfov_deg": recorded_hfov(root, dataset.cache.names[0])}  # for policy.depth_veto_rule=swept
@@ -154,8 +155,8 @@ def train_member(cfg: Mapping, member: str, index: int, entries: list[dict], out
         stats["datasets"] = report["datasets"]
     validator = None
     if rank == 0 and data_cfg["val_root"] and member != "negative":  # NoMaD_n imitates collisions: no agreement
-        validator = Validator(data_cfg["val_root"], model_cfg, data_cfg, tcfg, cfg["agent"], seed, run.batch_size,
-                              dataset.spacing, out_dir / member / "val.json")
+        validator = Validator(data_cfg["val_root"], model_cfg, {**data_cfg, "crop": crop}, tcfg, cfg["agent"], seed,
+                              run.batch_size, dataset.spacing, out_dir / member / "val.json")
     batches = training_batches(dataset, depth_frames, data_cfg, seed, rank, world, run.step, run.batch_size, device)
     train_loop(run, batches, stats, validator, tcfg, f"{model_cfg['name']}/{member}", out_dir / member,
                (seed, index, rank, world), device)
