@@ -103,8 +103,8 @@ def test_ema_keeps_the_parameters_and_gives_the_state_dict_formula(root):
             weight = next(model.parameters())
             weight.data = weight.data.clone() + 1.0
             model.action_min = model.action_min.clone() - 1.0  # a registered buffer, replaced
-        ema.update(model)
         d = ema.decay()
+        ema.update(model)
         with torch.no_grad():
             for k, v in model.state_dict().items():
                 ref[k] = torch.lerp(ref[k], v, 1.0 - d) if v.is_floating_point() else v.clone()
@@ -119,22 +119,29 @@ def test_ema_keeps_the_parameters_and_gives_the_state_dict_formula(root):
 
 
 def test_ema_warms_up_like_diffusers_0_11():
+    """diffusers 0.11.1's EMAModel.step takes get_decay(optimization_step) before counting the update, and
+    get_decay(n) = 1 - n^-power for n >= 2, else 0: its updates take decays 0, 0, 1 - 2^-power, 1 - 3^-power, ..."""
     from rvn_il.train.ema import EMA
 
     net = torch.nn.Linear(2, 1)
     ema = EMA(net, power=0.75)
-    with torch.no_grad():
-        net.weight.fill_(1.0)
-    ema.update(net)  # first update: decay 0, the shadow copies the weights
-    assert ema.decay() == 0.0 and torch.equal(ema.shadow["weight"], net.weight)
-    for _ in range(9):
+    shadows = []
+    for value in (1.0, 2.0, 3.0, 4.0):
+        with torch.no_grad():
+            net.weight.fill_(value)
         ema.update(net)
-    assert ema.decay() == pytest.approx(1 - 10 ** -0.75)
+        shadows.append(float(ema.shadow["weight"][0, 0]))
+    d3, d4 = 1 - 2 ** -0.75, 1 - 3 ** -0.75
+    assert shadows == pytest.approx([1.0, 2.0, d3 * 2.0 + (1 - d3) * 3.0, d4 * (d3 * 2.0 + (1 - d3) * 3.0) + (1 - d4) * 4.0])
+    for _ in range(6):
+        ema.update(net)
+    assert ema.decay() == pytest.approx(1 - 10 ** -0.75)  # the 11th update's
+    before = ema.shadow["weight"].clone()
     with torch.no_grad():
         net.weight.fill_(2.0)
-    ema.update(net)
     d = ema.decay()
-    torch.testing.assert_close(ema.shadow["weight"], torch.full((1, 2), d * 1.0 + (1 - d) * 2.0))
+    ema.update(net)
+    torch.testing.assert_close(ema.shadow["weight"], d * before + (1 - d) * 2.0)
 
 
 @pytest.mark.parametrize("name", ["vint_pointgoal", "nomad_pointgoal"])

@@ -1,6 +1,6 @@
 """Exponential moving average of a model's weights, with the warm-up decay of diffusers'
-(0.11) EMAModel that NoMaD used: decay = clamp(1 - (1 + step)^-power, 0, max_decay), 0 at the
-first update. Integer buffers are copied."""
+(0.11.1) EMAModel that NoMaD used: the k-th update (k = 1, 2, ...) takes decay = clamp(1 - (k - 1)^-power, 0,
+max_decay), 0 for the first two. Integer buffers are copied."""
 from __future__ import annotations
 
 import torch
@@ -14,6 +14,7 @@ class EMA:
         self._params: tuple | None = None  # (model, its float parameters' shadows, the parameters, the others' pairs)
 
     def decay(self) -> float:
+        """The decay the next update takes."""
         s = self.step - 1
         return 0.0 if s <= 0 else min(self.max_decay, max(0.0, 1.0 - (1.0 + s) ** -self.power))
 
@@ -33,8 +34,8 @@ class EMA:
         """shadow <- lerp(shadow, model, 1 - decay) for every floating-point tensor of the model's state_dict; the
         others (integer buffers such as BatchNorm's step count) are copied. Buffers are read each update, since
         ``.to()`` replaces them."""
+        d = self.decay()  # from the updates before this one, as diffusers 0.11.1's EMAModel.step: 0 at the first two
         self.step += 1
-        d = self.decay()
         _, floats_s, floats_m, others = self._parameters(model)
         floats_s, floats_m = list(floats_s), list(floats_m)
         for s, v in others:
