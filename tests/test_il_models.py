@@ -334,3 +334,17 @@ def test_imagenet_weights_reach_the_encoder_group_norm_or_not(name, tmp_path):
     encoders = [m for m in model.modules() if type(m).__name__ == "ObsEncoder"]
     assert encoders and all(e.net._bn0.weight.detach().eq(3.0).all() and e.net._bn0.bias.detach().eq(0.25).all() for e in encoders)
     assert any(type(e.net._bn0).__name__ == "GroupNorm" for e in encoders) == (name == "nomad_pointgoal")
+
+
+@pytest.mark.parametrize("warmup_steps, first", [(0, 1.0), (None, 0.25), (2, 0.5)])
+def test_warmup_steps_zero_turns_the_warm_up_off(warmup_steps, first):
+    """train.warmup_steps=0 starts at the full learning rate (it took warmup_frac's 4 % instead: 4 of 100 steps);
+    null takes warmup_frac."""
+    from dataclasses import asdict
+
+    from rvn_il.train.optimisation import optimisation
+    from rvn_il.train.settings import TrainLoopConfig
+
+    tcfg = {**asdict(TrainLoopConfig()), "max_steps": 100, "batch_size": 4, "lr": 1e-3, "warmup_steps": warmup_steps}
+    run = optimisation(load_model_config("vint_pointgoal", "small"), tcfg, range(400), 1, torch.device("cpu"))
+    assert run.sched.get_last_lr()[0] == pytest.approx(1e-3 * first)

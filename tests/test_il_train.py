@@ -221,6 +221,11 @@ def test_cli_bad_input_one_line(data, tmp_path):
                   "data.waypoint_frames=moved", *SMALL)
     assert r.returncode == 2 and "Traceback" not in r.stderr and "data.waypoint_frames='moved'" in r.stderr
     assert not (tmp_path / "o6").exists()
+    # the loop takes every step modulo these: 0 ended in a ZeroDivisionError after the first step (the cache built)
+    r = rvn_train("model=vint_pointgoal", f"data.root={data / 'expert'}", f"out_dir={tmp_path / 'o7'}", "train.ckpt_every=0",
+                  *SMALL)
+    assert r.returncode == 2 and r.stderr.strip().splitlines()[-1].endswith("train.ckpt_every=0 must be a positive integer")
+    assert not (tmp_path / "o7").exists()
     if not torch.cuda.is_available():  # a CPU build of torch: one line naming the setting, nothing written
         r = rvn_train("model=vint_pointgoal", f"data.root={data / 'expert'}", f"out_dir={tmp_path / 'o5'}", "device=cuda",
                       *SMALL)

@@ -56,7 +56,8 @@ def optimisation(model_cfg: Mapping, tcfg: Mapping, dataset, world: int, device:
     use_ema = model_cfg.get("ema", False) if tcfg["ema"] is None else bool(tcfg["ema"])
     steps_per_epoch = max(1, len(dataset) // (bs * world))
     max_steps = int(tcfg["max_steps"] if tcfg["max_steps"] is not None else int(tcfg["epochs"]) * steps_per_epoch)
-    warmup = int(tcfg["warmup_steps"] or round(float(tcfg["warmup_frac"]) * max_steps))
+    given = tcfg["warmup_steps"]  # 0: no warm-up (it took warmup_frac's 4 % instead)
+    warmup = int(given) if given is not None else round(float(tcfg["warmup_frac"]) * max_steps)
     for key, value in (("train.batch_size", bs), ("train.max_steps", max_steps), ("train.lr", lr)):
         if not value > 0:
             raise ValueError(f"{key}={value} must be positive")

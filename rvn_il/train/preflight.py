@@ -179,9 +179,14 @@ def check_settings(cfg: Mapping) -> None:
     if val_root and not Path(val_root).expanduser().is_dir():
         raise ValueError(f"data.val_root={val_root} does not exist; generate an expert dataset on other scenes "
                          "(rvn-gen split=val out_dir=...) or set data.val_root=null")
-    for key in ("val_every", "val_batches", "val_trajectories"):
+    for key in ("val_batches", "val_trajectories"):
         if val_root and not int(tcfg[key]) > 0:
             raise ValueError(f"train.{key}={tcfg[key]} must be a positive integer")
+    for key in ("log_every", "ckpt_every", "val_every"):  # the loop takes each step modulo them (0: it failed there)
+        if not int(tcfg[key]) > 0:
+            raise ValueError(f"train.{key}={tcfg[key]} must be a positive integer")
+    if tcfg["warmup_steps"] is not None and not int(tcfg["warmup_steps"]) >= 0:
+        raise ValueError(f"train.warmup_steps={tcfg['warmup_steps']} must be an integer >= 0 (null: train.warmup_frac)")
 
 
 def check_datasets(cfg: Mapping) -> None:
