@@ -250,3 +250,45 @@ def test_scene_specs(tmp_path):
         scene_specs("hm3d", "train", root=tmp_path / "hm3d")
     with pytest.raises(ValueError, match="needs a root"):
         scene_specs("mesh_dir", "train")
+
+
+@pytest.mark.parametrize("kind", ["float_rgb", "float_rgba", "uint16_rgba", "uint16_other", "uint8_rgba"])
+def test_gltf_vertex_colours_of_every_stored_kind_beside_a_texture(tmp_path, kind):
+    """glTF's COLOR_0 may be float (0-1), normalised 16- or 8-bit, RGB or RGBA. Beside a material trimesh keeps it as
+    stored: cast to uint8 as it was, float 0.8 became 0 (the textured quad rendered black), and RGB rows were regrouped
+    by four."""
+    import base64
+    import io
+
+    verts = np.array([[0, 0, 0], [4, 0, 0], [4, 0, 4], [0, 0, 4]], np.float32)
+    faces, uv = np.array([[0, 2, 1], [0, 3, 2]], np.uint16), np.array([[0, 0], [1, 0], [1, 1], [0, 1]], np.float32)
+    width = 3 if kind == "float_rgb" else 4
+    colors, component = {"float_rgb": (np.full((4, 3), 0.8, np.float32), 5126),
+                         "float_rgba": (np.full((4, 4), 0.8, np.float32), 5126),
+                         "uint16_rgba": (np.full((4, 4), 52428, np.uint16), 5123),  # 0.8: 0xCCCC
+                         "uint16_other": (np.full((4, 4), 50000, np.uint16), 5123),  # 195 (its low byte 80)
+                         "uint8_rgba": (np.full((4, 4), 204, np.uint8), 5121)}[kind]
+    png = io.BytesIO()
+    Image.new("RGB", (8, 8), (200, 100, 50)).save(png, "PNG")
+    data, views = b"", []
+    for blob in (verts.tobytes(), faces.tobytes(), uv.tobytes(), colors.tobytes()):
+        views.append({"buffer": 0, "byteOffset": len(data), "byteLength": len(blob)})
+        data += blob + b"\0" * (-len(blob) % 4)
+    doc = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+           "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 2, "COLOR_0": 3}, "indices": 1,
+                                       "material": 0}]}],
+           "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}], "textures": [{"source": 0}],
+           "images": [{"uri": "data:image/png;base64," + base64.b64encode(png.getvalue()).decode()}],
+           "buffers": [{"byteLength": len(data), "uri": "data:application/octet-stream;base64," + base64.b64encode(data).decode()}],
+           "bufferViews": views,
+           "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+                          "min": verts.min(0).tolist(), "max": verts.max(0).tolist()},
+                         {"bufferView": 1, "componentType": 5123, "count": 6, "type": "SCALAR"},
+                         {"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC2"},
+                         {"bufferView": 3, "componentType": component, "count": 4, "type": f"VEC{width}",
+                          "normalized": component != 5126}]}
+    (tmp_path / "quad.gltf").write_text(json.dumps(doc))
+    (part,) = load_mesh_file(tmp_path / "quad.gltf").parts
+    assert part.texture is not None and part.colors.shape == (4, 4)
+    value = 195 if kind == "uint16_other" else 204
+    np.testing.assert_array_equal(part.colors, np.tile([value, value, value, value if width == 4 else 255], (4, 1)))

@@ -77,7 +77,7 @@ def _pieces(loaded: trimesh.Scene):
                 uv = np.asarray(visual.uv, np.float32)
             vc = visual.vertex_attributes.get("color") if hasattr(visual, "vertex_attributes") else None
             if vc is not None and len(vc) == len(verts):
-                colors = np.asarray(vc, np.uint8)
+                colors = rgba8(vc)
         else:
             mat = ("__none__", "default", NEUTRAL_GREY, None)
             kind = getattr(visual, "kind", None)
@@ -88,6 +88,22 @@ def _pieces(loaded: trimesh.Scene):
                 verts = verts[faces].reshape(-1, 3)
                 faces = np.arange(len(verts)).reshape(-1, 3)
         yield verts, faces, uv, colors, mat
+
+
+def rgba8(values) -> np.ndarray | None:
+    """A glTF primitive's COLOR_0 as trimesh keeps it beside a material (the accessor's values as stored) -> uint8
+    RGBA [N, 4]: floats in [0, 1], normalised unsigned 8- or 16-bit integers, RGB or RGBA (glTF 2.0 allows each). Cast
+    as uint8 alone, float colours became 0 (a textured scan rendered black), 16-bit ones their low byte, and RGB rows
+    were regrouped by four; None for another shape (the colours are left out)."""
+    v = np.asarray(values)
+    if v.ndim != 2 or v.shape[1] not in (3, 4):
+        return None
+    if v.dtype.kind == "f":
+        v = np.rint(np.clip(np.nan_to_num(v), 0.0, 1.0) * 255.0)
+    elif v.dtype == np.uint16:
+        v = np.rint(v / 257.0)
+    v = v.astype(np.uint8)
+    return v if v.shape[1] == 4 else np.concatenate([v, np.full((len(v), 1), 255, np.uint8)], axis=1)
 
 
 def _level_rotation(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
