@@ -98,3 +98,28 @@ def test_scene_that_fails_to_load_in_a_multi_scene_run(tmp_path):
     names = [(out / "data_splits" / "rvn_expert" / s / "traj_names.txt").read_text().split() for s in ("train", "test")]
     assert sorted(names[0] + names[1]) == ["room_a_expert_0000"]
     assert_clean(out)
+
+
+def test_a_dataset_records_how_its_scenes_were_read(tmp_path):
+    """scenes.up_axis / unit_scale / level make another scene of the same mesh: a rerun into the dataset with other
+    values is refused naming the setting (it was taken, and its trajectories mixed with the others'). A dataset recorded
+    before them cannot say, takes the run's and records them; trajectories record them where not the defaults."""
+    scenes = tmp_path / "scenes"
+    scenes.mkdir()
+    room_glb(scenes / "room_a.glb")
+    out = tmp_path / "o"
+    common = [f"out_dir={out}", "scenes=mesh_dir", f"scenes.root={scenes}", "scenes.num_scenes=null", "dataset.d_min=2",
+              "dataset.d_max=6", *TINY]
+    assert rvn_gen(*common, "scenes.level=true").returncode == 0
+    settings = json.loads((out / ".rvn" / "settings.json").read_text())
+    assert settings["scenes"] == {"up_axis": "y", "unit_scale": 1.0, "level": True}
+    assert json.loads((out / "room_a_expert_0000" / "rvn_meta.json").read_text())["settings"]["scenes"]["level"] is True
+    proc = rvn_gen(*common, "trajectories_per_scene=2")
+    line = proc.stderr.strip().splitlines()[-1]
+    assert proc.returncode == 2 and "was made with scenes.level=True but this run uses scenes.level=False" in line, line
+    del settings["scenes"]  # as rvn-gen wrote it before
+    (out / ".rvn" / "settings.json").write_text(json.dumps(settings))
+    assert rvn_gen(*common, "trajectories_per_scene=2").returncode == 0
+    assert json.loads((out / ".rvn" / "settings.json").read_text())["scenes"]["level"] is False
+    assert "scenes" not in json.loads((out / "room_a_expert_0001" / "rvn_meta.json").read_text())["settings"]
+    assert_clean(out)

@@ -28,7 +28,7 @@ from rvn_data.dataset.settings import DatasetConfig, GenSettings
 from rvn_data.dataset.verify import MISSING, Expect, check_trajectory
 from rvn_data.identity import check_identity, differences
 
-SETTING_GROUPS = ("agent", "navmesh", "camera", "seed", "renderer")  # other identity keys are dataset.*
+SETTING_GROUPS = ("agent", "navmesh", "camera", "seed", "renderer", "scenes")  # other identity keys are dataset.*
 
 
 class GNMWriter:
@@ -58,13 +58,18 @@ class GNMWriter:
 
     def _check_identity(self) -> None:
         path = self.out_dir / ".rvn" / "settings.json"
-        mine = self.settings.identity()
+        mine = {**self.settings.identity(), "scenes": self.settings.scenes}
         if path.is_file() and self._holds_work():
             stored, wanted = json.loads(path.read_text()), json.loads(writer.dumps_json(mine))
+            adopted = "scenes" not in stored  # recorded before the scene loading options were: it cannot say
+            if adopted:
+                stored = {**stored, "scenes": wanted["scenes"]}
             check_identity(path, stored, wanted, f"out_dir={self.out_dir} holds a dataset:",
                            f"use another out_dir (e.g. out_dir={self._other_dir(stored, wanted)}), "
                            "or the same settings to resume or extend it",
                            name=lambda k: k if k.split(".")[0] in SETTING_GROUPS else f"dataset.{k}")
+            if adopted:
+                writer.write_text_atomic(path, writer.dumps_json(mine))
             return
         writer.write_text_atomic(path, writer.dumps_json(mine))  # new, or nothing made yet: this run's settings
 

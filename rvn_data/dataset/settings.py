@@ -95,6 +95,11 @@ class DatasetConfig:
 
 
 
+# how a scene's mesh is read (rvn_data.scenes.sets.ScenesConfig), at its defaults: a trajectory's bytes depend on them
+# (a scan read z-up or y-up is another scene); .rvn/settings.json records them, a trajectory's record where not these
+SCENE_LOADING = {"up_axis": "y", "unit_scale": 1.0, "level": False}
+
+
 @dataclass(frozen=True)
 class GenSettings(DatasetConfig):
     """One dataset's resolved generation settings: the ``dataset`` group (`DatasetConfig`, whose fields
@@ -109,6 +114,7 @@ class GenSettings(DatasetConfig):
     agent: AgentConfig = field(default_factory=AgentConfig)
     navmesh: NavMeshSettings = field(default_factory=NavMeshSettings)
     camera: CameraConfig = field(default_factory=CameraConfig)
+    scenes: dict = field(default_factory=lambda: dict(SCENE_LOADING))  # how meshes are read (`SCENE_LOADING`)
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -136,6 +142,8 @@ class GenSettings(DatasetConfig):
             del out["perturb_prob"], out["perturb_max_turns"]
         if not self.save_depth:
             del out["save_depth"], out["depth_size"]
+        if self.scenes == SCENE_LOADING:  # the defaults: trajectories' records as before they were recorded
+            del out["scenes"]
         return out
 
     @classmethod
@@ -148,4 +156,5 @@ class GenSettings(DatasetConfig):
         if ds.stop_radius is None:
             values["stop_radius"] = agent.success_distance
         return cls(**values, seed=config.seed, renderer=str(config.renderer.backend).lower(),
-                   render_device=config.renderer.device, agent=agent, navmesh=config.navmesh, camera=config.camera)
+                   render_device=config.renderer.device, agent=agent, navmesh=config.navmesh, camera=config.camera,
+                   scenes={k: type(default)(getattr(config.scenes, k)) for k, default in SCENE_LOADING.items()})
