@@ -155,6 +155,11 @@ def test_third_party_pickles_splits_and_spacing(tmp_path):
     (split / "traj_names.txt").write_text("t2\n\nt1\n")
     assert load_gnm(root, "test").names == ["t2", "t1"]
     assert read_spacing(root, "go_stanford", 0.3) == 0.3
+    # a split the dataset's split files do not hold is refused: every folder would hold the test split's too
+    with pytest.raises(ValueError, match=r"data_splits/go_stanford/train/traj_names.txt does not exist; .* holds "
+                                         r"go_stanford/test/traj_names.txt: name one of them"):
+        load_gnm(root, "train")
+    assert load_gnm(root, "all").names == ["t0", "t1", "t2"]
 
 
 def test_cache_rebuilt_when_source_changes(tmp_path):

@@ -3,8 +3,8 @@ rvn-gen on resume, the clip inspector, rvn_il's packed cache and training, the a
 
 ``<root>/<traj>/{0..T-1}.jpg`` + ``traj_data.pkl`` (``position`` [T,2] metres, ``yaw`` [T]
 radians), and for rvn-gen's folders the sidecar ``rvn_meta.json``. Splits from
-``<splits_dir>/<name>/<split>/traj_names.txt`` when present, else every folder holding
-``traj_data.pkl``. ``metric_waypoint_spacing`` from the config, else ``<root>/data_config.yaml``
+``<splits_dir>/<name>/<split>/traj_names.txt`` when present, else (split ``all``, or no split files at all)
+every folder holding ``traj_data.pkl``. ``metric_waypoint_spacing`` from the config, else ``<root>/data_config.yaml``
 (top level or under the dataset name), else ``d_step`` (0.25 m). Third-party pickles are
 coerced: position → float64 [T,2], yaw → float64 [T] (a [T,1] yaw is squeezed), as
 GoStanford2 needs.
@@ -104,6 +104,11 @@ def list_trajectories(root: Path, split: str, splits_dir: Path | None = None,
         if missing:
             raise ValueError(f"split file {listing} names {len(missing)} missing trajectory folder(s) under {root}, e.g. {missing[0]!r}")
         return name, names
+    have = sorted(str(f.relative_to(listing.parents[2])) for f in listing.parents[2].glob("*/*/traj_names.txt")) \
+        if split != "all" and listing.parents[2].is_dir() else []
+    if have:  # splits of other names or sets, not this one: every folder would hold the others' trajectories too
+        raise ValueError(f"split file {listing} does not exist; {listing.parents[2]} holds {', '.join(have)}: name one "
+                         "of them (rvn-train: data.split=, data.name=), or split all for every trajectory folder")
     names = sorted(e.name for e in os.scandir(root)
                    if e.is_dir() and not e.name.startswith(".") and (Path(e.path) / "traj_data.pkl").is_file())
     if not names:
