@@ -236,6 +236,28 @@ def test_cli_bad_input_one_line(data, tmp_path):
             resolve_device("cuda", "policy.device")
 
 
+def test_a_step_that_leaves_a_weight_non_finite_is_not_saved(data, tmp_path, monkeypatch):
+    """The loss is checked before each checkpoint, but a step whose loss was finite can still overflow a weight: its
+    checkpoint would have become ``latest``, the one a resume continues from. The optimizer's last step here writes
+    an inf into one weight after a finite loss."""
+    step = torch.optim.AdamW.step
+    calls = []
+
+    def overflowing(self, *args, **kwargs):
+        out = step(self, *args, **kwargs)
+        calls.append(1)
+        if len(calls) == 2:
+            weight = self.param_groups[0]["params"][0].data
+            weight[(0,) * weight.dim()] = float("inf")
+        return out
+
+    monkeypatch.setattr(torch.optim.AdamW, "step", overflowing)
+    with pytest.raises(ValueError, match=r"non-finite weight \S+ after step 2 of vint_pointgoal/model, not saved"):
+        train(["model=vint_pointgoal", f"data.root={data / 'expert'}", f"out_dir={tmp_path / 'o'}", "train.max_steps=2",
+               "data.num_workers=0", *SMALL])
+    assert not list((tmp_path / "o" / "model").glob("ckpt_*"))
+
+
 def test_nomad_neg_adopts_a_nomad_pointgoal_run_as_nomad_e(runs, data, tmp_path):
     """train.expert_from: NoMaD_e is the NoMaD-PointGoal run's checkpoint (not trained again),
     NoMaD_n is trained; a rerun keeps it; a run of another model is refused by name."""

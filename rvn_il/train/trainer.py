@@ -193,6 +193,17 @@ def check_finite(pending: list[tuple[int, torch.Tensor]], label: str) -> None:
         raise ValueError(f"non-finite loss at step {steps[finite.index(False)]} of {label}; lower train.lr or check the data")
 
 
+def check_weights(model: torch.nn.Module, step: int, label: str) -> None:
+    """A ValueError naming the first weight that is not finite (one host sync), before a checkpoint is written: a
+    step whose loss was finite can still overflow a gradient, and its checkpoint would become ``latest``, the one a
+    resume continues from, while the last good one is pruned two saves later."""
+    floats = [(k, v) for k, v in model.state_dict().items() if v.is_floating_point()]
+    finite = torch.stack([torch.isfinite(v).all() for _, v in floats]).tolist()
+    if not all(finite):
+        raise ValueError(f"non-finite weight {floats[finite.index(False)][0]} after step {step} of {label}, not saved "
+                         "(a gradient overflowed with a finite loss); lower train.lr or check the data")
+
+
 def train_loop(run: Optimisation, batches: Iterator[dict], stats: dict, validator, tcfg: Mapping, label: str,
                member_dir: Path, ids: tuple[int, int, int, int], device: torch.device) -> None:
     """Optimise until ``run.max_steps``: per-step seeds from ``[seed, index, rank, step]``, TensorBoard scalars,
@@ -244,6 +255,8 @@ def train_loop(run: Optimisation, batches: Iterator[dict], stats: dict, validato
                 bar.set_postfix(loss=f"{float(losses['loss'].detach()):.4f}")
             if validator is not None and (step % val_every == 0 or step >= max_steps):
                 validator(model, run.ema.shadow if run.ema is not None else None, step, writer)
+            if step % ckpt_every == 0 or step >= max_steps:
+                check_weights(model, step, label)  # every rank: their weights are the same, so all of them stop
             if rank == 0 and (step % ckpt_every == 0 or step >= max_steps):
                 state = {"step": step, "optimizer": run.opt.state_dict(), "scheduler": run.sched.state_dict(),
                          "ema": run.ema.state_dict() if run.ema is not None else None, "max_steps": max_steps}
