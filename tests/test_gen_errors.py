@@ -123,3 +123,19 @@ def test_a_dataset_records_how_its_scenes_were_read(tmp_path):
     assert json.loads((out / ".rvn" / "settings.json").read_text())["scenes"]["level"] is False
     assert "scenes" not in json.loads((out / "room_a_expert_0001" / "rvn_meta.json").read_text())["settings"]
     assert_clean(out)
+
+
+def test_the_writability_probe_leaves_another_shards_alone(tmp_path):
+    """Shards on other nodes write into one dataset and may share a process id: the probe was named by it alone, so one
+    shard could overwrite and remove another's probe, whose unlink then failed as 'cannot write there'."""
+    import os
+
+    from rvn_data.dataset.gnm_writer import GNMWriter
+    from rvn_data.dataset.settings import GenSettings
+
+    other = tmp_path / "o" / ".rvn" / f".probe{os.getpid()}"
+    other.parent.mkdir(parents=True)
+    other.write_bytes(b"another node's")
+    GNMWriter.open(tmp_path / "o", GenSettings())
+    assert other.read_bytes() == b"another node's"
+    assert sorted(p.name for p in other.parent.iterdir()) == [other.name, "settings.json"]

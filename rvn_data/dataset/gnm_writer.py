@@ -17,6 +17,7 @@ import json
 import os
 import re
 import shutil
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -49,9 +50,9 @@ class GNMWriter:
     def _check_writable(self) -> None:
         try:
             (self.out_dir / ".rvn").mkdir(parents=True, exist_ok=True)
-            probe = self.out_dir / ".rvn" / f".probe{os.getpid()}"
-            probe.write_bytes(b"")
-            probe.unlink()
+            fd, probe = tempfile.mkstemp(prefix=".probe", dir=self.out_dir / ".rvn")  # a name of its own: shards on
+            os.close(fd)                                                             # other nodes may share a pid
+            os.unlink(probe)
         except OSError as e:
             raise ValueError(f"out_dir={self.out_dir}: cannot write there ({e.strerror or e}); "
                              "choose a writable out_dir") from None
