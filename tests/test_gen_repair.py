@@ -86,6 +86,17 @@ def test_rerun_redoes_damaged_trajectories_with_the_same_bytes(made, tmp_path):
     assert again.returncode == 0 and " damaged (" not in again.stdout and again.stdout.count("done before") == 2
 
 
+def test_a_scene_record_left_empty_is_done_again(made, tmp_path):
+    """A node that crashes after the rename, before the disk has the data, can leave a scene's record empty: it failed
+    every rerun and every shard's splits (exit 2); the scene is now done again from its trajectories on disk."""
+    d = tmp_path / "d"
+    shutil.copytree(made, d)
+    (d / ".rvn" / "scenes" / "proc_train_0001.json").write_text("")
+    proc = run("rvn_data.gen.cli", f"out_dir={d}", *TINY)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert dataset_bytes(d) == dataset_bytes(made)
+
+
 @pytest.mark.parametrize("how", ["image deleted", "image truncated", "folder deleted", "pose file unreadable"])
 def test_train_refuses_a_damaged_dataset_naming_the_repair(made, tmp_path, how):
     d = damaged_copy(made, tmp_path / "d", how)

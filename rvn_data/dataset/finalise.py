@@ -28,7 +28,6 @@ leave it to the others (or to ``rvn-gen mode=merge``). Running it twice writes t
 """
 from __future__ import annotations
 
-import json
 import os
 import re
 import shutil
@@ -121,9 +120,9 @@ def finalise_dataset(out_dir: Path, settings: GenSettings, specs: list[str], all
     listed = [naming.scene_slug(spec) for spec in specs]
     records = {}
     for slug in listed:
-        path = writer.record_path(out_dir, slug)
-        if path.is_file():
-            records[slug] = json.loads(path.read_text())
+        record = writer.read_record(writer.record_path(out_dir, slug))
+        if record is not None:
+            records[slug] = record
     # the union with what is on disk: scenes done by earlier runs with other scene lists, folders
     # beyond a record (an earlier, larger trajectories_per_scene) and scenes begun but never finished
     earlier = _earlier_records(out_dir, set(listed))
@@ -201,8 +200,9 @@ def _earlier_records(out_dir: Path, listed: set[str]) -> dict[str, dict]:
         return {}
     out = {}
     for path in sorted(folder.glob("*.json")):
-        if not path.name.startswith(".") and path.stem not in listed:
-            out[path.stem] = json.loads(path.read_text())
+        record = writer.read_record(path) if not path.name.startswith(".") and path.stem not in listed else None
+        if record is not None:
+            out[path.stem] = record
     return out
 
 

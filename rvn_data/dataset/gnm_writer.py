@@ -93,8 +93,7 @@ class GNMWriter:
     # -- one scene ------------------------------------------------------------------------
     def scene_record(self, slug: str) -> dict | None:
         """The record of a scene already closed, or None."""
-        path = writer.record_path(self.out_dir, slug)
-        return json.loads(path.read_text()) if path.is_file() else None
+        return writer.read_record(writer.record_path(self.out_dir, slug))
 
     def check(self, name: str, frames: int | None = None) -> tuple[str | None, dict | None]:
         """(None, sidecar) of a whole trajectory folder; (None, None) when it is absent and no

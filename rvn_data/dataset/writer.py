@@ -52,6 +52,16 @@ def record_path(out_dir: Path, slug: str) -> Path:
     return Path(out_dir) / ".rvn" / "scenes" / f"{slug}.json"
 
 
+def read_record(path: Path) -> dict | None:
+    """A scene's record at ``path``; None where there is none, or it does not parse: a node that crashed after the
+    rename, before the disk had the data, can leave it empty (the scene is done again from the trajectories on disk,
+    as after an interrupted run, instead of failing every rerun and every shard's splits)."""
+    try:
+        return json.loads(Path(path).read_text())
+    except (FileNotFoundError, ValueError):  # UnicodeDecodeError and JSONDecodeError are ValueErrors
+        return None
+
+
 def dumps_json(obj: Any) -> str:
     """Stable JSON text (sorted keys, fixed float repr) for files compared byte for byte."""
     return json.dumps(obj, indent=1, sort_keys=True, allow_nan=False) + "\n"
