@@ -84,6 +84,57 @@ def test_thin_pillar_blocks_its_cells():
         assert nm.is_navigable(c + d * (0.015 * math.sqrt(2) + R + 0.02))
 
 
+def _box_distance(boxes, x, z):
+    """Distance from points (x, z) to the nearest of x/z boxes [(x0, x1, z0, z1), ...]: brute force."""
+    d = np.full(np.shape(x), np.inf)
+    for x0, x1, z0, z1 in boxes:
+        dx, dz = np.maximum(np.maximum(x0 - x, x - x1), 0), np.maximum(np.maximum(z0 - z, z - z1), 0)
+        d = np.minimum(d, np.hypot(dx, dz))
+    return d
+
+
+def test_thin_posts_keep_the_agent_radius():
+    """Two 7 mm posts: the cell whose centre is nearest a point is not always the cell whose box is (the
+    clearance was once the distance to that cell's box and its 8 neighbours', up to 5 cm too large here:
+    cells 0.175 m and points 0.142 m from a post counted navigable). Navigable cell centres keep the
+    agent radius from every box, navigable points (bilinear clearance) within 3 mm of it."""
+    posts = [((2.242, 0, 2.02), (2.249, 2.5, 2.03)), ((2.201, 0, 2.052), (2.208, 2.5, 2.059))]
+    nm = NavMesh.build(box_scene(room_boxes() + posts, "posts"))
+    boxes = [(0, 4, -1, 0), (0, 4, 4, 5), (-1, 0, 0, 4), (4, 5, 0, 4)] + [(a[0], b[0], a[2], b[2]) for a, b in posts]
+    g = nm.grid(0)
+    centres = g.grid_to_world(np.argwhere(g.navigable))
+    assert _box_distance(boxes, centres[:, 0], centres[:, 2]).min() >= R - 1e-4
+    x, z = np.meshgrid(np.arange(1.8, 2.65, 0.004), np.arange(1.6, 2.5, 0.004))
+    pts = np.stack([x.ravel(), np.zeros(x.size), z.ravel()], 1)
+    near = _box_distance(boxes, pts[:, 0], pts[:, 2])
+    nav = nm.is_navigable(pts)
+    assert near[nav].min() >= R - 0.003
+    assert nav[near > R + 0.01].all()  # and no more than that is eroded
+
+
+def test_clearance_is_the_distance_to_the_nearest_box(rng):
+    """`_clearance` against the brute-force minimum over every obstacle box (thin and whole boxes clipped
+    into random cells, some dense, some sparse), below its reach exactly, beyond it within sqrt(2) cells."""
+    from rvn_data.navmesh.build import _clearance
+
+    cs, x0, z0 = 0.05, 0.3, -1.2
+    for density in (0.001, 0.01, 0.05, 0.3):
+        rows, cols = 40, 60
+        box = np.full((rows, cols, 4), np.nan, np.float32)
+        r, c = np.nonzero(rng.random((rows, cols)) < density)
+        lo, hi = np.sort(rng.random((2, len(r), 2)), axis=0)
+        thin = rng.random(len(r)) < 0.7
+        hi[thin] = lo[thin] + 0.15 * rng.random((thin.sum(), 2))
+        box[r, c] = np.stack([x0 + (c + lo[:, 0]) * cs, x0 + (c + hi[:, 0]) * cs,
+                              z0 + (r + lo[:, 1]) * cs, z0 + (r + hi[:, 1]) * cs], 1)
+        xc, zc = x0 + (np.arange(cols) + 0.5) * cs, z0 + (np.arange(rows) + 0.5) * cs
+        ref = _box_distance(box[r, c].astype(np.float64), xc[None, :], zc[:, None])
+        for chunk in (1 << 20, 50):
+            got = _clearance(box, xc, zc, cs, 0.6, chunk=chunk)
+            assert np.array_equal(got[ref < 0.6], ref[ref < 0.6]), density
+            assert (got >= ref).all() and (got <= ref + math.sqrt(2) * cs + 1e-9).all()
+
+
 def test_geodesic_detour_around_wall():
     wall = [((1.95, 0, 0), (2.05, 2.5, 3.0))]  # from the z = 0 wall up to z = 3, 1 m gap
     nm = NavMesh.build(box_scene(room_boxes() + wall))

@@ -133,10 +133,15 @@ def test_apartments_form_one_connected_navigable_floor():
         nav = NavMesh.build(scene, NavMeshSettings())
         areas = nav.island_areas
         assert areas[0] >= 15.0 and areas[0] >= 0.85 * sum(areas), (scene.scene_id, areas)
-        field = nav.distance_field(nav.sample(rng))
-        d = [field.distance(nav.sample(rng)) for _ in range(30)]
+        points = [nav.sample(rng) for _ in range(31)]
+        field = nav.distance_field(points[0])
+        d = [field.distance(p) for p in points[1:]]
         assert all(np.isfinite(d)), (scene.scene_id, d)  # island 0 is one connected floor
-        assert sum(4.0 <= x <= 8.0 for x in d) >= 3, (scene.scene_id, d)
+        # goals 4-8 m apart fit: from the first point and from the one farthest from it (the flat's far end), 60
+        # distances (from the first alone, 1 to 25 of 30 over seeds 0-7: a source near the middle of a long flat)
+        far = nav.distance_field(points[1 + int(np.argmax(d))])
+        d += [far.distance(p) for p in points[1:]]
+        assert sum(4.0 <= x <= 8.0 for x in d) >= 4, (scene.scene_id, d)  # 5-33 over seeds 0-5
         # Tables, beds and sofas block the floor under them for the 1.0 m robot; so do the
         # thin obstacles (>= 4 cm poles and pillars).
         info = describe_apartment(split, i)

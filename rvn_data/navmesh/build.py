@@ -1,15 +1,19 @@
 """Build the navigation mesh layers of a scene: rasterise, surfaces, regions, erosion, islands.
 
-Erosion is exact to sub-cell accuracy (up to 1 m away from edges between unlinked surfaces
-of one layer, the clearance is not computed further): each cell stores the x/z box of the obstacle
-geometry clipped into it, `scipy.ndimage.distance_transform_edt` finds the nearest obstacle
-cell and the clearance is the distance from the cell centre to that box (and to the boxes
-of the 8 neighbours). A cell is navigable when its clearance is at least the agent radius.
+Erosion is exact to sub-cell accuracy: each cell stores the x/z box of the obstacle geometry
+clipped into it, and the clearance of a cell is the distance from its centre to the nearest box
+(`_clearance`: the box of the nearest obstacle cell by `scipy.ndimage.distance_transform_edt`,
+then the boxes of the cells a nearer one can lie in), and to the nearest edge between unlinked
+surfaces of the layer (`edge_clearance`). Both are exact up to max(1 m, 2 x agent radius); farther
+away, the first may be up to sqrt(2) cell sizes too large and the second is not computed.
+A cell is navigable when its clearance is at least the agent radius.
 Island areas integrate the sub-cell coverage clip((clearance - r)/cs + 1/2, 0, 1).
 `navmesh.profile=habitat` swaps the heightfield and the erosion for Recast's
 (`recast_profile`); surfaces, layers, seams and islands are shared.
 """
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from scipy import ndimage
@@ -36,26 +40,64 @@ def _components(n: int, pairs: np.ndarray) -> np.ndarray:
     return connected_components(g, directed=False)[1]
 
 
-def _clearance(box: np.ndarray, xc: np.ndarray, zc: np.ndarray) -> np.ndarray:
-    """Distance (m) from each cell centre to the nearest obstacle box."""
-    def bdist(b):
-        dx = np.maximum(np.maximum(b[..., 0] - xc, xc - b[..., 1]), 0.0)
-        dz = np.maximum(np.maximum(b[..., 2] - zc, zc - b[..., 3]), 0.0)
-        d = np.hypot(dx, dz)
-        return np.where(np.isnan(d), np.inf, d)
+def _box_distance(b: np.ndarray, x: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Distance (m) from points (x, z) to x/z boxes b [..., 4] = (x0, x1, z0, z1); inf for a NaN box."""
+    dx = np.maximum(np.maximum(b[..., 0] - x, x - b[..., 1]), 0.0)
+    dz = np.maximum(np.maximum(b[..., 2] - z, z - b[..., 3]), 0.0)
+    d = np.hypot(dx, dz)
+    return np.where(np.isnan(d), np.inf, d)
 
+
+def _clearance(box: np.ndarray, xc: np.ndarray, zc: np.ndarray, cs: float, reach: float,
+               chunk: int = 1 << 20) -> np.ndarray:
+    """Distance (m) from each cell centre (xc [cols], zc [rows]) to the nearest obstacle box: exact
+    wherever it is below `reach` m, beyond that an upper bound at most sqrt(2)·cs too large.
+
+    The box of the obstacle cell whose centre is nearest (distance transform: `near` cells away)
+    bounds the clearance from above (`est`), but the box of a cell whose centre is a little farther
+    can be nearer (thin posts, slanted walls). A box lies within its cell, so a nearer one belongs
+    to an obstacle cell whose centre is `near` to est/cs + 1/sqrt(2) cells away: each cell whose
+    clearance can be below `reach` (near - 1/sqrt(2) < reach/cs) measures the boxes of that
+    annulus of cell offsets, `chunk` (cell, offset) pairs at a time."""
     obstacle = ~np.isnan(box[..., 0])
     if not obstacle.any():
         return np.full(box.shape[:2], np.inf)
-    _, (ii, jj) = ndimage.distance_transform_edt(~obstacle, return_indices=True)
-    dist = bdist(box[ii, jj].astype(np.float64))
-    pad = np.pad(box.astype(np.float64), ((1, 1), (1, 1), (0, 0)), constant_values=np.nan)
-    rows, cols = box.shape[:2]
-    for di in (-1, 0, 1):
-        for dj in (-1, 0, 1):
-            if di or dj:
-                dist = np.minimum(dist, bdist(pad[1 + di:1 + di + rows, 1 + dj:1 + dj + cols]))
-    return dist
+    near, (ii, jj) = ndimage.distance_transform_edt(~obstacle, return_indices=True)
+    est = _box_distance(box[ii, jj].astype(np.float64), xc[None, :], zc[:, None])
+    half = math.sqrt(0.5)
+    qi, qj = np.nonzero((near - half < reach / cs) & (est > 0))
+    if len(qi) == 0:
+        return est
+    # each cell's annulus, in cells, 1e-3 wider each side: a float32 box may overhang its cell by a few µm
+    lo, hi = near[qi, qj] - 1e-3, est[qi, qj] / cs + half + 1e-3
+    # the offsets of the widest annulus, nearest first (a cell's annulus: offsets first:stop), as steps
+    # in the flat index of the boxes padded by w NaN cells; int32 indices, twice as fast as int64
+    w = int(np.ceil(hi.max()))
+    cols = box.shape[1] + 2 * w
+    di, dj = (a.ravel() for a in np.mgrid[-w:w + 1, -w:w + 1])
+    length = np.hypot(di, dj)
+    order = np.argsort(length, kind="stable")
+    step, length = (di * cols + dj)[order].astype(np.int32), length[order]
+    first = np.searchsorted(length, lo).astype(np.int32)
+    count = np.searchsorted(length, hi, side="right").astype(np.int32) - first
+    flat_box = np.pad(box.astype(np.float64), ((w, w), (w, w), (0, 0)), constant_values=np.nan).reshape(-1, 4)
+    flat_obstacle = np.pad(obstacle, w).ravel()
+    at = ((qi + w) * cols + qj + w).astype(np.int32)
+    xq, zq, best = xc[qj], zc[qi], est[qi, qj]
+    bounds = np.searchsorted(np.cumsum(count, dtype=np.int64), np.arange(chunk, count.sum(dtype=np.int64), chunk))
+    for part in np.split(np.arange(len(qi), dtype=np.int32), np.unique(bounds)):
+        n = count[part]
+        q = np.repeat(part, n)  # (cell, offset) pairs, grouped by cell
+        k = np.repeat(first[part] - (np.cumsum(n, dtype=np.int32) - n), n) + np.arange(n.sum(), dtype=np.int32)
+        cell = at[q] + step[k]
+        hit = flat_obstacle[cell]
+        q, cell = q[hit], cell[hit]
+        if len(q):
+            d = _box_distance(flat_box[cell], xq[q], zq[q])
+            start = np.flatnonzero(np.r_[True, q[1:] != q[:-1]])
+            best[q[start]] = np.minimum(best[q[start]], np.minimum.reduceat(d, start))
+    est[qi, qj] = best
+    return est
 
 
 def _layer(hf: Heightfield, rid, region, surf, nbr, seams, keep, st: NavMeshSettings, climb, hcells,
@@ -92,9 +134,9 @@ def _layer(hf: Heightfield, rid, region, surf, nbr, seams, keep, st: NavMeshSett
                                nbr, climb, hcells, hf.x0, hf.z0, hf.cs)
     xc = hf.x0 + (c0 + np.arange(lsurf.shape[1]) + 0.5) * hf.cs
     zc = hf.z0 + (r0 + np.arange(lsurf.shape[0]) + 0.5) * hf.cs
-    clearance = _clearance(box, xc[None, :], zc[:, None])
+    window = int(np.ceil(max(1.0, 2 * st.agent_radius) / st.cell_size))  # cells: the clearance is exact that far
+    clearance = _clearance(box, xc, zc, hf.cs, window * hf.cs)
     if not np.isnan(edge[..., 0]).all():
-        window = int(np.ceil(max(1.0, 2 * st.agent_radius) / st.cell_size))
         clearance = np.minimum(clearance, edge_clearance(edge, lsurf, height, xc, zc, window, hcells))
     hgt = np.where(is_own, hf.y0 + height[np.maximum(lsurf, 0)] * hf.ch, np.nan)
     return int(r0), int(c0), lsurf, is_own, hgt, clearance
