@@ -148,6 +148,21 @@ def test_source_setting_and_checks(wall_glb, tmp_path):
         open_navmesh(scene, NavMeshSettings(source="auto", file=str(tmp_path / "hand.navmesh")))
     with pytest.warns(UserWarning, match="agent radius of 0.180 m, the settings say 0.25"):
         load_navmesh_file(path, NavMeshSettings(source="file", agent_radius=0.25))
+    # a scan levelled on load (scenes.level) leaves the .navmesh beside it in the file's frame: built under auto,
+    # refused under file (a tilt within the bounds check's slack was read, its floor beside the scene's)
+    tilted = tmp_path / "tilted" / "wall.glb"
+    tilted.parent.mkdir()
+    mesh = trimesh.load(wall_glb, force="mesh")
+    mesh.apply_transform(trimesh.transformations.rotation_matrix(math.radians(4), [1, 0, 0], point=[2, 0, 2]))
+    mesh.export(tilted)
+    assert main(["navmesh", str(tilted), "-o", str(tilted.with_suffix(".navmesh"))]) == 0
+    with pytest.warns(UserWarning, match="its floor is tilted 4.0 deg"):
+        _, beside = open_scene(str(tilted), {}, NavMeshSettings(source="auto"))
+    assert beside.source_file == str(tilted.with_suffix(".navmesh"))
+    scene, nm = open_scene(str(tilted), {"level": True}, NavMeshSettings(source="auto"))
+    assert scene.levelled and nm.source_file is None
+    with pytest.raises(ValueError, match="navmesh.source=file: scenes.level=true rotated scene 'wall'"):
+        open_scene(str(tilted), {"level": True}, NavMeshSettings(source="file"))
 
 
 @pytest.fixture(scope="module")

@@ -33,8 +33,15 @@ def navmesh_beside(scene_source: str) -> Path | None:
 
 
 def navmesh_path(scene, settings: NavMeshSettings) -> Path | None:
-    """The file the navmesh is read from under these settings, or None when it is built."""
+    """The file the navmesh is read from under these settings, or None when it is built. A scene levelled on load
+    (scenes.level) is built under ``auto`` and refused under ``file``: a .navmesh lies in the file's frame (its bounds
+    check let a tilt of a few degrees through, the floor then beside the scene's)."""
     if settings.source == "build":
+        return None
+    if getattr(scene, "levelled", False):
+        if settings.source == "file":
+            raise ValueError(f"navmesh.source=file: scenes.level=true rotated scene {scene.scene_id!r} to level its "
+                             "floor, and a .navmesh file does not follow the rotation; use navmesh.source=build")
         return None
     if settings.file:
         path = Path(settings.file).expanduser()

@@ -176,4 +176,5 @@ def load_mesh_file(path: str | Path, up_axis: str = "y", unit_scale: float = 1.0
         R = _level_rotation(v.astype(np.float64), f)
         for p in scene.parts:
             p.vertices = np.ascontiguousarray(p.vertices.astype(np.float64) @ R.T, dtype=np.float32)
+        scene.levelled = bool(np.abs(R - np.eye(3)).max() > 1e-12)
     return scene

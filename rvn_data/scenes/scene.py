@@ -52,6 +52,7 @@ class Scene:
     scene_id: str
     parts: list[Part] = field(default_factory=list)
     source: str = ""  # where it came from (a path, or the generator's name)
+    levelled: bool = False  # rotated on load to level its floor (scenes.level): a .navmesh beside it does not follow
 
     def triangles(self) -> tuple[np.ndarray, np.ndarray]:
         """All geometry joined: (vertices float32 [N, 3], faces int32 [M, 3])."""
