@@ -135,6 +135,18 @@ def test_clearance_is_the_distance_to_the_nearest_box(rng):
             assert (got >= ref).all() and (got <= ref + math.sqrt(2) * cs + 1e-9).all()
 
 
+def test_snap_keeps_a_point_on_its_own_floor():
+    """A ground-floor point off the navmesh (in a ground obstacle) under an upper storey snaps to the ground floor
+    0.68 m away, not to the storey 2.4 m above whose edge is horizontally nearer: 3-D distance, as Detour's
+    findNearestPoly (it ranked by horizontal distance; `Simulator.reset` then put the robot upstairs)."""
+    boxes = room_boxes(8.0, 4.0, height=5.0)
+    boxes += [((1.0 + 0.25 * k, 0, 0), (1.25 + 0.25 * k, 0.15 * (k + 1), 1.2)) for k in range(16)]  # stairs
+    boxes += [((5.0, 2.3, 0), (8.0, 2.4, 4.0)), ((6.0, 0.0, 1.5), (7.0, 1.0, 2.5))]  # the storey, a box under it
+    nm = NavMesh.build(box_scene(boxes, "two-storey"))
+    snapped = nm.snap(np.array([6.5, 0.0, 2.0]))
+    assert snapped[1] == pytest.approx(0.0, abs=0.05) and nm.is_navigable(snapped)
+
+
 def test_geodesic_detour_around_wall():
     wall = [((1.95, 0, 0), (2.05, 2.5, 3.0))]  # from the z = 0 wall up to z = 3, 1 m gap
     nm = NavMesh.build(box_scene(room_boxes() + wall))

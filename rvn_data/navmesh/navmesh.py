@@ -125,8 +125,8 @@ class NavMesh:
                 nrc = np.array([ii[rc[0], rc[1]], jj[rc[0], rc[1]]])
             c = g.grid_to_world(nrc)
             horiz, dy = math.hypot(c[0] - p[0], c[2] - p[2]), abs(c[1] - p[1])
-            if horiz <= SNAP_EXTENT + g.cs and dy <= 4.0 and horiz + 1e-3 * dy < bestd:
-                best, bestd = c, horiz + 1e-3 * dy
+            if horiz <= SNAP_EXTENT + g.cs and dy <= 4.0 and math.hypot(horiz, dy) < bestd:  # 3-D, as Detour's
+                best, bestd = c, math.hypot(horiz, dy)  # findNearestPoly: not the floor above, horizontally nearer
         if best is None:
             return np.full(3, np.nan)
         d = np.array([p[0] - best[0], p[2] - best[2]])
