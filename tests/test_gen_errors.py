@@ -102,8 +102,9 @@ def test_scene_that_fails_to_load_in_a_multi_scene_run(tmp_path):
 
 def test_a_dataset_records_how_its_scenes_were_read(tmp_path):
     """scenes.up_axis / unit_scale / level make another scene of the same mesh: a rerun into the dataset with other
-    values is refused naming the setting (it was taken, and its trajectories mixed with the others'). A dataset recorded
-    before them cannot say, takes the run's and records them; trajectories record them where not the defaults."""
+    values is refused naming the setting (it was taken, and its trajectories mixed with the others'); trajectories
+    record them where not the defaults. A dataset begun by code that makes other trajectories from the same settings
+    (rvn_data.dataset.settings.DATASET_VERSION; a record without one: version 1) is not resumed either."""
     scenes = tmp_path / "scenes"
     scenes.mkdir()
     room_glb(scenes / "room_a.glb")
@@ -117,11 +118,14 @@ def test_a_dataset_records_how_its_scenes_were_read(tmp_path):
     proc = rvn_gen(*common, "trajectories_per_scene=2")
     line = proc.stderr.strip().splitlines()[-1]
     assert proc.returncode == 2 and "was made with scenes.level=True but this run uses scenes.level=False" in line, line
-    del settings["scenes"]  # as rvn-gen wrote it before
+    assert rvn_gen(*common, "scenes.level=true", "trajectories_per_scene=2").returncode == 0  # the same: resumed
+    assert len(list(out.glob("room_a_expert_*"))) == 2
+    del settings["scenes"], settings["dataset_version"]  # as rvn-gen wrote it before this session
     (out / ".rvn" / "settings.json").write_text(json.dumps(settings))
-    assert rvn_gen(*common, "trajectories_per_scene=2").returncode == 0
-    assert json.loads((out / ".rvn" / "settings.json").read_text())["scenes"]["level"] is False
-    assert "scenes" not in json.loads((out / "room_a_expert_0001" / "rvn_meta.json").read_text())["settings"]
+    proc = rvn_gen(*common, "scenes.level=true", "trajectories_per_scene=3")
+    line = proc.stderr.strip().splitlines()[-1]
+    assert proc.returncode == 2 and "holds a dataset of rvn-gen's dataset version 1" in line and "makes version 2" in line
+    assert len(list(out.glob("room_a_expert_*"))) == 2
     assert_clean(out)
 
 

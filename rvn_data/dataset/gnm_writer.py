@@ -25,7 +25,7 @@ import numpy as np
 from rvn_data.dataset import finalise as _finalise
 from rvn_data.dataset import writer
 from rvn_data.dataset.reader import is_complete
-from rvn_data.dataset.settings import DatasetConfig, GenSettings
+from rvn_data.dataset.settings import DATASET_VERSION, DatasetConfig, GenSettings
 from rvn_data.dataset.verify import MISSING, Expect, check_trajectory
 from rvn_data.identity import check_identity, differences
 
@@ -59,18 +59,19 @@ class GNMWriter:
 
     def _check_identity(self) -> None:
         path = self.out_dir / ".rvn" / "settings.json"
-        mine = {**self.settings.identity(), "scenes": self.settings.scenes}
+        mine = {**self.settings.identity(), "scenes": self.settings.scenes, "dataset_version": DATASET_VERSION}
         if path.is_file() and self._holds_work():
             stored, wanted = json.loads(path.read_text()), json.loads(writer.dumps_json(mine))
-            adopted = "scenes" not in stored  # recorded before the scene loading options were: it cannot say
-            if adopted:
-                stored = {**stored, "scenes": wanted["scenes"]}
+            made_by = stored.get("dataset_version", 1)
+            if made_by != DATASET_VERSION:
+                raise ValueError(f"out_dir={self.out_dir} holds a dataset of rvn-gen's dataset version {made_by} "
+                                 f"({path}); this code makes version {DATASET_VERSION}, whose trajectories differ "
+                                 "(rvn_data/dataset/settings.py says how): generate into another out_dir, or resume, "
+                                 "extend or repair it with the code that began it")
             check_identity(path, stored, wanted, f"out_dir={self.out_dir} holds a dataset:",
                            f"use another out_dir (e.g. out_dir={self._other_dir(stored, wanted)}), "
                            "or the same settings to resume or extend it",
                            name=lambda k: k if k.split(".")[0] in SETTING_GROUPS else f"dataset.{k}")
-            if adopted:
-                writer.write_text_atomic(path, writer.dumps_json(mine))
             return
         writer.write_text_atomic(path, writer.dumps_json(mine))  # new, or nothing made yet: this run's settings
 

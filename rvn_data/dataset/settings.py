@@ -95,6 +95,12 @@ class DatasetConfig:
 
 
 
+# What a dataset's trajectories depend on beyond its settings, recorded in .rvn/settings.json: bump when the same
+# settings make other trajectories, so a dataset begun by other code is not resumed, extended or repaired with this
+# one's. 2: the navmesh's clearance exact near thin obstacles and corners (7001f36: the expert's occupancy grid and
+# the simulator's edges move by up to a cell). 1: a record without it.
+DATASET_VERSION = 2
+
 # how a scene's mesh is read (rvn_data.scenes.sets.ScenesConfig), at its defaults: a trajectory's bytes depend on them
 # (a scan read z-up or y-up is another scene); .rvn/settings.json records them, a trajectory's record where not these
 SCENE_LOADING = {"up_axis": "y", "unit_scale": 1.0, "level": False}
