@@ -211,9 +211,11 @@ def _loop(run: Run, envs, log: RunLog, cfg: RLConfig, d: Dist, device, out_dir: 
     try:
         while True:
             sums = episode_sums(episodes)
-            if run.lagrange is not None and sums[0] > 0:  # a step of lambda on the J_c of this rollout's episodes (none
-                run.ep_cost = float(sums[6] / sums[0])     # ended: no measure, no step; Adam's step is ~lr whatever
-                run.lagrange.update(run.ep_cost)           # the gradient, so a J_c of 0 or the last one is not neutral)
+            # lambda steps on the J_c of this rollout's episodes; none ended: no measure, no step (Adam's step is ~lr
+            # whatever the gradient, so stepping on a J_c of 0 or on the last one again is not neutral)
+            if run.lagrange is not None and sums[0] > 0:
+                run.ep_cost = float(sums[6] / sums[0])
+                run.lagrange.update(run.ep_cost)
             policy.train()
             more = run.env_steps + delta < total  # another rollout after this update
             overlapped = more and len(buffers) == 2  # train.overlap: that rollout collected while this update runs
