@@ -49,7 +49,7 @@ class Simulator:
         P, st = navmesh.packed, navmesh.settings
         self._args = (P.meta, P.height, P.clearance, P.island, P.x0, P.z0, P.cs)
         self._r = st.agent_radius
-        self._tol = st.max_climb + st.cell_height
+        self._tol = st.step_tolerance
         self._step = 0.2 * st.cell_size
         self.position = np.full(3, np.nan)
         self.yaw = 0.0

@@ -95,3 +95,23 @@ def test_rvn_scene_info_profile(capsys):
     hab = json.loads(capsys.readouterr().out)
     assert hab["navmesh"]["profile"] == "habitat" and "profile" not in rvn["navmesh"]
     assert 0.7 < hab["islands"][0] / rvn["islands"][0] < 1.0
+
+
+def test_the_habitat_profile_drives_where_its_navmesh_links():
+    """Recast links surfaces whose heights, rounded to 0.2 m voxels, are within its climb: a 0.25 m platform joins the
+    floor under the habitat profile (one island, a finite geodesic), and the agent drives up it as habitat-sim's would
+    along the polygons (it stopped at the edge, colliding at every step, the simulator allowing max_climb + a cell).
+    The rvn profile keeps the platform apart, as before."""
+    from rvn_data.conventions import Action
+    from rvn_data.sim import Simulator
+
+    boxes = room_boxes(6.0, 4.0) + [((3.0, 0, 0), (6.0, 0.25, 4.0))]
+    a, b = np.array([1.5, 0, 2.0]), np.array([4.5, 0.25, 2.0])
+    for profile, islands, reached in (("habitat", 1, True), ("rvn", 2, False)):
+        nm = NavMesh.build(box_scene(boxes, "platform"), NavMeshSettings(profile=profile))
+        assert nm.num_islands == islands and np.isfinite(nm.geodesic_distance(a, b)) == reached
+        sim = Simulator(nm)
+        sim.reset(a, 0.0)
+        collided = [sim.step(Action.MOVE_FORWARD).collided for _ in range(12)]
+        assert (sim.position[0] == pytest.approx(4.5) and sim.position[1] == pytest.approx(0.25) and not any(collided)) \
+            == reached, (profile, sim.position, collided)

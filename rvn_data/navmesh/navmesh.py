@@ -181,7 +181,7 @@ class NavMesh:
     # ------------------------------------------------------------ motion and geodesics
     def _march(self, start: np.ndarray, direction: np.ndarray, length: float, tol: float | None = None):
         P, st = self.packed, self.settings
-        tol = st.max_climb + st.cell_height if tol is None else tol
+        tol = st.step_tolerance if tol is None else tol
         return K.march(P.meta, P.height, P.clearance, P.island, P.x0, P.z0, P.cs, float(start[0]),
                        float(start[1]), float(start[2]), float(direction[0]), float(direction[1]),
                        float(length), st.agent_radius, tol, 0.2 * st.cell_size)
@@ -191,13 +191,15 @@ class NavMesh:
         d = np.array([b[0] - a[0], b[2] - a[2]])
         length = float(np.hypot(*d))
         if length < 1e-12:
-            return abs(a[1] - b[1]) <= self.settings.max_climb + self.settings.cell_height
+            return abs(a[1] - b[1]) <= self.settings.step_tolerance
         t, y = self._march(a, d / length, length)
-        return t >= length - 1e-6 and abs(y - b[1]) <= self.settings.max_climb + self.settings.cell_height
+        return t >= length - 1e-6 and abs(y - b[1]) <= self.settings.step_tolerance
 
     def _ensure_graph(self):
         if self._graph is None:
-            graph, node_of = build_graph(self.layers, self.offsets, self.links, self.settings.max_climb)
+            st = self.settings  # a move's rise: max_climb a cell; under the habitat profile, what Recast links
+            graph, node_of = build_graph(self.layers, self.offsets, self.links,
+                                         st.step_tolerance if st.profile == "habitat" else st.max_climb)
             self._graph = (graph, node_of, node_centres(self.layers, node_of, self.offsets),
                            node_cells(self.layers, node_of, self.offsets))
         return self._graph
@@ -300,7 +302,7 @@ class NavMesh:
         pts = np.concatenate([a[None], centres[chain], b[None]])
         P, st = self.packed, self.settings
         args = (P.meta, P.height, P.clearance, P.island, P.x0, P.z0, P.cs)
-        tol, step = st.max_climb + st.cell_height, 0.2 * st.cell_size
+        tol, step = st.step_tolerance, 0.2 * st.cell_size
         pts = pts[K.string_pull(*args, pts, st.agent_radius, tol, step)]
         if len(pts) > 2:  # tighten the corners, then drop vertices made redundant
             pts = K.relax_path(*args, pts, st.agent_radius, tol, step, 12)

@@ -98,6 +98,18 @@ class NavMeshSettings:
                           and k not in TEXT else v)
                       for k, v in values.items()})
 
+    @property
+    def step_tolerance(self) -> float:
+        """The largest rise or drop between neighbouring points of a surface that the agent moves across (m): max_climb
+        and the surface heights' resolution. Under the habitat profile, what Recast links: surfaces whose heights,
+        rounded to its 0.2 m voxels, differ by floor(max_climb / 0.2) voxels, truly up to a voxel more (its navmesh
+        joined a 0.25 m platform to the floor, and the agent stopped at its edge)."""
+        if self.profile == "habitat":
+            from rvn_data.navmesh.recast_profile import HABITAT_CELL_HEIGHT, recast_voxels
+
+            return (recast_voxels(self)[0] + 1) * HABITAT_CELL_HEIGHT
+        return self.max_climb + self.cell_height
+
     def to_dict(self) -> dict[str, float]:
         return recorded(asdict(self))
 
