@@ -154,3 +154,30 @@ def test_damage_outside_the_scene_list_is_left_out_of_the_splits(made, tmp_path)
     assert name not in splits(d) and len(splits(d)) == 3
     assert run("rvn_data.gen.cli", f"out_dir={d}", *TINY).returncode == 0
     assert dataset_bytes(d) == dataset_bytes(made)
+
+
+def test_shards_finalise_in_turn(made, tmp_path):
+    """Shards that finish at once take turns writing the splits and manifest (a lock on .rvn/finalise.lock): side by
+    side, one's train list could stand beside another's test list. While another holds the lock, finalising waits."""
+    import fcntl
+    import threading
+
+    from rvn_data.dataset.finalise import finalise_dataset
+    from rvn_data.dataset.settings import GenSettings
+    from rvn_data.render.camera import CameraConfig
+
+    d = tmp_path / "d"
+    shutil.copytree(made, d)
+    (d / "manifest.json").unlink()
+    settings = GenSettings(save_depth=True, depth_size=4, camera=CameraConfig(width=32, height=32))
+    done = []
+    fd = os.open(d / ".rvn" / "finalise.lock", os.O_RDWR | os.O_CREAT)
+    fcntl.flock(fd, fcntl.LOCK_EX)  # another shard finalising
+    worker = threading.Thread(target=lambda: done.append(finalise_dataset(d, settings, ["procedural:train/0",
+                                                                                      "procedural:train/1"])))
+    worker.start()
+    worker.join(timeout=1.0)
+    assert worker.is_alive() and not (d / "manifest.json").exists()  # it waits its turn
+    os.close(fd)
+    worker.join(timeout=60)
+    assert done and done[0].written and dataset_bytes(d) == dataset_bytes(made)

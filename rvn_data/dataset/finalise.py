@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rvn_data.cache_root import build_lock
 from rvn_data.dataset import naming, writer
 from rvn_data.dataset.reader import is_complete, read_meta
 from rvn_data.dataset.settings import GenSettings
@@ -111,8 +112,15 @@ def finalise(out_dir: Path, settings: GenSettings, specs: list[str], allow_missi
 
 def finalise_dataset(out_dir: Path, settings: GenSettings, specs: list[str], allow_missing: bool = False) -> Finalised:
     """`finalise` with a report: the splits and manifest cover the union of the scenes of
-    `specs` and every complete trajectory of this dataset already on disk (module docstring)."""
-    out_dir = Path(out_dir)
+    `specs` and every complete trajectory of this dataset already on disk (module docstring). Shards that finish at
+    once take turns (a lock on ``.rvn/finalise.lock``, where the file system has ``flock``): each writes the train
+    list, test list and manifest of what is on disk then, together (side by side, one's train list could stand
+    beside another's test list, and their removals of the GNM caches collided)."""
+    with build_lock(Path(out_dir) / ".rvn" / "finalise"):
+        return _finalise_dataset(Path(out_dir), settings, specs, allow_missing)
+
+
+def _finalise_dataset(out_dir: Path, settings: GenSettings, specs: list[str], allow_missing: bool) -> Finalised:
     missing = missing_scenes(out_dir, specs)
     if missing and not allow_missing:
         return Finalised(missing)
