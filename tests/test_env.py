@@ -209,6 +209,36 @@ def test_train_mode_switches_scene_after_a_step_budget(tmp_path):
         make_env(tmp_path, mode="train", scene_switch_steps=-1)
 
 
+def test_train_mode_with_both_switch_rules_counts_each_visit_afresh(tmp_path):
+    """scene_switch_every=N with scene_switch_steps=S: a scene is drawn after N episodes of the visit or at the first
+    reset after its step budget, whichever comes first, both counts starting again at each switch, as Habitat's
+    episode iterator. The episode count ran from the seeded reset, so after a switch by steps the next scene could be
+    left after fewer than N episodes."""
+    kw = dict(mode="train", split="val", scene_specs=[f"procedural:val/{i}" for i in range(3)], scene_switch_every=3,
+              scene_switch_steps=25, episodes={"n_goals": 2})
+    e, draws = make_env(tmp_path, **kw), []
+    real = e._draw_scene
+    e._draw_scene = lambda: (draws.append(1), real())[1]
+    rng = np.random.default_rng(0)
+    e.reset(seed=5)
+    steps = episodes = 0
+    budget, by = e._scene_budget, {"steps": 0, "episodes": 0}
+    for _ in range(900):
+        *_, terminated, truncated, _ = e.step(int(rng.choice([0, 1, 1, 2, 3])))
+        steps += 1
+        if terminated or truncated:
+            episodes, n = episodes + 1, len(draws)
+            e.reset()
+            drawn = len(draws) > n
+            assert drawn == (episodes >= 3 or steps >= budget), (episodes, steps, budget)
+            if drawn:
+                by["episodes" if episodes >= 3 and steps < budget else "steps"] += 1
+                steps = episodes = 0
+                budget = e._scene_budget
+    e.close()
+    assert by["steps"] >= 3 and by["episodes"] >= 3, by  # both rules switched, after each other
+
+
 def test_train_goals_from_the_scene_pool(tmp_path):
     """goal_pool=G: every train goal is one of the scene's G pool points, 4-8 m from where
     it is given, its field equal to a fresh solve; the pool is a function of the scene alone."""

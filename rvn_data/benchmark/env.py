@@ -75,6 +75,7 @@ class RVNEnv(gym.Env):
         self._schedule = eval_schedule(self._slots, self.config.per_scene) if self.config.mode == "eval" else []
         self._cursor = 0
         self._resets = 0
+        self._visit_resets = 0  # train mode: resets in the current scene's visit
         self._scene_steps = self._scene_budget = 0  # train mode: steps in this scene's visit, and the visit's budget
         self._scene_rng = None
         self._episode = None
@@ -166,11 +167,14 @@ class RVNEnv(gym.Env):
             pos = int(options["scene"]) % len(self._slots)
         else:
             pos = self._draw_scene() if drawn else self._scene.pos
-        if drawn and c.scene_switch_steps:  # a new visit and its step budget, within +-SCENE_STEPS_RANGE
+        if drawn:  # a new visit: its reset count and step budget (within +-SCENE_STEPS_RANGE) start again
+            self._visit_resets = 0
+        if drawn and c.scene_switch_steps:
             spread = c.scene_switch_steps * SCENE_STEPS_RANGE
             self._scene_steps = 0
             self._scene_budget = max(1, round(c.scene_switch_steps + self.np_random.uniform(-spread, spread)))
         self._resets += 1
+        self._visit_resets += 1
         self._load(pos)
         ep_index = self._resets - 1
         for _ in range(self.config.episodes.max_restarts):
@@ -182,10 +186,12 @@ class RVNEnv(gym.Env):
                            f"{self.config.episodes.d_max} m from {self.config.episodes.max_restarts} starts")
 
     def _visit_spent(self) -> bool:
-        """Train mode: whether this reset draws another scene (every ``scene_switch_every``-th reset since the seeded
-        one, or the first after the visit's step budget)."""
+        """Train mode: whether this reset draws another scene: after ``scene_switch_every`` episodes in the scene, or
+        at the first reset after the visit's step budget, whichever comes first; each switch starts both counts again,
+        as Habitat's episode iterator (the reset count ran from the seeded reset: after a switch by steps, the next
+        scene could be left after a few episodes)."""
         c = self.config
-        return bool((c.scene_switch_every and self._resets % c.scene_switch_every == 0)
+        return bool((c.scene_switch_every and self._visit_resets >= c.scene_switch_every)
                     or (c.scene_switch_steps and self._scene_steps >= self._scene_budget))
 
     def _draw_scene(self) -> int:
