@@ -257,11 +257,11 @@ def train_loop(run: Optimisation, batches: Iterator[dict], stats: dict, validato
                 validator(model, run.ema.shadow if run.ema is not None else None, step, writer)
             if step % ckpt_every == 0 or step >= max_steps:
                 check_weights(model, step, label)  # every rank: their weights are the same, so all of them stop
-            if rank == 0 and (step % ckpt_every == 0 or step >= max_steps):
-                state = {"step": step, "optimizer": run.opt.state_dict(), "scheduler": run.sched.state_dict(),
-                         "ema": run.ema.state_dict() if run.ema is not None else None, "max_steps": max_steps}
-                save_checkpoint(member_dir, step, model.state_dict(), {**stats, "step": step}, state,
-                                run.ema.shadow if run.ema is not None else None, int(tcfg["keep_checkpoints"]))
+                if rank == 0:
+                    state = {"step": step, "optimizer": run.opt.state_dict(), "scheduler": run.sched.state_dict(),
+                             "ema": run.ema.state_dict() if run.ema is not None else None, "max_steps": max_steps}
+                    save_checkpoint(member_dir, step, model.state_dict(), {**stats, "step": step}, state,
+                                    run.ema.shadow if run.ema is not None else None, int(tcfg["keep_checkpoints"]))
             if step >= max_steps:
                 break
     finally:
