@@ -23,6 +23,7 @@ from pathlib import Path
 
 from rvn_data.benchmark.metrics import TERMINATIONS, write_text_atomic
 from rvn_data.benchmark.plots import bar_plot, ends_plot, goals_plot
+from rvn_data.benchmark.results import episode_key
 from rvn_data.benchmark.runs import Run, find_runs, load_run, merge_shards, provenance_note  # noqa: F401 (API)
 from rvn_data.benchmark.significance import Row, significance_table
 from rvn_data.benchmark.table import SPLIT_TITLES, format_metric, render_table
@@ -93,8 +94,7 @@ def tests(runs: list[Run], compare: list[tuple[str, str]] | None = None) -> str:
     for split in dict.fromkeys(r.split for r in runs):
         rows = [Row(r.method, sum(bool(e["first_goal_success"]) for e in r.records), len(r.records),
                     int(r.metrics.get("collisions", 0)), float(r.metrics.get("distance_km", 0.0)),
-                    {(e["episode_id"], round(float(e["d0"] or 0.0), 4)):  # an id and its first goal: the same episode
-                     (bool(e["first_goal_success"]), int(e["collisions"]), float(e["path_length"]) / 1e3)
+                    {episode_key(e): (bool(e["first_goal_success"]), int(e["collisions"]), float(e["path_length"]) / 1e3)
                      for e in r.records})
                 for r in runs if r.split == split]
         wanted = None if compare is None else [(a, b) for a, b in compare if {a, b} <= {row.label for row in rows}]

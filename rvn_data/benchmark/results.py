@@ -71,10 +71,16 @@ def policy_files_digest(policy: dict) -> dict[str, str]:
     return out
 
 
+def episode_key(record: dict) -> tuple[str, int, float]:
+    """What tells one episode from another across runs (scene, episode index, first-goal distance): runs of
+    another episode seed name their episodes alike, their first goals differ."""
+    return str(record["scene_id"]), int(record["episode_index"]), round(float(record["d0"] or 0.0), 4)
+
+
 def episode_set_digest(records: list[dict]) -> str:
-    """Digest of the episodes a run drove (scene, episode index, first-goal distance): runs with the
-    same digest drove the same start poses and first goals."""
-    keys = sorted((str(r["scene_id"]), int(r["episode_index"]), round(float(r["d0"] or 0.0), 4)) for r in records)
+    """Digest of the episodes a run drove (`episode_key`): runs with the same digest drove the same start poses
+    and first goals."""
+    keys = sorted(episode_key(r) for r in records)
     return hashlib.sha1(json.dumps(keys).encode()).hexdigest()[:12]
 
 
