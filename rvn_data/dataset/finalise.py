@@ -208,7 +208,9 @@ def _earlier_records(out_dir: Path, listed: set[str]) -> dict[str, dict]:
         return {}
     out = {}
     for path in sorted(folder.glob("*.json")):
-        record = writer.read_record(path) if not path.name.startswith(".") and path.stem not in listed else None
+        if path.name.startswith(".") or path.stem in listed:
+            continue
+        record = writer.read_record(path)
         if record is not None:
             out[path.stem] = record
     return out

@@ -104,10 +104,10 @@ def list_trajectories(root: Path, split: str, splits_dir: Path | None = None,
         if missing:
             raise ValueError(f"split file {listing} names {len(missing)} missing trajectory folder(s) under {root}, e.g. {missing[0]!r}")
         return name, names
-    have = sorted(str(f.relative_to(listing.parents[2])) for f in listing.parents[2].glob("*/*/traj_names.txt")) \
-        if split != "all" and listing.parents[2].is_dir() else []
+    splits = listing.parents[2]  # <splits_dir>
+    have = sorted(str(f.relative_to(splits)) for f in splits.glob("*/*/traj_names.txt")) if split != "all" else []
     if have:  # splits of other names or sets, not this one: every folder would hold the others' trajectories too
-        raise ValueError(f"split file {listing} does not exist; {listing.parents[2]} holds {', '.join(have)}: name one "
+        raise ValueError(f"split file {listing} does not exist; {splits} holds {', '.join(have)}: name one "
                          "of them (rvn-train: data.split=, data.name=), or split all for every trajectory folder")
     names = sorted(e.name for e in os.scandir(root)
                    if e.is_dir() and not e.name.startswith(".") and (Path(e.path) / "traj_data.pkl").is_file())
