@@ -253,23 +253,24 @@ class GLRenderer(base.Renderer):
 
     def _render_pass(self, views: list, rgb: np.ndarray, depth: np.ndarray | None) -> None:
         """Draw each view [(renderer, position, yaw)] with its renderer (one context), copy it on the
-        GPU into this renderer's staging buffer (colours of all views, then depths), and read the
-        buffer back once."""
+        GPU into this renderer's staging buffer (depths of all views, then colours: a float read into
+        a buffer must start at a multiple of 4 bytes, which n colour images of W x H x 3 bytes need
+        not end at), and read the buffer back once."""
         if any(renderer.ctx is None for renderer, _, _ in views):
             raise RuntimeError("render_batch() on a closed GL renderer")
         n, cam = len(views), self.camera
         rgb_bytes, depth_bytes = cam.width * cam.height * 3, cam.width * cam.height * 4
+        rgb_at = n * depth_bytes if depth is not None else 0
         with self.ctx:
-            staging = self._staging_buffer(n * (rgb_bytes + (depth_bytes if depth is not None else 0)))
+            staging = self._staging_buffer(rgb_at + n * rgb_bytes)
             for k, (renderer, position, yaw) in enumerate(views):
                 renderer._draw(position, yaw)
-                renderer.fbo.read_into(staging, components=3, attachment=0, write_offset=k * rgb_bytes)
                 if depth is not None:
-                    renderer.fbo.read_into(staging, components=1, attachment=1, dtype="f4",
-                                           write_offset=n * rgb_bytes + k * depth_bytes)
-            staging.read_into(rgb, size=n * rgb_bytes)  # waits for the GPU once
+                    renderer.fbo.read_into(staging, components=1, attachment=1, dtype="f4", write_offset=k * depth_bytes)
+                renderer.fbo.read_into(staging, components=3, attachment=0, write_offset=rgb_at + k * rgb_bytes)
+            staging.read_into(rgb, size=n * rgb_bytes, offset=rgb_at)  # waits for the GPU once
             if depth is not None:
-                staging.read_into(depth, size=n * depth_bytes, offset=n * rgb_bytes)
+                staging.read_into(depth, size=n * depth_bytes)
 
     def _staging_buffer(self, size: int):
         if self._staging is None or self._staging.size < size:
