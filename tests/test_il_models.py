@@ -74,6 +74,15 @@ def test_vint_predicts_waypoints_and_bad_settings_are_named():
     assert wp.shape == (2, 1, 5, 2)
     with pytest.raises(ValueError, match="expected context_size"):
         model.batch_tokens(torch.rand(1, 4, 3, 64, 64))
+    # the official MultiLayerDecoder: Linear((C+2)*D, D), then the output layers, ReLU after each
+    full = build_model(load_model_config("vint_pointgoal", "full"))
+    linears = [(m.in_features, m.out_features) for m in full.decoder.modules() if isinstance(m, torch.nn.Linear)]
+    assert linears == [(7 * 512, 512), (512, 256), (256, 128), (128, 64), (64, 32)]
+    assert sum(isinstance(m, torch.nn.ReLU) for m in full.decoder.modules()) == 5
+    old = {k: v for k, v in model.state_dict().items()}  # a checkpoint of the decoder before: one layer less
+    old["decoder.2.weight"] = torch.zeros(32, 64)  # 64 -> 32 second, as when 64 came first
+    with pytest.raises(ValueError, match="train it again"):
+        load_state_dict_checked(model, old, "old")
     with pytest.raises(ValueError, match="imagenet_weights=.*does not exist"):
         build_model(load_model_config("vint_pointgoal", "small", imagenet_weights="/nonexistent/b0.pth"))
     with pytest.raises(ValueError, match="model.size='huge'"):

@@ -120,6 +120,10 @@ def read_weights(ckpt: Path, expected_model: str, prefer_ema: bool = True) -> di
         raise ValueError(f"corrupt checkpoint weights {path} ({e})") from None
 
 
+_OLD_VINT = {"vint_pointgoal": ", or before 2026-12-05, when ViNT-PointGoal's decoder took the official first layer "
+                                "((C+2)*encoding_size -> encoding_size): train it again"}
+
+
 def load_state_dict_checked(model: torch.nn.Module, weights: Mapping[str, torch.Tensor], source: Path) -> None:
     """``load_state_dict`` with a one-line error naming the checkpoint when keys or shapes differ."""
     own = model.state_dict()
@@ -129,5 +133,6 @@ def load_state_dict_checked(model: torch.nn.Module, weights: Mapping[str, torch.
     if missing or unexpected or wrong:
         raise ValueError(f"checkpoint {source} does not fit a {getattr(model, 'name', type(model).__name__)} of this config "
                          f"({len(missing)} missing, {len(unexpected)} unexpected, {len(wrong)} mis-shaped tensors, "
-                         f"e.g. {(missing + unexpected + wrong)[0]!r}); it was trained with another model or size")
+                         f"e.g. {(missing + unexpected + wrong)[0]!r}); it was trained with another model or size"
+                         + _OLD_VINT.get(getattr(model, "name", None), ""))
     model.load_state_dict(weights)

@@ -1,6 +1,6 @@
 """ViNT-PointGoal: ViNT (Shah et al., visualnav-transformer) with the goal-image encoder replaced by a two-layer MLP
 on (x_g, y_g). Tokens: C+1 observation tokens + 1 goal token → Transformer → flatten →
-MLP 256-128-64-32 (ReLU after each) → waypoint deltas (cumsum → waypoints) and an optional
+MLP (C+2)·D → D → 256-128-64-32 (ReLU after each; the official ``MultiLayerDecoder``) → waypoint deltas (cumsum → waypoints) and an optional
 temporal-distance head. Loss: alpha·1e-2·MSE(distance) + (1-alpha)·MSE(waypoints)."""
 from __future__ import annotations
 
@@ -20,7 +20,8 @@ class ViNTPointGoal(PointGoalModel):
     def __init__(self, cfg: Mapping):
         super().__init__(cfg, group_norm=False)
         d, layers = self.encoding_size, []
-        dims = [(self.context_size + 2) * d, *[int(v) for v in cfg.get("decoder_dims", (256, 128, 64, 32))]]
+        # the official MultiLayerDecoder: the flattened tokens to D first, then decoder_dims
+        dims = [(self.context_size + 2) * d, d, *[int(v) for v in cfg.get("decoder_dims", (256, 128, 64, 32))]]
         for a, b in zip(dims[:-1], dims[1:]):
             layers += [nn.Linear(a, b), nn.ReLU()]
         self.decoder = MLP(*layers)
