@@ -2,7 +2,8 @@
 rvn-train into the checkpoint and compared by rvn-eval with the environment it runs in.
 
     {"agent":  {"r_robot": 0.18, "h_robot": 1.0, "d_step": 0.25, "theta_step_deg": 30.0},
-     "camera": {"width": 64, "height": 64, "hfov_deg": 90.0, "h_camera": 0.6, "pitch_deg": 0.0},
+     "camera": {"width": 64, "height": 64, "hfov_deg": 90.0, "h_camera": 0.6, "pitch_deg": 0.0, "forward_offset": 0.0,
+                "fx": 32.0, "fy": 32.0, "cx": 32.0, "cy": 32.0},
      "expert": {"margin": 0.28, "clearance_pref": 0.5, "clearance_weight": 4.0}}
 
 rvn-gen records its settings in every trajectory's ``rvn_meta.json`` and in ``manifest.json``
@@ -24,9 +25,13 @@ from typing import Any, Mapping
 
 from rvn_data.conventions import AgentConfig
 
-# what the environment must match: the robot's motion and body, what the camera sees
+# what the environment must match: the robot's motion and body, what the camera sees (fx, fy, cx, cy: the
+# intrinsics in pixels as the camera resolves them, given or from hfov_deg; records from before 2026-12-05 lack them
+# and forward_offset, which are then not compared)
 COMPARED = {"agent": ("r_robot", "h_robot", "d_step", "theta_step_deg"),
-            "camera": ("width", "height", "hfov_deg", "h_camera", "pitch_deg")}
+            "camera": ("width", "height", "hfov_deg", "h_camera", "pitch_deg", "forward_offset", "fx", "fy", "cx", "cy")}
+FRAMING = {"camera.width", "camera.height", "camera.hfov_deg"}
+INTRINSICS = {"camera.fx", "camera.fy", "camera.cx", "camera.cy"}
 EXPERT_KEYS = ("margin", "clearance_pref", "clearance_weight")
 AGENT_KEYS = tuple(f.name for f in fields(AgentConfig))
 MISMATCH_CHOICES = ("error", "allow")
@@ -81,6 +86,12 @@ def _plain(obj: Any) -> dict:
 def embodiment_of(agent: Any, camera: Any, expert: Mapping | None = None) -> dict:
     """The record of an agent and a camera (dataclasses or mappings), and the expert's settings if given."""
     a, c = _plain(agent), _plain(camera)
+    if "width" in c and "height" in c:  # a camera's settings: its intrinsics as it resolves them
+        from rvn_data.render.camera import CameraConfig
+
+        cam = CameraConfig.from_dict({f.name: c[f.name] for f in fields(CameraConfig) if f.name in c})
+        (fx, fy), (cx, cy) = cam.focal, cam.principal
+        c = {**c, "fx": fx, "fy": fy, "cx": cx, "cy": cy, "forward_offset": cam.forward_offset}
     out = {"agent": {k: a[k] for k in COMPARED["agent"] if k in a},
            "camera": {k: c[k] for k in COMPARED["camera"] if k in c}}
     if expert:
@@ -108,13 +119,16 @@ def _same(a: Any, b: Any) -> bool:
 
 def mismatches(trained: Mapping | None, here: Mapping) -> list[dict]:
     """``[{"setting": "camera.hfov_deg", "trained": 90.0, "here": 120.0}, ...]``: the `COMPARED`
-    settings both records hold and that differ (none when ``trained`` is None)."""
+    settings both records hold and that differ (none when ``trained`` is None); the intrinsics only where the image
+    size and hfov_deg agree (else they differ as a consequence, and the size or hfov is the setting to give)."""
     out = []
     for part, keys in COMPARED.items():
         t, h = dict((trained or {}).get(part) or {}), dict(here.get(part) or {})
         for k in keys:
             if k in t and k in h and not _same(t[k], h[k]):
                 out.append({"setting": f"{part}.{k}", "trained": t[k], "here": h[k]})
+    if {d["setting"] for d in out} & FRAMING:  # the intrinsics follow: the settings to give are these
+        out = [d for d in out if d["setting"] not in INTRINSICS]
     return out
 
 

@@ -7,6 +7,7 @@ rvn-eval and rvn-rl; rvn-train refuses negatives as a model's data and expert da
 from __future__ import annotations
 
 import json
+import math
 import os
 import subprocess
 import sys
@@ -52,7 +53,10 @@ def trained(tmp_path_factory):
 
 def test_checkpoint_carries_the_datas_robot_and_camera(trained):
     cfg = yaml.safe_load((trained / "ckpt" / "config.yaml").read_text())
-    assert cfg["embodiment"]["camera"] == {"width": 32, "height": 32, "hfov_deg": 100.0, "h_camera": 0.6, "pitch_deg": 0.0}
+    fx = 16 / math.tan(math.radians(50))  # the intrinsics as the camera resolves them
+    assert cfg["embodiment"]["camera"] == pytest.approx({"width": 32, "height": 32, "hfov_deg": 100.0, "h_camera": 0.6,
+                                                         "pitch_deg": 0.0, "forward_offset": 0.0, "fx": fx, "fy": fx,
+                                                         "cx": 16.0, "cy": 16.0})
     assert cfg["embodiment"]["agent"] == {"r_robot": 0.18, "h_robot": 1.0, "d_step": 0.25, "theta_step_deg": 30.0}
     assert cfg["embodiment"]["expert"]["margin"] > 0 and "overrides" not in cfg["embodiment"]
     assert cfg["agent"]["d_step"] == 0.25  # the policy's control: the data's robot
@@ -70,7 +74,8 @@ def test_an_agent_setting_given_to_rvn_train_is_announced_and_recorded(trained):
 def test_rvn_eval_refuses_another_camera_or_step_before_any_episode(trained, tmp_path):
     ckpt = trained / "ckpt"
     for setting, trained_value in (("camera.hfov_deg=90", "100"), ("agent.d_step=0.3", "0.25"),
-                                   ("camera.width=48", "32")):
+                                   ("camera.width=48", "32"), ("camera.forward_offset=0.1", "0"),
+                                   ("camera.fx=20", "13.4256")):
         out = tmp_path / setting.replace("=", "_")
         camera = [] if setting.startswith("camera.hfov_deg") else ["camera.hfov_deg=100"]  # only `setting` differs
         base = [o for o in EVAL if o.split("=")[0] != setting.split("=")[0]]
@@ -196,3 +201,16 @@ def test_rvn_eval_names_evaluated_scenes_the_model_trained_on(trained, tmp_path)
         "sources": [data], "scenes": ["proc_train_0000"], "evaluated": 2, "unchecked": [elsewhere]}
     assert trained_scenes_evaluated([elsewhere], ["procedural:train/0"]) is None
     assert trained_scenes_evaluated(None, ["procedural:train/0"]) is None
+
+
+@pytest.mark.parametrize("camera, hfov", [({"width": 64, "height": 48, "hfov_deg": 100.0}, 100.0),
+                                          ({"width": 64, "height": 48, "hfov_deg": 90.0, "fx": 20.0}, 116.0),
+                                          ({"width": 64, "height": 48, "hfov_deg": 90.0, "fy": 16.0}, 126.9)])
+def test_recorded_hfov_is_the_cameras_as_it_resolves_it(tmp_path, camera, hfov):
+    """fx (or fy alone, square pixels) overrides hfov_deg: the swept depth veto's field of view is the image's."""
+    from rvn_il.data import recorded_hfov
+
+    (tmp_path / "t0").mkdir()
+    (tmp_path / "t0" / "rvn_meta.json").write_text(json.dumps({"settings": {"camera": camera}}))
+    assert recorded_hfov(tmp_path, "t0") == pytest.approx(hfov, abs=0.05)
+    assert recorded_hfov(tmp_path, "missing") is None

@@ -2,6 +2,7 @@
 with `rvn_data.dataset.reader`)."""
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Mapping
 
@@ -66,12 +67,16 @@ def make_training_data(entries: list[Mapping], model_cfg: Mapping, data_cfg: Map
 
 
 def recorded_hfov(root: str | Path, trajectory: str) -> float | None:
-    """The camera hfov (degrees) rvn-gen recorded in ``<root>/<trajectory>/rvn_meta.json``; None for
-    datasets not written by rvn-gen (the policy's swept depth veto then needs policy.depth_veto_hfov)."""
+    """The horizontal field of view (degrees) of the camera rvn-gen recorded in ``<root>/<trajectory>/rvn_meta.json``:
+    from its fx where given (it overrides hfov_deg); None for datasets not written by rvn-gen (the policy's swept
+    depth veto then needs policy.depth_veto_hfov)."""
+    from rvn_data.render.camera import CameraConfig
+
     try:
-        return float(read_meta(Path(root).expanduser() / trajectory)["settings"]["camera"]["hfov_deg"])
+        cam = CameraConfig.from_dict(read_meta(Path(root).expanduser() / trajectory)["settings"]["camera"])
     except (ValueError, KeyError, TypeError):
         return None
+    return math.degrees(2 * math.atan(cam.width / 2 / cam.focal[0]))
 
 
 def make_depth_frames(root: str | Path, model_cfg: Mapping, data_cfg: Mapping | None = None,
