@@ -120,11 +120,13 @@ def test_a_dataset_records_how_its_scenes_were_read(tmp_path):
     assert proc.returncode == 2 and "was made with scenes.level=True but this run uses scenes.level=False" in line, line
     assert rvn_gen(*common, "scenes.level=true", "trajectories_per_scene=2").returncode == 0  # the same: resumed
     assert len(list(out.glob("room_a_expert_*"))) == 2
-    del settings["scenes"], settings["dataset_version"]  # as rvn-gen wrote it before this session
+    from rvn_data.dataset.settings import DATASET_VERSION
+
+    del settings["scenes"], settings["dataset_version"]  # as rvn-gen wrote it before 2026-12-05
     (out / ".rvn" / "settings.json").write_text(json.dumps(settings))
     proc = rvn_gen(*common, "scenes.level=true", "trajectories_per_scene=3")
     line = proc.stderr.strip().splitlines()[-1]
-    assert proc.returncode == 2 and "holds a dataset of rvn-gen's dataset version 1" in line and "makes version 2" in line
+    assert proc.returncode == 2 and "holds a dataset of rvn-gen's dataset version 1" in line and f"makes version {DATASET_VERSION}" in line
     assert len(list(out.glob("room_a_expert_*"))) == 2
     assert_clean(out)
 
