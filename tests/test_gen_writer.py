@@ -61,3 +61,26 @@ def test_names_and_seeds():
     assert a != naming.attempt_rng(0, "negative", "proc_train_0001", 2, 0).random()
     with pytest.raises(ValueError, match="share"):
         naming.check_unique(["/a/x.glb", "/b/x.glb"])
+
+
+def test_building_the_renderer_counts_as_set_up(tmp_path, monkeypatch):
+    """rvn-gen's time shares (benchmarks/gen.py, the node benchmark): the renderer is built at a scene's first frame to
+    render, and that time belongs to set-up (scene, navmesh, renderer), not to no phase at all."""
+    import time
+
+    import rvn_data.render
+    from rvn_data.config import load_config
+    from rvn_data.gen.run import generate
+
+    real = rvn_data.render.make_renderer
+
+    def slow(*args, **kwargs):
+        time.sleep(4.0)  # more than the scene and navmesh take (~1 s)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(rvn_data.render, "make_renderer", slow)
+    cfg = load_config("gen", [f"out_dir={tmp_path / 'o'}", "progress=false", "scenes.num_scenes=1",
+                              "trajectories_per_scene=1", "camera.width=32", "camera.height=32", "workers=1"])
+    report = generate(cfg)
+    assert report.status == 0 and report.results[0].written == 1
+    assert report.results[0].timing["setup"] >= 4.0

@@ -85,15 +85,17 @@ class _Scene:
         navmesh = open_navmesh(self.scene, settings.navmesh, os.environ.get(CACHE_ENV) or None)  # shared builds
         self.ctx = SceneContext(navmesh=navmesh, sim=Simulator(navmesh, settings.agent), scene=self.scene,
                                 settings=settings)
-        self._renderer = None
+        self._renderer, self._timing = None, timing
         self._make_renderer = lambda: make_renderer(self.scene, settings.camera,
                                                     backend=settings.renderer, device=settings.render_device)
         timing["setup"] += time.perf_counter() - t0
 
     @property
     def renderer(self):
-        if self._renderer is None:
+        if self._renderer is None:  # built at the first frame to render: set-up time too (~0.2 s gl at 256²)
+            t0 = time.perf_counter()
             self._renderer = self._make_renderer()
+            self._timing["setup"] += time.perf_counter() - t0
         return self._renderer
 
     def close(self) -> None:
