@@ -42,7 +42,9 @@ def overrides(args, out_dir: str) -> list[str]:
             f"ppo.recompute_advantages={str(getattr(args, 'recompute', False)).lower()}",
             f"train.graph_act={str(getattr(args, 'graph_act', False)).lower()}",
             f"train.double_buffered={str(getattr(args, 'double_buffered', False)).lower()}",
-            ] + ([f"cache_dir={args.cache_dir}"] if getattr(args, "cache_dir", None) else []) + [  # else out_dir/cache
+            # else out_dir/cache, given: rvn-rl would take $RVN_CACHE_DIR first (the recipes export it), and runs
+            # timed over an empty cache root would read a filled one
+            f"cache_dir={getattr(args, 'cache_dir', None) or out_dir + '/cache'}"] + [
                 f"env.{k}={getattr(args, k)}" for k in ("scene_switch_every", "scene_switch_steps")
                 if getattr(args, k, None) is not None]  # else rvn-rl's default scene switches
 
@@ -276,7 +278,7 @@ def main() -> None:
         gflop, peak = forward_gflop(cfg), matmul_gflops()
         epochs, mini_batches = cfg.ppo.ppo_epoch, cfg.ppo.num_mini_batch
     learn = steady_updates(rows) or rows  # the first update includes scene loading
-    fps = sum(r["fps"] for r in learn) / len(learn)
+    fps = sum(r["rollout_steps"] * args.envs for r in learn) / sum(update_seconds(r, args.envs) for r in learn)
     print(f"rvn-rl at {args.size}x{args.size} RGB, resnet18 (base planes {args.base_planes}), {args.envs} envs, workers={args.workers}, "
           f"{args.threads} torch threads:")
     print(f"  env steps/s, envs alone (random actions): {env_sps:8.0f}   (goal_pool={args.goal_pool}; "

@@ -88,7 +88,9 @@ def train_fps(args, baseline: bool) -> tuple[float, float]:
     finally:
         rvn_rl.model.run_lstm = run_lstm
     timed = rows[1:]  # the first update includes scene loading
-    return sum(r["fps"] for r in timed) / len(timed), (rows[-1]["episodes"] - rows[0]["episodes"]) / len(timed)
+    # metrics.jsonl's episodes count the last 20 updates' (rvn_rl.runlog.RunLog): --updates is at most 18
+    episodes = (rows[-1].get("episodes", 0) - rows[0].get("episodes", 0)) / len(timed)
+    return 8 * 64 * len(timed) / sum(8 * 64 / r["fps"] for r in timed), episodes
 
 
 def update_with_plans(args) -> None:
@@ -138,7 +140,8 @@ def update_with_plans(args) -> None:
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--threads", type=int, default=2)
-    p.add_argument("--updates", type=int, default=3, help="PPO updates timed per variant (after one warm-up)")
+    p.add_argument("--updates", type=int, default=3, choices=range(1, 19), metavar="1..18",
+                   help="PPO updates timed per variant (after one warm-up)")
     p.add_argument("--renderer", default="auto")
     p.add_argument("--lstm-only", action="store_true")
     p.add_argument("--update", action="store_true", help="only section 3: the PPO update with and without plans")

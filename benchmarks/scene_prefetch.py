@@ -87,11 +87,13 @@ def main() -> None:
         t = np.concatenate(times)
         rate[prefetch, kept] = envs * len(t) / t.sum()
         q = np.percentile(t, [50, 90, 99]) * 1e3
-        lockstep = args.envs_per_worker / t[rng.integers(len(t), size=(20000, 15))].max(1).mean()
+        # each time is a batched step of `processes` workers already (the slowest's): ~15 workers is this many of them
+        draws = max(1, round(15 / processes))
+        lockstep = args.envs_per_worker / t[rng.integers(len(t), size=(20000, draws))].max(1).mean()
         print(f"  env.prefetch_scenes={str(prefetch).lower():5s} pools {'read back' if kept else 'built':9s} "
               f"{rate[prefetch, kept]:7.0f} env steps/s ({rate[prefetch, kept] / processes:.0f} per process); batched "
               f"step median {q[0]:.1f} ms, 90th {q[1]:.1f} ms, 99th {q[2]:.1f} ms, slowest {1e3 * t.max():.0f} ms; "
-              f"resampled for 15 workers stepping together: {lockstep:.0f} env steps/s a worker")
+              f"resampled for {draws * processes} workers stepping together: {lockstep:.0f} env steps/s a worker")
     for kept in (False, True):
         print(f"  prefetch, pools {'read back' if kept else 'built':9s}: x{rate[True, kept] / rate[False, kept]:.2f} "
               "the env steps/s without it")
