@@ -39,6 +39,15 @@ def collect(actor, envs, rollouts: RolloutStorage, state: torch.Tensor, run, cfg
     return state, episodes, t_env, delta
 
 
+def action_generator(seed: int, rank: int, updates: int, device) -> torch.Generator:
+    """The actions' random stream of rank ``rank`` of a run of ``seed``, from its ``updates`` done: the ranks of DD-PPO
+    draw apart (their weights start from one torch seed, as DistributedDataParallel needs), and a resumed run does
+    not draw the fresh run's stream again. Not torch's global generator: torch.compile saves it and restores it after
+    tracing (train.overlap's learner thread: the actor's draws made meanwhile were rewound)."""
+    key = [seed, updates, 1] + ([rank] if rank else [])  # rank 0 (every one-process run): train.overlap's stream
+    return torch.Generator(device=device).manual_seed(int(np.random.SeedSequence(key).generate_state(1)[0]))
+
+
 def _rewards(reward: np.ndarray, cost: np.ndarray, heads: int) -> np.ndarray:
     return np.stack([reward, cost], -1) if heads == 2 else reward[:, None]
 

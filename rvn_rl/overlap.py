@@ -8,7 +8,6 @@ from __future__ import annotations
 import copy
 from concurrent.futures import Future, ThreadPoolExecutor
 
-import numpy as np
 import torch
 from torch import nn
 
@@ -28,14 +27,6 @@ def make_actor(policy: nn.Module, train: TrainSettings) -> nn.Module:
     for p in actor.parameters():
         p.requires_grad_(False)
     return actor
-
-
-def actor_generator(seed: int, updates: int, device) -> torch.Generator:
-    """The actions' random stream of a run with train.overlap from ``seed``, continued runs from their ``updates``.
-    The actor does not draw from torch's global generator: torch.compile, compiling in the learner thread, saves that
-    generator's state and restores it after tracing, which would rewind the draws the actor made meanwhile."""
-    state = np.random.SeedSequence([seed, updates, 1]).generate_state(1)[0]
-    return torch.Generator(device=device).manual_seed(int(state))
 
 
 class LearnerThread:

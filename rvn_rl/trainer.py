@@ -26,12 +26,12 @@ from rvn_data.numba_note import note_first_compile
 from rvn_il.train.choices import check_precision_on, fused_on, load_optimizer_state
 
 from . import checkpoint as ck
-from .collect import collect
+from .collect import action_generator, collect
 from .config import RLConfig
 from .distrib import Dist, init, pick_device, shutdown
 from .graphed import GraphedAct
 from .model import PointNavResNetPolicy
-from .overlap import LearnerThread, actor_generator, make_actor
+from .overlap import LearnerThread, make_actor
 from .ppo import Lagrange, ppo_update
 from .rollout import DeviceRollouts, RolloutStorage
 from .runlog import RunLog, episode_sums, plot_learning_curve, summary
@@ -91,7 +91,7 @@ class Run:
               resume_from: Path | None) -> "Run":
         """The network (the same initial weights on every rank), its optimiser and (algo.lagrangian) multiplier,
         continued from ``resume_from``'s weights and state.pt when given."""
-        torch.manual_seed(seed)
+        torch.manual_seed(seed)  # the initial weights, the same on every rank (actions: `collect.action_generator`)
         policy = PointNavResNetPolicy(**policy_kwargs).to(device)
         state = ck.load(resume_from, policy) if resume_from is not None else {}
         optimizer = torch.optim.Adam(policy.parameters(), lr=ppo.lr, eps=ppo.eps, fused=fused_on(device))
@@ -196,9 +196,8 @@ def _loop(run: Run, envs, log: RunLog, cfg: RLConfig, d: Dist, device, out_dir: 
     buffers = [RolloutStorage(ppo.num_steps, n, space, tuple(state.shape), heads) for _ in range(1 + (actor is not None))]
     buffers[0].set_first(obs, state.cpu(), torch.zeros(n, dtype=torch.long), torch.zeros(n))
     batches = [DeviceRollouts(b, device) for b in buffers]  # the update's mini-batches, on the learner's device
-    learner, acts = LearnerThread(actor is not None, device), None
-    if actor is not None:  # its own stream: torch.compile in the learner thread saves and restores the global one
-        acts = actor_generator(cfg.seed, run.updates, device)
+    learner = LearnerThread(actor is not None, device)
+    acts = action_generator(cfg.seed, d.rank, run.updates, device)  # each rank's own, continued runs' own
     actor = policy if actor is None else actor
     if cfg.train.graph_act:  # recorded at the first act, before the learner thread starts
         actor = GraphedAct(actor, cuda_graph=device.type == "cuda")

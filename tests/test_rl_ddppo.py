@@ -89,3 +89,43 @@ def test_rl_paper_scale_jobs_share_one_cache_root(tmp_path):
         assert [s.split("\n", 1)[0] for s in scripts] == ["ppo", "ppo_lag", "ddppo", "ddppo_depth"]
         for text in scripts:
             assert f"export RVN_CACHE_DIR={root}\n" in text, text
+
+
+@pytest.mark.slow
+def test_ranks_and_a_resumed_run_draw_their_own_actions(monkeypatch, tmp_path):
+    """Every rank's weights start from one torch seed (DistributedDataParallel needs them equal); the actions do not
+    draw from that stream: rank 1 acting on rank 0's envs (made here without the rank, so its observations are rank
+    0's) draws other actions, and a run resumed after its first update draws from another stream than its start."""
+    import torch
+
+    from rvn_rl import trainer
+    from rvn_rl.cli import compose
+    from rvn_rl.distrib import Dist
+
+    from test_rl_overlap import TINY
+
+    seen, collect, make_envs = [], trainer.collect, trainer.make_envs
+
+    def recording_collect(actor, envs, storage, *args, **kwargs):
+        first = storage.obs["rgb"][0].clone()
+        out = collect(actor, envs, storage, *args, **kwargs)
+        generator = args[-1] if len(args) == 7 else kwargs.get("generator")
+        seen.append((first, storage.actions[:storage.step].clone(), generator and generator.initial_seed()))
+        return out
+
+    def run(rank: int, out, total: int):
+        seen.clear()
+        with monkeypatch.context() as patch:
+            patch.setattr(trainer, "init", lambda backend, device: Dist(rank=rank))
+            patch.setattr(trainer, "collect", recording_collect)
+            patch.setattr(trainer, "make_envs", lambda *a, rank=0, **k: make_envs(*a, rank=0, **k))
+            trainer.train(compose(["algo=ppo", f"out_dir={out}", f"cache_dir={tmp_path / 'cache'}", *TINY,
+                                   "ppo.num_steps=16", f"train.total_steps={total}"]))
+        return list(seen)
+
+    (rgb0, acts0, seed0), = run(0, tmp_path / "r0", 32)
+    (rgb1, acts1, seed1), = run(1, tmp_path / "r1", 32)
+    assert torch.equal(rgb0, rgb1)  # the same envs: what differs is the draw
+    assert not torch.equal(acts0, acts1) and seed0 != seed1
+    (_, _, resumed), = run(0, tmp_path / "r0", 64)  # from the checkpoint at 32 env steps (update 1)
+    assert resumed not in (seed0, seed1)
