@@ -122,7 +122,7 @@ class TrainSettings:
     total_steps: Union[int, float] = 2_500_000_000  # env steps over all ranks (4e5 reads as a float: taken as 400000)
     checkpoint_every: int = 50  # updates between checkpoints
     keep_checkpoints: int = 2
-    resume: bool = True  # continue from out_dir's latest checkpoint
+    resume: bool = True  # continue from out_dir's latest checkpoint (false: refused where out_dir holds checkpoints)
     threads: int | None = None  # torch intra-op threads (null = torch's setting)
     # fp32 | bf16: the visual encoder (ResNet, compression, visual_fc) under torch.autocast(bfloat16) in rollouts and
     # updates; the LSTM, heads, losses, weights and optimiser stay float32. For GPUs with bf16 (Ampere on) and CPUs

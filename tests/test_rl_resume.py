@@ -1,0 +1,55 @@
+"""Continuing an rvn-rl run through its public API (`rvn_rl.cli.compose`, `rvn_rl.trainer.train`) at tiny sizes: a run
+that would start over another run's checkpoints is refused before anything is written."""
+from __future__ import annotations
+
+import shutil
+
+import pytest
+
+from test_rl_overlap import TINY
+
+pytestmark = pytest.mark.slow  # rvn-rl runs
+
+
+def train(out, *overrides: str, cache=None) -> dict:
+    """A tiny run into ``out``, its cache root ``cache`` (the fixture's: the scenes' navmeshes and goal pools built
+    once for the tests' runs)."""
+    from rvn_rl.cli import compose
+    from rvn_rl.trainer import train
+
+    cache = cache or out.parent / "cache"
+    return train(compose(["algo=ppo", f"out_dir={out}", f"cache_dir={cache}", *TINY, "train.checkpoint_every=1",
+                          "train.keep_checkpoints=3", *overrides]))
+
+
+def snapshot(out) -> dict:
+    """Every file of ``out`` (the cache root aside): its size and modification time."""
+    return {p.relative_to(out): (p.stat().st_size, p.stat().st_mtime_ns) for p in sorted(out.rglob("*")) if p.is_file()}
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory):
+    """A run of two updates (16 and 32 env steps), a checkpoint after each."""
+    out = tmp_path_factory.mktemp("rl") / "ppo"
+    train(out, "train.total_steps=32")
+    return out
+
+
+def copy(finished, tmp_path):
+    out = tmp_path / "ppo"
+    shutil.copytree(finished, out)
+    return out
+
+
+def test_a_run_not_resuming_is_refused_where_checkpoints_are(finished, tmp_path):
+    """train.resume=false on an out_dir that holds checkpoints: its own would sort before them and be pruned at once,
+    its rows appended to theirs; a one-line ConfigError (rvn-rl: status 2) names out_dir, and nothing is written."""
+    from rvn_data.cli.common import ConfigError
+
+    out = copy(finished, tmp_path)
+    before = snapshot(out)
+    with pytest.raises(ConfigError) as err:
+        train(out, "train.total_steps=32", "train.resume=false", cache=finished.parent / "cache")
+    assert str(err.value) == (f"out_dir={out} holds the checkpoints of a run, which train.resume=false would start "
+                              "over; choose a new out_dir, or train.resume=true to continue that run")
+    assert snapshot(out) == before
