@@ -76,6 +76,11 @@ def latest(out_dir: str | Path) -> Path | None:
     return ckpt if (ckpt / "weights.safetensors").is_file() else None
 
 
+def env_steps_of(ckpt: Path) -> int:
+    """The env steps over all ranks after which ``ckpt`` was saved (its name: ckpt_<env steps>)."""
+    return int(ckpt.name.removeprefix("ckpt_"))
+
+
 def save(out_dir: Path, env_steps: int, model: torch.nn.Module, state: dict, keep: int = 2) -> Path:
     root = out_dir / "checkpoints"
     ckpt = root / f"ckpt_{env_steps:012d}"

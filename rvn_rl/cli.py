@@ -77,7 +77,9 @@ def _main(cfg: DictConfig) -> None:
             result = run(settings, lambda: record_run(cfg, Path(settings.out_dir).expanduser(), "rvn-rl"))
     except (ValueError, TypeError, OSError) as err:  # SceneError is a ValueError; ConfigError: status 2
         fail("rvn-rl", err)
-    if "summary" in result:
+    if "finished" in result:  # nothing trained, nothing written
+        print(result["finished"])
+    elif "summary" in result:
         print(result.pop("summary"))
         print(json.dumps({k: v for k, v in result.items() if isinstance(v, (int, float))}))
         print(f"wrote {Path(settings.out_dir) / 'config.yaml'}")

@@ -123,7 +123,8 @@ class Run:
 
 def train(cfg: RLConfig, on_checked=None) -> dict:
     """Train; settings, device and out_dir are checked first (`ConfigError`, nothing written),
-    then ``on_checked()`` runs."""
+    then ``on_checked()`` runs. A run whose latest checkpoint has train.total_steps already returns at once, writing
+    nothing: {"env_steps", "finished": the line that says so (rank 0)}."""
     d = init(cfg.ddppo.backend, cfg.device)
     try:
         with validating():
@@ -149,6 +150,11 @@ def train(cfg: RLConfig, on_checked=None) -> dict:
             if cfg.cache_dir or os.environ.get(CACHE_ENV):  # else <out_dir>/cache, checked with out_dir
                 check_writable_dir(env_kwargs["cache_dir"], "cache_dir=" if cfg.cache_dir else f"{CACHE_ENV}=")
             resume_from = ck.resume_point(out_dir, policy_kwargs, cfg.algo.name, cfg.train.resume)
+        done = ck.env_steps_of(resume_from) if resume_from is not None else 0
+        if done >= cfg.train.total_steps:  # a finished run: nothing to collect, nothing written
+            said = (f"rvn-rl {cfg.algo.name}: out_dir={out_dir} holds a finished run ({done} env steps, "
+                    f"train.total_steps={cfg.train.total_steps}); nothing to train: raise train.total_steps to go on")
+            return {"env_steps": done, **({"finished": said} if d.rank == 0 else {})}
         if on_checked is not None:
             on_checked()
         if d.rank == 0:

@@ -53,3 +53,15 @@ def test_a_run_not_resuming_is_refused_where_checkpoints_are(finished, tmp_path)
     assert str(err.value) == (f"out_dir={out} holds the checkpoints of a run, which train.resume=false would start "
                               "over; choose a new out_dir, or train.resume=true to continue that run")
     assert snapshot(out) == before
+
+
+@pytest.mark.parametrize("total", [32, 16])
+def test_a_finished_run_run_again_trains_nothing_and_writes_nothing(finished, tmp_path, total):
+    """Its latest checkpoint has train.total_steps (or more): no rollout, no update, no checkpoint past the end; the
+    result says it is finished (rvn-rl prints that line)."""
+    out = copy(finished, tmp_path)
+    before = snapshot(out)
+    result = train(out, f"train.total_steps={total}", cache=finished.parent / "cache")
+    assert result == {"env_steps": 32, "finished": f"rvn-rl ppo: out_dir={out} holds a finished run (32 env steps, "
+                      f"train.total_steps={total}); nothing to train: raise train.total_steps to go on"}
+    assert snapshot(out) == before
