@@ -8,7 +8,7 @@ from pathlib import Path
 
 import torch
 
-from rvn_data.atomic import atomic_path
+from rvn_data.atomic import atomic_path, write_text_atomic
 from rvn_data.benchmark.measures import episode_success
 
 from .distrib import all_sum
@@ -26,15 +26,25 @@ def episode_sums(episodes: list[dict]) -> torch.Tensor:
 
 
 class RunLog:
-    """Rank 0's log: a window of the last ``window`` updates' episode sums."""
+    """Rank 0's log: a window of the last ``window`` updates' episode sums. A run that starts at ``env_steps`` (resumed
+    from the checkpoint of those steps, or 0) drops what an earlier run of the out_dir logged after them (its rows
+    written before it stopped, past its last checkpoint): metrics.jsonl rewritten without those rows, and TensorBoard
+    told to purge the steps after ``env_steps``, so that the steps logged again appear once, in order."""
 
-    def __init__(self, out_dir: Path, enabled: bool, window: int = 20):
+    def __init__(self, out_dir: Path, enabled: bool, window: int = 20, env_steps: int = 0):
         self.out_dir, self.enabled = out_dir, enabled
         self.window: deque = deque(maxlen=window)
         self.writer = None
         if enabled:
             from torch.utils.tensorboard import SummaryWriter
-            self.writer = SummaryWriter(str(out_dir / "tb"))
+            path = out_dir / "metrics.jsonl"
+            if path.is_file():
+                lines = [line for line in path.read_text().splitlines() if line.strip()]
+                kept = [line for line in lines if json.loads(line).get("env_steps", 0) <= env_steps]
+                if len(kept) < len(lines):
+                    write_text_atomic(path, "".join(line + "\n" for line in kept))
+            tb = out_dir / "tb"  # an earlier run's events: those past env_steps purged (the row at env_steps stays)
+            self.writer = SummaryWriter(str(tb), purge_step=env_steps + 1 if tb.is_dir() else None)
 
     def stats(self) -> dict:
         if not self.window:

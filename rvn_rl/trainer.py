@@ -174,7 +174,7 @@ def train(cfg: RLConfig, on_checked=None) -> dict:
             depth_fn = load_depth_model(str(cfg.depth.model_path), device=device)
         envs = make_envs(env_kwargs, cfg.env, seed=cfg.seed + 7919 * run.updates, rank=d.rank, depth_fn=depth_fn)
         logging.getLogger("rvn").setLevel(logging.WARNING)  # the first scenes' renderer lines are enough
-        log = RunLog(out_dir, d.rank == 0)
+        log = RunLog(out_dir, d.rank == 0, env_steps=run.env_steps)  # an earlier run's rows past them dropped
         try:
             result = _loop(run, envs, log, cfg, d, device, out_dir, actor)
         finally:

@@ -65,3 +65,21 @@ def test_a_finished_run_run_again_trains_nothing_and_writes_nothing(finished, tm
     assert result == {"env_steps": 32, "finished": f"rvn-rl ppo: out_dir={out} holds a finished run (32 env steps, "
                       f"train.total_steps={total}); nothing to train: raise train.total_steps to go on"}
     assert snapshot(out) == before
+
+
+def test_a_resumed_run_logs_each_step_once(finished, tmp_path):
+    """A run stopped after logging its update at 32 env steps but before that update's checkpoint resumes from the
+    one at 16: metrics.jsonl and TensorBoard hold each step once, in order (the earlier run's row at 32 dropped)."""
+    import json
+
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    out = copy(finished, tmp_path)
+    shutil.rmtree(out / "checkpoints" / "ckpt_000000000032")  # as if it stopped before this checkpoint was written
+    (out / "checkpoints" / "latest").write_text("ckpt_000000000016\n")
+    train(out, "train.total_steps=48", cache=finished.parent / "cache")
+    rows = [json.loads(line) for line in (out / "metrics.jsonl").read_text().splitlines()]
+    assert [r["env_steps"] for r in rows] == [16, 32, 48] and rows[1]["updates"] == 2
+    events = EventAccumulator(str(out / "tb"))
+    events.Reload()
+    assert [e.step for e in events.Scalars("train/fps")] == [16, 32, 48]
