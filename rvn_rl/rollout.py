@@ -141,7 +141,7 @@ class DeviceRollouts:
     def minibatches(self, adv: torch.Tensor, num_mini_batch: int, generator: torch.Generator):
         d = self._on(adv)
         perm = torch.randperm(self.r.num_envs, generator=generator)
-        for env in perm.chunk(num_mini_batch):
+        for env in torch.tensor_split(perm, num_mini_batch):  # exactly num_mini_batch, at most one env apart
             yield self._envs(d, env)
 
     def start_policy(self, model, chunks: int) -> tuple[torch.Tensor, torch.Tensor]:

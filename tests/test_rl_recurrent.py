@@ -117,10 +117,10 @@ class HostReads(TorchDispatchMode):
         return func(*args, **(kwargs or {}))
 
 
-def small_update_setup(seed: int = 0):
-    """A small policy, its optimiser and a filled 8-step rollout of 4 envs with episode restarts mid-way."""
+def small_update_setup(seed: int = 0, N: int = 4):
+    """A small policy, its optimiser and a filled 8-step rollout of ``N`` envs with episode restarts mid-way."""
     torch.manual_seed(seed)
-    T, N, size = 8, 4, 32
+    T, size = 8, 32
     policy = PointNavResNetPolicy(obs_size=size, backbone="resnet18", base_planes=8, ngroups=4, input_size=32,
                                   hidden_size=16)
     rng = np.random.default_rng(seed)
@@ -186,3 +186,32 @@ def test_ppo_update_with_plans_equals_the_update_reading_the_masks():
     assert planned == [True] * 4 and planned_ref == [False] * 4
     assert losses == losses_ref and losses["action_loss"] != 0.0
     assert all(torch.equal(a, b) for a, b in zip(weights, weights_ref))
+
+
+class Sizes(_Evaluate):
+    """The learner, noting how many envs each mini-batch holds."""
+
+    def __init__(self, policy):
+        super().__init__(policy)
+        self.envs = []
+
+    def forward(self, obs, state, *args, pieces=None):
+        self.envs.append(state.size(1))
+        return super().forward(obs, state, *args, pieces=pieces)
+
+
+@pytest.mark.parametrize("n, sizes", [(6, [2, 2, 1, 1]), (10, [3, 3, 2, 2]), (4, [1, 1, 1, 1])])
+def test_an_epoch_is_num_mini_batch_mini_batches_at_most_an_env_apart(n, sizes):
+    """ppo.num_mini_batch mini-batches an epoch whatever env.num_envs (at least as many: validation), each of whole
+    envs, at most one env apart in size, every env in one of them (torch.chunk gave 6 envs in 3 of 2, 10 in 3, 3, 3,
+    1)."""
+    policy, optimizer, rollouts = small_update_setup(N=n)
+    learner = Sizes(policy)
+    batches = DeviceRollouts(rollouts, "cpu")
+    adv = rollouts.returns[:rollouts.step, :, 0] - rollouts.values[:rollouts.step, :, 0]
+    first = rollouts.state0[0, :, 0].tolist()  # random: each env's own, which names it in a mini-batch
+    envs = [[first.index(v) for v in mb["state"][0, :, 0].tolist()]
+            for mb in batches.minibatches(adv, 4, torch.Generator().manual_seed(0))]
+    assert [len(e) for e in envs] == sizes and sorted(sum(envs, [])) == list(range(n))
+    ppo_update(learner, optimizer, batches, PPOConfig(ppo_epoch=2, num_mini_batch=4), torch.Generator().manual_seed(1))
+    assert learner.envs == sizes * 2
