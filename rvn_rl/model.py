@@ -8,6 +8,7 @@ PPO-Lagrangian, a cost critic. Recurrent state is reset where ``masks`` is 0. Wi
 from __future__ import annotations
 
 import contextlib
+import math
 
 import torch
 import torch.distributed as dist
@@ -69,7 +70,9 @@ class ResNetEncoder(nn.Module):
                              "set env.size >= 32")
         self.running_mean_and_var = RunningMeanAndVar(in_channels)
         self.backbone = make_backbone(backbone, in_channels, base_planes, ngroups)
-        spatial = int(side * self.backbone.final_spatial_compress)
+        # the ResNet's output side: its five stride-2 layers (stem, max-pool, stages 2-4) each give ceil(side / 2),
+        # so ceil(side / 32) (80 px: 3, where int() said 2 and the first forward failed on visual_fc's shape)
+        spatial = math.ceil(side * self.backbone.final_spatial_compress)
         channels = int(round(flat_size / spatial ** 2))
         self.compression = nn.Sequential(
             nn.Conv2d(self.backbone.final_channels, channels, kernel_size=3, padding=1, bias=False),

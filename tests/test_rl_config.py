@@ -122,3 +122,22 @@ def test_the_command_answers_bad_settings_before_loading_torch(tmp_path, world, 
     assert proc.stdout.split() == ["2", "False"], proc.stdout + proc.stderr[-2000:]
     assert proc.stderr.strip().startswith(line), proc.stderr
     assert not (tmp_path / "x").exists()
+
+
+@pytest.mark.parametrize("size", [32, 48, 80, 100, 256])
+def test_every_observation_size_validation_passes_builds_a_policy_that_acts(size):
+    """env.size need not be a multiple of 32: the ResNet's output side is ceil(size / 32) (its stride-2 layers round
+    up), which the compression and visual_fc are built for (48, 80 and 100 passed validation and failed at the first
+    act on visual_fc's shape)."""
+    import torch
+
+    from rvn_rl.model import PointNavResNetPolicy
+
+    cfg = compose(TINY + [f"env.size={size}"])
+    cfg.validate()
+    kw = {**cfg.model_kwargs(), "base_planes": 8, "ngroups": 4, "hidden_size": 16, "rnn_layers": 1}
+    policy = PointNavResNetPolicy(**kw)
+    obs = {"rgb": torch.zeros(2, size, size, 3, dtype=torch.uint8), "pointgoal": torch.ones(2, 2)}
+    with torch.no_grad():
+        action, _, values, _ = policy.act(obs, policy.initial_state(2), torch.zeros(2), torch.zeros(2))
+    assert action.shape == (2,) and values.shape == (2, 1)
