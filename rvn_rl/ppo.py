@@ -43,8 +43,12 @@ class Lagrange:
         return {"multiplier": self.multiplier.detach().clone(), "optimizer": self.optimizer.state_dict()}
 
     def load_state_dict(self, state: dict) -> None:
+        """The multiplier and Adam's moments of ``state``; the learning rate stays this one's (a resumed run's
+        algo.lambda_lr, not its checkpoint's)."""
+        lr = self.optimizer.param_groups[0]["lr"]
         self.multiplier.data.copy_(state["multiplier"])
         self.optimizer.load_state_dict(state["optimizer"])
+        self.optimizer.param_groups[0]["lr"] = lr
 
 
 def normalise(adv: torch.Tensor) -> torch.Tensor:

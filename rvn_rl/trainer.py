@@ -90,13 +90,16 @@ class Run:
     def start(cls, seed: int, policy_kwargs: dict, ppo: PPOConfig, algo: AlgoConfig, d: Dist, device,
               resume_from: Path | None) -> "Run":
         """The network (the same initial weights on every rank), its optimiser and (algo.lagrangian) multiplier,
-        continued from ``resume_from``'s weights and state.pt when given."""
+        continued from ``resume_from``'s weights and state.pt when given: its moments and counters, stepping by this
+        run's settings (ppo.lr, ppo.eps, algo.lambda_lr: those config.yaml records)."""
         torch.manual_seed(seed)  # the initial weights, the same on every rank (actions: `collect.action_generator`)
         policy = PointNavResNetPolicy(**policy_kwargs).to(device)
         state = ck.load(resume_from, policy) if resume_from is not None else {}
         optimizer = torch.optim.Adam(policy.parameters(), lr=ppo.lr, eps=ppo.eps, fused=fused_on(device))
         if state:
             load_optimizer_state(optimizer, state["optimizer"], device)
+            for group in optimizer.param_groups:  # this run's ppo.lr and ppo.eps (config.yaml's), not the checkpoint's
+                group.update(lr=ppo.lr, eps=ppo.eps)
         lagrange = None
         if algo.lagrangian:
             lagrange = Lagrange(algo.cost_limit, algo.lambda_init, algo.lambda_lr, algo.lambda_max)

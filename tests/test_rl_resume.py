@@ -1,5 +1,6 @@
-"""Continuing an rvn-rl run through its public API (`rvn_rl.cli.compose`, `rvn_rl.trainer.train`) at tiny sizes: a run
-that would start over another run's checkpoints is refused before anything is written."""
+"""Continuing an rvn-rl run through its public API (`rvn_rl.cli.compose`, `rvn_rl.trainer.train`, `Run.start`) at
+tiny sizes: a run that would start over another run's checkpoints is refused before anything is written, a finished
+run trains and writes nothing, a resumed run logs each step once and steps by its own learning rates."""
 from __future__ import annotations
 
 import shutil
@@ -7,8 +8,6 @@ import shutil
 import pytest
 
 from test_rl_overlap import TINY
-
-pytestmark = pytest.mark.slow  # rvn-rl runs
 
 
 def train(out, *overrides: str, cache=None) -> dict:
@@ -41,6 +40,7 @@ def copy(finished, tmp_path):
     return out
 
 
+@pytest.mark.slow  # rvn-rl runs, as the two tests below
 def test_a_run_not_resuming_is_refused_where_checkpoints_are(finished, tmp_path):
     """train.resume=false on an out_dir that holds checkpoints: its own would sort before them and be pruned at once,
     its rows appended to theirs; a one-line ConfigError (rvn-rl: status 2) names out_dir, and nothing is written."""
@@ -55,6 +55,7 @@ def test_a_run_not_resuming_is_refused_where_checkpoints_are(finished, tmp_path)
     assert snapshot(out) == before
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("total", [32, 16])
 def test_a_finished_run_run_again_trains_nothing_and_writes_nothing(finished, tmp_path, total):
     """Its latest checkpoint has train.total_steps (or more): no rollout, no update, no checkpoint past the end; the
@@ -67,6 +68,7 @@ def test_a_finished_run_run_again_trains_nothing_and_writes_nothing(finished, tm
     assert snapshot(out) == before
 
 
+@pytest.mark.slow
 def test_a_resumed_run_logs_each_step_once(finished, tmp_path):
     """A run stopped after logging its update at 32 env steps but before that update's checkpoint resumes from the
     one at 16: metrics.jsonl and TensorBoard hold each step once, in order (the earlier run's row at 32 dropped)."""
@@ -83,3 +85,32 @@ def test_a_resumed_run_logs_each_step_once(finished, tmp_path):
     events = EventAccumulator(str(out / "tb"))
     events.Reload()
     assert [e.step for e in events.Scalars("train/fps")] == [16, 32, 48]
+
+
+def test_a_resumed_run_steps_by_its_own_learning_rates(tmp_path):
+    """ppo.lr, ppo.eps and algo.lambda_lr changed on resuming act (config.yaml records them): the optimisers take
+    the checkpoint's moments and step counts, not its learning rates."""
+    import torch
+
+    from rvn_rl import checkpoint as ck
+    from rvn_rl.distrib import Dist
+    from rvn_rl.settings import AlgoConfig, PPOConfig
+    from rvn_rl.trainer import Run
+
+    policy = dict(obs_size=32, backbone="resnet18", base_planes=8, ngroups=4, hidden_size=16, rnn_layers=1,
+                  cost_critic=True)
+    run = Run.start(0, policy, PPOConfig(), AlgoConfig(name="ppo_lag", lagrangian=True), Dist(), torch.device("cpu"),
+                    None)
+    run.policy({"rgb": torch.zeros(2, 32, 32, 3, dtype=torch.uint8), "pointgoal": torch.ones(2, 2)},
+               run.policy.initial_state(2), torch.zeros(2), torch.ones(2))[0].sum().backward()
+    run.optimizer.step()
+    run.lagrange.update(0.5)
+    ckpt = ck.save(tmp_path, 16, run.policy, run.resume_state())
+    resumed = Run.start(0, policy, PPOConfig(lr=1e-3, eps=1e-6),
+                        AlgoConfig(name="ppo_lag", lagrangian=True, lambda_lr=0.2), Dist(), torch.device("cpu"), ckpt)
+    assert [(g["lr"], g["eps"]) for g in resumed.optimizer.param_groups] == [(1e-3, 1e-6)]
+    assert [g["lr"] for g in resumed.lagrange.optimizer.param_groups] == [0.2]
+    assert resumed.lagrange.value == run.lagrange.value
+    saved, again = run.optimizer.state_dict()["state"], resumed.optimizer.state_dict()["state"]
+    assert saved.keys() == again.keys() and all(torch.equal(saved[k]["exp_avg"], again[k]["exp_avg"]) for k in saved)
+    assert resumed.lagrange.optimizer.state_dict()["state"][0]["step"] == 1
