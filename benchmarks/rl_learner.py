@@ -86,7 +86,8 @@ def main() -> None:
     from rvn_rl.trainer import _Evaluate, set_trunk
 
     dev, n, T = torch.device(args.device), args.envs, args.steps
-    cfg = PPOConfig(ppo_epoch=args.epochs, num_mini_batch=args.mini_batches, num_steps=T)
+    cfg = PPOConfig(ppo_epoch=args.epochs, num_mini_batch=args.mini_batches, num_steps=T,
+                    use_normalized_advantage=True)  # scale=small's
 
     def learner(bf16: bool, compiled: bool, unfused: bool = False) -> tuple:
         torch.manual_seed(0)

@@ -108,7 +108,8 @@ def update_with_plans(args) -> None:
     learner = _Evaluate(policy)
     optimizer = torch.optim.Adam(policy.parameters(), lr=2.5e-4, eps=1e-5, fused=fused_on(dev))  # as rvn-rl's
     rollouts = filled_rollouts(N, T, size, tuple(policy.initial_state(N).shape))
-    cfg, gen = PPOConfig(ppo_epoch=4, num_mini_batch=4, num_steps=T), torch.Generator().manual_seed(0)
+    cfg = PPOConfig(ppo_epoch=4, num_mini_batch=4, num_steps=T, use_normalized_advantage=True)  # scale=small's
+    gen = torch.Generator().manual_seed(0)
     planned = DeviceRollouts(rollouts, dev)
     variants = {"plans (now)": planned, "masks read on the host": DeviceRollouts(rollouts, dev, plans=False)}
     best = {k: float("inf") for k in variants}

@@ -78,7 +78,9 @@ class PPOConfig:
     num_steps: int = 128  # rollout length
     gamma: float = 0.99  # discount
     tau: float = 0.95  # GAE lambda
-    use_normalized_advantage: bool = True
+    # advantages standardised (mean and variance over every rank's rollout) before the update: off in DD-PPO's
+    # PointNav (habitat-baselines' ddppo_pointnav.yaml: use_normalized_advantage False), on in scale=small
+    use_normalized_advantage: bool = False
     use_clipped_value_loss: bool = True
     # decoupled PPO (Hilton et al. 2021): clip the ratio to the weights at the update's start (their log-probs
     # recomputed, one forward pass over the rollout without gradients) and weight the surrogate by their ratio to the

@@ -41,6 +41,17 @@ def test_scale_files_hold_only_what_differs(path: Path):
     assert all(defaults[group][k] != v for group, values in raw.items() for k, v in values.items()), raw
 
 
+def test_scale_paper_updates_by_ddppo_pointnav_settings():
+    """scale=paper's ppo is habitat-baselines' ddppo_pointnav.yaml (PPO section; use_clipped_value_loss from its
+    defaults): advantages as GAE gives them, not standardised; scale=small standardises them, as its runs always did."""
+    ddppo_pointnav = {"clip_param": 0.2, "ppo_epoch": 2, "num_mini_batch": 2, "value_loss_coef": 0.5,
+                      "entropy_coef": 0.01, "lr": 2.5e-4, "eps": 1e-5, "max_grad_norm": 0.2, "num_steps": 128,
+                      "gamma": 0.99, "tau": 0.95, "use_normalized_advantage": False, "use_clipped_value_loss": True}
+    paper = asdict(compose(["scale=paper"]).ppo)
+    assert {k: paper[k] for k in ddppo_pointnav} == ddppo_pointnav
+    assert compose([]).ppo.use_normalized_advantage is True  # scale=small, the default scale
+
+
 def test_compose_gives_the_typed_tree():
     cfg = compose(TINY + ["train.total_steps=4e5", "algo=ddppo_depth", "depth.source=true"])
     assert isinstance(cfg, RLConfig) and isinstance(cfg.ppo, PPOConfig) and isinstance(cfg.episodes, EpisodeSettings)
@@ -59,7 +70,7 @@ def test_record_keeps_config_yaml_layout():
     assert list(ppo["algo"]) == ["name", "distributed", "lagrangian", "use_depth"]  # the Lagrangian settings act only there
     assert list(ppo["episodes"]) == list(TRAIN_EPISODE_KEYS)  # episodes.seed draws eval sets only
     assert ppo["ppo"] == {**asdict(PPOConfig()), "num_steps": 64, "ppo_epoch": 4, "num_mini_batch": 2,
-                          "max_grad_norm": 0.5}
+                          "max_grad_norm": 0.5, "use_normalized_advantage": True}
     lag = compose(TINY + ["algo=ppo_lag", "algo.lambda_max=1.0"]).record()
     assert list(lag["algo"]) == ["name", "distributed", "lagrangian", "use_depth", *LAGRANGIAN]
     assert lag["algo"]["lambda_max"] == 1.0 and lag["algo"]["cost_limit"] == 1e-4
