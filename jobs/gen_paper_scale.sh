@@ -8,6 +8,10 @@ OUT=${OUT:-/data/rvn}
 export RVN_CACHE_DIR=${RVN_CACHE_DIR:-$OUT/cache}   # each scene's navmesh built once for both datasets (README, Caches)
 SHARDS=${SHARDS:-64}
 LAST=$((SHARDS - 1))
+# your arguments go to both commands, Hydra's own (hydra/launcher=..., hydra.launcher.partition=..., any hydra.*) only to
+# the multirun: merge is one plain run, whose basic launcher has no partition or account (Hydra would refuse them)
+MERGE_ARGS=()
+for a in "$@"; do [[ "$a" =~ ^[+~]*hydra[./] ]] || MERGE_ARGS+=("$a"); done
 
 for KIND in expert negative; do
   rvn-gen -m hydra/launcher=slurm \
@@ -18,5 +22,5 @@ for KIND in expert negative; do
   # the last shard to finish writes data_splits/, data_config.yaml and manifest.json;
   # this is a no-op then, and lists the missing scenes if some shard failed
   rvn-gen mode=merge dataset=${KIND} out_dir=${OUT}/rvn_${KIND} scenes.num_scenes=800 \
-    trajectories_per_scene=400 split=train seed=0 renderer=auto "$@"
+    trajectories_per_scene=400 split=train seed=0 renderer=auto "${MERGE_ARGS[@]}"
 done

@@ -1,0 +1,52 @@
+"""The Slurm job recipes (jobs/*.sh) run with stub commands on PATH: what they call, with which arguments, and what
+they do when a call fails. The stubs log each call (one line, shell-quoted) and answer as told by the environment."""
+from __future__ import annotations
+
+import os
+import shlex
+import subprocess
+import sys
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+MODULES = {"rvn-gen": "rvn_data.gen.cli", "rvn-eval": "rvn_data.benchmark.cli", "rvn-train": "rvn_il.train.cli"}
+
+
+def stub(bin_dir: Path, name: str, body: str = "") -> None:
+    """``bin_dir/name``: appends its command line to $CALLS, then runs ``body`` (bash; exit 0 by default)."""
+    bin_dir.mkdir(exist_ok=True)
+    path = bin_dir / name
+    path.write_text(f'#!/usr/bin/env bash\nprintf "%q " {name} "$@" >>"$CALLS"; echo >>"$CALLS"\n{body}\n')
+    path.chmod(0o755)
+
+
+def compose_only(name: str) -> str:
+    """A stub body that checks a plain (not -m) call's overrides as the real command composes them (--cfg job:
+    nothing runs), exiting with its status; a multirun call exits with $MULTIRUN_STATUS (0 unless set)."""
+    return (f'if [[ "$1" == -m ]]; then exit "${{MULTIRUN_STATUS:-0}}"; fi\n'
+            f'exec {shlex.quote(sys.executable)} -m {MODULES[name]} "$@" --cfg job >/dev/null')
+
+
+def run_script(script: str, tmp_path: Path, *args: str, **env: str) -> tuple[subprocess.CompletedProcess, list[list[str]]]:
+    """``bash jobs/<script> ARGS`` with tmp_path/bin first on PATH; returns the process and the stubs' calls."""
+    calls = tmp_path / "calls.txt"
+    calls.write_text("")
+    full = {**os.environ, "PATH": f"{tmp_path / 'bin'}{os.pathsep}{os.environ['PATH']}", "CALLS": str(calls),
+            "OUT": str(tmp_path / "out"), **env}
+    proc = subprocess.run(["bash", str(REPO / "jobs" / script), *args], capture_output=True, text=True, timeout=300,
+                          env=full, cwd=tmp_path)
+    return proc, [shlex.split(ln) for ln in calls.read_text().splitlines() if ln.strip()]
+
+
+def test_gen_paper_scale_gives_launcher_settings_to_the_multirun_only(tmp_path):
+    """jobs/README.md's `hydra.launcher.partition=gpu`: the multirun takes it; merge, a plain run on the basic
+    launcher, would refuse it (exit 2) and the negative dataset would never be generated."""
+    stub(tmp_path / "bin", "rvn-gen", compose_only("rvn-gen"))
+    proc, calls = run_script("gen_paper_scale.sh", tmp_path, "hydra.launcher.partition=gpu", "workers=8")
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert [(c[1], c[c.index("dataset=expert") if "dataset=expert" in c else c.index("dataset=negative")])
+            for c in calls] == [("-m", "dataset=expert"), ("mode=merge", "dataset=expert"),
+                                ("-m", "dataset=negative"), ("mode=merge", "dataset=negative")]
+    for c in calls:
+        assert "workers=8" in c
+        assert ("hydra.launcher.partition=gpu" in c) == (c[1] == "-m"), c
