@@ -48,7 +48,8 @@ for algo in $ALGOS; do
   args="algo=$algo out_dir=$OUT/train/$algo ${COMMON[*]} ${extra[*]}"
   case "$algo" in
     ppo|ppo_lag) submit "$algo" 1 1 "rvn-rl $args" ;;
-    *) submit "$algo" "$NODES" "$GPUS" "srun torchrun --nnodes=$NODES --nproc_per_node=$GPUS --rdzv_id=\$SLURM_JOB_ID \
+    # srun gets the CPUs explicitly: Slurm 22.05-23.02's srun does not inherit sbatch's --cpus-per-task (one CPU a task)
+    *) submit "$algo" "$NODES" "$GPUS" "srun --cpus-per-task=$((GPUS * 8)) torchrun --nnodes=$NODES --nproc_per_node=$GPUS --rdzv_id=\$SLURM_JOB_ID \
 --rdzv_backend=c10d --rdzv_endpoint=\$MASTER_ADDR:\$MASTER_PORT -m rvn_rl.cli $args" ;;
   esac
 done

@@ -50,3 +50,23 @@ def test_gen_paper_scale_gives_launcher_settings_to_the_multirun_only(tmp_path):
     for c in calls:
         assert "workers=8" in c
         assert ("hydra.launcher.partition=gpu" in c) == (c[1] == "-m"), c
+
+
+def test_slurm_tasks_get_the_cpus_they_asked_for(tmp_path):
+    """Slurm 22.05-23.02: srun does not inherit sbatch's --cpus-per-task, so submitit's bare srun (and the recipe's
+    torchrun step) would run each task on one CPU; the launcher's setup exports SRUN_CPUS_PER_TASK and
+    rl_paper_scale.sh gives srun the CPUs itself."""
+    from hydra import compose, initialize_config_dir
+
+    from rvn_data.config import CONF_DIR, register_configs
+
+    register_configs()
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        cfg = compose(config_name="gen", overrides=["hydra/launcher=slurm"], return_hydra_config=True)
+    assert "export SRUN_CPUS_PER_TASK=$SLURM_CPUS_PER_TASK" in list(cfg.hydra.launcher.setup or [])
+    proc = subprocess.run(["bash", str(REPO / "jobs" / "rl_paper_scale.sh")], capture_output=True, text=True, timeout=60,
+                          env={**os.environ, "DRY_RUN": "1", "OUT": str(tmp_path / "out"), "DEPTH_SOURCE": "true",
+                               "GPUS": "2"})
+    assert proc.returncode == 0, proc.stderr
+    sruns = [ln for ln in proc.stdout.splitlines() if "torchrun" in ln]
+    assert len(sruns) == 2 and all(ln.startswith("srun --cpus-per-task=16 torchrun ") for ln in sruns), sruns
