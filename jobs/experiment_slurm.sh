@@ -16,6 +16,8 @@ OUT=${OUT:-/data/rvn}
 export RVN_CACHE_DIR=${RVN_CACHE_DIR:-$OUT/cache}   # packed frames shared by the trainings (README, Caches)
 SCENES=${SCENES:-800}             # train scenes (paper: 800)
 TRAJ=${TRAJ:-400}                 # expert trajectories per scene (paper: 400)
+TRAIN_FRACTION=${TRAIN_FRACTION:-1.0}  # share of the train scenes in the datasets' GNM train split (rvn-gen's default,
+                                       # 0.8, would train on 640 of the 800; 0.8 resumes datasets made with it)
 NEG_FRACTION=${NEG_FRACTION:-0.0625}  # NoMaD-Neg: share of expert trajectories replaced by negatives
 EPOCHS=${EPOCHS:-100}
 GEN_SHARDS=${GEN_SHARDS:-64}      # rvn-gen array tasks
@@ -38,14 +40,14 @@ KEEP=$((TRAJ - NEG))                                              # NoMaD_e: 375
 DATA=$OUT/data
 
 # 1. datasets: one array task per shard of the scene list; the last shard writes splits and manifest
-GEN=(split=train scenes.num_scenes="$SCENES" num_shards="$GEN_SHARDS" "shard_index=range(0,$GEN_SHARDS)" workers=4
-     progress=false seed=0)
+GEN=(split=train scenes.num_scenes="$SCENES" dataset.train_fraction="$TRAIN_FRACTION" num_shards="$GEN_SHARDS"
+     "shard_index=range(0,$GEN_SHARDS)" workers=4 progress=false seed=0)
 run rvn-gen -m "${LAUNCH[@]}" dataset=expert out_dir="$DATA/rvn_expert" trajectories_per_scene="$TRAJ" "${GEN[@]}"
 run rvn-gen -m "${LAUNCH[@]}" dataset=negative out_dir="$DATA/rvn_negative" trajectories_per_scene="$NEG" "${GEN[@]}"
 for KIND in expert negative; do  # a no-op when the last shard merged; names missing scenes otherwise
   N=$([[ $KIND == expert ]] && echo "$TRAJ" || echo "$NEG")
   run rvn-gen mode=merge dataset=$KIND out_dir="$DATA/rvn_$KIND" trajectories_per_scene="$N" split=train \
-    scenes.num_scenes="$SCENES" seed=0
+    scenes.num_scenes="$SCENES" dataset.train_fraction="$TRAIN_FRACTION" seed=0
 done
 
 # 2. NoMaD-Neg's splits: NoMaD_e on the first KEEP expert trajectories of each scene, NoMaD_n on the negatives

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Paper-scale expert + negative datasets (800 train scenes x 400 trajectories = 320k each)
+# Paper-scale expert + negative datasets (800 train scenes x 400 trajectories = 320k each, every scene in the GNM
+# train split: dataset.train_fraction=1.0; add dataset.train_fraction=0.8 to resume datasets made before with it)
 # on a Slurm cluster: 64 array tasks, 12-13 scenes each. Edit conf/hydra/launcher/slurm.yaml
 # (partition, account, setup) first. Re-running the same command resumes: finished
 # trajectories and scenes are skipped, and the result is byte-identical.
@@ -16,11 +17,11 @@ for a in "$@"; do [[ "$a" =~ ^[+~]*hydra[./] ]] || MERGE_ARGS+=("$a"); done
 for KIND in expert negative; do
   rvn-gen -m hydra/launcher=slurm \
     dataset=${KIND} out_dir=${OUT}/rvn_${KIND} \
-    scenes.num_scenes=800 trajectories_per_scene=400 split=train \
+    scenes.num_scenes=800 trajectories_per_scene=400 split=train dataset.train_fraction=1.0 \
     shard_index="range(0,${SHARDS})" num_shards=${SHARDS} workers=4 progress=false \
     renderer=auto seed=0 "$@"
   # the last shard to finish writes data_splits/, data_config.yaml and manifest.json;
   # this is a no-op then, and lists the missing scenes if some shard failed
   rvn-gen mode=merge dataset=${KIND} out_dir=${OUT}/rvn_${KIND} scenes.num_scenes=800 \
-    trajectories_per_scene=400 split=train seed=0 renderer=auto "${MERGE_ARGS[@]}"
+    trajectories_per_scene=400 split=train dataset.train_fraction=1.0 seed=0 renderer=auto "${MERGE_ARGS[@]}"
 done

@@ -70,3 +70,17 @@ def test_slurm_tasks_get_the_cpus_they_asked_for(tmp_path):
     assert proc.returncode == 0, proc.stderr
     sruns = [ln for ln in proc.stdout.splitlines() if "torchrun" in ln]
     assert len(sruns) == 2 and all(ln.startswith("srun --cpus-per-task=16 torchrun ") for ln in sruns), sruns
+
+
+def test_paper_scale_datasets_put_every_train_scene_in_the_train_split(tmp_path):
+    """rvn-gen's dataset.train_fraction defaults to 0.8: the paper-scale recipes would train on 640 of the 800 train
+    scenes (256k of the promised 320k trajectories). Every rvn-gen call of theirs, merge too, says 1.0."""
+    stub(tmp_path / "bin", "rvn-gen", compose_only("rvn-gen"))
+    proc, calls = run_script("gen_paper_scale.sh", tmp_path)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert len(calls) == 4 and all("dataset.train_fraction=1.0" in c for c in calls), calls
+    proc = subprocess.run(["bash", str(REPO / "jobs" / "experiment_slurm.sh")], capture_output=True, text=True,
+                          timeout=60, env={**os.environ, "DRY_RUN": "1", "OUT": str(tmp_path / "rvn")})
+    assert proc.returncode == 0, proc.stderr
+    gens = [shlex.split(ln[2:]) for ln in proc.stdout.splitlines() if ln.startswith("+ rvn-gen")]
+    assert len(gens) == 4 and all("dataset.train_fraction=1.0" in c for c in gens), gens
