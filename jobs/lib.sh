@@ -1,12 +1,27 @@
 # Shared by the job recipes: `source "$(dirname "${BASH_SOURCE[0]}")/lib.sh"` after OUT is set and exists.
-# step NAME CMD...: run CMD unless OUT/.done/NAME holds the same command; log it to
-# OUT/logs/NAME.log, time it into OUT/timings.tsv and STEPS_SECONDS, stop the recipe on failure.
+# step NAME CMD...: run CMD, log it to OUT/logs/NAME.log, time it into OUT/timings.tsv and STEPS_SECONDS, stop the
+# recipe on failure, and record it in OUT/.done/NAME. Skipped instead when OUT/.done/NAME holds the same command and
+# is no older than the record of any step before it in this run: so an unchanged prefix of steps is skipped, but once
+# a step runs (its command changed, or it never finished), every later step runs again too, even with its command
+# unchanged (an evaluation of a model just retrained, also when a run that retrained it was stopped before the
+# evaluation); each tool then resumes its own work, or refuses an input that changed under it with its own error.
 STEPS_SECONDS=${STEPS_SECONDS:-0}
+STEP_NEWEST=""   # the newest OUT/.done record of the steps met so far in this run
+# step_seen NAME...: count steps that ran in a background subshell (whose STEP_NEWEST is lost) as met, after `wait`
+step_seen() {
+  local n
+  for n in "$@"; do
+    if [[ -f "$OUT/.done/$n" && ( -z "$STEP_NEWEST" || "$OUT/.done/$n" -nt "$STEP_NEWEST" ) ]]; then
+      STEP_NEWEST=$OUT/.done/$n
+    fi
+  done
+}
 step() {
   local name=$1; shift
   local cmd; cmd=$(printf '%q ' "$@")
-  if [[ -f "$OUT/.done/$name" && "$(cat "$OUT/.done/$name")" == "$cmd" ]]; then
-    echo "[$name] done before, skipped"; return 0
+  local record=$OUT/.done/$name
+  if [[ -f "$record" && "$(cat "$record")" == "$cmd" && ! ( -n "$STEP_NEWEST" && "$STEP_NEWEST" -nt "$record" ) ]]; then
+    echo "[$name] done before, skipped"; step_seen "$name"; return 0
   fi
   echo "[$name] $cmd"
   local t0=$SECONDS
@@ -17,6 +32,7 @@ step() {
   fi
   printf '%s\t%s\n' "$name" "$((SECONDS - t0))" >>"$OUT/timings.tsv"
   STEPS_SECONDS=$((STEPS_SECONDS + SECONDS - t0))
-  printf '%s' "$cmd" >"$OUT/.done/$name"
+  printf '%s' "$cmd" >"$record"
+  step_seen "$name"
   echo "[$name] ok in $((SECONDS - t0)) s"
 }

@@ -12,8 +12,8 @@
 #   IL_RUNS="runs/small_experiment_small/eval/nomad_pointgoal ..." bash jobs/rl_small.sh   # other rows beside
 #
 # Every knob below can be set in the environment. Rerunning resumes: a step whose exact command
-# already succeeded is skipped (OUT/.done/); rvn-rl continues from its latest checkpoint and rvn-eval
-# skips finished episodes. Logs: OUT/logs/<step>.log; wall time per step: OUT/timings.tsv.
+# already succeeded is skipped (OUT/.done/) unless a step before it ran again (jobs/lib.sh); rvn-rl continues
+# from its latest checkpoint and rvn-eval skips finished episodes. Logs: OUT/logs/<step>.log; wall time per step: OUT/timings.tsv.
 set -euo pipefail
 SCALE=${SCALE:-small}
 OUT=${1:-${OUT:-runs/rl_small_${SCALE}}}
@@ -97,6 +97,7 @@ if [[ "$PARALLEL" == 1 ]] && has ppo && has ppo_lag; then  # the two trainings s
   train_ppo & ppo_pid=$!
   train_ppo_lag & lag_pid=$!
   wait $ppo_pid && wait $lag_pid || { echo "rl_small: a training failed (logs in $OUT/logs/)" >&2; exit 1; }
+  step_seen train_ppo train_ppo_lag   # ran in subshells: a training that ran makes every evaluation run again
 else
   if has ppo; then train_ppo; fi
   if has ppo_lag; then train_ppo_lag; fi

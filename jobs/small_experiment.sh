@@ -14,9 +14,10 @@
 #
 # OUT defaults to runs/small_experiment_$SCALE. Every knob below can be set in the
 # environment (e.g. TRAIN_SCENES=40 NOMAD_EPOCHS=4 bash jobs/small_experiment.sh).
-# Rerunning resumes: a step whose exact command already succeeded is skipped (OUT/.done/),
-# and each tool resumes its own work (rvn-gen trajectories, rvn-train checkpoints, rvn-eval
-# episodes). Logs: OUT/logs/<step>.log; wall time per step: OUT/timings.tsv.
+# Rerunning resumes: a step whose exact command already succeeded is skipped (OUT/.done/) unless a
+# step before it ran again (jobs/lib.sh), and each tool resumes its own work (rvn-gen trajectories, rvn-train
+# checkpoints, rvn-eval episodes) or refuses a changed input (rvn-eval: an out_dir holding another model's episodes).
+# Logs: OUT/logs/<step>.log; wall time per step: OUT/timings.tsv.
 set -euo pipefail
 
 SCALE=${SCALE:-small}

@@ -84,3 +84,54 @@ def test_paper_scale_datasets_put_every_train_scene_in_the_train_split(tmp_path)
     assert proc.returncode == 0, proc.stderr
     gens = [shlex.split(ln[2:]) for ln in proc.stdout.splitlines() if ln.startswith("+ rvn-gen")]
     assert len(gens) == 4 and all("dataset.train_fraction=1.0" in c for c in gens), gens
+
+
+def test_a_step_that_ran_makes_every_later_step_run(tmp_path):
+    """jobs/lib.sh's `step`: an unchanged prefix of steps is skipped; after a step that ran (changed command, or one
+    that never finished), every later step runs too, unchanged or not: an evaluation after its model was retrained
+    must not keep the old model's numbers, also when the run that retrained it was stopped before the evaluation."""
+    out = tmp_path / "out"
+    (out / "logs").mkdir(parents=True)
+    (out / ".done").mkdir()
+    recipe = tmp_path / "recipe.sh"
+    recipe.write_text(f'set -euo pipefail\nOUT={out}\nsource {REPO / "jobs" / "lib.sh"}\n'
+                      'step gen work gen "${GEN:-1}"\nstep train work train "${EPOCHS:-1}"\n'
+                      'step eval work eval\nstep report work report\n')
+    stub(tmp_path / "bin", "work", 'if [[ "$1" == "${FAIL:-}" ]]; then exit 1; fi')
+
+    def ran(**env) -> list[str]:
+        proc, calls = run_script(str(recipe), tmp_path, **env)
+        assert proc.returncode == (1 if env.get("FAIL") else 0), proc.stderr
+        return [c[1] for c in calls]
+
+    assert ran() == ["gen", "train", "eval", "report"]
+    assert ran() == []
+    assert ran(EPOCHS="4") == ["train", "eval", "report"]  # retrained: evaluated again
+    assert ran(EPOCHS="4") == []
+    assert ran(EPOCHS="8", FAIL="eval") == ["train", "eval"]  # stopped after retraining
+    assert ran(EPOCHS="8") == ["eval", "report"]
+    assert ran(EPOCHS="8") == []
+
+
+def rl_small_stubs(tmp_path: Path) -> dict[str, str]:
+    """Stub rvn-rl, rvn-eval and the report's python for jobs/rl_small.sh; rvn-rl algo=$FAIL_ALGO fails after a
+    moment, algo=$SLOW_ALGO trains until killed (writing its pid to $SLOW_PID)."""
+    stub(tmp_path / "bin", "rvn-rl", 'if [[ "$1" == "algo=${FAIL_ALGO:-}" ]]; then sleep 1; exit 1; fi\n'
+                                     'if [[ "$1" == "algo=${SLOW_ALGO:-}" ]]; then echo $$ >"$SLOW_PID"; exec sleep 60; fi')
+    stub(tmp_path / "bin", "rvn-eval")
+    stub(tmp_path / "bin", "python")
+    return {"PYTHON": "python", "SCALE": "tiny"}
+
+
+def test_rl_small_evaluates_again_after_a_training_ran(tmp_path):
+    """rl_small.sh trains PPO and PPO-Lagrangian in background subshells: a training that ran there must make the
+    evaluations after it run again too."""
+    env = rl_small_stubs(tmp_path)
+    out = str(tmp_path / "rl")
+    proc, calls = run_script("rl_small.sh", tmp_path, out, **env)
+    assert proc.returncode == 0, proc.stderr
+    assert sorted(c[0] for c in calls) == ["python"] + ["rvn-eval"] * 3 + ["rvn-rl"] * 2
+    proc, calls = run_script("rl_small.sh", tmp_path, out, **env, COST_LIMIT="1e-3")
+    assert proc.returncode == 0, proc.stderr
+    assert [c[:2] for c in calls if c[0] == "rvn-rl"] == [["rvn-rl", "algo=ppo_lag"]]
+    assert len([c for c in calls if c[0] == "rvn-eval"]) == 3
