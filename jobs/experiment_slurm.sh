@@ -67,11 +67,19 @@ train() {  # train NAME OVERRIDES...
 train.epochs=$EPOCHS train.batch_size=$BATCH data.num_workers=6 out_dir=$OUT/train/$name $*"
 }
 run mkdir -p "$OUT/train"
-train vint_pointgoal data.root="$DATA/rvn_expert" &
-train nomad_pointgoal data.root="$DATA/rvn_expert" &
+TRAINING=()  # "pid name" of each background sbatch --wait (its exit status is the job's)
+train vint_pointgoal data.root="$DATA/rvn_expert" & TRAINING+=("$! vint_pointgoal")
+train nomad_pointgoal data.root="$DATA/rvn_expert" & TRAINING+=("$! nomad_pointgoal")
 train nomad_neg data.root="$DATA/rvn_expert" data.negative_root="$DATA/rvn_negative" \
-  data.splits_dir="$OUT/splits_neg" data.skip_short=true &
-wait
+  data.splits_dir="$OUT/splits_neg" data.skip_short=true & TRAINING+=("$! nomad_neg")
+# every job is waited for (a rerun would otherwise submit a second copy of one still running), then a failed one stops
+# the recipe before the benchmark evaluates a model it did not finish
+FAILED=()
+for t in "${TRAINING[@]}"; do wait "${t%% *}" || FAILED+=("rvn-train-${t#* } ($OUT/train/${t#* }.slurm.log)"); done
+if (( ${#FAILED[@]} )); then
+  echo "experiment_slurm.sh: error: training job(s) failed: ${FAILED[*]}; fix the cause and rerun (rvn-train resumes from its latest checkpoint)" >&2
+  exit 1
+fi
 
 # 4. benchmark: every policy on every split, array tasks of EVAL_SHARD_SCENES scenes each
 evaluate() {  # evaluate SPLIT NAME METHOD OVERRIDES...

@@ -34,7 +34,7 @@ def run_script(script: str, tmp_path: Path, *args: str, **env: str) -> tuple[sub
     full = {**os.environ, "PATH": f"{tmp_path / 'bin'}{os.pathsep}{os.environ['PATH']}", "CALLS": str(calls),
             "OUT": str(tmp_path / "out"), **env}
     proc = subprocess.run(["bash", str(REPO / "jobs" / script), *args], capture_output=True, text=True, timeout=300,
-                          env=full, cwd=tmp_path)
+                          env=full, cwd=tmp_path, stdin=subprocess.DEVNULL)
     return proc, [shlex.split(ln) for ln in calls.read_text().splitlines() if ln.strip()]
 
 
@@ -135,3 +135,53 @@ def test_rl_small_evaluates_again_after_a_training_ran(tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert [c[:2] for c in calls if c[0] == "rvn-rl"] == [["rvn-rl", "algo=ppo_lag"]]
     assert len([c for c in calls if c[0] == "rvn-eval"]) == 3
+
+
+def slurm_stubs(tmp_path: Path) -> None:
+    """Stubs for the Slurm recipes: sbatch (fails the job named $FAIL_JOB, given as --job-name= or in the script on
+    stdin), rvn-gen (a multirun exits with $MULTIRUN_STATUS; merge writes the train split the recipe reads), rvn-eval,
+    and python (runs `python -c` for real)."""
+    stub(tmp_path / "bin", "sbatch", 'script=$(cat)\n'
+         'if [[ -n "${FAIL_JOB:-}" && " $* $script " == *"--job-name=$FAIL_JOB "* ]]; then exit 1; fi')
+    stub(tmp_path / "bin", "rvn-gen", 'if [[ "$1" == -m ]]; then exit "${MULTIRUN_STATUS:-0}"; fi\n'
+         'for a; do case $a in out_dir=*) o=${a#out_dir=} ;; dataset=*) d=${a#dataset=} ;; esac; done\n'
+         'mkdir -p "$o/data_splits/rvn_$d/train" && echo rvn_${d}_0 >"$o/data_splits/rvn_$d/train/traj_names.txt"')
+    stub(tmp_path / "bin", "rvn-eval")
+    stub(tmp_path / "bin", "python", f'if [[ "$1" == -c ]]; then exec {shlex.quote(sys.executable)} "$@"; fi')
+
+
+def test_a_failed_training_job_stops_the_slurm_recipes(tmp_path):
+    """`sbatch --wait ... &` then a bare `wait` returned 0 whatever the jobs did: the recipes went on to evaluate
+    models that never finished training. Now each job is waited for and a failed one ends the recipe, naming it."""
+    slurm_stubs(tmp_path)
+    proc, calls = run_script("rl_paper_scale.sh", tmp_path, DEPTH_SOURCE="true", FAIL_JOB="rvn-rl-ddppo")
+    assert proc.returncode == 1, proc.stderr
+    assert "rl_paper_scale.sh: error: training job(s) failed: rvn-rl-ddppo (" in proc.stderr
+    assert [c[0] for c in calls] == ["sbatch"] * 4  # every job waited for, nothing evaluated
+    proc, calls = run_script("experiment_slurm.sh", tmp_path, FAIL_JOB="rvn-train-nomad_neg")
+    assert proc.returncode == 1, proc.stderr
+    assert (f"experiment_slurm.sh: error: training job(s) failed: rvn-train-nomad_neg "
+            f"({tmp_path / 'out' / 'train' / 'nomad_neg.slurm.log'})") in proc.stderr
+    assert [c[0] for c in calls if c[0] != "rvn-gen" and c[1:2] != ["-c"]] == ["sbatch"] * 3
+    proc, calls = run_script("rl_paper_scale.sh", tmp_path, DEPTH_SOURCE="true")  # all trained: evaluated, reported
+    assert proc.returncode == 0, proc.stderr
+    assert [c[0] for c in calls] == ["sbatch"] * 4 + ["rvn-eval"] * 8 + ["python"]
+
+
+def test_rl_paper_scale_evaluates_on_the_cluster(tmp_path):
+    """rl_paper_scale.sh ran every rvn-eval row (50 scenes x 20 episodes, 8 of them) on the submit host; they are
+    Slurm array tasks now, as experiment_slurm.sh's, and their overrides compose."""
+    proc = subprocess.run(["bash", str(REPO / "jobs" / "rl_paper_scale.sh")], capture_output=True, text=True, timeout=60,
+                          env={**os.environ, "DRY_RUN": "1", "OUT": str(tmp_path / "out"), "DEPTH_SOURCE": "true",
+                               "PARTITION": "gpu"})
+    assert proc.returncode == 0, proc.stderr
+    evals = [shlex.split(ln[2:]) for ln in proc.stdout.splitlines() if ln.startswith("+ rvn-eval")]
+    assert len(evals) == 8
+    for c in evals:
+        assert c[1:4] == ["-m", "hydra/launcher=slurm", "hydra.launcher.partition=gpu"], c
+        assert "episodes.first_scene=range(0,50,5)" in c and "out_dir=" + str(tmp_path / "out" / "eval") in " ".join(c)
+    args = [a.replace("range(0,50,5)", "0") for a in evals[-1][1:] if a != "-m" and not a.startswith("hydra")]
+    composed = subprocess.run([sys.executable, "-m", MODULES["rvn-eval"], *args, "--cfg", "job", "--resolve"],
+                              capture_output=True, text=True, timeout=120)
+    assert composed.returncode == 0, composed.stderr[-2000:]
+    assert f"out_dir: {tmp_path / 'out' / 'eval' / 'test' / 'ddppo_depth' / 'scenes_0'}" in composed.stdout
