@@ -109,7 +109,9 @@ def load_run(path: str | Path) -> Run:
 
 
 def find_runs(paths: list[str | Path]) -> list[Run]:
-    """Runs for each path: the path itself when it is an out_dir, else every out_dir below it."""
+    """Runs for each path: the path itself when it is an out_dir, else every out_dir below it. A folder below with
+    episodes.jsonl but no metrics.json (a shard still running, or stopped, e.g. at its time limit) is refused by
+    `load_run`, naming it: left out, its row would silently cover fewer episodes."""
     runs = []
     for p in paths:
         p = Path(p)
@@ -118,7 +120,7 @@ def find_runs(paths: list[str | Path]) -> list[Run]:
         if (p / "metrics.json").is_file() or (p / "episodes.jsonl").is_file():
             runs.append(load_run(p))
             continue
-        found = sorted(m.parent for m in p.rglob("metrics.json"))
+        found = sorted({m.parent for name in ("metrics.json", "episodes.jsonl") for m in p.rglob(name)})
         if not found:
             raise ValueError(f"{p} holds no rvn-eval output (no metrics.json in it or below it)")
         runs += [load_run(f) for f in found]
