@@ -36,7 +36,7 @@ run() {  # print the command (shell-quoted), then run it unless DRY_RUN
 }
 
 NEG=$(python -c "print(max(1, round($TRAJ * $NEG_FRACTION)))")   # paper: 25 per scene (20k)
-KEEP=$((TRAJ - NEG))                                              # NoMaD_e: 375 per scene (300k)
+KEEP=$((TRAJ > NEG ? TRAJ - NEG : TRAJ))  # NoMaD_e: 375 per scene (300k); all of them when NEG would leave none (TRAJ=1)
 DATA=$OUT/data
 
 # 1. datasets: one array task per shard of the scene list; the last shard writes splits and manifest

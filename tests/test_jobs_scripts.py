@@ -185,3 +185,14 @@ def test_rl_paper_scale_evaluates_on_the_cluster(tmp_path):
                               capture_output=True, text=True, timeout=120)
     assert composed.returncode == 0, composed.stderr[-2000:]
     assert f"out_dir: {tmp_path / 'out' / 'eval' / 'test' / 'ddppo_depth' / 'scenes_0'}" in composed.stdout
+
+
+def test_experiment_slurm_keeps_expert_trajectories_for_nomad_e(tmp_path):
+    """TRAJ=1 makes NEG 1 (at least one negative a scene): KEEP = TRAJ - NEG was 0 and NoMaD_e's split file came out
+    empty; as in small_experiment.sh, every expert trajectory is kept when the negatives would leave none."""
+    slurm_stubs(tmp_path)
+    for traj, kept in (("1", ["rvn_expert_0"]), ("400", ["rvn_expert_0"])):
+        proc, _ = run_script("experiment_slurm.sh", tmp_path, TRAJ=traj)
+        assert proc.returncode == 0, proc.stderr
+        split = tmp_path / "out" / "splits_neg" / "rvn_expert" / "train" / "traj_names.txt"
+        assert split.read_text().split() == kept, traj
