@@ -94,9 +94,17 @@ train_ppo_lag() {
     algo.lambda_max="$LAMBDA_MAX" "${SINGLE[@]}"
 }
 if [[ "$PARALLEL" == 1 ]] && has ppo && has ppo_lag; then  # the two trainings side by side, THREADS torch threads each
+  # each in a process group of its own (set -m), so that when one fails, or the recipe is stopped, the other is stopped
+  # with every process it started (killing its subshell alone would leave its rvn-rl running)
+  set -m
   train_ppo & ppo_pid=$!
   train_ppo_lag & lag_pid=$!
-  wait $ppo_pid && wait $lag_pid || { echo "rl_small: a training failed (logs in $OUT/logs/)" >&2; exit 1; }
+  set +m
+  trap 'kill -- -$ppo_pid -$lag_pid 2>/dev/null || true' EXIT
+  for _ in 1 2; do  # whichever ends first
+    wait -n || { echo "rl_small: a training failed (logs in $OUT/logs/); the other one was stopped" >&2; exit 1; }
+  done
+  trap - EXIT
   step_seen train_ppo train_ppo_lag   # ran in subshells: a training that ran makes every evaluation run again
 else
   if has ppo; then train_ppo; fi

@@ -16,7 +16,8 @@ def stub(bin_dir: Path, name: str, body: str = "") -> None:
     """``bin_dir/name``: appends its command line to $CALLS, then runs ``body`` (bash; exit 0 by default)."""
     bin_dir.mkdir(exist_ok=True)
     path = bin_dir / name
-    path.write_text(f'#!/usr/bin/env bash\nprintf "%q " {name} "$@" >>"$CALLS"; echo >>"$CALLS"\n{body}\n')
+    # one write a call (O_APPEND): calls from background jobs do not interleave
+    path.write_text(f'#!/usr/bin/env bash\nline=$(printf "%q " {name} "$@"); printf "%s\\n" "$line" >>"$CALLS"\n{body}\n')
     path.chmod(0o755)
 
 
@@ -33,8 +34,12 @@ def run_script(script: str, tmp_path: Path, *args: str, **env: str) -> tuple[sub
     calls.write_text("")
     full = {**os.environ, "PATH": f"{tmp_path / 'bin'}{os.pathsep}{os.environ['PATH']}", "CALLS": str(calls),
             "OUT": str(tmp_path / "out"), **env}
-    proc = subprocess.run(["bash", str(REPO / "jobs" / script), *args], capture_output=True, text=True, timeout=300,
-                          env=full, cwd=tmp_path, stdin=subprocess.DEVNULL)
+    # output to files, not pipes: the call returns when bash exits, not when the last process holding its output does
+    with open(tmp_path / "stdout.txt", "w+") as out, open(tmp_path / "stderr.txt", "w+") as err:
+        rc = subprocess.run(["bash", str(REPO / "jobs" / script), *args], stdout=out, stderr=err, timeout=300,
+                            env=full, cwd=tmp_path, stdin=subprocess.DEVNULL).returncode
+        out.seek(0), err.seek(0)
+        proc = subprocess.CompletedProcess([script, *args], rc, out.read(), err.read())
     return proc, [shlex.split(ln) for ln in calls.read_text().splitlines() if ln.strip()]
 
 
@@ -114,10 +119,10 @@ def test_a_step_that_ran_makes_every_later_step_run(tmp_path):
 
 
 def rl_small_stubs(tmp_path: Path) -> dict[str, str]:
-    """Stub rvn-rl, rvn-eval and the report's python for jobs/rl_small.sh; rvn-rl algo=$FAIL_ALGO fails after a
-    moment, algo=$SLOW_ALGO trains until killed (writing its pid to $SLOW_PID)."""
-    stub(tmp_path / "bin", "rvn-rl", 'if [[ "$1" == "algo=${FAIL_ALGO:-}" ]]; then sleep 1; exit 1; fi\n'
-                                     'if [[ "$1" == "algo=${SLOW_ALGO:-}" ]]; then echo $$ >"$SLOW_PID"; exec sleep 60; fi')
+    """Stub rvn-rl, rvn-eval and the report's python for jobs/rl_small.sh; an rvn-rl whose first argument is
+    $FAIL_ALGO fails after a moment, one whose first is $SLOW_ALGO trains until killed (its pid in $SLOW_PID)."""
+    stub(tmp_path / "bin", "rvn-rl", 'if [[ "$1" == "${FAIL_ALGO:-}" ]]; then sleep 1; exit 1; fi\n'
+                                     'if [[ "$1" == "${SLOW_ALGO:-}" ]]; then echo $$ >"$SLOW_PID"; exec sleep 60; fi')
     stub(tmp_path / "bin", "rvn-eval")
     stub(tmp_path / "bin", "python")
     return {"PYTHON": "python", "SCALE": "tiny"}
@@ -196,3 +201,31 @@ def test_experiment_slurm_keeps_expert_trajectories_for_nomad_e(tmp_path):
         assert proc.returncode == 0, proc.stderr
         split = tmp_path / "out" / "splits_neg" / "rvn_expert" / "train" / "traj_names.txt"
         assert split.read_text().split() == kept, traj
+
+
+def alive(pid: int) -> bool:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except (FileNotFoundError, ProcessLookupError):
+        return False
+
+
+def test_rl_small_stops_the_other_training_when_one_fails(tmp_path):
+    """PPO and PPO-Lagrangian train side by side; when PPO failed, the recipe exited and PPO-Lagrangian's rvn-rl
+    kept running (for up to two hours at SCALE=small, on the cores a rerun would use). It is stopped now."""
+    import time
+
+    env = rl_small_stubs(tmp_path)
+    slow = tmp_path / "slow.pid"
+    proc, _ = run_script("rl_small.sh", tmp_path, str(tmp_path / "rl"), **env, FAIL_ALGO="algo=ppo",
+                         SLOW_ALGO="algo=ppo_lag", SLOW_PID=str(slow))
+    pid = int(slow.read_text())
+    try:
+        assert proc.returncode == 1 and "rl_small: a training failed" in proc.stderr, proc.stderr
+        deadline = time.monotonic() + 10
+        while alive(pid) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert not alive(pid), "PPO-Lagrangian's rvn-rl still runs"
+    finally:
+        if alive(pid):
+            os.kill(pid, 9)
