@@ -94,12 +94,16 @@ def register_configs() -> None:
     _register_resolvers()
 
 
-def eval_run_name(method: str | None, policy: str | None, checkpoint_path: str | None = None) -> str:
+def eval_run_name(method: str | None, policy: str | None, checkpoint_path: str | None = None,
+                  first_scene: int | None = 0) -> str:
     """rvn-eval's default out_dir leaf (``${rvn_eval_name:...}`` in `EvalConfig.out_dir`): the
     method label, else the checkpoint folder's name, else the policy config's name; so two
-    models' evaluations land in two folders (runs/eval/val/NoMaD-Neg, runs/eval/val/nomad)."""
+    models' evaluations land in two folders (runs/eval/val/NoMaD-Neg, runs/eval/val/nomad). A shard that starts
+    at another scene than the first (``episodes.first_scene``, e.g. a multirun over ``range(0,50,5)``) gets
+    ``_first_scene<N>``, so the shards do not write into one folder (the report merges them)."""
     name = method or (Path(str(checkpoint_path)).expanduser().name if checkpoint_path else None) or policy or "policy"
-    return "_".join(str(name).replace("/", "_").replace("\\", "_").split()) or "policy"
+    name = "_".join(str(name).replace("/", "_").replace("\\", "_").split()) or "policy"
+    return f"{name}_first_scene{first_scene}" if first_scene else name
 
 
 def _register_resolvers() -> None:

@@ -75,6 +75,9 @@ def test_eval_default_out_dir_names_the_method_or_checkpoint(tmp_path):
     assert out_dir("policy=checkpoint", "policy.checkpoint_path=runs/train/nomad/", "split=test") == "runs/eval/test/nomad"
     assert out_dir("policy=random") == "runs/eval/val/random"
     assert out_dir("policy=random", "method=Goal follower") == "runs/eval/val/Goal_follower"
+    # the shards of a multirun over episodes.first_scene: a folder each (they wrote into one before)
+    assert out_dir("policy=random", "episodes.first_scene=0") == "runs/eval/val/random"
+    assert out_dir("policy=random", "episodes.first_scene=5", "method=Random") == "runs/eval/val/Random_first_scene5"
 
 
 def test_eval_checks_paths_before_any_episode(tmp_path):

@@ -7,7 +7,7 @@ paper's protocol: sequential point goals, SR_1, E(G), CPK). Hydra config ``conf/
 Writes ``out_dir/metrics.json``, ``out_dir/episodes.jsonl`` and ``out_dir/table.md``;
 an interrupted run resumes where it stopped (``resume=false`` starts over). The default
 out_dir, ``runs/eval/<split>/<method>``, takes the method label, else the checkpoint folder's
-name, else the policy's. Every path and setting (scenes, the policy and its checkpoint, the
+name, else the policy's (+ ``_first_scene<N>`` for a shard that starts at scene N > 0). Every path and setting (scenes, the policy and its checkpoint, the
 out_dir, a finished run there with other settings) is checked before any episode is generated:
 bad input exits with status 2 and one line, writing nothing; a failed run exits with status 1.
 """
