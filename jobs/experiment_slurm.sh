@@ -42,13 +42,22 @@ DATA=$OUT/data
 # 1. datasets: one array task per shard of the scene list; the last shard writes splits and manifest
 GEN=(split=train scenes.num_scenes="$SCENES" dataset.train_fraction="$TRAIN_FRACTION" num_shards="$GEN_SHARDS"
      "shard_index=range(0,$GEN_SHARDS)" workers=4 progress=false seed=0)
-run rvn-gen -m "${LAUNCH[@]}" dataset=expert out_dir="$DATA/rvn_expert" trajectories_per_scene="$TRAJ" "${GEN[@]}"
-run rvn-gen -m "${LAUNCH[@]}" dataset=negative out_dir="$DATA/rvn_negative" trajectories_per_scene="$NEG" "${GEN[@]}"
-for KIND in expert negative; do  # a no-op when the last shard merged; names missing scenes otherwise
+GEN_STATUS=0  # the first failure's exit status: the merges run after a failed multirun too, then the recipe stops
+failed() { (( GEN_STATUS )) || GEN_STATUS=$1; }
+run rvn-gen -m "${LAUNCH[@]}" dataset=expert out_dir="$DATA/rvn_expert" trajectories_per_scene="$TRAJ" "${GEN[@]}" || failed $?
+run rvn-gen -m "${LAUNCH[@]}" dataset=negative out_dir="$DATA/rvn_negative" trajectories_per_scene="$NEG" "${GEN[@]}" || failed $?
+# a no-op when the last shard merged; after a failed shard (the launcher stops waiting at the first, others may still
+# run) it refuses, saying how many scenes are missing and naming the first
+for KIND in expert negative; do
   N=$([[ $KIND == expert ]] && echo "$TRAJ" || echo "$NEG")
   run rvn-gen mode=merge dataset=$KIND out_dir="$DATA/rvn_$KIND" trajectories_per_scene="$N" split=train \
-    scenes.num_scenes="$SCENES" dataset.train_fraction="$TRAIN_FRACTION" seed=0
+    scenes.num_scenes="$SCENES" dataset.train_fraction="$TRAIN_FRACTION" seed=0 || failed $?
 done
+if (( GEN_STATUS )); then
+  echo "experiment_slurm.sh: error: the datasets are incomplete (rvn-gen's messages above; shard logs in" \
+       "$DATA/rvn_{expert,negative}/.rvn/multirun/); rerun this script once the shards are done, finished scenes are skipped" >&2
+  exit "$GEN_STATUS"
+fi
 
 # 2. NoMaD-Neg's splits: NoMaD_e on the first KEEP expert trajectories of each scene, NoMaD_n on the negatives
 if [[ -z "${DRY_RUN:-}" ]]; then

@@ -15,13 +15,21 @@ MERGE_ARGS=()
 for a in "$@"; do [[ "$a" =~ ^[+~]*hydra[./] ]] || MERGE_ARGS+=("$a"); done
 
 for KIND in expert negative; do
+  gen=0 merge=0
   rvn-gen -m hydra/launcher=slurm \
     dataset=${KIND} out_dir=${OUT}/rvn_${KIND} \
     scenes.num_scenes=800 trajectories_per_scene=400 split=train dataset.train_fraction=1.0 \
     shard_index="range(0,${SHARDS})" num_shards=${SHARDS} workers=4 progress=false \
-    renderer=auto seed=0 "$@"
-  # the last shard to finish writes data_splits/, data_config.yaml and manifest.json;
-  # this is a no-op then, and lists the missing scenes if some shard failed
+    renderer=auto seed=0 "$@" || gen=$?
+  # the last shard to finish writes data_splits/, data_config.yaml and manifest.json; merge is a no-op then. It runs
+  # after a failed multirun too (a scene that failed, a shard that died; the launcher stops waiting at the first
+  # failed shard, others may still run) and refuses, saying how many scenes are missing and naming the first;
+  # rerun this script once the shards are done: finished scenes are skipped
   rvn-gen mode=merge dataset=${KIND} out_dir=${OUT}/rvn_${KIND} scenes.num_scenes=800 \
-    trajectories_per_scene=400 split=train dataset.train_fraction=1.0 seed=0 renderer=auto "${MERGE_ARGS[@]}"
+    trajectories_per_scene=400 split=train dataset.train_fraction=1.0 seed=0 renderer=auto "${MERGE_ARGS[@]}" || merge=$?
+  if (( gen || merge )); then
+    echo "gen_paper_scale.sh: error: the $KIND dataset is incomplete (rvn-gen -m exit $gen, merge exit $merge; shard logs in" \
+         "${OUT}/rvn_${KIND}/.rvn/multirun/); rerun this script to resume" >&2
+    exit $(( gen ? gen : merge ))
+  fi
 done

@@ -229,3 +229,19 @@ def test_rl_small_stops_the_other_training_when_one_fails(tmp_path):
     finally:
         if alive(pid):
             os.kill(pid, 9)
+
+
+def test_merge_runs_after_a_failed_multirun(tmp_path):
+    """A failed shard made `rvn-gen -m` exit 1 and set -e stopped the recipes before `mode=merge`, which the comments
+    said lists the missing scenes. The merges run now, then the recipe stops with the multirun's status."""
+    stub(tmp_path / "bin", "rvn-gen", compose_only("rvn-gen"))
+    proc, calls = run_script("gen_paper_scale.sh", tmp_path, MULTIRUN_STATUS="1")
+    assert proc.returncode == 1, proc.stderr
+    assert [c[1] for c in calls] == ["-m", "mode=merge"] and "dataset=expert" in calls[1]  # no negatives on a failure
+    assert "gen_paper_scale.sh: error: the expert dataset is incomplete (rvn-gen -m exit 1, merge exit 0;" in proc.stderr
+    slurm_stubs(tmp_path)
+    proc, calls = run_script("experiment_slurm.sh", tmp_path, MULTIRUN_STATUS="1")
+    assert proc.returncode == 1, proc.stderr
+    assert [c[1] for c in calls if c[0] == "rvn-gen"] == ["-m", "-m", "mode=merge", "mode=merge"]
+    assert not [c for c in calls if c[0] in ("sbatch", "rvn-eval")]  # nothing trained on incomplete data
+    assert "experiment_slurm.sh: error: the datasets are incomplete" in proc.stderr
