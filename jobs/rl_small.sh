@@ -96,6 +96,7 @@ train_ppo_lag() {
 if [[ "$PARALLEL" == 1 ]] && has ppo && has ppo_lag; then  # the two trainings side by side, THREADS torch threads each
   # each in a process group of its own (set -m), so that when one fails, or the recipe is stopped, the other is stopped
   # with every process it started (killing its subshell alone would leave its rvn-rl running)
+  mkdir -p "$OUT/train"  # their common parent: each tool's write check would make it, and remove it, at once
   set -m
   train_ppo & ppo_pid=$!
   train_ppo_lag & lag_pid=$!
