@@ -124,6 +124,10 @@ class RLConfig:
                                  "model> (or depth.source=true for the rendered depth)")
             if not Path(str(path)).expanduser().exists():
                 raise ValueError(f"depth.model_path={path}: no such file or directory")
+            if self.env.depth:  # the envs' rendered depth would fill obs["depth"], so the depth model would never run
+                raise ValueError("env.depth=true puts the rendered depth in the observation, which depth.source=model "
+                                 "would train on instead of the depth model's: leave env.depth out (or use "
+                                 "depth.source=true)")
 
     def _check_lagrangian(self) -> None:
         algo = self.algo

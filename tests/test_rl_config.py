@@ -83,6 +83,8 @@ def test_record_keeps_config_yaml_layout():
     (["train.total_steps=4.5"], "train.total_steps=4.5 must be a positive integer"),
     (["algo=ppo_lag", "algo.lambda_max=0"], "algo.lambda_max=0.0 must be > 0"),
     (["algo=ddppo_depth", "depth.source=sensor"], "depth.source='sensor': choose model"),
+    (["algo=ddppo_depth", "depth.model_path=.", "env.depth=true"],
+     "env.depth=true puts the rendered depth in the observation, which depth.source=model would train on"),
     (["episodes.seed=4"], "episodes.seed=4 does nothing in rvn-rl"),
     (["train.double_buffered=true", "env.workers=1"], "train.double_buffered=true steps one half of the env workers "
      "while the policy acts for the other: it needs env.workers >= 2 (env.workers=1)"),
