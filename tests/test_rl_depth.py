@@ -98,6 +98,7 @@ def test_pairs_are_reproducible_and_reused(run, tmp_path):
     ("train.lr=0", "train.lr"),
     ("train.stepz=3", "stepz"),
     ("pairs.val_scenes=500", "val_scenes"),
+    ("camera.width=64", "camera.width=64 differs from image_size=32"),  # model.json would say 32
 ])
 def test_bad_input_gets_a_one_line_error(tmp_path, arg, words):
     proc = depth_cli(f"out_dir={tmp_path / 'x'}", *TINY, arg, check=False)

@@ -92,6 +92,12 @@ class DepthConfig:
 
     def __post_init__(self) -> None:
         at_least("image_size", self.image_size, 16)
+        for key in ("width", "height"):  # conf/rl_depth.yaml sets both to ${image_size}; one given alone would disagree
+            value = getattr(self.camera, key)
+            if value != self.image_size:
+                raise ValueError(f"camera.{key}={value} differs from image_size={self.image_size}: the depth model "
+                                 f"trains on image_size pixels square; set image_size={value} (camera.width and "
+                                 "height follow it)")
         at_least("seed", self.seed, 0)
         if self.threads is not None:
             at_least("threads", self.threads, 1)
