@@ -138,3 +138,20 @@ def test_predictor_runs_with_its_own_thread_count_and_restores_torch_s(run):
         assert seen == [1] and torch.get_num_threads() == 2
     finally:
         torch.set_num_threads(before)
+
+
+def test_a_save_cut_off_between_its_two_files_is_refused_on_load(tmp_path):
+    """model.json records the digest of the weights saved with it: the weights of another model beside it (a save
+    cut off after model.json, or one file copied over alone) are refused instead of loading under its settings."""
+    import torch
+
+    from rvn_rl.depth import DepthNet, load_depth_model, save_depth_model
+
+    torch.manual_seed(0)
+    old, new = tmp_path / "old", tmp_path / "new"
+    save_depth_model(DepthNet(widths=[4, 8]), old, 32)
+    save_depth_model(DepthNet(widths=[4, 8], init_depth=3.0), new, 32)
+    assert load_depth_model(new).image_size == 32
+    (new / "model.safetensors").write_bytes((old / "model.safetensors").read_bytes())  # model.json new, weights old
+    with pytest.raises(ValueError, match="model.safetensors is not the one model.json was saved with"):
+        load_depth_model(new)

@@ -15,6 +15,7 @@ the training ``image_size`` are area-resized to it and the depth resized back (b
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 from pathlib import Path
@@ -124,16 +125,25 @@ class DepthPredictor:
         return depth.float().cpu().numpy()
 
 
+def weights_digest(data: bytes) -> str:
+    """The digest of a ``model.safetensors``'s bytes that ``model.json`` records (``weights_sha256``)."""
+    return hashlib.sha256(data).hexdigest()[:16]
+
+
 def save_depth_model(net: DepthNet, out_dir: str | Path, image_size: int, extra: dict | None = None) -> Path:
-    """Write ``model.safetensors`` and ``model.json`` (atomic) into ``out_dir``."""
+    """Write ``model.json`` and then ``model.safetensors`` (each atomic) into ``out_dir``; model.json records the
+    weights' digest (``weights_sha256``), so a save cut off between the two (or one file replaced alone) leaves a pair
+    that `load_depth_model` refuses rather than weights of another model under this one's model.json."""
     from safetensors.torch import save
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     state = {k: v.detach().cpu().contiguous() for k, v in net.state_dict().items()}
-    write_bytes_atomic(out_dir / WEIGHTS, save(state))
-    meta = {"kind": KIND, "model": net.config, "image_size": int(image_size), **(extra or {})}
+    data = save(state)
+    meta = {"kind": KIND, "model": net.config, "image_size": int(image_size), "weights_sha256": weights_digest(data),
+            **(extra or {})}
     write_text_atomic(out_dir / CONFIG, json.dumps(meta, indent=2) + "\n")
+    write_bytes_atomic(out_dir / WEIGHTS, data)
     return out_dir / WEIGHTS
 
 
@@ -142,7 +152,7 @@ def load_depth_model(path: str | Path, device: str | torch.device = "cpu", threa
     ``model.json`` (the CLI's ``out_dir``), or the ``model.safetensors`` file itself. On a
     CPU each call runs with at most ``threads`` torch threads (default 1, as the IL policies;
     None: torch's setting), restored afterwards."""
-    from safetensors.torch import load_file
+    from safetensors.torch import load
 
     path = Path(path).expanduser()
     folder = path if path.is_dir() else path.parent
@@ -156,9 +166,15 @@ def load_depth_model(path: str | Path, device: str | torch.device = "cpu", threa
         raise ValueError(f"depth model {config}: not valid JSON ({e})") from None
     if meta.get("kind") != KIND:
         raise ValueError(f"depth model {config}: kind={meta.get('kind')!r}, expected {KIND!r} (not a depth checkpoint)")
+    data = weights.read_bytes()
+    recorded = meta.get("weights_sha256")  # absent in models saved before it was recorded
+    if recorded is not None and recorded != weights_digest(data):
+        raise ValueError(f"depth model {folder}: {WEIGHTS} is not the one {CONFIG} was saved with (digest "
+                         f"{weights_digest(data)}, recorded {recorded}: a save cut off or one file replaced); train "
+                         "the model again or copy both files together")
     net = DepthNet(**meta["model"])
     try:
-        net.load_state_dict(load_file(str(weights)))
+        net.load_state_dict(load(data))
     except (RuntimeError, OSError) as e:
         raise ValueError(f"depth model {weights}: weights do not fit model.json ({str(e).splitlines()[0]})") from None
     return DepthPredictor(net, meta["image_size"], device, info=meta, threads=threads)
