@@ -155,3 +155,45 @@ def test_a_save_cut_off_between_its_two_files_is_refused_on_load(tmp_path):
     (new / "model.safetensors").write_bytes((old / "model.safetensors").read_bytes())  # model.json new, weights old
     with pytest.raises(ValueError, match="model.safetensors is not the one model.json was saved with"):
         load_depth_model(new)
+
+
+def _room(path, z_up: bool):
+    """A 3 m x 3 m room (conftest's boxes), written y-up or z-up (as HM3D's meshes are)."""
+    import trimesh
+
+    from conftest import box_scene, room_boxes
+
+    v, f = box_scene(room_boxes(3.0, 3.0)).triangles()
+    if z_up:
+        v = np.stack([v[:, 0], -v[:, 2], v[:, 1]], 1)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    trimesh.Trimesh(v.astype(np.float64), f, process=False).export(path)
+
+
+def test_pairs_load_scenes_with_the_scenes_group_options(tmp_path):
+    """The ``scenes`` group as rvn-gen's and rvn-rl's (scenes=hm3d: up_axis z): a z-up mesh folder read with
+    scenes.up_axis=z renders the pairs the same room written y-up renders with the defaults, and pair files record
+    the options only when they are not the defaults, so files made with the defaults keep their meta."""
+    from rvn_rl.depth.cli import compose, make_all_pairs, scene_specs
+    from rvn_rl.depth.pairs import pair_meta, read_meta, read_pairs
+
+    assert compose(["scenes=hm3d", "scenes.root=/data/hm3d"]).scenes.up_axis == "z"
+    tiny = ["image_size=32", "pairs.train_scenes=1", "pairs.val_scenes=1", "pairs.per_scene=4", "progress=false",
+            "renderer=raycast", "scenes=mesh_dir"]
+    made = {}
+    for axis in ("y", "z"):
+        for split in ("train", "val"):
+            _room(tmp_path / axis / split / f"room_{split}.glb", z_up=axis == "z")
+        cfg = compose([*tiny, f"scenes.root={tmp_path / axis}", *(["scenes.up_axis=z"] if axis == "z" else [])])
+        made[axis] = make_all_pairs(cfg, scene_specs(cfg), tmp_path / f"out_{axis}")["train"][0]
+    (rgb_y, depth_y), (rgb_z, depth_z) = read_pairs(made["y"]), read_pairs(made["z"])
+    assert depth_z.shape == (4, 32, 32) and np.allclose(depth_z, depth_y, atol=1e-3)
+    assert read_meta(made["z"])["scene_options"] == {"up_axis": "z", "unit_scale": 1.0, "level": False}
+    assert "scene_options" not in read_meta(made["y"])
+    default = compose(["image_size=32"])
+    args = ("train", [("procedural:train/0", 0)], 4, 0, default.camera, default.renderer, default.navmesh)
+    assert pair_meta(*args, {"up_axis": "y", "unit_scale": 1.0, "level": False}) == pair_meta(*args)
+    for bad, said in (("scenes.num_scenes=3", "scenes.num_scenes=3 does nothing in the depth CLI"),
+                      ("scenes.up_axis=x", "scenes.up_axis='x': choose y or z")):
+        with pytest.raises(ValueError, match=said):
+            compose([bad])

@@ -23,7 +23,7 @@ import yaml
 from rvn_data.atomic import write_text_atomic
 from rvn_data.cli.common import BAD_INPUT, RUN_FAILED, ConfigError, check_writable_dir, one_line, validating
 
-from .settings import DepthConfig, PairsSettings, register_schema
+from .settings import DepthConfig, register_schema
 
 PROG = "rvn_rl.depth.cli"
 TRAIN_SUBSET = 64  # training frames on which AbsRel is measured at init and after training
@@ -38,34 +38,36 @@ def compose(overrides: list[str]) -> DepthConfig:
     return typed(DepthConfig, load_config("rl_depth", overrides))
 
 
-def scene_specs(pairs: PairsSettings) -> dict:
-    """Each split's (scene spec, index) list; a ValueError when a split has fewer scenes than asked."""
+def scene_specs(cfg: DepthConfig) -> dict:
+    """Each split's (scene spec, index) list of the ``scenes`` group's source; a ValueError when a split has fewer
+    scenes than asked."""
     from .pairs import split_scenes
 
-    return {split: split_scenes(pairs.source, split, getattr(pairs, f"{split}_scenes"), root=pairs.root)
+    return {split: split_scenes(cfg.scenes.source, split, getattr(cfg.pairs, f"{split}_scenes"), root=cfg.scenes.root)
             for split in SPLITS}
 
 
 def make_all_pairs(cfg: DepthConfig, specs: dict, out_dir: Path) -> dict:
     """Render (or reuse) train.h5 and val.h5; returns their paths and what was done."""
-    from .pairs import make_pairs
+    from .pairs import make_pairs, scene_options
 
     pairs_dir = Path(cfg.pairs.dir or out_dir / "pairs").expanduser()
     return {split: make_pairs(pairs_dir / f"{split}.h5", split, specs[split], cfg.pairs.per_scene, cfg.seed, cfg.camera,
-                              cfg.navmesh, cfg.renderer, progress=cfg.progress) for split in SPLITS}
+                              cfg.navmesh, cfg.renderer, progress=cfg.progress, scenes=scene_options(cfg.scenes))
+            for split in SPLITS}
 
 
 def run(cfg: DepthConfig) -> dict:
     import torch
 
     from .model import DepthNet, save_depth_model
-    from .pairs import read_pairs
+    from .pairs import read_pairs, scene_options
     from .report import summary, write_predictions_png
     from .train import baseline_metrics, depth_metrics, evaluate, median_depth, predict, train_depth as fit
 
     with validating():  # bad input: exit status 2, nothing written
         out_dir = check_writable_dir(Path(cfg.out_dir).expanduser())
-        specs = scene_specs(cfg.pairs)
+        specs = scene_specs(cfg)
     if cfg.threads is not None:
         torch.set_num_threads(cfg.threads)
     torch.manual_seed(cfg.seed)
@@ -99,7 +101,9 @@ def run(cfg: DepthConfig) -> dict:
     }
     save_depth_model(net, out_dir, cfg.image_size,
                      extra={"camera": asdict(cfg.camera), "seed": cfg.seed, "val": val,
-                            "pairs": {k: getattr(p, k) for k in ("source", "train_scenes", "val_scenes", "per_scene")}})
+                            "pairs": {"source": cfg.scenes.source,
+                                      **{k: getattr(p, k) for k in ("train_scenes", "val_scenes", "per_scene")}},
+                            "scenes": scene_options(cfg.scenes)})
     write_text_atomic(out_dir / "metrics.json", json.dumps(metrics, indent=2) + "\n")
     write_predictions_png(out_dir / "predictions.png", val_rgb, val_depth, val_pred)
     write_text_atomic(out_dir / "config.yaml", yaml.safe_dump(asdict(cfg), sort_keys=False))

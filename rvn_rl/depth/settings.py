@@ -1,6 +1,6 @@
 """The depth network's settings as one typed tree, `DepthConfig` (conf/rl_depth.yaml names it first,
-``base_rl_depth``, and holds only what differs from it): the task side's ``agent``, ``camera``, ``navmesh`` and
-``renderer`` groups, and the depth trainer's own ``pairs``, ``model`` and ``train``. ``python -m rvn_rl.depth.cli``
+``base_rl_depth``, and holds only what differs from it): the task side's ``agent``, ``camera``, ``navmesh``,
+``renderer`` and ``scenes`` groups, and the depth trainer's own ``pairs``, ``model`` and ``train``. ``python -m rvn_rl.depth.cli``
 turns the composed config into it once (`rvn_data.config.typed`: OmegaConf checks keys and types) and each dataclass
 checks its own ranges in ``__post_init__`` (one line naming the setting). No torch here: the schema registers
 without loading the network. Field order is the order of the config.yaml the command writes."""
@@ -13,16 +13,15 @@ from rvn_data.conventions import AgentConfig
 from rvn_data.navmesh.settings import NavMeshSettings
 from rvn_data.render import RendererConfig
 from rvn_data.render.camera import CameraConfig
+from rvn_data.scenes.sets import ScenesConfig
 
 from ..settings import at_least
 
 
 @dataclass
 class PairsSettings:
-    """``pairs``: the rendered (RGB, exact depth) pairs (`rvn_rl.depth.pairs`)."""
+    """``pairs``: the rendered (RGB, exact depth) pairs (`rvn_rl.depth.pairs`) of the ``scenes`` group's scenes."""
 
-    source: str = "procedural"  # scene source (rvn_data.scenes.sets.scene_specs)
-    root: str | None = None
     train_scenes: int = 40  # train-split scenes, from the first
     val_scenes: int = 5  # val-split scenes, from the first
     per_scene: int = 50  # poses per scene
@@ -81,6 +80,9 @@ class DepthConfig:
     camera: CameraConfig = field(default_factory=CameraConfig)  # conf/rl_depth.yaml: width = height = image_size
     navmesh: NavMeshSettings = field(default_factory=NavMeshSettings)
     renderer: RendererConfig = field(default_factory=RendererConfig)
+    # which scenes and how they load (scenes=hm3d: z-up), as rvn-gen's and rvn-rl's; the train and val splits both,
+    # pairs.train_scenes and pairs.val_scenes of them from the first (conf/rl_depth.yaml: split train, acting nowhere)
+    scenes: ScenesConfig = field(default_factory=lambda: ScenesConfig(split="train"))
     seed: int = 0
     out_dir: str = "runs/rl_depth"
     image_size: int = 128  # square frames, pixels (the RL observation size)
@@ -103,6 +105,18 @@ class DepthConfig:
             at_least("threads", self.threads, 1)
         if not self.out_dir:
             raise ValueError("out_dir is empty; give out_dir=<folder>")
+        sc = self.scenes
+        for key, value, default, instead in (("split", sc.split, "train", "it renders both the train and val splits"),
+                                             ("num_scenes", sc.num_scenes, None, "use pairs.train_scenes and "
+                                              "pairs.val_scenes"),
+                                             ("first_scene", sc.first_scene, 0, "each split's scenes are taken from "
+                                              "the first")):
+            if value != default:
+                raise ValueError(f"scenes.{key}={value} does nothing in the depth CLI ({instead}); leave scenes.{key} out")
+        if sc.up_axis not in ("y", "z"):
+            raise ValueError(f"scenes.up_axis={sc.up_axis!r}: choose y or z (HM3D: z)")
+        if not sc.unit_scale > 0:
+            raise ValueError(f"scenes.unit_scale={sc.unit_scale!r} must be > 0 (metres per mesh unit)")
 
 
 def register_schema() -> None:
