@@ -197,3 +197,23 @@ def test_pairs_load_scenes_with_the_scenes_group_options(tmp_path):
                       ("scenes.up_axis=x", "scenes.up_axis='x': choose y or z")):
         with pytest.raises(ValueError, match=said):
             compose([bad])
+
+
+def test_val_scenes_that_are_train_scenes_are_noted_and_recorded(tmp_path):
+    """A mesh folder without train/ and val/ folders gives both splits the same meshes: the CLI says so (as rvn-gen
+    and rvn-eval do) and metrics.json and the summary record it; split folders keep the splits apart, no note."""
+    for name in ("a", "b"):
+        _room(tmp_path / "flat" / f"room_{name}.glb", z_up=False)
+    out = tmp_path / "run"
+    proc = depth_cli(f"out_dir={out}", *TINY, "pairs.train_scenes=2", "pairs.per_scene=4", "train.steps=2",
+                     "scenes=mesh_dir", f"scenes.root={tmp_path / 'flat'}")
+    assert "rvn_rl.depth.cli: note: 1 of the 1 val scenes are train scenes too" in proc.stderr, proc.stderr
+    shared = json.loads((out / "metrics.json").read_text())["shared_scenes"]
+    assert shared == {"folder": str(tmp_path / "flat"), "val_scenes": 1, "in_train": 1}
+    assert "warning: 1 of the 1 val scenes are train scenes too" in proc.stdout
+    from rvn_rl.depth.cli import compose, scene_specs, shared_scenes
+
+    for split in ("train", "val"):
+        _room(tmp_path / "split" / split / f"room_{split}.glb", z_up=False)
+    cfg = compose(["scenes=mesh_dir", f"scenes.root={tmp_path / 'split'}", "pairs.train_scenes=1", "pairs.val_scenes=1"])
+    assert shared_scenes(cfg, scene_specs(cfg)) is None

@@ -6,8 +6,9 @@ the command line, no Hydra run folder); its schema is `rvn_rl.depth.settings.Dep
 (``base_rl_depth``), into which the config is turned once. Writes into ``out_dir``: ``model.safetensors`` +
 ``model.json`` (load with `rvn_rl.depth.load_depth_model`), ``metrics.json`` (val AbsRel,
 delta1, RMSE; the two baselines; AbsRel on training frames at init and after training; the
-training log), ``predictions.png``, ``config.yaml`` and ``pairs/{train,val}.h5``. Bad input
-exits with status 2 and one line, a run that fails with status 1 (`rvn_data.cli.common`).
+training log), ``predictions.png``, ``config.yaml`` and ``pairs/{train,val}.h5``. Val scenes that are train scenes
+too (a mesh folder without split folders, a list file) are noted on stderr, in metrics.json (``shared_scenes``) and
+in the summary. Bad input exits with status 2 and one line, a run that fails with status 1 (`rvn_data.cli.common`).
 """
 from __future__ import annotations
 
@@ -47,6 +48,25 @@ def scene_specs(cfg: DepthConfig) -> dict:
             for split in SPLITS}
 
 
+def shared_scenes(cfg: DepthConfig, specs: dict) -> dict | None:
+    """The val scenes that are train scenes too (``scenes.root`` gives both splits the same meshes: a mesh folder
+    without ``train/`` and ``val/`` folders, a list file, one mesh), as metrics.json records them; None when none is."""
+    train = {spec for spec, _ in specs["train"]}
+    shared = [spec for spec, _ in specs["val"] if spec in train]
+    if not shared:
+        return None
+    return {"folder": str(Path(str(cfg.scenes.root)).expanduser()), "val_scenes": len(specs["val"]),
+            "in_train": len(shared)}
+
+
+def shared_scenes_note(shared: dict) -> str:
+    """One line saying that the val pairs are not of held-out scenes (`shared_scenes`)."""
+    root = shared["folder"]
+    return (f"{shared['in_train']} of the {shared['val_scenes']} val scenes are train scenes too: scenes.root={root} "
+            f"gives both splits the same meshes, so the val metrics are not on held-out scenes; put each split's "
+            f"meshes in a folder of its own ({root}/train, {root}/val) to keep them apart")
+
+
 def make_all_pairs(cfg: DepthConfig, specs: dict, out_dir: Path) -> dict:
     """Render (or reuse) train.h5 and val.h5; returns their paths and what was done."""
     from .pairs import make_pairs, scene_options
@@ -70,6 +90,9 @@ def run(cfg: DepthConfig) -> dict:
         specs = scene_specs(cfg)
     if cfg.threads is not None:
         torch.set_num_threads(cfg.threads)
+    shared = shared_scenes(cfg, specs)
+    if shared:  # as rvn-gen and rvn-eval say of a mesh folder without split folders (rvn_data.scenes.sets.shared_splits)
+        print(f"{PROG}: note: {shared_scenes_note(shared)} (recorded in metrics.json)", file=sys.stderr)
     torch.manual_seed(cfg.seed)
     done = make_all_pairs(cfg, specs, out_dir)
     train_rgb, train_depth = read_pairs(done["train"][0])
@@ -99,6 +122,8 @@ def run(cfg: DepthConfig) -> dict:
         "image_size": cfg.image_size,
         "params": sum(p.numel() for p in net.parameters()),
     }
+    if shared:  # the summary repeats the warning
+        metrics["shared_scenes"] = shared
     save_depth_model(net, out_dir, cfg.image_size,
                      extra={"camera": asdict(cfg.camera), "seed": cfg.seed, "val": val,
                             "pairs": {"source": cfg.scenes.source,

@@ -60,5 +60,9 @@ def summary(metrics: dict, out_dir: Path) -> str:
     for name, label in (("constant_median", "constant train median"), ("pixel_median", "per-pixel train median")):
         m = b[name]
         lines.append(f"{label:<26}{m['absrel']:>8.3f}{m['delta1']:>8.3f}{m['rmse']:>8.3f}")
+    shared = metrics.get("shared_scenes")
+    if shared:  # rvn_rl.depth.cli.shared_scenes
+        lines += ["", f"warning: {shared['in_train']} of the {shared['val_scenes']} val scenes are train scenes too "
+                  f"({shared['folder']} gives both splits the same meshes): the val metrics are not on held-out scenes"]
     lines += ["", f"wrote {out_dir / 'model.safetensors'}, model.json, metrics.json, predictions.png"]
     return "\n".join(lines)
