@@ -40,17 +40,23 @@ def read_rl_config(out_dir: str | Path) -> dict:
     return cfg
 
 
-def resume_point(out_dir: Path, policy: dict, algo: str, resume: bool) -> Path | None:
+def resume_point(out_dir: Path, policy: dict, algo: str, resume: bool, depth: dict | None = None) -> Path | None:
     """The checkpoint a run of network ``policy`` (`RLConfig.model_kwargs`) and ``algo`` continues from (None: it
-    starts afresh); a one-line ValueError for an out_dir that holds another run or another kind, or whose checkpoints
-    a run not resuming (train.resume=false) would start over (its own checkpoints pruned as older by name than the
-    old run's, its log rows appended to that run's)."""
+    starts afresh); a one-line ValueError for an out_dir that holds another run or another kind, or, for a network
+    with a depth channel, another ``depth`` record (source, depth model digest where the earlier run recorded one), or
+    whose checkpoints a run not resuming (train.resume=false) would start over (its own checkpoints pruned as older by
+    name than the old run's, its log rows appended to that run's)."""
     if not (out_dir / "config.yaml").is_file():
         return None
     old = read_rl_config(out_dir)
     if old["policy"] != policy or old["algo"]["name"] != algo:
         raise ValueError(f"out_dir={out_dir} holds another run ({old['algo']['name']}, {old['policy']['backbone']}, "
                          f"{old['policy']['obs_size']}px); choose a new out_dir")
+    was = old.get("depth") or {}
+    for key in ("source", "model_digest") if depth is not None and policy.get("use_depth") else ():
+        if key in was and was[key] != depth.get(key):
+            raise ValueError(f"out_dir={out_dir} holds a run trained with depth.{key}={was[key]}, not "
+                             f"{depth.get(key)} (another depth input); choose a new out_dir")
     if not resume and any(p.is_dir() for p in (out_dir / "checkpoints").glob("ckpt_*")):
         raise ValueError(f"out_dir={out_dir} holds the checkpoints of a run, which train.resume=false would start "
                          "over; choose a new out_dir, or train.resume=true to continue that run")

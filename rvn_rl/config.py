@@ -176,10 +176,16 @@ class RLConfig:
 
     def record(self) -> dict:
         """The settings as config.yaml records them (rvn_rl.policy.load_rl_policy reads agent, camera, depth, algo):
-        every group in field order, the train-mode episode settings, the algo's settings that act."""
+        every group in field order, the train-mode episode settings, the algo's settings that act; with predicted
+        depth the depth model's digest (``depth.model_digest``: `rvn_rl.depth.model.model_digest`), which a resumed
+        run must match (`rvn_rl.checkpoint.resume_point`)."""
         out = asdict(self)
         out["episodes"] = self.episode_kwargs()
         out["algo"] = self.algo.record()
+        if self.uses_predicted_depth:
+            from .depth.model import model_digest
+
+            out["depth"]["model_digest"] = model_digest(str(self.depth.model_path))
         return out
 
 

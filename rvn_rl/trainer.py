@@ -152,7 +152,7 @@ def train(cfg: RLConfig, on_checked=None) -> dict:
             out_dir = check_writable_dir(Path(cfg.out_dir).expanduser())
             if cfg.cache_dir or os.environ.get(CACHE_ENV):  # else <out_dir>/cache, checked with out_dir
                 check_writable_dir(env_kwargs["cache_dir"], "cache_dir=" if cfg.cache_dir else f"{CACHE_ENV}=")
-            resume_from = ck.resume_point(out_dir, policy_kwargs, cfg.algo.name, cfg.train.resume)
+            resume_from = ck.resume_point(out_dir, policy_kwargs, cfg.algo.name, cfg.train.resume, record["depth"])
         done = ck.env_steps_of(resume_from) if resume_from is not None else 0
         if done >= cfg.train.total_steps:  # a finished run: nothing to collect, nothing written
             said = (f"rvn-rl {cfg.algo.name}: out_dir={out_dir} holds a finished run ({done} env steps, "

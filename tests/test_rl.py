@@ -263,3 +263,30 @@ def test_ddppo_depth_trains_on_a_fourth_channel(tmp_path, source):
         args.append("env.depth=true")
     proc = subprocess.run(args, capture_output=True, text=True, env=ENV, timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
+
+
+def test_a_run_is_not_continued_on_another_depth_input(tmp_path):
+    """config.yaml records the depth model's digest (depth.model_digest); a run whose out_dir holds a run trained on
+    another depth source, or on a depth model that has changed since, is refused in one line before anything is
+    written, instead of resuming its policy on another depth channel."""
+    from rvn_rl import checkpoint as ck
+    from rvn_rl.cli import compose
+    from rvn_rl.depth.model import DepthNet, save_depth_model
+
+    model = tmp_path / "depth"
+    save_depth_model(DepthNet(widths=(4, 8)), model, image_size=32)
+    with_model = ["algo=ddppo_depth", "depth.source=model", f"depth.model_path={model}", *TINY]
+    for earlier, later, said in ((["algo=ddppo_depth", "depth.source=true", *TINY], with_model,
+                                  "trained with depth.source=true, not model"),
+                                 (with_model, with_model, "trained with depth.model_digest=")):
+        out = tmp_path / "run"
+        cfg = compose([*earlier, f"out_dir={out}"])
+        ck.write_config(out, {**cfg.record(), "policy": cfg.model_kwargs()}, resuming=False)  # as rvn-rl writes it
+        if said.endswith("digest="):  # the depth model retrained in place since
+            assert len(yaml.safe_load((out / "config.yaml").read_text())["depth"].get("model_digest", "")) == 16
+            save_depth_model(DepthNet(widths=(4, 8), init_depth=3.0), model, image_size=32)
+        before = (out / "config.yaml").read_text()
+        proc = rvn_rl(f"out_dir={out}", "train.total_steps=8", "train.resume=true", *later, check=False)
+        err = [line for line in proc.stderr.splitlines() if line.strip() and "INFO" not in line]
+        assert proc.returncode == 2 and len(err) == 1 and said in err[0], proc.stderr[-2000:]
+        assert (out / "config.yaml").read_text() == before and not (out / "checkpoints").exists()

@@ -130,6 +130,21 @@ def weights_digest(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()[:16]
 
 
+def model_digest(path: str | Path) -> str:
+    """Digest (sha256, 16 hex digits) of a depth model's ``model.json`` and ``model.safetensors`` (``path``: the
+    folder or its ``model.safetensors``, as `load_depth_model` takes): what an rvn-rl run records as
+    ``depth.model_digest``, so that a run is not resumed on another depth model."""
+    path = Path(path).expanduser()
+    folder = path if path.is_dir() else path.parent
+    h = hashlib.sha256()
+    for name in (CONFIG, WEIGHTS):
+        f = folder / name
+        if not f.is_file():
+            raise ValueError(f"depth model {path}: {name} not found; give the out_dir of python -m rvn_rl.depth.cli")
+        h.update(name.encode() + b"\0" + f.read_bytes())
+    return h.hexdigest()[:16]
+
+
 def save_depth_model(net: DepthNet, out_dir: str | Path, image_size: int, extra: dict | None = None) -> Path:
     """Write ``model.json`` and then ``model.safetensors`` (each atomic) into ``out_dir``; model.json records the
     weights' digest (``weights_sha256``), so a save cut off between the two (or one file replaced alone) leaves a pair
