@@ -1,8 +1,8 @@
 """An rvn-eval output directory: run identity, resumable per-episode records, final files.
 
 ``run.json`` holds what defines the run (policy, split, episode set, agent, camera, env
-settings, and for a checkpoint policy a digest of its files); resuming into a directory made
-by another run is an error naming the setting. Beside it, ``provenance`` records the code that
+settings, and for a checkpoint policy a digest of its files and of the depth model an RL policy
+loads); resuming into a directory made by another run is an error naming the setting. Beside it, ``provenance`` records the code that
 started the run (`rvn_data.provenance`: commit, dirty tree, versions) and ``resumed_by`` any other
 code that later added episodes to it; ``metrics.json`` carries both. Records are appended to ``episodes.jsonl`` one line per ``write`` with fsync
 as episodes finish; a torn last line from an interrupted run is dropped on resume. At
@@ -44,12 +44,20 @@ SKIP_FILES = ("state.pt",)  # optimizer state: not what the policy runs
 
 def policy_files_digest(policy: dict) -> dict[str, str]:
     """``{setting: sha1}`` of the checkpoint folders a policy config names (``checkpoint_path``,
-    ``ensemble``): every weight and config file below each, by relative path and content, so an
-    evaluation of retrained weights in the same folder is another run. Logs are left out."""
+    ``ensemble``) and of the model folders it loads beside them (a key ending in ``model_path``, as an RL
+    policy's ``depth_model_path``; else the frozen depth model an rvn-rl checkpoint's config.yaml names,
+    `linked_depth_model`, under that key): every weight and config file below each, by relative path and
+    content, so an evaluation of retrained weights in the same folder is another run. Logs are left out."""
     paths: dict[str, str] = {}
     for key, value in policy.items():
         if key.endswith("checkpoint_path") and isinstance(value, str):
             paths[key] = value
+            linked = linked_depth_model(value)
+            if linked and "depth_model_path" not in policy:
+                paths["depth_model_path"] = linked
+        elif key.endswith("model_path") and isinstance(value, str):
+            path = Path(value).expanduser()
+            paths[key] = str(path.parent if path.is_file() else path)  # a model file: its folder, as the loader reads
         elif key == "ensemble" and value:
             for i, v in enumerate([value] if isinstance(value, str) else list(value)):
                 paths[f"ensemble.{i}"] = str(v)
@@ -69,6 +77,26 @@ def policy_files_digest(policy: dict) -> dict[str, str]:
                         h.update(chunk)
         out[key] = h.hexdigest()[:16]
     return out
+
+
+def linked_depth_model(checkpoint_path: str) -> str | None:
+    """The folder of the frozen depth model an rvn-rl checkpoint loads (its config.yaml: ``kind: rl``, a policy with
+    a depth channel, ``depth.source: model``, ``depth.model_path``), else None: the RL policy's loader reads that
+    model at evaluation, so its files are part of what is evaluated."""
+    import yaml
+
+    path = Path(checkpoint_path).expanduser() / "config.yaml"
+    try:
+        cfg = yaml.safe_load(path.read_text()) if path.is_file() else None
+    except (OSError, yaml.YAMLError):
+        return None  # the policy's own loader names a bad config
+    if not isinstance(cfg, dict) or cfg.get("kind") != "rl" or not (cfg.get("policy") or {}).get("use_depth"):
+        return None
+    depth = cfg.get("depth") or {}
+    if depth.get("source") != "model" or not depth.get("model_path"):
+        return None
+    model = Path(str(depth["model_path"])).expanduser()
+    return str(model.parent if model.is_file() else model)
 
 
 def episode_key(record: dict) -> tuple[str, int, float]:
@@ -133,6 +161,9 @@ class RunDir:
                 stored.pop(key, None)
             if "policy_files" in self.identity and "policy_files" not in stored:
                 stored["policy_files"] = self.identity["policy_files"]  # a run.json from before the digest
+            files = self.identity.get("policy_files", {})
+            if "depth_model_path" in files and "depth_model_path" not in stored["policy_files"]:
+                stored["policy_files"]["depth_model_path"] = files["depth_model_path"]  # from before it was counted
             check_settings(self.run_path, stored, self.identity, what="rvn-eval run",
                            hint=f"use another out_dir (e.g. out_dir={other_dir(self.dir, stored, self.identity)}), "
                            "or resume=false to start it over")
