@@ -7,7 +7,8 @@
 #   ALGOS=ddppo bash jobs/rl_small.sh [OUT]      # DD-PPO: torchrun, RANKS ranks x NUM_ENVS/RANKS envs
 #   ALGOS=ddppo_depth bash jobs/rl_small.sh      # depth network trained on rendered pairs (val AbsRel, delta1 in
 #                                                # OUT/depth_model/metrics.json), frozen; DD-PPO on RGB + its depth
-#   ALGOS=ddppo_depth DEPTH_SOURCE=true ...      # the ablation: DD-PPO on RGB + the rendered depth
+#   ALGOS=ddppo_depth DEPTH_SOURCE=true ...      # the ablation: DD-PPO on RGB + the rendered depth (OUT/train and
+#                                                # OUT/eval ddppo_depth_true: the predicted-depth run's stay its own)
 #   SCALE=tiny bash jobs/rl_small.sh /tmp/x      # smoke test: a few hundred steps, 1 episode
 #   IL_RUNS="runs/small_experiment_small/eval/nomad_pointgoal ..." bash jobs/rl_small.sh   # other rows beside
 #
@@ -111,14 +112,18 @@ else
   if has ppo; then train_ppo; fi
   if has ppo_lag; then train_ppo_lag; fi
 fi
-# decentralised PPO: the same env steps in all, over RANKS processes of 1 thread; train_ddppo ALGO [OVERRIDES...]
+# decentralised PPO: the same env steps in all, over RANKS processes of 1 thread; train_ddppo ALGO NAME [OVERRIDES...]
+# (NAME: the run's folder in OUT/train and OUT/eval)
 train_ddppo() {
-  local algo=$1; shift
-  step "train_$algo" env OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $PY -m torch.distributed.run --standalone \
-    --nproc_per_node="$RANKS" -m rvn_rl.cli algo="$algo" out_dir="$OUT/train/$algo" "$@" \
+  local algo=$1 name=$2; shift 2
+  step "train_$name" env OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $PY -m torch.distributed.run --standalone \
+    --nproc_per_node="$RANKS" -m rvn_rl.cli algo="$algo" out_dir="$OUT/train/$name" "$@" \
     "env.num_envs=$((NUM_ENVS / RANKS))" "train.threads=1" "${RL[@]}"
 }
-if has ddppo; then train_ddppo ddppo; fi
+# each algo's run folder; the rendered-depth ablation its own, so it neither resumes nor overwrites the predicted-depth run
+declare -A RUN_NAME=([ppo]=ppo [ppo_lag]=ppo_lag [ddppo]=ddppo
+                     [ddppo_depth]=$([[ "$DEPTH_SOURCE" == true ]] && echo ddppo_depth_true || echo ddppo_depth))
+if has ddppo; then train_ddppo ddppo ddppo; fi
 if has ddppo_depth; then  # the same DD-PPO with depth as a 4th channel
   DEPTH_ARGS=("depth.source=$DEPTH_SOURCE")
   if [[ "$DEPTH_SOURCE" == model ]]; then
@@ -130,7 +135,7 @@ if has ddppo_depth; then  # the same DD-PPO with depth as a 4th channel
     fi
     DEPTH_ARGS+=("depth.model_path=$DEPTH_MODEL")
   fi
-  train_ddppo ddppo_depth "${DEPTH_ARGS[@]}"
+  train_ddppo ddppo_depth "${RUN_NAME[ddppo_depth]}" "${DEPTH_ARGS[@]}"
 fi
 step eval_goal_follower rvn-eval policy=goal_follower "method=Goal follower" out_dir="$OUT/eval/goal_follower" "${EVAL[@]}"
 RUNS=("$OUT/eval/goal_follower")
@@ -139,9 +144,10 @@ declare -A METHOD=([ppo]=PPO [ppo_lag]=PPO-Lagrangian [ddppo]=DD-PPO [ddppo_dept
 for algo in $ALGOS; do
   EXTRA_EVAL=()
   if [[ $algo == ddppo_depth && "$DEPTH_SOURCE" == true ]]; then EXTRA_EVAL=("env.depth=true"); fi
-  step "eval_$algo" rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/$algo" "method=${METHOD[$algo]}" \
-    out_dir="$OUT/eval/$algo" "${EVAL[@]}" "${EXTRA_EVAL[@]}"
-  RUNS+=("$OUT/eval/$algo")
+  name=${RUN_NAME[$algo]}
+  step "eval_$name" rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/$name" "method=${METHOD[$algo]}" \
+    out_dir="$OUT/eval/$name" "${EVAL[@]}" "${EXTRA_EVAL[@]}"
+  RUNS+=("$OUT/eval/$name")
 done
 for run in $IL_RUNS; do RUNS+=("$run"); done
 PAIRS=()

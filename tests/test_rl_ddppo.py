@@ -73,6 +73,35 @@ def test_rl_small_recipe_smoke(tmp_path):
     assert not list(out.glob("*/*/cache")), "a run kept caches of its own"
 
 
+def test_rl_small_keeps_the_rendered_depth_ablation_apart(tmp_path):
+    """jobs/rl_small.sh with DEPTH_SOURCE=true trains and evaluates into train/ddppo_depth_true and
+    eval/ddppo_depth_true, so the rendered-depth ablation neither resumes nor overwrites the predicted-depth run of
+    the same OUT (train/ddppo_depth, which rvn-rl would refuse as another depth input); the commands are recorded by
+    stand-ins for python and rvn-eval."""
+    from pathlib import Path
+
+    script = Path(__file__).resolve().parents[1] / "jobs" / "rl_small.sh"
+    bin_dir, calls = tmp_path / "bin", tmp_path / "calls.txt"
+    bin_dir.mkdir()
+    for name in ("python", "rvn-eval"):
+        (bin_dir / name).write_text(f'#!/usr/bin/env bash\necho "{name} $*" >> {calls}\n')
+        (bin_dir / name).chmod(0o755)
+    env = {**os.environ, "SCALE": "tiny", "ALGOS": "ddppo_depth", "PYTHON": str(bin_dir / "python"),
+           "PATH": f"{bin_dir}:{os.environ['PATH']}"}
+    for source, name in (("true", "ddppo_depth_true"), ("model", "ddppo_depth")):
+        out = tmp_path / "out"
+        proc = subprocess.run(["bash", str(script), str(out)], capture_output=True, text=True, timeout=60,
+                              cwd=script.parents[1], env={**env, "DEPTH_SOURCE": source})
+        assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+        lines = calls.read_text().splitlines()
+        train = [line for line in lines if "rvn_rl.cli" in line and f"depth.source={source}" in line]
+        evals = [line for line in lines if f"policy.checkpoint_path={out}/train/" in line]
+        assert len(train) == 1 and f"out_dir={out}/train/{name} " in train[0], lines
+        assert len(evals) == 1 and f"policy.checkpoint_path={out}/train/{name} " in evals[0] \
+            and f"out_dir={out}/eval/{name} " in evals[0], lines
+        calls.unlink()
+
+
 def test_rl_paper_scale_jobs_share_one_cache_root(tmp_path):
     """jobs/rl_paper_scale.sh (DRY_RUN): every sbatch job (and the evaluations after them) uses $OUT/cache, so the jobs
     of the cluster build each scene's navmesh and goal pool once between them; a root the user set is kept."""
