@@ -186,7 +186,7 @@ def test_pairs_load_scenes_with_the_scenes_group_options(tmp_path):
             _room(tmp_path / axis / split / f"room_{split}.glb", z_up=axis == "z")
         cfg = compose([*tiny, f"scenes.root={tmp_path / axis}", *(["scenes.up_axis=z"] if axis == "z" else [])])
         made[axis] = make_all_pairs(cfg, scene_specs(cfg), tmp_path / f"out_{axis}")["train"][0]
-    (rgb_y, depth_y), (rgb_z, depth_z) = read_pairs(made["y"]), read_pairs(made["z"])
+    (_, depth_y), (_, depth_z) = read_pairs(made["y"]), read_pairs(made["z"])
     assert depth_z.shape == (4, 32, 32) and np.allclose(depth_z, depth_y, atol=1e-3)
     assert read_meta(made["z"])["scene_options"] == {"up_axis": "z", "unit_scale": 1.0, "level": False}
     assert "scene_options" not in read_meta(made["y"])
