@@ -76,6 +76,8 @@ def recorded_hfov(root: str | Path, trajectory: str) -> float | None:
         cam = CameraConfig.from_dict(read_meta(Path(root).expanduser() / trajectory)["settings"]["camera"])
     except (ValueError, KeyError, TypeError):
         return None
+    if cam.fx is None and cam.fy is None:
+        return float(cam.hfov_deg)
     return math.degrees(2 * math.atan(cam.width / 2 / cam.focal[0]))
 
 
