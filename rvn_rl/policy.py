@@ -21,6 +21,7 @@ POLICY_KEYS = {"deterministic", "threads", "depth_model_path"}
 
 class RLPolicy:
     embodiment: dict | None = None  # the robot and camera of its training envs (rvn_data.embodiment), checked by rvn-eval
+    loaded_files: dict | None = None  # {setting: folder} it read besides its checkpoint: counted in rvn-eval's run identity
 
     def __init__(self, net: PointNavResNetPolicy, obs_size: int, device: torch.device, deterministic: bool = False,
                  threads: int | None = 1, depth_fn=None, true_depth: bool = False):
@@ -104,6 +105,8 @@ def load_rl_policy(checkpoint_path: str | Path, device: str | torch.device = "cp
     if cfg.get("agent") and cfg.get("camera"):  # the robot and camera it was trained with, checked by rvn-eval
         policy.embodiment = embodiment_of(cfg["agent"], cfg["camera"])
     policy.training_scenes = training_scenes(out_dir, cfg)
+    if depth_fn is not None:  # the frozen depth model is part of what is evaluated
+        policy.loaded_files = {"depth_model_path": str(depth_fn.folder)}
     return policy
 
 

@@ -181,13 +181,11 @@ def test_a_record_written_in_parts_is_appended_whole(tmp_path, monkeypatch):
     assert [json.loads(line) for line in (tmp_path / "episodes.jsonl").read_text().splitlines()] == RECORDS[:2]
 
 
-def test_an_rl_policy_s_depth_model_is_part_of_the_eval_run(tmp_path):
-    """rvn-eval of an rvn-rl checkpoint on predicted depth loads the depth model its config.yaml names (or the
-    policy's depth_model_path): its files count in the run's identity, so resuming after that model was retrained in
-    place is refused; a checkpoint on rendered depth loads none."""
-    import yaml
-
-    from rvn_data.benchmark.results import RunDir, policy_files_digest, run_identity
+def test_the_model_files_a_policy_loaded_are_part_of_the_eval_run(tmp_path):
+    """The folders a loaded policy names as ``loaded_files`` (an RL policy's frozen depth model) count in the run's
+    identity beside its checkpoint folder, so resuming after that model was retrained in place is refused; a run.json
+    from before they were counted resumes."""
+    from rvn_data.benchmark.results import RunDir, run_identity
 
     depth = tmp_path / "depth"
     depth.mkdir()
@@ -195,33 +193,24 @@ def test_an_rl_policy_s_depth_model_is_part_of_the_eval_run(tmp_path):
     (depth / "model.safetensors").write_bytes(b"weights 1")
     ckpt = tmp_path / "rl"
     ckpt.mkdir()
-    rl = {"kind": "rl", "policy": {"use_depth": True}, "depth": {"source": "model", "model_path": str(depth)}}
-    (ckpt / "config.yaml").write_text(yaml.safe_dump(rl))
+    (ckpt / "config.yaml").write_text("kind: rl\n")
 
-    def ident(**policy):
-        return run_identity({"policy": {"_target_": "rvn_il.policies.load_policy", "checkpoint_path": str(ckpt),
-                                        **policy}, "split": "val"})
+    def ident(loaded=None):
+        return run_identity({"policy": {"_target_": "rvn_il.policies.load_policy", "checkpoint_path": str(ckpt)},
+                             "split": "val"}, loaded)
 
     out = tmp_path / "eval"
-    first = ident()
+    loaded = {"depth_model_path": str(depth)}
+    first = ident(loaded)
     assert set(first["policy_files"]) == {"checkpoint_path", "depth_model_path"}
+    assert set(ident()["policy_files"]) == {"checkpoint_path"}
     RunDir(out, first).open()
     (out / "episodes.jsonl").write_text(json.dumps({"scene_index": 0, "episode_index": 1}) + "\n")
-    assert list(RunDir(out, ident()).open()) == [(0, 1)]  # the same files: resumed
+    assert list(RunDir(out, ident(loaded)).open()) == [(0, 1)]  # the same files: resumed
     (depth / "model.safetensors").write_bytes(b"weights 2")  # the depth model retrained in place
     with pytest.raises(ValueError, match="policy_files.depth_model_path"):
-        RunDir(out, ident()).open()
+        RunDir(out, ident(loaded)).open()
     stored = json.loads((out / "run.json").read_text())  # a run.json from before the depth model was counted
     del stored["policy_files"]["depth_model_path"]
     (out / "run.json").write_text(json.dumps(stored))
-    assert list(RunDir(out, ident()).open()) == [(0, 1)]
-    # the policy's own depth_model_path (a model file: its folder, as the loader reads) replaces the checkpoint's
-    other = tmp_path / "other"
-    other.mkdir()
-    (other / "model.json").write_text('{"kind": "rvn_rl.depth"}')
-    (other / "model.safetensors").write_bytes(b"weights 3")
-    files = policy_files_digest({"checkpoint_path": str(ckpt), "depth_model_path": str(other / "model.safetensors")})
-    assert files["depth_model_path"] == policy_files_digest({"depth_model_path": str(other)})["depth_model_path"] \
-        != ident()["policy_files"]["depth_model_path"]
-    (ckpt / "config.yaml").write_text(yaml.safe_dump({**rl, "depth": {"source": "true", "model_path": None}}))
-    assert set(ident()["policy_files"]) == {"checkpoint_path"}  # rendered depth: no model loaded
+    assert list(RunDir(out, ident(loaded)).open()) == [(0, 1)]

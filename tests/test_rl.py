@@ -290,3 +290,28 @@ def test_a_run_is_not_continued_on_another_depth_input(tmp_path):
         err = [line for line in proc.stderr.splitlines() if line.strip() and "INFO" not in line]
         assert proc.returncode == 2 and len(err) == 1 and said in err[0], proc.stderr[-2000:]
         assert (out / "config.yaml").read_text() == before and not (out / "checkpoints").exists()
+
+
+def test_a_policy_on_predicted_depth_names_the_depth_model_it_loaded(tmp_path):
+    """An rvn-rl checkpoint on predicted depth loads the frozen depth model its config.yaml names, or the policy's
+    ``depth_model_path`` (a model file: its folder), and names that folder as ``loaded_files`` for rvn-eval's run
+    identity; a checkpoint on rendered depth loads none."""
+    from rvn_rl import checkpoint as ck
+    from rvn_rl.cli import compose
+    from rvn_rl.depth.model import DepthNet, save_depth_model
+    from rvn_rl.model import PointNavResNetPolicy
+    from rvn_rl.policy import load_rl_policy
+
+    model, other = tmp_path / "depth", tmp_path / "other"
+    save_depth_model(DepthNet(widths=(4, 8)), model, image_size=32)
+    save_depth_model(DepthNet(widths=(4, 8), init_depth=3.0), other, image_size=32)
+    for source, loaded in ((["depth.source=model", f"depth.model_path={model}"], {"depth_model_path": str(model)}),
+                           (["depth.source=true"], None)):
+        out = tmp_path / source[0].split("=")[1]
+        cfg = compose(["algo=ddppo_depth", *source, *TINY, f"out_dir={out}"])
+        ck.write_config(out, {**cfg.record(), "policy": cfg.model_kwargs()}, resuming=False)  # as rvn-rl writes them
+        ck.save(out, 8, PointNavResNetPolicy(**cfg.model_kwargs()), {})
+        assert load_rl_policy(out).loaded_files == loaded
+    other_file = str(other / "model.safetensors")
+    assert load_rl_policy(tmp_path / "model", depth_model_path=other_file).loaded_files == \
+        {"depth_model_path": str(other)}

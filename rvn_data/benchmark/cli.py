@@ -57,7 +57,8 @@ def evaluate(config: EvalConfig, choice: str = "policy", on_checked=None) -> dic
         diffs = check_embodiment(getattr(policy, "embodiment", None), embodiment_of(env_cfg.agent, env_cfg.camera),
                                  _policy_what(config), config.embodiment_mismatch)
         check_writable_dir(config.out_dir)
-        run = RunDir(config.out_dir, run_identity(config.record()), {"embodiment_mismatch": diffs})
+        run = RunDir(config.out_dir, run_identity(config.record(), getattr(policy, "loaded_files", None)),
+                     {"embodiment_mismatch": diffs})
         done = run.open(resume=config.resume)
     keep_compiled_kernels(cache_root(config.cache_dir, config.out_dir))  # after the checks: torch makes the folder
     prune_traces(config.out_dir, done)  # a run started over: the traces and maps of the one before go

@@ -1,8 +1,8 @@
 """An rvn-eval output directory: run identity, resumable per-episode records, final files.
 
 ``run.json`` holds what defines the run (policy, split, episode set, agent, camera, env
-settings, and for a checkpoint policy a digest of its files and of the depth model an RL policy
-loads); resuming into a directory made by another run is an error naming the setting. Beside it, ``provenance`` records the code that
+settings, and for a checkpoint policy a digest of its files and of the other model folders the loaded
+policy names as read, ``policy.loaded_files``); resuming into a directory made by another run is an error naming the setting. Beside it, ``provenance`` records the code that
 started the run (`rvn_data.provenance`: commit, dirty tree, versions) and ``resumed_by`` any other
 code that later added episodes to it; ``metrics.json`` carries both. Records are appended to ``episodes.jsonl`` one line per ``write`` with fsync
 as episodes finish; a torn last line from an interrupted run is dropped on resume. At
@@ -25,12 +25,13 @@ from rvn_data.provenance import provenance, short
 IDENTITY_KEYS = ("policy", "method", "split", "seed", "scenes", "episodes", "agent", "navmesh", "camera", "env")
 
 
-def run_identity(cfg: dict) -> dict:
-    """The parts of an rvn-eval config that change its results (not workers/out_dir/backend)."""
+def run_identity(cfg: dict, loaded_files: dict[str, str] | None = None) -> dict:
+    """The parts of an rvn-eval config that change its results (not workers/out_dir/backend); ``loaded_files``: the
+    loaded policy's ``loaded_files`` (`policy_files_digest`)."""
     ident = {k: cfg.get(k) for k in IDENTITY_KEYS}
     ident["episodes"] = {k: v for k, v in dict(cfg.get("episodes") or {}).items() if k != "dir"}
     ident["scenes"] = {k: v for k, v in dict(cfg.get("scenes") or {}).items() if k != "root"}
-    files = policy_files_digest(cfg.get("policy") or {})
+    files = policy_files_digest(cfg.get("policy") or {}, loaded_files)
     if files:
         ident["policy_files"] = files
     if ident["navmesh"] is not None:  # navmesh.source/file only when not the defaults
@@ -42,25 +43,20 @@ WEIGHT_FILES = (".safetensors", ".pt", ".pth", ".yaml", ".json")
 SKIP_FILES = ("state.pt",)  # optimizer state: not what the policy runs
 
 
-def policy_files_digest(policy: dict) -> dict[str, str]:
-    """``{setting: sha1}`` of the checkpoint folders a policy config names (``checkpoint_path``,
-    ``ensemble``) and of the model folders it loads beside them (a key ending in ``model_path``, as an RL
-    policy's ``depth_model_path``; else the frozen depth model an rvn-rl checkpoint's config.yaml names,
-    `linked_depth_model`, under that key): every weight and config file below each, by relative path and
-    content, so an evaluation of retrained weights in the same folder is another run. Logs are left out."""
+def policy_files_digest(policy: dict, loaded_files: dict[str, str] | None = None) -> dict[str, str]:
+    """``{setting: sha1}`` of the checkpoint folders a policy config names (``checkpoint_path``, ``ensemble``) and of
+    ``loaded_files``, the other folders the loaded policy says it read (the policy contract's ``loaded_files``,
+    ``{setting: folder}``: an RL policy's frozen depth model, under ``depth_model_path``): every weight and config file
+    below each, by relative path and content, so an evaluation of retrained weights in the same folder is another
+    run. Logs are left out."""
     paths: dict[str, str] = {}
     for key, value in policy.items():
         if key.endswith("checkpoint_path") and isinstance(value, str):
             paths[key] = value
-            linked = linked_depth_model(value)
-            if linked and "depth_model_path" not in policy:
-                paths["depth_model_path"] = linked
-        elif key.endswith("model_path") and isinstance(value, str):
-            path = Path(value).expanduser()
-            paths[key] = str(path.parent if path.is_file() else path)  # a model file: its folder, as the loader reads
         elif key == "ensemble" and value:
             for i, v in enumerate([value] if isinstance(value, str) else list(value)):
                 paths[f"ensemble.{i}"] = str(v)
+    paths.update({str(k): str(v) for k, v in (loaded_files or {}).items()})
     out = {}
     for key, value in paths.items():
         root = Path(value).expanduser()
@@ -77,26 +73,6 @@ def policy_files_digest(policy: dict) -> dict[str, str]:
                         h.update(chunk)
         out[key] = h.hexdigest()[:16]
     return out
-
-
-def linked_depth_model(checkpoint_path: str) -> str | None:
-    """The folder of the frozen depth model an rvn-rl checkpoint loads (its config.yaml: ``kind: rl``, a policy with
-    a depth channel, ``depth.source: model``, ``depth.model_path``), else None: the RL policy's loader reads that
-    model at evaluation, so its files are part of what is evaluated."""
-    import yaml
-
-    path = Path(checkpoint_path).expanduser() / "config.yaml"
-    try:
-        cfg = yaml.safe_load(path.read_text()) if path.is_file() else None
-    except (OSError, yaml.YAMLError):
-        return None  # the policy's own loader names a bad config
-    if not isinstance(cfg, dict) or cfg.get("kind") != "rl" or not (cfg.get("policy") or {}).get("use_depth"):
-        return None
-    depth = cfg.get("depth") or {}
-    if depth.get("source") != "model" or not depth.get("model_path"):
-        return None
-    model = Path(str(depth["model_path"])).expanduser()
-    return str(model.parent if model.is_file() else model)
 
 
 def episode_key(record: dict) -> tuple[str, int, float]:

@@ -93,12 +93,13 @@ class DepthPredictor:
     """A frozen `DepthNet`: ``predictor(rgb uint8 [N,H,W,3]) -> depth float32 [N,H,W]`` metres."""
 
     def __init__(self, net: DepthNet, image_size: int, device: str | torch.device = "cpu", info: dict | None = None,
-                 threads: int | None = 1):
+                 threads: int | None = 1, folder: str | Path | None = None):
         if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
             raise ValueError(f"depth model threads={threads!r}; give a positive integer or null (torch's setting)")
         self.net = net.to(device).eval().requires_grad_(False)
         self.image_size, self.device, self.info = int(image_size), torch.device(device), dict(info or {})
         self.threads = threads
+        self.folder = None if folder is None else Path(folder)  # where `load_depth_model` read it (None: built here)
 
     def __call__(self, rgb) -> np.ndarray:
         rgb = np.asarray(rgb)
@@ -130,12 +131,17 @@ def weights_digest(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()[:16]
 
 
+def model_folder(path: str | Path) -> Path:
+    """The folder of a depth model given as the folder or as its ``model.safetensors``."""
+    path = Path(path).expanduser()
+    return path if path.is_dir() else path.parent
+
+
 def model_digest(path: str | Path) -> str:
     """Digest (sha256, 16 hex digits) of a depth model's ``model.json`` and ``model.safetensors`` (``path``: the
     folder or its ``model.safetensors``, as `load_depth_model` takes): what an rvn-rl run records as
     ``depth.model_digest``, so that a run is not resumed on another depth model."""
-    path = Path(path).expanduser()
-    folder = path if path.is_dir() else path.parent
+    folder = model_folder(path)
     h = hashlib.sha256()
     for name in (CONFIG, WEIGHTS):
         f = folder / name
@@ -169,8 +175,7 @@ def load_depth_model(path: str | Path, device: str | torch.device = "cpu", threa
     None: torch's setting), restored afterwards."""
     from safetensors.torch import load
 
-    path = Path(path).expanduser()
-    folder = path if path.is_dir() else path.parent
+    folder = model_folder(path)
     weights, config = folder / WEIGHTS, folder / CONFIG
     for f in (weights, config):
         if not f.is_file():
@@ -192,4 +197,4 @@ def load_depth_model(path: str | Path, device: str | torch.device = "cpu", threa
         net.load_state_dict(load(data))
     except (RuntimeError, OSError) as e:
         raise ValueError(f"depth model {weights}: weights do not fit model.json ({str(e).splitlines()[0]})") from None
-    return DepthPredictor(net, meta["image_size"], device, info=meta, threads=threads)
+    return DepthPredictor(net, meta["image_size"], device, info=meta, threads=threads, folder=folder)
