@@ -10,7 +10,9 @@ load with the ``scenes`` group's options (``up_axis``, ``unit_scale``, ``level``
 
 File layout: ``rgb`` uint8 [N, H, W, 3], ``depth`` float32 [N, H, W] (planar metres, 0
 where nothing was hit), ``scene_index`` int32 [N]; attribute ``meta`` (JSON) holds the
-settings that produced it. A file whose ``meta`` matches the request is reused.
+settings that produced it and the code's ``dataset_version`` (`rvn_data.dataset.settings.DATASET_VERSION`, bumped
+when the same settings render other frames: a renderer or navmesh fix). A file whose ``meta`` matches the request is
+reused; one made by other code is made anew.
 """
 from __future__ import annotations
 
@@ -22,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from rvn_data.atomic import atomic_path
+from rvn_data.dataset.settings import DATASET_VERSION
 from rvn_data.navmesh.settings import SAMPLING, NavMeshSettings
 from rvn_data.render import RendererConfig
 from rvn_data.render.base import CALL_VIEWS
@@ -43,8 +46,10 @@ def pair_meta(split: str, specs: list[tuple[str, int]], per_scene: int, seed: in
     """The settings that determine a pairs file (compared to decide whether to reuse it); how the scenes load
     (`scene_options`), the navmesh's build settings (its poses are drawn on it) only when they are not the defaults,
     and its islands only when they are not the main island's alone, so files made with the defaults before any of
-    them was named keep their meta."""
-    meta = {"split": split, "scenes": [[s, int(i)] for s, i in specs], "per_scene": int(per_scene),
+    them was named keep their meta; the code's ``dataset_version``, so a file rendered before a renderer or navmesh
+    fix is made anew."""
+    meta = {"dataset_version": DATASET_VERSION, "split": split, "scenes": [[s, int(i)] for s, i in specs],
+            "per_scene": int(per_scene),
             "seed": int(seed), "camera": asdict(camera), "renderer_backend": str(renderer.backend)}
     if scenes is not None and scene_options(scenes) != scene_options():
         meta["scene_options"] = scene_options(scenes)
