@@ -8,6 +8,11 @@ and one trimesh could not read said), PBR base colour and vertex colours. Option
 so that its dominant floor normal (area-weighted upward-facing normals) is +y. A file that, so read, spans more
 than an indoor scene or less than a metre, or stands on its side, is refused, naming the setting to change, and one
 whose floor is tilted, not levelled, is said (`rvn_data.scenes.plausibility`).
+
+Colours are used as stored, without a colour-space conversion, and unlit (both renderers): texels (sRGB) come out as
+they are in the texture, which is how a textured scan such as HM3D looks; glTF's base-colour factors and vertex colours
+are linear by the glTF spec and are also taken as they are, so an untextured model (the dream apartment) renders darker
+than a glTF PBR viewer shows it. Converting them would change every frame of such scenes: kept as is on purpose.
 """
 from __future__ import annotations
 
