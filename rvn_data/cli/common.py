@@ -22,6 +22,7 @@ from __future__ import annotations
 import logging
 import os
 import sys
+import threading
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator, NoReturn
@@ -56,41 +57,26 @@ def validating() -> Iterator[None]:
 
 def check_writable_dir(path: str | Path, key: str = "out_dir=") -> Path:
     """The absolute ``path``; `ConfigError` naming the setting ``key`` (``out_dir=``, ``-o ``)
-    unless it is (or can be made) a folder this process can write to. Folders made to find out
-    are removed again; one that another process makes at the same time is left to it (two runs
-    into one new parent folder). Under torchrun only rank 0 looks (the ranks' probe folders would race)."""
+    unless it is (or can be made) a folder this process can write to: a file is written and removed in the folder,
+    or, where it does not exist yet, in its nearest existing parent (who may add an entry there may make the folders
+    below). It makes and removes no folder: removing folders made to find out raced another run making its real
+    folder inside one of them (two runs started into one new parent folder: the other's mkdir failed with "No such
+    file or directory")."""
     path = Path(path).expanduser().absolute()
-    if os.environ.get("RANK", "0") != "0":
-        return path
     if path.exists() and not path.is_dir():
         raise ConfigError(f"{key}{path} is a file, not a folder; choose a folder for {key.strip()}")
-    missing, p = [], path
+    p = path
     while not p.exists() and p != p.parent:
-        missing.append(p)
         p = p.parent
-    made: list[Path] = []
+    probe = p / f".rvn_write_probe_{os.getpid()}_{threading.get_ident()}"
     try:
-        for d in reversed(missing):
-            try:
-                d.mkdir()
-                made.append(d)
-            except FileExistsError:  # another process (a parallel run into the same parent) made it: not ours
-                if not d.is_dir():
-                    raise
-            except FileNotFoundError:  # its parent, another process's probe folder, was just removed
-                d.mkdir(parents=True, exist_ok=True)
-        probe = path / f".rvn_write_probe_{os.getpid()}"
+        if not p.is_dir():
+            raise NotADirectoryError(20, f"{p} is a file, not a folder")
         probe.write_bytes(b"")
         probe.unlink()
     except OSError as err:
         raise ConfigError(f"{key}{path}: cannot write there ({err.strerror or err}); "
                           f"choose a writable {key.strip()}") from None
-    finally:
-        for d in reversed(made):
-            try:
-                d.rmdir()
-            except OSError:
-                pass
     return path
 
 
