@@ -192,6 +192,27 @@ def check_escape(out, frame, first_actions):
     assert [plain.act(behind) for _ in range(6)] == [2] * 6 and "escapes" not in plain.episode_stats()
     with pytest.raises(ValueError, match=r"policy.escape_after=0: give a whole number >= 1"):
         load_policy(out, escape_after=0)
+    check_turn_commit(out, frame)
+
+
+def check_turn_commit(out, frame):
+    """policy.turn_commit through load_policy: a goal that switches sides every step makes the plain policy turn left,
+    right, left...; with turn_commit it keeps turning left until it drives forward, counted per episode; the forward
+    veto's turns are committed too."""
+    steer = {"aggregate": "vote", "lookahead_min_dist": 50.0}  # steer at the point goal
+    goals = [np.array(g, np.float32) for g in ([0.2, 1.0], [0.2, -1.0], [0.2, 1.0], [0.2, -1.0], [3.0, 0.0],
+                                               [0.2, -1.0], [0.2, 1.0])]
+
+    def actions(policy):
+        policy.reset()
+        return [policy.act({"rgb": frame, "pointgoal": g}) for g in goals]
+
+    assert actions(load_policy(out, **steer)) == [2, 3, 2, 3, 1, 3, 2]
+    committed = load_policy(out, turn_commit=True, **steer)
+    assert actions(committed) == [2, 2, 2, 2, 1, 3, 3] and committed.episode_stats()["commits"] == 3
+    assert "commits" not in load_policy(out, **steer).episode_stats()
+    with pytest.raises(ValueError, match=r"policy.turn_commit='yes': give true or false"):
+        load_policy(out, turn_commit="yes")
 
 
 def check_free_past_the_floor(out, root, frame):

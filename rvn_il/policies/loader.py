@@ -5,7 +5,7 @@ rvn-eval's ``policy=checkpoint`` (conf/policy/checkpoint.yaml, registered as ent
 selection: argmin}`` — every keyword besides ``checkpoint_path``/``device``/``model`` overrides
 a ``model.policy`` setting (lookahead_min_dist, waypoint_index, num_samples, aggregate, stop_radius,
 selection, cor_alpha, ensemble, sampler, depth_veto, depth_veto_rule, depth_veto_hfov, escape_after, escape_steps,
-escape_clearance), the seed, ``threads`` (torch intra-op threads of a decision
+escape_clearance, turn_commit), the seed, ``threads`` (torch intra-op threads of a decision
 on CPU, default 1, null: torch's setting; see :mod:`.policy`) or an agent setting (r_robot, d_step, theta_step_deg).
 
 ``ensemble``: more rvn-train out_dirs of the same model (ViNT- or NoMaD-PointGoal) whose samples join
@@ -27,6 +27,8 @@ with the camera's hfov: ``depth_veto_hfov`` degrees, null: the ``hfov_deg`` the 
 ``escape_after``: turns in place in a row after which the policy turns to the most open heading it saw
 near the goal's bearing and drives ``escape_steps`` (4) steps there, headings with ``escape_clearance``
 (1.0 m) free first (null: off; :mod:`.escape`; a departure).
+``turn_commit``: true makes a turn against the previous step's turn repeat that turn instead, so the robot sweeps
+round instead of dithering left-right (default false; :mod:`.turn_commit`; a departure).
 """
 from __future__ import annotations
 
@@ -47,11 +49,12 @@ from ..models.nomad import check_sampler
 from .control import ControlConfig
 from .depth_veto import Floor, check_depth_veto
 from .escape import Escape
+from .turn_commit import TurnCommit
 from .policy import Member, NoMaDNegPolicy, PointGoalPolicy
 
 POLICY_KEYS = {"lookahead_min_dist", "waypoint_index", "num_samples", "aggregate", "stop_radius", "selection", "cor_alpha",
                "seed", "threads", "ensemble", "sampler", "compile", "depth_veto", "depth_veto_rule", "depth_veto_hfov",
-               "escape_after", "escape_steps", "escape_clearance"}
+               "escape_after", "escape_steps", "escape_clearance", "turn_commit"}
 AGENT_KEYS = set(EMBODIMENT_AGENT_KEYS)  # policy.* settings that change the robot's control
 
 
@@ -154,9 +157,13 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
     escape = None
     if pol.get("escape_after") is not None:  # rvn_il/policies/escape.py
         escape = Escape(pol["escape_after"], agent.theta_step, pol.get("escape_steps", 4), pol.get("escape_clearance", 1.0))
+    commit = pol.get("turn_commit", False)
+    if not isinstance(commit, bool):
+        raise ValueError(f"policy.turn_commit={commit!r}: give true or false")
     camera = (trained_embodiment(cfg, members[0]) or {}).get("camera")  # what the depth head learned to see
     common = dict(num_samples=int(pol.get("num_samples", 8)), seed=int(pol["seed"]), device=dev,
-                  threads=pol.get("threads", 1), depth_veto=veto, escape=escape, floor=Floor.of(camera) if camera else None)
+                  threads=pol.get("threads", 1), depth_veto=veto, escape=escape, floor=Floor.of(camera) if camera else None,
+                  turn_commit=TurnCommit() if commit else None)
     extra = ensemble_dirs(pol.get("ensemble"))
     if name == "nomad_neg":
         if extra:

@@ -33,6 +33,7 @@ from .control import ControlConfig, waypoints_to_action
 from .cor import SELECTIONS, rms_distance, select_expert
 from .depth_veto import DepthVeto, Floor, check_depth_veto, clearance, predicted_depth, turn_instead
 from .escape import Escape
+from .turn_commit import TurnCommit
 
 
 @contextmanager
@@ -74,6 +75,7 @@ class PointGoalPolicy:
     With several members (``policy.ensemble``), ``vote`` pools every member's samples, member 0's first.
     ``depth_veto`` (metres with the band rule, a :class:`DepthVeto`, or None: off): turn instead of a
     MOVE_FORWARD that member 0's depth head sees blocked (:mod:`.depth_veto`); ``vetoes`` counts them since ``reset()``.
+    ``escape`` (:mod:`.escape`) and ``turn_commit`` (:mod:`.turn_commit`): departures for stalls, off (None) by default.
     ``episode_stats()`` (recorded by rvn-eval in each episode's ``policy_stats``): ``decisions`` (model
     calls since ``reset()``), ``vetoes``, and what a subclass adds. ``embodiment``: the robot and camera of
     its training data (`rvn_data.embodiment`; None: not recorded), which rvn-eval compares with its own."""
@@ -83,7 +85,8 @@ class PointGoalPolicy:
 
     def __init__(self, members: list[Member], control: ControlConfig, num_samples: int = 8, seed: int = 0,
                  device: str | torch.device = "cpu", aggregate: str = "first", threads: int | None = 1,
-                 depth_veto: float | DepthVeto | None = None, escape: Escape | None = None, floor: Floor | None = None):
+                 depth_veto: float | DepthVeto | None = None, escape: Escape | None = None, floor: Floor | None = None,
+                 turn_commit: TurnCommit | None = None):
         if aggregate not in self.AGGREGATES:
             raise ValueError(f"policy aggregate={aggregate!r}; choose one of {self.AGGREGATES}")
         if threads is not None and not (isinstance(threads, int) and threads >= 1):
@@ -92,7 +95,7 @@ class PointGoalPolicy:
         self.members, self.control = members, control
         self.num_samples, self.seed, self.device = int(num_samples), int(seed), torch.device(device)
         self.depth_veto = check_depth_veto(depth_veto, bool(members) and members[0].model.depth_head is not None)
-        self.escape = escape
+        self.escape, self.turn_commit = escape, turn_commit
         self.floor = floor  # the veto and the escape look past the bare floor the depth grid's lower rows see
         self.last_waypoints: np.ndarray | None = None  # metres, robot frame (for plots/debugging)
         self.reset()
@@ -104,11 +107,15 @@ class PointGoalPolicy:
         self.decisions = 0
         if self.escape is not None:
             self.escape.reset()
+        if self.turn_commit is not None:
+            self.turn_commit.reset()
 
     def episode_stats(self) -> dict[str, int]:
         stats = {"decisions": self.decisions, "vetoes": self.vetoes}
         if self.escape is not None:
             stats["escapes"] = self.escape.escapes
+        if self.turn_commit is not None:
+            stats["commits"] = self.turn_commit.commits
         return stats
 
     def _push(self, rgb: np.ndarray) -> list[torch.Tensor]:
@@ -166,6 +173,8 @@ class PointGoalPolicy:
         with torch.inference_mode(), intra_op_threads(self.threads if self.device.type == "cpu" else None):
             tokens = self._push(rgb)
             if np.linalg.norm(pointgoal) < self.control.stop_radius:
+                if self.turn_commit is not None:
+                    self.turn_commit.taken(int(Action.STOP))
                 return int(Action.STOP)
             samples = self.sample(tokens, pointgoal)
             self.decisions += 1
@@ -181,9 +190,13 @@ class PointGoalPolicy:
                 self.vetoes += 1
                 actions = [int(waypoints_to_action(wp, pointgoal, self.control)) for wp in samples[0]]
                 action = turn_instead(actions, depth)
+            if self.turn_commit is not None:
+                action = self.turn_commit.act(action)
             if self.escape is not None:
                 free = None if depth is None else clearance(standing)
                 action = self.escape.act(action, math.atan2(pointgoal[1], pointgoal[0]), free, blocked)
+            if self.turn_commit is not None:
+                self.turn_commit.taken(action)
         return action
 
 
@@ -194,14 +207,14 @@ class NoMaDNegPolicy(PointGoalPolicy):
     def __init__(self, members: list[Member], control: ControlConfig, num_samples: int = 8, seed: int = 0,
                  device: str | torch.device = "cpu", selection: str = "argmax", cor_alpha: float = 1.0,
                  threads: int | None = 1, depth_veto: float | DepthVeto | None = None, escape: Escape | None = None,
-                 floor: Floor | None = None):
+                 floor: Floor | None = None, turn_commit: TurnCommit | None = None):
         if len(members) != 2:
             raise ValueError("NoMaD-Neg needs two members: expert and negative")
         if selection not in SELECTIONS:
             raise ValueError(f"policy selection={selection!r}; choose argmax or argmin")
         self.selection, self.cor_alpha = selection, float(cor_alpha)
         super().__init__(members, control, num_samples, seed, device, threads=threads, depth_veto=depth_veto, escape=escape,
-                         floor=floor)
+                         floor=floor, turn_commit=turn_commit)
 
     def reset(self) -> None:
         super().reset()
