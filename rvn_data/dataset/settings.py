@@ -98,8 +98,9 @@ class DatasetConfig:
 # What a dataset's trajectories depend on beyond its settings, recorded in .rvn/settings.json: bump when the same
 # settings make other trajectories, so a dataset begun by other code is not resumed, extended or repaired with this
 # one's; rvn-rl's depth pairs files record it too (made anew when it differs). 3: gl's batched depth at image sizes
-# whose W x H is not a multiple of 4 (depth sidecars were 0 or another batch's). 2: the navmesh's clearance exact near thin obstacles and corners (7001f36: the expert's occupancy grid and
-# the simulator's edges move by up to a cell). 1: a record without it.
+# whose W x H is not a multiple of 4 (depth sidecars were 0 or another batch's). 2: the navmesh's clearance exact
+# near thin obstacles and corners (7001f36: the expert's occupancy grid and the simulator's edges move by up to a
+# cell). 1: a record without it.
 DATASET_VERSION = 3
 
 # how a scene's mesh is read (rvn_data.scenes.sets.ScenesConfig), at its defaults: a trajectory's bytes depend on them

@@ -13,9 +13,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from rvn_data.conventions import Action
-
-TURNS = (int(Action.TURN_LEFT), int(Action.TURN_RIGHT))
+from .escape import TURNS  # the two turn actions (and their sign)
 
 
 @dataclass
