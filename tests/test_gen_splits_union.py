@@ -108,6 +108,26 @@ def test_changed_split_drops_official_caches(three, tmp_path):
         assert caches(part) == ([] if part in changed else sorted(["dataset_rvn_expert.lmdb",
                                 "dataset_dist_0_to_20_context_temporal_n5_slack_0.pkl"]))
     assert "removed" in proc.stdout and f"data_splits/rvn_expert/{changed[0]}/dataset_" in proc.stdout, proc.stdout
+    # the new scenes joined train, no scene changed sides: no note
+    assert "changed split" not in proc.stdout and after["test"] == before["test"], proc.stdout
+
+
+@pytest.mark.slow
+def test_scene_changing_split_is_reported(three, tmp_path):
+    """Adding scenes draws the split anew: a scene that changes sides is named in the summary."""
+    out = tmp_path / "o"
+    shutil.copytree(three, out)
+    test_before = json.loads((out / "manifest.json").read_text())["per_scene"]
+    was_test = [slug for slug, e in test_before.items() if e["gnm_split"] == "test"]
+    proc = rvn_gen(out, 6)  # with the default seed and train_fraction the one test scene of 3 goes to train at 6
+    now = json.loads((out / "manifest.json").read_text())["per_scene"]
+    moved = sorted(slug for slug in test_before if now[slug]["gnm_split"] != test_before[slug]["gnm_split"])
+    assert moved == was_test, (moved, was_test)
+    assert f"note: 1 scene changed split ({moved[0]}: test -> train;" in proc.stdout, proc.stdout
+    assert not [n for n in splits(out)["test"].split() if n.startswith(moved[0] + "_")]
+    assert [n for n in splits(out)["train"].split() if n.startswith(moved[0] + "_")]
+    proc = rvn_gen(out, 6)  # nothing new: nothing moved
+    assert "changed split" not in proc.stdout, proc.stdout
 
 
 @pytest.mark.slow

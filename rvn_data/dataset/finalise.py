@@ -28,6 +28,7 @@ leave it to the others (or to ``rvn-gen mode=merge``). Running it twice writes t
 """
 from __future__ import annotations
 
+import json
 import os
 import re
 import shutil
@@ -92,7 +93,8 @@ class Finalised:
     ``earlier`` slugs of scenes not in the run's list kept from earlier runs, ``extra``
     trajectory folders kept beyond their scene's record, ``left_out`` trajectories records list
     whose folder is gone or damaged (name → what is wrong), ``removed`` stale caches of the
-    official GNM tooling (paths relative to out_dir)."""
+    official GNM tooling (paths relative to out_dir), ``moved`` scenes whose split changed since
+    the manifest before (slug → "test -> train" or "train -> test")."""
 
     missing: list[str]
     written: bool = False
@@ -100,6 +102,7 @@ class Finalised:
     extra: list[str] = field(default_factory=list)
     removed: list[str] = field(default_factory=list)
     left_out: dict[str, str] = field(default_factory=dict)
+    moved: dict[str, str] = field(default_factory=dict)
 
 
 def finalise(out_dir: Path, settings: GenSettings, specs: list[str], allow_missing: bool = False) -> list[str]:
@@ -152,6 +155,7 @@ def _finalise_dataset(out_dir: Path, settings: GenSettings, specs: list[str], al
             records[slug] = {**r, "trajectories": [t for t in r["trajectories"] if t["name"] not in left_out]}
     train, test = split_scenes(sorted(set(listed) | set(records)), settings.seed, settings.train_fraction)
     base = out_dir / "data_splits" / settings.name
+    moved = _moved(out_dir / "manifest.json", train, test)
     removed = []
     for part, slugs in (("train", train), ("test", test)):
         names = [t["name"] for slug in slugs if slug in records for t in records[slug]["trajectories"]]
@@ -159,7 +163,18 @@ def _finalise_dataset(out_dir: Path, settings: GenSettings, specs: list[str], al
     writer.write_text_atomic(out_dir / "data_config.yaml", data_config_text(settings))
     writer.write_text_atomic(out_dir / "manifest.json", writer.dumps_json(
         _manifest(settings, specs, records, train, test, missing, failed, sorted(earlier), sorted(kept), left_out)))
-    return Finalised(missing, True, sorted(earlier), sorted(kept), removed, left_out)
+    return Finalised(missing, True, sorted(earlier), sorted(kept), removed, left_out, moved)
+
+
+def _moved(manifest: Path, train: list[str], test: list[str]) -> dict[str, str]:
+    """slug → "<old> -> <new>" for the scenes the manifest before put on the other side (none without one)."""
+    try:
+        before = {slug: e["gnm_split"] for slug, e in json.loads(manifest.read_text())["per_scene"].items()}
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return {}
+    now = {**{slug: "train" for slug in train}, **{slug: "test" for slug in test}}
+    return {slug: f"{before[slug]} -> {side}" for slug, side in sorted(now.items())
+            if before.get(slug) in ("train", "test") and before[slug] != side}
 
 
 # visualnav-transformer's ViNT_Dataset builds these beside traj_names.txt once and never checks them again

@@ -134,7 +134,7 @@ def merge(gnm: GNMWriter, specs: list[str], allow_partial: bool) -> int:
 
 
 def _report_finalised(done: Finalised, specs: list[str], out_dir: Path) -> None:
-    """Say what the splits kept from earlier runs and which stale caches were removed."""
+    """Say what the splits kept from earlier runs, which scenes changed split and which stale caches were removed."""
     if done.extra:
         what = (f"of {len(done.earlier)} scenes that are not in this run's scene list (e.g. {done.earlier[0]})"
                 if done.earlier else f"beyond trajectories_per_scene (e.g. {done.extra[0]})")
@@ -148,6 +148,13 @@ def _report_finalised(done: Finalised, specs: list[str], out_dir: Path) -> None:
         print(f"  note: {n} {'trajectory' if n == 1 else 'trajectories'} listed by the scene records "
               f"{'is' if n == 1 else 'are'} missing or damaged ({first}: {problem}{', ...' if n > 1 else ''}) and left "
               f"out of the splits; {hint}")
+    if done.moved:
+        n, (first, how) = len(done.moved), next(iter(done.moved.items()))
+        print(f"  note: {n} {'scene' if n == 1 else 'scenes'} changed split ({first}: {how}{', ...' if n > 1 else ''}; "
+              "manifest.json has each scene's gnm_split): the split is drawn over every scene of the dataset, so "
+              "adding scenes splits it anew; a model trained on the old lists was validated on scenes now in train "
+              "(or the reverse). To keep a fixed validation set, generate it as a dataset of its own "
+              "(dataset.train_fraction=1.0 here, data.val_root=<it> in rvn-train)")
     if done.removed:
         print(f"  removed {len(done.removed)} stale visualnav-transformer cache(s) of the old split lists "
               f"(rebuilt on its next training): {', '.join(done.removed)}")
