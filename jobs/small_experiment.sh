@@ -3,7 +3,8 @@
 #   rvn-gen expert + negative on procedural train scenes
 #   -> rvn-train ViNT-PointGoal, NoMaD-PointGoal, NoMaD-Neg (model.size=small)
 #   -> rvn-eval on procedural val scenes (the three, NoMaD-PointGoal voting over its samples, NoMaD-PointGoal-vote
-#      and NoMaD-Neg with the depth veto when DEPTH_VETO is set, NoMaD-Neg with argmin CoR when NEG_ARGMIN=1;
+#      and NoMaD-Neg with the depth veto when DEPTH_VETO is set, the latter with committed turns too when TURN_COMMIT=1,
+#      NoMaD-Neg with argmin CoR when NEG_ARGMIN=1;
 #      oracle, trajectory oracle, blind goal follower, random)
 #   SEEDS="0 1": NoMaD-PointGoal and NoMaD-Neg (and their eval rows) once per training seed; data, episodes,
 #   ViNT and the reference rows once (seed SEED). Rows of another seed than SEED are labelled "<method> seed<s>".
@@ -62,6 +63,9 @@ esac
                               # depth head turns it away from a blocked forward step; rvn_il/policies/depth_veto.py)
 : "${NEG_ARGMIN:=0}"          # 1: one more row, NoMaD-Neg with argmin CoR (the paper's wording; its equation means
                               # argmax, the default; measured in docs/results/2026-11-23_small_experiment_2/ and _3/; ~12 min)
+: "${TURN_COMMIT:=0}"         # 1, with DEPTH_VETO: one more row, NoMaD-Neg-veto-commit (policy.turn_commit: a turn against
+                              # the step before's turn repeats it; CPK -21 % and -32 % with two seeds, SR_1 -0.03 n.s.,
+                              # docs/results/2026-12-06_turn_commit_seed1/; ~25 min)
 : "${DEPTH_VETO_RULE:=swept}"  # where DEPTH_VETO looks: swept (the rectangle the step sweeps; measured best,
                               # docs/results/2026-11-25_small_experiment_8/) | band (the central half of the columns)
 : "${SEED:=0}"                # data, episodes, ViNT and the reference rows
@@ -74,6 +78,10 @@ if [[ -n "$DEPTH_VETO" && "$DEPTH_AUX" == 0 ]]; then
   echo "small_experiment.sh: error: DEPTH_VETO=$DEPTH_VETO needs the depth head: set DEPTH_AUX > 0 (e.g. 0.5)" >&2; exit 2
 fi
 [[ "$NEG_ARGMIN" =~ ^(0|1)$ ]] || { echo "small_experiment.sh: error: NEG_ARGMIN=$NEG_ARGMIN; choose 0 or 1" >&2; exit 2; }
+[[ "$TURN_COMMIT" =~ ^(0|1)$ ]] || { echo "small_experiment.sh: error: TURN_COMMIT=$TURN_COMMIT; choose 0 or 1" >&2; exit 2; }
+if [[ "$TURN_COMMIT" == 1 && -z "$DEPTH_VETO" ]]; then
+  echo "small_experiment.sh: error: TURN_COMMIT=1 adds a row to the veto's: set DEPTH_VETO (e.g. 0.5, with DEPTH_AUX > 0)" >&2; exit 2
+fi
 [[ "$DEPTH_VETO_RULE" =~ ^(band|swept)$ ]] || { echo "small_experiment.sh: error: DEPTH_VETO_RULE=$DEPTH_VETO_RULE; choose swept or band" >&2; exit 2; }
 [[ "$SEEDS" =~ ^[0-9]+( [0-9]+)*$ ]] || { echo "small_experiment.sh: error: SEEDS=$SEEDS; give whole numbers separated by spaces, e.g. SEEDS=\"0 1\"" >&2; exit 2; }
 [[ "$DEPTH_NEG_PER_SCENE" =~ ^[0-9]+$ ]] || { echo "small_experiment.sh: error: DEPTH_NEG_PER_SCENE=$DEPTH_NEG_PER_SCENE; give a whole number (0: off)" >&2; exit 2; }
@@ -184,6 +192,13 @@ for S in $SEEDS; do
       "${VETO[@]}" out_dir="$OUT/eval/nomad_neg_veto$SFX" "${EVAL[@]}"
     RUNS+=("$OUT/eval/nomad_pointgoal_vote_veto$SFX" "$OUT/eval/nomad_neg_veto$SFX")
     COMPARE+=("NoMaD-PointGoal-vote-veto$LBL=NoMaD-PointGoal-vote$LBL" "NoMaD-Neg-veto$LBL=NoMaD-Neg$LBL")
+    if [[ "$TURN_COMMIT" == 1 ]]; then  # the veto's stalls: turns against the turn before repeat it
+      step "eval_nomad_neg_veto_commit$SFX" rvn-eval "${NEG[@]}" "method=NoMaD-Neg-veto-commit$LBL" \
+        +policy.waypoint_index="$LOOKAHEAD" "${VETO[@]}" +policy.turn_commit=true \
+        out_dir="$OUT/eval/nomad_neg_veto_commit$SFX" "${EVAL[@]}"
+      RUNS+=("$OUT/eval/nomad_neg_veto_commit$SFX")
+      COMPARE+=("NoMaD-Neg-veto-commit$LBL=NoMaD-Neg-veto$LBL")
+    fi
   fi
   # the paper writes argmin CoR; by its equation argmax keeps away from the negatives
   if [[ "$NEG_ARGMIN" == 1 ]]; then

@@ -16,8 +16,12 @@ import pytest
 from conftest import run_recipe
 
 REPO = Path(__file__).resolve().parents[1]
-METHODS = ("Random", "Oracle", "Goal follower", "Trajectory oracle", "ViNT-PointGoal", "NoMaD-PointGoal", "NoMaD-PointGoal-vote", "NoMaD-Neg",
-           "NoMaD-Neg-argmin", "NoMaD-PointGoal seed1", "NoMaD-PointGoal-vote seed1", "NoMaD-Neg seed1", "NoMaD-Neg-argmin seed1")
+PER_SEED = ("NoMaD-PointGoal", "NoMaD-PointGoal-vote", "NoMaD-Neg", "NoMaD-PointGoal-vote-veto", "NoMaD-Neg-veto",
+            "NoMaD-Neg-veto-commit", "NoMaD-Neg-argmin")
+METHODS = ("Random", "Oracle", "Goal follower", "Trajectory oracle", "ViNT-PointGoal", *PER_SEED,
+           *(f"{m} seed1" for m in PER_SEED))
+# every row: the depth head and its veto, committed turns, the opt-in argmin row, two training seeds
+EVERY_ROW = dict(NEG_ARGMIN="1", SEEDS="0 1", DEPTH_AUX="0.5", DEPTH_VETO="0.5", TURN_COMMIT="1")
 
 
 def small_experiment(out: Path, **env) -> subprocess.CompletedProcess:
@@ -27,7 +31,7 @@ def small_experiment(out: Path, **env) -> subprocess.CompletedProcess:
 @pytest.mark.slow
 def test_tiny_experiment_end_to_end_and_rerun(tmp_path):
     out = tmp_path / "exp"
-    proc = small_experiment(out, NEG_ARGMIN="1", SEEDS="0 1")  # every row, the opt-in argmin one too, two training seeds
+    proc = small_experiment(out, **EVERY_ROW)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     report = (out / "report.md").read_text()
     for method in METHODS:
@@ -53,8 +57,8 @@ def test_tiny_experiment_end_to_end_and_rerun(tmp_path):
     steps = [ln.split("\t")[0] for ln in (out / "timings.tsv").read_text().splitlines()]
     assert steps[:4] == ["gen_expert", "gen_negative", "gen_val", "train_vint"]
     # each seed's trainings, then its rows: seed 0's are complete before seed 1 trains
-    assert steps[9:11] == ["train_nomad", "train_nomad_neg"] and steps[15:17] == ["train_nomad_seed1", "train_nomad_neg_seed1"]
-    assert len(steps) == 21
+    assert steps[9:11] == ["train_nomad", "train_nomad_neg"] and steps[18:20] == ["train_nomad_seed1", "train_nomad_neg_seed1"]
+    assert len(steps) == 27
     seed1 = (out / "train" / "nomad_pointgoal_seed1" / "config.yaml").read_text()
     assert "seed: 1" in seed1 and "expert_from: " + str(out / "train" / "nomad_pointgoal_seed1") in \
         (out / "train" / "nomad_neg_seed1" / "config.yaml").read_text()
@@ -74,10 +78,14 @@ def test_tiny_experiment_end_to_end_and_rerun(tmp_path):
     config = (out / "train" / "nomad_pointgoal" / "config.yaml").read_text()
     assert "prediction_type: sample" in config and "pad_context: true" in config  # the small recipe's first decisions
     assert "| NoMaD-Neg | NoMaD-PointGoal |" in report and "| NoMaD-PointGoal | Goal follower |" in report
+    assert "| NoMaD-Neg-veto-commit seed1 | NoMaD-Neg-veto seed1 |" in report
+    committed = json.loads((out / "eval" / "nomad_neg_veto_commit_seed1" / "run.json").read_text())
+    assert committed["policy"]["turn_commit"] is True and committed["policy"]["depth_veto"] == 0.5
+    assert "commits" in (out / "eval" / "nomad_neg_veto_commit" / "episodes.jsonl").read_text()
     # a rerun skips every step and rewrites the same report
-    again = small_experiment(out, NEG_ARGMIN="1", SEEDS="0 1")
+    again = small_experiment(out, **EVERY_ROW)
     assert again.returncode == 0, again.stderr[-3000:]
-    assert again.stdout.count("done before, skipped") == 21
+    assert again.stdout.count("done before, skipped") == 27
     assert (out / "report.md").read_text() == report
 
 
@@ -95,6 +103,10 @@ def test_bad_scale_is_refused(tmp_path):
     assert proc.returncode == 2 and "DEPTH_NEG_PER_SCENE=many; give a whole number" in proc.stderr
     proc = small_experiment(tmp_path / "x", SCALE="tiny", NEG_ARGMIN="yes")
     assert proc.returncode == 2 and "NEG_ARGMIN=yes; choose 0 or 1" in proc.stderr
+    proc = small_experiment(tmp_path / "x", SCALE="tiny", TURN_COMMIT="yes")
+    assert proc.returncode == 2 and "TURN_COMMIT=yes; choose 0 or 1" in proc.stderr
+    proc = small_experiment(tmp_path / "x", SCALE="tiny", TURN_COMMIT="1")
+    assert proc.returncode == 2 and "TURN_COMMIT=1 adds a row to the veto's: set DEPTH_VETO" in proc.stderr
     proc = small_experiment(tmp_path / "x", SCALE="tiny", DEPTH_VETO_RULE="wide")
     assert proc.returncode == 2 and "DEPTH_VETO_RULE=wide; choose swept or band" in proc.stderr
     proc = small_experiment(tmp_path / "x", SCALE="tiny", SEEDS="0,1")
