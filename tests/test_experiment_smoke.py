@@ -79,6 +79,8 @@ def test_tiny_experiment_end_to_end_and_rerun(tmp_path):
     assert "prediction_type: sample" in config and "pad_context: true" in config  # the small recipe's first decisions
     assert "| NoMaD-Neg | NoMaD-PointGoal |" in report and "| NoMaD-PointGoal | Goal follower |" in report
     assert "| NoMaD-Neg-veto-commit seed1 | NoMaD-Neg-veto seed1 |" in report
+    # each seed's comparison, and pooled over the two seeds' episodes
+    assert "| NoMaD-Neg | NoMaD-PointGoal | unlabelled + seed1 | 2 |" in report
     committed = json.loads((out / "eval" / "nomad_neg_veto_commit_seed1" / "run.json").read_text())
     assert committed["policy"]["turn_commit"] is True and committed["policy"]["depth_veto"] == 0.5
     assert "commits" in (out / "eval" / "nomad_neg_veto_commit" / "episodes.jsonl").read_text()

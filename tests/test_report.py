@@ -258,3 +258,25 @@ def test_rows_on_other_episodes_under_the_same_ids_are_not_paired(tmp_path):
 
     assert tests([run("a", 0.0), run("b", 0.0)]).splitlines()[-1].endswith("| 0–0, 1 | 1.00 [1.00, 1.00], 1 |")
     assert tests([run("a", 0.0), run("c", 0.5)]).splitlines()[-1].endswith("| – | – |")
+
+
+def test_pairs_are_pooled_over_training_seeds(tmp_path):
+    """Rows of another training seed ("<method> seed<s>", as the recipes label them) beside a compared pair: the report
+    also tests the pair pooled over the seeds, every seed's episodes paired with the same seed's."""
+    from rvn_data.benchmark.report import tests
+    from rvn_data.benchmark.runs import Run
+
+    def run(name, wins, shift=0.0, n=20):  # the first `wins` episodes reach their first goal; one collision each
+        records = [{"episode_id": f"s#{i}", "scene_id": "s", "episode_index": i, "first_goal_success": i < wins,
+                    "collisions": 1, "path_length": 10.0, "d0": 4.0 + i / 10 + shift} for i in range(n)]
+        return Run(tmp_path / name, {"method": name, "split": "val", "collisions": n, "distance_km": n / 100}, records)
+
+    rows = [run("A", 12), run("B", 4), run("A seed1", 10), run("B seed1", 6), run("C", 5)]
+    text = tests(rows, [("A", "B"), ("A seed1", "B seed1"), ("A", "C")])
+    pooled = [ln for ln in text.splitlines() if "| unlabelled" in ln]
+    assert pooled == ["| A | B | unlabelled + seed1 | 40 | 0.550 | 0.250 | 12–0, 0.00049 | 100.0 | 100.0 | "
+                      "1.00 [1.00, 1.00], 1 |"], text
+    assert "pooled over training seeds" in text and "| A | C | unlabelled" not in text  # C has no seed-1 row
+    assert "pooled" not in tests(rows, [("A", "C")])
+    # seed 1's rows on other episodes than each other: not paired, so not pooled
+    assert "pooled" not in tests([run("A", 12), run("B", 4), run("A seed1", 10), run("B seed1", 6, shift=0.5)], [("A", "B")])

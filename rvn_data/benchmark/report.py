@@ -10,8 +10,10 @@ above the table flags rows from different commits or episode sets. The report ho
 layout (`rvn_data.benchmark.table`, paper rows included), our numbers beside the paper's per
 method and split, run details with links to the per-episode logs, plots written next to
 the report (``<stem>_sr1.png``, ``<stem>_cpk.png``, ``<stem>_goals.png``, ``<stem>_ends.png``: how
-goals ended), how goals ended with CPK over all kilometres and outside timed-out stretches, and every
-episode's record. Runs appear in the order given.
+goals ended), how goals ended with CPK over all kilometres and outside timed-out stretches, significance tests between rows (each
+compared pair also pooled over training seeds where the rows of other seeds, labelled ``"<method> seed<s>"`` as the
+recipes do, are there: `rvn_data.benchmark.significance.pooled_pairs`), and every episode's record. Runs appear in
+the order given.
 """
 from __future__ import annotations
 
@@ -25,7 +27,7 @@ from rvn_data.benchmark.metrics import TERMINATIONS, write_text_atomic
 from rvn_data.benchmark.plots import bar_plot, ends_plot, goals_plot
 from rvn_data.benchmark.results import episode_key
 from rvn_data.benchmark.runs import Run, find_runs, load_run, merge_shards, provenance_note  # noqa: F401 (API)
-from rvn_data.benchmark.significance import Row, significance_table
+from rvn_data.benchmark.significance import Row, pooled_table, significance_table
 from rvn_data.benchmark.table import SPLIT_TITLES, format_metric, render_table
 
 def _rel(path: Path, base: Path) -> str:
@@ -102,6 +104,10 @@ def tests(runs: list[Run], compare: list[tuple[str, str]] | None = None) -> str:
             continue
         if len(rows) > 1:
             out += [f"{SPLIT_TITLES.get(split, split)}:\n", significance_table(rows, wanted)]
+            pooled = pooled_table(rows, wanted)
+            if pooled:  # rows of other training seeds ("<method> seed<s>") beside the compared ones
+                out += [f"{SPLIT_TITLES.get(split, split)}, pooled over training seeds (each pair above with its rows of "
+                        "other seeds, \"<method> seed<s>\"; every seed's episodes paired with the same seed's):\n", pooled]
     methods = {r.method for r in runs}
     for pair in compare or []:
         missing = [m for m in pair if m not in methods]

@@ -19,9 +19,15 @@ compared pair by pair, which is the more sensitive test there:
 
 A row counts as a claim with 200 or more episodes; with fewer, differences of a few episodes are
 noise, which the p-values say.
+
+Rows of several training seeds: the recipes label a row of another seed than the run's own
+``"<method> seed<s>"`` (jobs/small_experiment.sh's ``SEEDS``). A compared pair (A, B) whose rows of other
+seeds are there too ("A seed1", "B seed1") is also tested pooled over the seeds (`pooled_pairs`): every
+episode of each seed's pair is one paired observation, keyed by seed and episode.
 """
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from itertools import combinations
 from typing import Iterable, Sequence
@@ -30,6 +36,7 @@ import numpy as np
 from scipy.stats import binomtest, fisher_exact
 
 PERMUTATIONS = 10_000
+SEED_LABEL = re.compile(r"^(?P<base>.+) seed(?P<seed>\d+)$")  # the recipes' label of another training seed's row
 
 
 @dataclass(frozen=True)
@@ -143,4 +150,47 @@ def significance_table(rows: Sequence[Row], compare: Iterable[tuple[str, str]] |
         lines.append(f"| {a.label} | {b.label} | {a.sr1:.3f} ({a.successes}/{a.episodes}) | "
                      f"{b.sr1:.3f} ({b.successes}/{b.episodes}) | {format_p(sr1_p(a, b))} | {a.cpk:.0f} | {b.cpk:.0f} | "
                      f"{format_p(cpk_p(a, b))} | {extra} |")
+    return "\n".join(lines) + "\n"
+
+
+def pooled_pairs(rows: Sequence[Row], compare: Iterable[tuple[str, str]] | None = None) -> list[tuple[Row, Row, str]]:
+    """The pairs to test pooled over training seeds: for each pair of ``compare`` (default: every pair) whose labels
+    name no seed, with the rows "A seed<s>" and "B seed<s>" of at least one other seed on the same episodes as each
+    other, (pooled A, pooled B, which rows were pooled). A pooled row's episodes are keyed by (seed label, episode)."""
+    by_label = {r.label: r for r in rows}
+    seeds = sorted({int(m["seed"]) for r in rows if (m := SEED_LABEL.match(r.label))})
+    base = [r.label for r in rows if not SEED_LABEL.match(r.label)]
+    out = []
+    for a, b in (list(combinations(base, 2)) if compare is None else compare):
+        if a not in by_label or b not in by_label or SEED_LABEL.match(a) or SEED_LABEL.match(b):
+            continue
+        members = [("", by_label[a], by_label[b])]
+        members += [(f"seed{s}", by_label[f"{a} seed{s}"], by_label[f"{b} seed{s}"]) for s in seeds
+                    if f"{a} seed{s}" in by_label and f"{b} seed{s}" in by_label]
+        if len(members) < 2 or any(not x.per_episode or set(x.per_episode) != set(y.per_episode) for _, x, y in members):
+            continue
+        pooled = [_pool(label, [(tag, m[i]) for tag, *m in members]) for i, label in enumerate((a, b))]
+        out.append((*pooled, " + ".join(tag or "unlabelled" for tag, _, _ in members)))
+    return out
+
+
+def _pool(label: str, members: list[tuple[str, Row]]) -> Row:
+    return Row(label, sum(r.successes for _, r in members), sum(r.episodes for _, r in members),
+               sum(r.collisions for _, r in members), sum(r.km for _, r in members),
+               {(tag, *(k if isinstance(k, tuple) else (k,))): v for tag, r in members for k, v in r.per_episode.items()})
+
+
+def pooled_table(rows: Sequence[Row], compare: Iterable[tuple[str, str]] | None = None) -> str:
+    """Markdown table of the paired tests of `pooled_pairs` (empty when no pair has rows of other seeds)."""
+    found = pooled_pairs(rows, compare)
+    if not found:
+        return ""
+    lines = ["| A | B | seeds pooled | episodes | SR_1 A | SR_1 B | won–lost, McNemar p | CPK A | CPK B | "
+             "CPK A / B [95 % CI], paired p |", "|---|---|---|---:|---:|---:|---:|---:|---:|---:|"]
+    for a, b, which in found:
+        t = paired(a, b)
+        lo, hi = t["cpk_ratio_ci"]
+        lines.append(f"| {a.label} | {b.label} | {which} | {a.episodes} | {a.sr1:.3f} | {b.sr1:.3f} | "
+                     f"{t['won']}–{t['lost']}, {format_p(t['mcnemar_p'])} | {a.cpk:.1f} | {b.cpk:.1f} | "
+                     f"{t['cpk_ratio']:.2f} [{lo:.2f}, {hi:.2f}], {format_p(t['cpk_paired_p'])} |")
     return "\n".join(lines) + "\n"
