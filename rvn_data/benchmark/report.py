@@ -90,15 +90,19 @@ def goal_endings(runs: list[Run]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def row_of(run: Run) -> Row:
+    """What the significance tests need of one run: its totals and, per episode, (first goal reached, collisions, km)."""
+    return Row(run.method, sum(bool(e["first_goal_success"]) for e in run.records), len(run.records),
+               int(run.metrics.get("collisions", 0)), float(run.metrics.get("distance_km", 0.0)),
+               {episode_key(e): (bool(e["first_goal_success"]), int(e["collisions"]), float(e["path_length"]) / 1e3)
+                for e in run.records})
+
+
 def tests(runs: list[Run], compare: list[tuple[str, str]] | None = None) -> str:
     """Significance of the differences between rows of the same split (rvn_data.benchmark.significance)."""
     out = []
     for split in dict.fromkeys(r.split for r in runs):
-        rows = [Row(r.method, sum(bool(e["first_goal_success"]) for e in r.records), len(r.records),
-                    int(r.metrics.get("collisions", 0)), float(r.metrics.get("distance_km", 0.0)),
-                    {episode_key(e): (bool(e["first_goal_success"]), int(e["collisions"]), float(e["path_length"]) / 1e3)
-                     for e in r.records})
-                for r in runs if r.split == split]
+        rows = [row_of(r) for r in runs if r.split == split]
         wanted = None if compare is None else [(a, b) for a, b in compare if {a, b} <= {row.label for row in rows}]
         if compare is not None and not wanted:
             continue

@@ -22,8 +22,8 @@ noise, which the p-values say.
 
 Rows of several training seeds: the recipes label a row of another seed than the run's own
 ``"<method> seed<s>"`` (jobs/small_experiment.sh's ``SEEDS``). A compared pair (A, B) whose rows of other
-seeds are there too ("A seed1", "B seed1") is also tested pooled over the seeds (`pooled_pairs`): every
-episode of each seed's pair is one paired observation, keyed by seed and episode.
+seeds are there too ("A seed1", "B seed1") is also tested pooled over the seeds (`pooled_pairs`,
+`pool_rows`): every episode of each seed's pair is one paired observation, keyed by seed and episode.
 """
 from __future__ import annotations
 
@@ -164,20 +164,21 @@ def pooled_pairs(rows: Sequence[Row], compare: Iterable[tuple[str, str]] | None 
     for a, b in (list(combinations(base, 2)) if compare is None else compare):
         if a not in by_label or b not in by_label or SEED_LABEL.match(a) or SEED_LABEL.match(b):
             continue
-        members = [("", by_label[a], by_label[b])]
-        members += [(f"seed{s}", by_label[f"{a} seed{s}"], by_label[f"{b} seed{s}"]) for s in seeds
-                    if f"{a} seed{s}" in by_label and f"{b} seed{s}" in by_label]
-        if len(members) < 2 or any(not x.per_episode or set(x.per_episode) != set(y.per_episode) for _, x, y in members):
+        tags = [""] + [f"seed{s}" for s in seeds if f"{a} seed{s}" in by_label and f"{b} seed{s}" in by_label]
+        of_a = {t: by_label[f"{a} {t}" if t else a] for t in tags}
+        of_b = {t: by_label[f"{b} {t}" if t else b] for t in tags}
+        if len(tags) < 2 or any(not of_a[t].per_episode or set(of_a[t].per_episode) != set(of_b[t].per_episode)
+                                for t in tags):
             continue
-        pooled = [_pool(label, [(tag, m[i]) for tag, *m in members]) for i, label in enumerate((a, b))]
-        out.append((*pooled, " + ".join(tag or "unlabelled" for tag, _, _ in members)))
+        out.append((pool_rows(a, of_a), pool_rows(b, of_b), " + ".join(t or "unlabelled" for t in tags)))
     return out
 
 
-def _pool(label: str, members: list[tuple[str, Row]]) -> Row:
-    return Row(label, sum(r.successes for _, r in members), sum(r.episodes for _, r in members),
-               sum(r.collisions for _, r in members), sum(r.km for _, r in members),
-               {(tag, *(k if isinstance(k, tuple) else (k,))): v for tag, r in members for k, v in r.per_episode.items()})
+def pool_rows(label: str, rows: dict) -> Row:
+    """One row of several (``{tag: row}``, e.g. one per training seed): totals summed, each episode keyed (tag, its key)."""
+    return Row(label, sum(r.successes for r in rows.values()), sum(r.episodes for r in rows.values()),
+               sum(r.collisions for r in rows.values()), sum(r.km for r in rows.values()),
+               {(tag, k): v for tag, r in rows.items() for k, v in r.per_episode.items()})
 
 
 def pooled_table(rows: Sequence[Row], compare: Iterable[tuple[str, str]] | None = None) -> str:

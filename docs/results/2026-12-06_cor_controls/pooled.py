@@ -4,9 +4,9 @@ pair and of seed 1's pair is one paired observation (keyed by seed and episode),
 Run from this folder after assemble.sh (and the other folders' assemble.sh):  python pooled.py > pooled.md"""
 from pathlib import Path
 
-from rvn_data.benchmark.results import episode_key
+from rvn_data.benchmark.report import row_of
 from rvn_data.benchmark.runs import load_run
-from rvn_data.benchmark.significance import Row, format_p, paired
+from rvn_data.benchmark.significance import format_p, paired, pool_rows
 
 HERE = Path(__file__).resolve().parent
 R = HERE.parent
@@ -25,14 +25,8 @@ PAIRS = [
 ]
 
 
-def pooled_row(label: str, folders: list[Path]) -> Row:
-    per_episode, successes, collisions, km = {}, 0, 0, 0.0
-    for seed, folder in enumerate(folders):
-        for e in load_run(folder).records:
-            first, c, k = bool(e["first_goal_success"]), int(e["collisions"]), float(e["path_length"]) / 1e3
-            per_episode[(seed, *episode_key(e))] = (first, c, k)
-            successes, collisions, km = successes + first, collisions + c, km + k
-    return Row(label, successes, len(per_episode), collisions, km, per_episode)
+def pooled_row(label: str, folders: list[Path]):
+    return pool_rows(label, {f"seed{seed}": row_of(load_run(folder)) for seed, folder in enumerate(folders)})
 
 
 def main() -> None:
