@@ -146,6 +146,15 @@ def test_significance_between_rows(runs, tmp_path):
     assert sr1_p(Row("a", 100, 200, 0, 1.0), Row("b", 10, 200, 0, 1.0)) < 1e-10
     bad = report(str(runs / "eval" / "oracle"), "-o", str(tmp_path / "r.md"), "--compare", "Oracle=PPO")
     assert bad.returncode == 2 and "'PPO'" in bad.stderr and "Traceback" not in bad.stderr
+    assert "--compare-present" in bad.stderr and not (tmp_path / "r.md").exists()
+    # a partial run's report: pairs whose rows are absent are left out and listed, the others tested as before
+    partial = tmp_path / "partial.md"
+    proc = report(str(runs / "eval" / "oracle"), str(runs / "eval" / "random"), "-o", str(partial),
+                  "--compare", "Oracle=PPO", "--compare", "Oracle=NoMaD-PointGoal", "--compare-present")
+    assert proc.returncode == 0, proc.stderr
+    text = partial.read_text()
+    assert line in text and "Not tested (a row is not among these runs): Oracle = PPO." in text
+    assert "| Oracle | PPO |" not in text
 
 
 def test_bar_plot_legend_key_beside_its_text(tmp_path, monkeypatch):

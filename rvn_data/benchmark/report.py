@@ -98,9 +98,20 @@ def row_of(run: Run) -> Row:
                 for e in run.records})
 
 
-def tests(runs: list[Run], compare: list[tuple[str, str]] | None = None) -> str:
-    """Significance of the differences between rows of the same split (rvn_data.benchmark.significance)."""
+def tests(runs: list[Run], compare: list[tuple[str, str]] | None = None, compare_present: bool = False) -> str:
+    """Significance of the differences between rows of the same split (rvn_data.benchmark.significance).
+
+    A compared pair naming a method that no run has is refused (a typo), or with ``compare_present`` left out of the
+    tests and listed (a partial run's report, where some rows are not there yet)."""
     out = []
+    methods = {r.method for r in runs}
+    absent = [pair for pair in compare or [] if not set(pair) <= methods]
+    if compare_present:
+        compare = [pair for pair in compare if pair not in absent] if compare is not None else None
+    elif absent:
+        missing = next(m for m in absent[0] if m not in methods)
+        raise ValueError(f"--compare names {missing!r}, which is not a method of these runs: {', '.join(sorted(methods))}"
+                         " (--compare-present leaves such pairs out)")
     for split in dict.fromkeys(r.split for r in runs):
         rows = [row_of(r) for r in runs if r.split == split]
         wanted = None if compare is None else [(a, b) for a, b in compare if {a, b} <= {row.label for row in rows}]
@@ -112,11 +123,8 @@ def tests(runs: list[Run], compare: list[tuple[str, str]] | None = None) -> str:
             if pooled:  # rows of other training seeds ("<method> seed<s>") beside the compared ones
                 out += [f"{SPLIT_TITLES.get(split, split)}, pooled over training seeds (each pair above with its rows of "
                         "other seeds, \"<method> seed<s>\"; every seed's episodes paired with the same seed's):\n", pooled]
-    methods = {r.method for r in runs}
-    for pair in compare or []:
-        missing = [m for m in pair if m not in methods]
-        if missing:
-            raise ValueError(f"--compare names {missing[0]!r}, which is not a method of these runs: {', '.join(sorted(methods))}")
+    if compare_present and absent:
+        out.append("Not tested (a row is not among these runs): " + ", ".join(f"{a} = {b}" for a, b in absent) + ".\n")
     return "\n".join(out)
 
 
@@ -136,11 +144,12 @@ def episode_tables(runs: list[Run]) -> str:
 
 
 def write_report(runs: list[Run], output: str | Path, title: str = "RVN benchmark results",
-                 command: str | None = None, compare: list[tuple[str, str]] | None = None) -> Path:
+                 command: str | None = None, compare: list[tuple[str, str]] | None = None,
+                 compare_present: bool = False) -> Path:
     """Write the markdown report and its plots (next to it); returns the report's path."""
     if not runs:
         raise ValueError("no rvn-eval runs to report")
-    significance = tests(runs, compare)
+    significance = tests(runs, compare, compare_present)
     out = Path(output)
     out.parent.mkdir(parents=True, exist_ok=True)
     base, stem = out.parent, out.stem
@@ -185,6 +194,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--compare", action="append", metavar="A=B", default=None,
                     help="test only these pairs of methods (repeatable), e.g. --compare 'NoMaD-PointGoal=Goal follower'; "
                     "default: every pair of rows of a split")
+    ap.add_argument("--compare-present", action="store_true",
+                    help="leave out (and list) --compare pairs naming a method none of the runs has, e.g. a partial "
+                    "run's rows; default: refuse them as typos")
     args = ap.parse_args(argv)
     try:
         import matplotlib
@@ -198,7 +210,7 @@ def main(argv: list[str] | None = None) -> int:
         runs = merge_shards(find_runs(args.runs))
         path = write_report(runs, args.output, args.title,
                             command="python -m rvn_data.benchmark.report " + " ".join(sys.argv[1:] if argv is None else argv),
-                            compare=compare)
+                            compare=compare, compare_present=args.compare_present)
     except (ValueError, KeyError, OSError) as err:
         print(f"report: error: {err}", file=sys.stderr)
         return 2  # bad input (rvn_data.cli.common: 2 bad input, 1 a failed run)

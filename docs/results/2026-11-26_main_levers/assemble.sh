@@ -28,13 +28,8 @@ CMP=("NoMaD-PointGoal-medoid=NoMaD-PointGoal" "NoMaD-Neg=NoMaD-PointGoal-medoid"
      "NoMaD-Neg-depthneg seed1=NoMaD-Neg seed1" "NoMaD-Neg-depthneg seed1=NoMaD-PointGoal seed1"
      "NoMaD-PointGoal n512=NoMaD-PointGoal n256" "NoMaD-PointGoal n1024=NoMaD-PointGoal n512" "NoMaD-PointGoal n2048=NoMaD-PointGoal n1024"
      "NoMaD-PointGoal=NoMaD-PointGoal n2048" "NoMaD-PointGoal=NoMaD-PointGoal n1024" "NoMaD-Neg-veto-escape=NoMaD-Neg-veto")
-# only the pairs whose rows ran (report refuses a label that is not a row)
-mapfile -t KEEP < <(python -c 'import json, sys
-labels = {json.load(open(d + "/metrics.json"))["method"] for d in sys.argv[1].split("\n")}
-for pair in sys.argv[2:]:
-    if set(pair.split("=")) <= labels: print(pair)' "$(printf '%s\n' "${DIRS[@]}" | sed '/^$/d')" "${CMP[@]}")
 python -m rvn_data.benchmark.report "${DIRS[@]}" -o report.md --title "Issue 31 levers on main (recipe run folder, same 200 val episodes)" \
-  "${KEEP[@]/#/--compare=}"
+  --compare-present "${CMP[@]/#/--compare=}"
 SCALE=(); for n in 256 512 1024 2048; do [ -d "eval/nomad_pointgoal_n$n" ] && SCALE+=("eval/nomad_pointgoal_n$n:$n"); done
 if [ ${#SCALE[@]} -gt 1 ]; then
   python scale.py "${SCALE[@]}" "$BASE/nomad_pointgoal:4096" -o scale.png >scale.md

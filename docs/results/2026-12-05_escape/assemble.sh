@@ -19,11 +19,6 @@ cp "$RUN/timings.tsv" "$HERE/timings.tsv"
 cd "$HERE"
 CMP=("NoMaD-Neg-veto-escape=NoMaD-Neg-veto" "NoMaD-Neg-veto=Goal follower" "NoMaD-Neg-veto=Trajectory oracle"
      "NoMaD-Neg=NoMaD-PointGoal" "NoMaD-Neg-veto=NoMaD-Neg")
-# only the pairs whose rows ran (report refuses a label that is not a row)
-mapfile -t KEEP < <(python -c 'import json, sys
-labels = {json.load(open(d + "/metrics.json"))["method"] for d in sys.argv[1].split("\n")}
-for pair in sys.argv[2:]:
-    if set(pair.split("=")) <= labels: print(pair)' "$(printf '%s\n' "${DIRS[@]}")" "${CMP[@]}")
 python -m rvn_data.benchmark.report "${DIRS[@]}" -o report.md \
   --title "The recipe's NoMaD-Neg-veto with and without the escape, on main after the review (seed 0, 200 val episodes)" \
-  "${KEEP[@]/#/--compare=}"
+  --compare-present "${CMP[@]/#/--compare=}"

@@ -22,10 +22,6 @@ cp "$RUN/timings.tsv" "$HERE/timings.tsv"
 cd "$HERE"
 CMP=("NoMaD-Neg=NoMaD-PointGoal" "NoMaD-Neg seed1=NoMaD-PointGoal seed1" "NoMaD-Neg-veto seed1=NoMaD-Neg seed1"
      "NoMaD-PointGoal seed1=NoMaD-PointGoal" "NoMaD-Neg seed1=NoMaD-Neg" "NoMaD-Neg-veto seed1=NoMaD-Neg-veto")
-mapfile -t KEEP < <(python -c 'import json, sys
-labels = {json.load(open(d + "/metrics.json"))["method"] for d in sys.argv[1].split("\n")}
-for pair in sys.argv[2:]:
-    if set(pair.split("=")) <= labels: print(pair)' "$(printf '%s\n' "${DIRS[@]}")" "${CMP[@]}")
 python -m rvn_data.benchmark.report "${DIRS[@]}" -o report.md \
   --title "NoMaD-Neg against NoMaD-PointGoal, training seeds 0 and 1 (same data, same 200 val episodes)" \
-  "${KEEP[@]/#/--compare=}"
+  --compare-present "${CMP[@]/#/--compare=}"

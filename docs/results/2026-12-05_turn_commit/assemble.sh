@@ -18,10 +18,6 @@ cp "$RUN/timings.tsv" "$HERE/timings.tsv"
 cd "$HERE"
 CMP=("NoMaD-Neg-veto-commit=NoMaD-Neg-veto" "NoMaD-Neg-commit=NoMaD-Neg" "NoMaD-Neg-veto-commit=NoMaD-Neg-veto-escape"
      "NoMaD-Neg-veto-commit=Trajectory oracle")
-mapfile -t KEEP < <(python -c 'import json, sys
-labels = {json.load(open(d + "/metrics.json"))["method"] for d in sys.argv[1].split("\n")}
-for pair in sys.argv[2:]:
-    if set(pair.split("=")) <= labels: print(pair)' "$(printf '%s\n' "${DIRS[@]}")" "${CMP[@]}")
 python -m rvn_data.benchmark.report "${DIRS[@]}" -o report.md \
   --title "policy.turn_commit on NoMaD-Neg (seed 0), with and without the veto (same 200 val episodes)" \
-  "${KEEP[@]/#/--compare=}"
+  --compare-present "${CMP[@]/#/--compare=}"

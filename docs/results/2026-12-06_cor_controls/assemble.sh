@@ -22,10 +22,6 @@ CMP=("NoMaD-Neg-argmin=NoMaD-Neg" "NoMaD-Neg-argmin=NoMaD-PointGoal" "NoMaD-Neg-
      "NoMaD-Neg-argmin seed1=NoMaD-PointGoal seed1" "NoMaD-Neg-veto=NoMaD-PointGoal-veto"
      "NoMaD-Neg-veto seed1=NoMaD-PointGoal-veto seed1" "NoMaD-PointGoal-veto=NoMaD-PointGoal"
      "NoMaD-PointGoal-veto seed1=NoMaD-PointGoal seed1")
-mapfile -t KEEP < <(python -c 'import json, sys
-labels = {json.load(open(d + "/metrics.json"))["method"] for d in sys.argv[1].split("\n")}
-for pair in sys.argv[2:]:
-    if set(pair.split("=")) <= labels: print(pair)' "$(printf '%s\n' "${DIRS[@]}")" "${CMP[@]}")
 python -m rvn_data.benchmark.report "${DIRS[@]}" -o report.md \
   --title "What CoR contributes: NoMaD-Neg with argmin CoR, NoMaD-PointGoal with the depth veto, seeds 0 and 1 (same 200 val episodes)" \
-  "${KEEP[@]/#/--compare=}"
+  --compare-present "${CMP[@]/#/--compare=}"

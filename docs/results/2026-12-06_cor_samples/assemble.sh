@@ -19,10 +19,6 @@ cp "$RUN/timings.tsv" "$HERE/timings.tsv"
 cd "$HERE"
 CMP=("NoMaD-Neg-k16=NoMaD-Neg" "NoMaD-Neg-k16 seed1=NoMaD-Neg seed1" "NoMaD-Neg-k16=NoMaD-PointGoal"
      "NoMaD-Neg-k16 seed1=NoMaD-PointGoal seed1")
-mapfile -t KEEP < <(python -c 'import json, sys
-labels = {json.load(open(d + "/metrics.json"))["method"] for d in sys.argv[1].split("\n")}
-for pair in sys.argv[2:]:
-    if set(pair.split("=")) <= labels: print(pair)' "$(printf '%s\n' "${DIRS[@]}")" "${CMP[@]}")
 python -m rvn_data.benchmark.report "${DIRS[@]}" -o report.md \
   --title "CoR's k: NoMaD-Neg with 16 samples from each model against 8, seeds 0 and 1 (same 200 val episodes)" \
-  "${KEEP[@]/#/--compare=}"
+  --compare-present "${CMP[@]/#/--compare=}"

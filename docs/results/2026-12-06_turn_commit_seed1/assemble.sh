@@ -20,10 +20,6 @@ cp "$RUN/timings.tsv" "$HERE/timings.tsv"
 cd "$HERE"
 CMP=("NoMaD-Neg-veto-commit seed1=NoMaD-Neg-veto seed1" "NoMaD-Neg-veto-commit=NoMaD-Neg-veto"
      "NoMaD-Neg-veto-commit seed1=NoMaD-Neg-veto-commit" "NoMaD-Neg-veto-commit seed1=NoMaD-Neg seed1")
-mapfile -t KEEP < <(python -c 'import json, sys
-labels = {json.load(open(d + "/metrics.json"))["method"] for d in sys.argv[1].split("\n")}
-for pair in sys.argv[2:]:
-    if set(pair.split("=")) <= labels: print(pair)' "$(printf '%s\n' "${DIRS[@]}")" "${CMP[@]}")
 python -m rvn_data.benchmark.report "${DIRS[@]}" -o report.md \
   --title "policy.turn_commit's second seed: NoMaD-Neg-veto with and without it, seeds 0 and 1 (same 200 val episodes)" \
-  "${KEEP[@]/#/--compare=}"
+  --compare-present "${CMP[@]/#/--compare=}"
