@@ -170,6 +170,14 @@ def test_expert_planner_plans_on_the_inflated_grid_and_leaves_the_margin():
     assert np.array_equal(plan.waypoints[0], near) and np.allclose(plan.waypoints[1], entry)
     assert plan.length == pytest.approx(plan_path(grid, free, entry, g, 0.5, 4.0).length + np.hypot(*(entry - near)[[0, 2]]))
     assert planner.plan(near, np.array([1.2, 0.0, 1.2])) is None  # goal on the table
+    # a goal inside the margin (the benchmark's goals are anywhere on the navmesh): the plan ends at the free cell
+    # nearest to it, then the goal itself; a free goal's plan is unchanged (rvn-gen's goals are all free)
+    arrive = planner.plan(s, near)
+    assert np.array_equal(arrive.waypoints[-1], near) and np.allclose(arrive.waypoints[-2], planner.entry(near))
+    to_exit = plan_path(grid, free, s, planner.entry(near), 0.5, 4.0)
+    assert np.array_equal(arrive.waypoints[:-1], to_exit.waypoints)
+    assert arrive.length == pytest.approx(to_exit.length + np.hypot(*(entry - near)[[0, 2]]))
+    assert planner.plan(s, np.array([1.2, 0.0, 1.2])) is None  # no free cell within reach of a goal on the table
 
 
 def test_expert_planner_margin_below_the_robot_radius_still_leaves_it():

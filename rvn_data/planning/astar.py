@@ -226,6 +226,14 @@ def exit_point(grid: OccupancyGrid, free: np.ndarray, start: np.ndarray, reach: 
     return out
 
 
+def append_goal(plan: Plan, goal: np.ndarray) -> Plan:
+    """``plan`` (made to an `exit_point` of ``goal``) with the true ``goal`` after it."""
+    pts = np.concatenate([plan.waypoints, np.asarray(goal, np.float64)[None]], axis=0)
+    pts[-1, 1] = plan.waypoints[-1, 1]
+    tail = float(np.hypot(*(pts[-1, [0, 2]] - pts[-2, [0, 2]])))
+    return Plan(cells=plan.cells, waypoints=pts, length=plan.length + tail, grid_length=plan.grid_length + tail)
+
+
 def prepend_start(plan: Plan, start: np.ndarray) -> Plan:
     """``plan`` (made from an `exit_point`) with the true ``start`` in front of it."""
     pts = np.concatenate([np.asarray(start, np.float64)[None], plan.waypoints], axis=0)

@@ -7,7 +7,11 @@ clearance ``clearance_pref`` / ``clearance_weight``). A start inside the margin 
 navmesh but closer to an obstacle than ``margin``) is planned from the nearest free cell
 within ``margin - r_robot + 2·resolution`` (never negative: an expert margin below the
 robot radius still looks two cells around), and the true start is put in front of the
-plan, so the path first leaves the margin.
+plan, so the path first leaves the margin. A goal inside the margin is reached the same way:
+the plan ends at the free cell nearest to it within that reach, then the true goal. rvn-gen
+draws its goals outside the margin; the benchmark's goals are anywhere on the navmesh (any
+point at least r_robot from an obstacle), a fifth of them inside the expert's margin, which
+the trajectory oracle had no plan to until 2026-12-06 (it then steered at the goal itself).
 
 ``rvn-gen`` (`rvn_data.dataset.trajectory`) plans its trajectories with it, and the
 trajectory oracle (`rvn_il.policies.trajectory_oracle`) replans the same expert every step.
@@ -17,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from rvn_data.conventions import AgentConfig
-from rvn_data.planning.astar import Plan, exit_point, plan_path, prepend_start
+from rvn_data.planning.astar import Plan, append_goal, exit_point, plan_path, prepend_start
 from rvn_data.planning.occupancy import OccupancyGrid, occupancy_grid
 
 FLOOR_LEVEL = 0.05  # m: floor heights closer than this share one grid
@@ -71,13 +75,19 @@ class ExpertPlanner:
 
     def plan(self, start: np.ndarray, goal: np.ndarray, entry: np.ndarray | None = None) -> Plan | None:
         """The expert path from world ``start`` to ``goal`` on the grid of the start's floor,
-        starting with ``start`` itself; None when no path exists (or the start cannot leave
-        the margin). ``entry``: a precomputed `entry(start)`."""
+        starting with ``start`` itself and ending with ``goal``; None when no path exists (or
+        the start cannot leave the margin, or no free cell is within `exit_reach` of a goal
+        inside it). ``entry``: a precomputed `entry(start)`."""
         entry = self.entry(start) if entry is None else entry
         if entry is None:
             return None
         grid, free = self.grid_at(float(start[1]))
-        plan = plan_path(grid, free, entry, goal, self.clearance_pref, self.clearance_weight)
-        if plan is None or entry is start:
-            return plan
-        return prepend_start(plan, start)
+        arrival = goal if self.is_free(goal, floor_y=float(start[1])) else exit_point(grid, free, goal, self.exit_reach)
+        if arrival is None:
+            return None
+        plan = plan_path(grid, free, entry, arrival, self.clearance_pref, self.clearance_weight)
+        if plan is None:
+            return None
+        if entry is not start:
+            plan = prepend_start(plan, start)
+        return plan if arrival is goal else append_goal(plan, goal)
