@@ -1,0 +1,17 @@
+#!/usr/bin/env bash
+# The trajectory oracle on the recipe's 200 val episodes (episode set a7556e2bca0b, as 2026-12-05_escape's rows) after
+# ExpertPlanner.plan learned to reach goals inside the expert's margin (main 1079895); EVAL is
+# 2026-12-05_escape/run.sh's, with paths=true (the maps; no result depends on it):
+#   bash docs/results/2026-12-06_trajectory_oracle/run.sh runs/trajectory_oracle      # rerun to resume
+set -euo pipefail
+OUT=${1:-runs/trajectory_oracle}
+mkdir -p "$OUT/logs" "$OUT/.done"
+OUT=$(cd "$OUT" && pwd)
+source "$(dirname "${BASH_SOURCE[0]}")/../../../jobs/lib.sh"
+export RVN_CACHE_DIR=${RVN_CACHE_DIR:-$OUT/cache} OMP_NUM_THREADS=1 MKL_NUM_THREADS=1
+EVAL=("split=val" "episodes.num_scenes=50" "episodes.per_scene=4" "episodes.n_goals=32" "env.t_max=500"
+      "episodes.dir=$OUT/episodes" "workers=2" "progress=false" "seed=0" "renderer=auto" "camera.width=64"
+      "camera.height=64" "paths=true")
+step eval_trajectory_oracle rvn-eval policy=trajectory_oracle "method=Trajectory oracle" policy.waypoint_index=null \
+  out_dir="$OUT/eval/trajectory_oracle" "${EVAL[@]}"
+echo "trajectory oracle run: done in $SECONDS s"
