@@ -172,6 +172,11 @@ def test_trajectory_oracle_predicts_the_expert_planners_path(tmp_path):
     env.close()
     with pytest.raises(ValueError, match="margin_offset"):
         TrajectoryOraclePolicy(margin_offset=-0.5).bind(env)
+    with pytest.raises(ValueError, match="stop_radius=0"):
+        TrajectoryOraclePolicy(stop_radius=0)
+    near = TrajectoryOraclePolicy(stop_radius=0.25)  # as the IL policies' model.policy.stop_radius
+    near.bind(env)
+    assert near.control.stop_radius == 0.25 and oracle.control.stop_radius == pytest.approx(agent.success_distance)
 
 
 def test_trajectory_oracle_reaches_a_goal_inside_the_experts_margin(tmp_path):

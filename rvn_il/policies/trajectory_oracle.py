@@ -10,7 +10,11 @@ waypoint → action rule as the learned policies (`control.py`). Its benchmark s
 model that predicts its labels perfectly would get with these adapter settings, so it tells
 a weak adapter from a weak model. Privileged (bound to the env); evaluation only:
 
-    rvn-eval policy=trajectory_oracle method="Trajectory oracle" [policy.waypoint_index=-1]
+    rvn-eval policy=trajectory_oracle method="Trajectory oracle" [policy.waypoint_index=-1] [policy.stop_radius=0.35]
+
+``stop_radius`` is the IL policies' ``model.policy.stop_radius`` (null: the success distance, 2·r_robot): the
+policies see the planar point goal, the env counts a STOP by the geodesic distance, which is never shorter (about a
+millimetre longer on open floor), so a STOP issued between the two repeats until the timeout.
 """
 from __future__ import annotations
 
@@ -32,12 +36,15 @@ class TrajectoryOraclePolicy:
     def __init__(self, waypoint_index: int | None = None, len_traj_pred: int = 8,
                  margin_offset: float = _EXPERT.margin_offset, resolution: float = _EXPERT.resolution,
                  lookahead_min_dist: float | None = None, clearance_pref: float | None = _EXPERT.clearance_pref,
-                 clearance_weight: float = _EXPERT.clearance_weight):
+                 clearance_weight: float = _EXPERT.clearance_weight, stop_radius: float | None = None):
         self.waypoint_index = None if waypoint_index is None else int(waypoint_index)
         self.len_traj_pred, self.margin_offset = int(len_traj_pred), float(margin_offset)
         self.resolution, self.lookahead_min_dist = float(resolution), lookahead_min_dist
         self.clearance_pref = None if clearance_pref is None else float(clearance_pref)
         self.clearance_weight = float(clearance_weight)
+        self.stop_radius = None if stop_radius is None else float(stop_radius)
+        if self.stop_radius is not None and not self.stop_radius > 0:
+            raise ValueError(f"trajectory_oracle: stop_radius={stop_radius} must be > 0 (metres; null: the success distance)")
         if self.len_traj_pred < 1 or self.resolution <= 0:
             raise ValueError(f"trajectory_oracle: len_traj_pred={len_traj_pred} must be >= 1 and resolution={resolution} > 0")
         self.env = None
@@ -52,8 +59,8 @@ class TrajectoryOraclePolicy:
         if not self.margin >= 0:
             raise ValueError(f"trajectory_oracle: margin_offset={self.margin_offset} puts the expert margin "
                              f"r_robot + margin_offset = {self.margin} below 0; raise it")
-        self.control = ControlConfig.from_agent(self.agent, lookahead_min_dist=self.lookahead_min_dist,
-                                                waypoint_index=self.waypoint_index)
+        self.control = ControlConfig.from_agent(self.agent, stop_radius=self.stop_radius,
+                                                lookahead_min_dist=self.lookahead_min_dist, waypoint_index=self.waypoint_index)
         self.planner = None
 
     def reset(self) -> None:
