@@ -14,4 +14,7 @@ EVAL=("split=val" "episodes.num_scenes=50" "episodes.per_scene=4" "episodes.n_go
       "camera.height=64" "paths=true")
 step eval_trajectory_oracle rvn-eval policy=trajectory_oracle "method=Trajectory oracle" policy.waypoint_index=null \
   out_dir="$OUT/eval/trajectory_oracle" "${EVAL[@]}"
+# the IL policies' STOP radius a centimetre inside the success distance (main 947fb8d): no STOP repeated at the boundary
+step eval_trajectory_oracle_stop035 rvn-eval policy=trajectory_oracle "method=Trajectory oracle stop 0.35" \
+  policy.waypoint_index=null policy.stop_radius=0.35 out_dir="$OUT/eval/trajectory_oracle_stop035" "${EVAL[@]}"
 echo "trajectory oracle run: done in $SECONDS s"
