@@ -210,6 +210,31 @@ def test_trajectory_oracle_reaches_a_goal_inside_the_experts_margin(tmp_path):
     env.close()
 
 
+def test_trajectory_oracle_falls_back_to_a_tighter_margin_where_the_experts_has_no_plan(tmp_path):
+    """procedural:val/10's first episode: its first goal lies where the expert's margin (r_robot + 0.1 m) leaves no
+    path from the start. Without a fallback the oracle predicts staying in place and the adapter steers at the goal
+    into a wall; with the default fallback (r_robot + 0.02 m) it plans through and reaches it."""
+    from rvn_data.benchmark.env import RVNEnv
+    from rvn_il.policies.trajectory_oracle import TrajectoryOraclePolicy
+
+    env = RVNEnv(mode="eval", split="val", scenes={"num_scenes": 1, "first_scene": 10}, per_scene=1,
+                 camera={"width": 16, "height": 12}, episodes={"n_goals": 1, "dir": str(tmp_path)})
+    ends = []
+    for oracle in (TrajectoryOraclePolicy(fallback_margin_offset=None), TrajectoryOraclePolicy()):
+        oracle.bind(env)
+        obs, _ = env.reset(seed=0)
+        assert oracle._planner().plan(env.position, env.goal) is None
+        done = False
+        while not done:
+            obs, _, terminated, truncated, info = env.step(oracle.act(obs))
+            done = terminated or truncated
+        ends.append(info["episode"]["termination"])
+    assert ends == ["collision", "success"] and oracle.fallback.margin == pytest.approx(env.agent.r_robot + 0.02)
+    with pytest.raises(ValueError, match="fallback_margin_offset=0.1 must be >= 0 and below margin_offset=0.1"):
+        TrajectoryOraclePolicy(fallback_margin_offset=0.1)
+    env.close()
+
+
 def test_checkpoint_of_another_kind_loads_through_its_entry_point(tmp_path):
     """rvn-eval's policy=checkpoint finds another trainer's loader by the kind its config.yaml records, through
     the package entry points (group rvn.checkpoint_loaders): rvn-rl's is registered; an unknown kind is one line."""
