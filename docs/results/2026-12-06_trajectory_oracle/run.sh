@@ -17,4 +17,7 @@ step eval_trajectory_oracle rvn-eval policy=trajectory_oracle "method=Trajectory
 # the IL policies' STOP radius a centimetre inside the success distance (main 947fb8d): no STOP repeated at the boundary
 step eval_trajectory_oracle_stop035 rvn-eval policy=trajectory_oracle "method=Trajectory oracle stop 0.35" \
   policy.waypoint_index=null policy.stop_radius=0.35 out_dir="$OUT/eval/trajectory_oracle_stop035" "${EVAL[@]}"
+# the default since 8ffc2da: a tighter margin (r_robot + 0.02 m) where the expert's leaves no path
+step eval_trajectory_oracle_fallback rvn-eval policy=trajectory_oracle "method=Trajectory oracle fallback 0.02" \
+  policy.waypoint_index=null out_dir="$OUT/eval/trajectory_oracle_fallback" "${EVAL[@]}"
 echo "trajectory oracle run: done in $SECONDS s"
