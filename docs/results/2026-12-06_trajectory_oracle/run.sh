@@ -12,11 +12,14 @@ export RVN_CACHE_DIR=${RVN_CACHE_DIR:-$OUT/cache} OMP_NUM_THREADS=1 MKL_NUM_THRE
 EVAL=("split=val" "episodes.num_scenes=50" "episodes.per_scene=4" "episodes.n_goals=32" "env.t_max=500"
       "episodes.dir=$OUT/episodes" "workers=2" "progress=false" "seed=0" "renderer=auto" "camera.width=64"
       "camera.height=64" "paths=true")
+# the first two rows ran before the fallback existed (1079895, 947fb8d): policy.fallback_margin_offset=null is what
+# they did, pinned here so that a run from scratch on later code makes the same rows
 step eval_trajectory_oracle rvn-eval policy=trajectory_oracle "method=Trajectory oracle" policy.waypoint_index=null \
-  out_dir="$OUT/eval/trajectory_oracle" "${EVAL[@]}"
+  policy.fallback_margin_offset=null out_dir="$OUT/eval/trajectory_oracle" "${EVAL[@]}"
 # the IL policies' STOP radius a centimetre inside the success distance (main 947fb8d): no STOP repeated at the boundary
 step eval_trajectory_oracle_stop035 rvn-eval policy=trajectory_oracle "method=Trajectory oracle stop 0.35" \
-  policy.waypoint_index=null policy.stop_radius=0.35 out_dir="$OUT/eval/trajectory_oracle_stop035" "${EVAL[@]}"
+  policy.waypoint_index=null policy.stop_radius=0.35 policy.fallback_margin_offset=null \
+  out_dir="$OUT/eval/trajectory_oracle_stop035" "${EVAL[@]}"
 # the default since 8ffc2da: a tighter margin (r_robot + 0.02 m) where the expert's leaves no path
 step eval_trajectory_oracle_fallback rvn-eval policy=trajectory_oracle "method=Trajectory oracle fallback 0.02" \
   policy.waypoint_index=null out_dir="$OUT/eval/trajectory_oracle_fallback" "${EVAL[@]}"
