@@ -17,5 +17,6 @@ python -m rvn_data.benchmark.report ../2026-12-05_escape/eval/{random,goal_follo
   ../2026-12-05_turn_commit/eval/nomad_neg_veto_commit "${DIRS[@]}" -o report.md \
   --title "The trajectory oracle reaching goals inside the expert's margin (main 1079895; seed-0 rows, same 200 val episodes)" \
   --compare-present --compare="NoMaD-Neg-veto=Trajectory oracle" --compare="NoMaD-Neg-veto-commit=Trajectory oracle" \
-  --compare="Trajectory oracle stop 0.35=Trajectory oracle" --compare="Trajectory oracle fallback 0.02=Trajectory oracle"
+  --compare="Trajectory oracle stop 0.35=Trajectory oracle" --compare="Trajectory oracle fallback 0.02=Trajectory oracle" \
+  --compare="NoMaD-Neg-veto=Trajectory oracle fallback 0.02" --compare="NoMaD-Neg-veto-commit=Trajectory oracle fallback 0.02"
 python margin_split.py >margin_split.md
