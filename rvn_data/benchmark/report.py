@@ -106,12 +106,12 @@ def tests(runs: list[Run], compare: list[tuple[str, str]] | None = None, compare
     out = []
     methods = {r.method for r in runs}
     absent = [pair for pair in compare or [] if not set(pair) <= methods]
-    if compare_present:
-        compare = [pair for pair in compare if pair not in absent] if compare is not None else None
-    elif absent:
+    if absent and not compare_present:
         missing = next(m for m in absent[0] if m not in methods)
         raise ValueError(f"--compare names {missing!r}, which is not a method of these runs: {', '.join(sorted(methods))}"
                          " (--compare-present leaves such pairs out)")
+    if absent:
+        compare = [pair for pair in compare if pair not in absent]
     for split in dict.fromkeys(r.split for r in runs):
         rows = [row_of(r) for r in runs if r.split == split]
         wanted = None if compare is None else [(a, b) for a, b in compare if {a, b} <= {row.label for row in rows}]

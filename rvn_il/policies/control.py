@@ -13,7 +13,8 @@ Rule, with waypoints in metres in the robot frame (x forward, y left):
    benchmark it reaches SR_1 0.980, E(G) 25.1, CPK 1.85 (the recipe's 200 val episodes, 32
    goals, expert A* with the soft clearance, goals inside the expert's margin reached from the
    free cell nearest them, a tighter margin where the expert's leaves no path; before those,
-   2026-12-06, 0.750 / 3.96 / 38.3: it steered at such goals blind and hit the wall). The last waypoint (-1) cuts corners toward a point 2 m ahead: SR_1 0.07,
+   2026-12-06, 0.750 / 3.96 / 38.3: it steered at such goals blind and hit the wall). The
+   last waypoint (-1) cuts corners toward a point 2 m ahead: SR_1 0.07,
    CPK 334 with the same perfect predictions; waypoint 1: 0.75 on 20 episodes, 0 (a turn
    has no displacement, so it falls back to the point goal): 0.10. An under-trained model
    blurs "turn, then go" into a short step straight ahead, so its first waypoint says

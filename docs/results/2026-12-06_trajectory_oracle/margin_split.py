@@ -20,10 +20,9 @@ oracle = TrajectoryOraclePolicy()
 oracle.bind(env)
 inside = {}
 for _ in range(200):
-    env.reset()
+    _, info = env.reset()
     start = np.asarray(env.episode.start_position, np.float64)
-    inside[env.episode_id if hasattr(env, "episode_id") else env._episode_id] = not oracle._planner().is_free(
-        np.asarray(env.goal, np.float64), floor_y=float(start[1]))
+    inside[info["episode_id"]] = not oracle._planner().is_free(np.asarray(env.goal, np.float64), floor_y=float(start[1]))
 env.close()
 print(f"{sum(inside.values())} of {len(inside)} first goals inside the expert's margin\n")
 print("| row | folder | SR_1 inside | SR_1 outside | first goals inside ended: collision / timeout |")
