@@ -121,6 +121,26 @@ def test_stop_near_goal_gives_next_goal_then_success(env):
     assert rec["goals_reached"] == 2 and rec["first_goal_success"] and rec["collisions"] == 0
 
 
+def test_oracle_plans_over_the_discrete_actions_where_its_greedy_rule_circles(tmp_path):
+    """procedural:val/19's episode 3: its seventh goal lies where the navmesh's shortest route passes a gap that the
+    discrete steps cannot, and the greedy rule circled there until the timeout (6 goals in the recipe's Oracle row).
+    After ``replan_after`` steps without getting nearer, the oracle plans over the actions with A* and reaches it."""
+    env = RVNEnv(mode="eval", split="val", scenes={"num_scenes": 1, "first_scene": 19}, per_scene=4,
+                 camera={"width": 16, "height": 12}, t_max=500, episodes={"n_goals": 7, "dir": str(tmp_path)})
+    ends = []
+    for oracle in (OraclePolicy(replan_after=0), OraclePolicy()):
+        oracle.bind(env)
+        obs, _ = env.reset(options={"scene_index": 19, "episode_index": 3})
+        oracle.reset()
+        done = False
+        while not done:
+            obs, _, terminated, truncated, info = env.step(oracle.act(obs))
+            done = terminated or truncated
+        ends.append((info["episode"]["termination"], info["episode"]["goals_reached"], info["episode"]["collisions"]))
+    assert ends == [("timeout", 6, 0), ("success", 7, 0)]
+    env.close()
+
+
 def test_timeout_truncates(tmp_path):
     e = make_env(tmp_path, t_max=3)
     e.reset(seed=0)

@@ -9,6 +9,7 @@ current episode so that results do not depend on how episodes are spread over wo
 """
 from __future__ import annotations
 
+import heapq
 import math
 
 import numpy as np
@@ -27,17 +28,35 @@ class OraclePolicy:
     Within ``near_radius`` of the goal: a breadth-first search over action sequences
     (at most ``plan_depth`` actions, ``plan_nodes`` poses) for the shortest one that ends
     where the env's success test passes, then STOP. Never takes a colliding step.
+
+    Where the greedy rule circles (the navmesh's shortest route passes where the discrete
+    steps cannot), the goal's geodesic distance stops falling; after ``replan_after`` steps
+    without a new best for the goal (0: never), the oracle plans the whole way there over
+    the discrete actions instead: A* over poses (landing point in ``replan_cell`` cells,
+    heading; cost: actions; heuristic: geodesic distance over d_step), at most
+    ``replan_nodes`` poses, and follows the plan; none found, greedy again for as long (and
+    for the rest of the goal where the search saw every pose it can reach).
     """
 
     def __init__(self, turn_cost: float = 0.01, revisit_cost: float = 0.3, cell: float = 0.05,
-                 near_radius: float = 1.2, plan_depth: int = 12, plan_nodes: int = 4000):
+                 near_radius: float = 1.2, plan_depth: int = 12, plan_nodes: int = 4000,
+                 replan_after: int = 20, replan_nodes: int = 20000, replan_cell: float = 0.1):
         self.turn_cost = float(turn_cost)
         self.revisit_cost = float(revisit_cost)
         self.cell = float(cell)
         self.near_radius = float(near_radius)
         self.plan_depth = int(plan_depth)
         self.plan_nodes = int(plan_nodes)
+        self.replan_after = int(replan_after)
+        self.replan_nodes = int(replan_nodes)
+        self.replan_cell = float(replan_cell)
+        for name, value, ok, rule in (("replan_after", replan_after, self.replan_after >= 0, ">= 0 (0: never plan)"),
+                                      ("replan_nodes", replan_nodes, self.replan_nodes > 0, "> 0"),
+                                      ("replan_cell", replan_cell, self.replan_cell > 0, "> 0 (metres)")):
+            if not ok:
+                raise ValueError(f"policy.{name}={value!r}: must be {rule}")
         self.env = None
+        self._best, self._stalled, self._replan_open = math.inf, 0, True
         self._sim = None
         self._sim_navmesh = None
         self._visits: dict = {}
@@ -51,6 +70,7 @@ class OraclePolicy:
 
     def reset(self) -> None:
         self._visits.clear()
+        self._best, self._stalled, self._replan_open = math.inf, 0, True
         self._goal_key = None
         self._plan, self._planned = [], False
 
@@ -73,12 +93,13 @@ class OraclePolicy:
         if goal_key != self._goal_key:
             self._goal_key = goal_key
             self._visits.clear()
+            self._best, self._stalled, self._replan_open = math.inf, 0, True
             self._plan, self._planned = [], False
         if env.at_goal():
             return int(Action.STOP)
         if self._sim is None or self._sim_navmesh is not env.navmesh:
             self._sim, self._sim_navmesh = Simulator(env.navmesh, env.agent), env.navmesh
-        if not self._planned and env.distance_to_goal() <= self.near_radius:
+        if not self._plan and not self._planned and env.distance_to_goal() <= self.near_radius:
             self._plan, self._planned = self._search(env), True
         if self._plan:
             return self._plan.pop(0)
@@ -87,6 +108,16 @@ class OraclePolicy:
     def _greedy(self, env) -> int:
         here = self._key(env.position)
         self._visits[here] = self._visits.get(here, 0) + 1
+        d_now = env.distance_to_goal()
+        if d_now < self._best - 1e-6:
+            self._best, self._stalled = d_now, 0
+        else:
+            self._stalled += 1
+        if 0 < self.replan_after <= self._stalled and self._replan_open:
+            self._stalled = 0
+            self._plan = self._astar(env)
+            if self._plan:
+                return self._plan.pop(0)
         theta = env.agent.theta_step
         n = max(1, int(round(2 * math.pi / theta)))
         ks, targets = [], []
@@ -108,6 +139,40 @@ class OraclePolicy:
         if best_k == 0:
             return int(Action.MOVE_FORWARD)
         return int(Action.TURN_LEFT if best_k > 0 else Action.TURN_RIGHT)
+
+    def _astar(self, env) -> list[int]:
+        """Fewest actions to a pose passing the success test, A* over (landing cell, heading) with
+        the geodesic distance over d_step as the heuristic ([] if none within ``replan_nodes``)."""
+        theta, d_step, cell = env.agent.theta_step, env.agent.d_step, self.replan_cell
+        field = env.goal_field
+        yaw0 = float(env.yaw)
+        start = np.asarray(env.position, dtype=np.float64)
+        n_turns = max(1, int(round(2 * math.pi / theta)))
+        heap = [(float(field.distance(start)) / d_step, 0, 0, start, 0, [])]
+        seen, tie = set(), 0
+        while heap and len(seen) < self.replan_nodes:
+            _, g, _, p, k, acts = heapq.heappop(heap)
+            key = (int(round(p[0] / cell)), int(round(p[2] / cell)), k % n_turns)
+            if key in seen:
+                continue
+            seen.add(key)
+            yaw = yaw0 + k * theta
+            q, collided = self._forward(p, yaw)
+            children = [(q, k, Action.MOVE_FORWARD)] if not collided else []
+            children += [(p, k + 1, Action.TURN_LEFT), (p, k - 1, Action.TURN_RIGHT)]
+            for c, kc, a in children:
+                if (int(round(c[0] / cell)), int(round(c[2] / cell)), kc % n_turns) in seen:
+                    continue
+                plan = acts + [int(a)]
+                if a == Action.MOVE_FORWARD and env.at_goal(c):
+                    return plan
+                d = float(field.distance(c))
+                if not math.isfinite(d):
+                    continue
+                tie += 1
+                heapq.heappush(heap, (g + 1 + d / d_step, g + 1, tie, c, kc, plan))
+        self._replan_open = bool(heap)  # every pose it reaches at this cell size seen: do not search again
+        return []
 
     def _search(self, env) -> list[int]:
         """Shortest collision-free action list to a pose passing the success test ([] if none found)."""
