@@ -40,7 +40,7 @@ class OraclePolicy:
 
     def __init__(self, turn_cost: float = 0.01, revisit_cost: float = 0.3, cell: float = 0.05,
                  near_radius: float = 1.2, plan_depth: int = 12, plan_nodes: int = 4000,
-                 replan_after: int = 20, replan_nodes: int = 20000, replan_cell: float = 0.1):
+                 replan_after: int = 20, replan_nodes: int = 60000, replan_cell: float = 0.1):
         self.turn_cost = float(turn_cost)
         self.revisit_cost = float(revisit_cost)
         self.cell = float(cell)
