@@ -132,3 +132,37 @@ def turn_toward(bearing: float, theta_step: float) -> Action:
     if bearing < -theta_step / 2:
         return Action.TURN_RIGHT
     return Action.MOVE_FORWARD
+
+
+class StopRule:
+    """STOP within ``stop_radius`` of the point goal (planar, as the policy sees it), except at a STOP the env
+    did not count: the env tests a STOP by the geodesic distance, which is never shorter than the straight line
+    (about a millimetre longer on open floor), so a STOP between the two repeats, a no-op each time, until the
+    timeout. A STOP that changed nothing (the next point goal is the same vector) marks its distance refused;
+    while the agent stands there (turns leave the distance as it is) it steers toward the goal instead
+    (`turn_toward`), and STOPs again once a step has changed the distance. Shared by the blind goal follower and
+    the IL policies' action adapter; one per policy, ``reset()`` at each episode start."""
+
+    def __init__(self, stop_radius: float, theta_step: float):
+        self.stop_radius, self.theta_step = float(stop_radius), float(theta_step)
+        self.reset()
+
+    def reset(self) -> None:
+        self._stopped_at: np.ndarray | None = None  # the point goal of the last STOP, until the next call
+        self._refused: float | None = None  # the distance at which a STOP was not counted
+
+    def act(self, pointgoal: np.ndarray) -> Action | None:
+        """STOP, a step toward the goal after a STOP that was not counted here, or None: farther than
+        ``stop_radius``, the policy decides."""
+        goal = np.asarray(pointgoal, dtype=np.float64)
+        dist = float(np.hypot(goal[0], goal[1]))
+        if self._stopped_at is not None and np.array_equal(self._stopped_at, goal):
+            self._refused = dist
+        self._stopped_at = None
+        if dist >= self.stop_radius:
+            self._refused = None
+            return None
+        if self._refused is not None and abs(dist - self._refused) < 1e-9:
+            return turn_toward(math.atan2(goal[1], goal[0]), self.theta_step)
+        self._refused, self._stopped_at = None, goal.copy()
+        return Action.STOP

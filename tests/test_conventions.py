@@ -65,6 +65,26 @@ def test_expert_adapter_and_goal_follower_steer_and_stop_alike(agent):
     assert EnvConfig.from_kwargs(agent=agent, split="val").success_distance == pytest.approx(r)
 
 
+def test_stop_rule_steps_on_after_a_stop_the_env_did_not_count():
+    """Within stop_radius: STOP; the same point goal again (the env did not count it: its geodesic distance is at
+    least the radius) steers toward the goal instead, while turns leave the distance as it is; once a step changed
+    it, STOP again. The goal follower steers so."""
+    from rvn_data.conventions import StopRule
+
+    theta = math.radians(30)
+    rule, follower = StopRule(0.36, theta), GoalFollowerPolicy()
+    ahead, left = np.array([0.3597, 0.0]), 0.3597 * np.array([math.cos(1.0), math.sin(1.0)])
+    assert rule.act(np.array([2.0, 0.0])) is None and rule.act(ahead) == Action.STOP
+    assert rule.act(ahead) == Action.MOVE_FORWARD  # not counted: step on toward the goal
+    assert rule.act(np.array([0.11, 0.0])) == Action.STOP  # nearer: STOP again
+    assert [rule.act(g) for g in (left, left, left * [1, 0.5] / np.hypot(*(left * [1, 0.5])) * 0.3597)] == \
+        [Action.STOP, Action.TURN_LEFT, Action.TURN_LEFT]  # a turn later the same distance: still steering
+    rule.reset()
+    assert rule.act(left) == Action.STOP
+    assert [follower.act({"pointgoal": g}) for g in (ahead, ahead, ahead)] == [Action.STOP, Action.MOVE_FORWARD,
+                                                                              Action.MOVE_FORWARD]
+
+
 def test_relative_goal_is_to_local_of_the_planar_points_to_the_bit():
     """`relative_goal` (one pose, written out for speed: every env step makes one) gives `to_local(to_planar(goal),
     to_planar(position), yaw)`'s float32 bits, for float64 and float32 poses, float32 and numpy yaws, and lists."""

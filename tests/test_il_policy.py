@@ -235,6 +235,30 @@ def test_trajectory_oracle_falls_back_to_a_tighter_margin_where_the_experts_has_
     env.close()
 
 
+def test_trajectory_oracle_steps_on_where_the_env_did_not_count_its_stop(tmp_path):
+    """procedural:val/20's episode 1, fifth goal: the oracle stood 0.3597 m from it in the plane, inside the STOP
+    radius (2 r_robot = 0.36 m), but 0.3603 m away along the navmesh, where the env counts a STOP: it repeated the
+    STOP until the timeout (one of the 13 timeouts of the 8ffc2da row). It now steps on toward the goal and reaches it."""
+    from rvn_data.benchmark.env import RVNEnv
+    from rvn_il.policies.trajectory_oracle import TrajectoryOraclePolicy
+
+    env = RVNEnv(mode="eval", split="val", scenes={"num_scenes": 1, "first_scene": 20}, per_scene=2,
+                 camera={"width": 16, "height": 12}, t_max=500, episodes={"n_goals": 5, "dir": str(tmp_path)})
+    oracle = TrajectoryOraclePolicy()
+    oracle.bind(env)
+    obs, info = env.reset(options={"scene_index": 20, "episode_index": 1})
+    oracle.reset()
+    stops, done = 0, False
+    while not done:
+        action = oracle.act(obs)
+        stops += action == Action.STOP
+        obs, _, terminated, truncated, info = env.step(action)
+        done = terminated or truncated
+    rec = info["episode"]
+    assert (rec["termination"], rec["goals_reached"], rec["collisions"]) == ("success", 5, 0) and stops <= 7
+    env.close()
+
+
 def test_checkpoint_of_another_kind_loads_through_its_entry_point(tmp_path):
     """rvn-eval's policy=checkpoint finds another trainer's loader by the kind its config.yaml records, through
     the package entry points (group rvn.checkpoint_loaders): rvn-rl's is registered; an unknown kind is one line."""

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from rvn_data.conventions import Action, AgentConfig, turn_toward
+from rvn_data.conventions import Action, AgentConfig, StopRule, turn_toward
 
 
 class OraclePolicy:
@@ -238,7 +238,8 @@ class GoalFollowerPolicy:
     """Blind goal follower (habitat-baselines' ``GoalFollower``): only the point goal, no image.
 
     Steer toward ``obs["pointgoal"]`` with `turn_toward` (turn while its bearing exceeds
-    θ_step/2, else move forward); STOP once it is closer than ``stop_radius``. Unset settings
+    θ_step/2, else move forward); STOP once it is closer than ``stop_radius`` (`StopRule`: a step on
+    toward the goal after a STOP the env did not count). Unset settings
     come from the bound env's agent (the success radius 2·r_robot and its θ_step), or from the
     default `AgentConfig` when unbound.
     The same steering rule as the IL policies' action adapter, fed the straight line to the
@@ -256,16 +257,18 @@ class GoalFollowerPolicy:
     def _use(self, agent) -> None:
         self.stop_radius = agent.success_distance if self._stop_radius is None else self._stop_radius
         self.theta_step = agent.theta_step if self._theta_step is None else self._theta_step
+        self.stop = StopRule(self.stop_radius, self.theta_step)
 
     def bind(self, env) -> None:
         """Take r_robot and θ_step from the env's agent unless given."""
         self._use(env.unwrapped.agent)
 
     def reset(self) -> None:
-        pass
+        self.stop.reset()
 
     def act(self, obs) -> int:
         goal = np.asarray(obs["pointgoal"], dtype=np.float64)
-        if float(np.hypot(goal[0], goal[1])) < self.stop_radius:
-            return int(Action.STOP)
+        near = self.stop.act(goal)  # STOP within stop_radius (a step on after one the env did not count)
+        if near is not None:
+            return int(near)
         return int(turn_toward(math.atan2(goal[1], goal[0]), self.theta_step))

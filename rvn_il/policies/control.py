@@ -3,7 +3,9 @@ a lookahead point chosen on the predicted trajectory).
 
 Rule, with waypoints in metres in the robot frame (x forward, y left):
 1. STOP when the point goal is closer than ``stop_radius`` (default `AgentConfig.success_distance`,
-   2·r_robot: the success radius).
+   2·r_robot: the success radius). The policies (`policy.py`, `trajectory_oracle.py`) apply it through
+   `rvn_data.conventions.StopRule`, which steps toward the goal after a STOP the env did not count (its
+   geodesic distance, never shorter than the planar one the policy sees, at least the radius).
 2. Lookahead point: the first waypoint at least ``lookahead_min_dist`` from the robot
    (d_step/2: the first one a MOVE_FORWARD can approach; ``waypoint_index: null``, the
    default), or waypoint ``waypoint_index`` if set (negative counts from the end). When

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from rvn_data.conventions import Action
+from rvn_data.conventions import Action, StopRule
 
 from ..data.images import check_crop, preprocess_image
 from ..models import PointGoalModel
@@ -98,6 +98,7 @@ class PointGoalPolicy:
         self.escape, self.turn_commit = escape, turn_commit
         self.floor = floor  # the veto and the escape look past the bare floor the depth grid's lower rows see
         self.last_waypoints: np.ndarray | None = None  # metres, robot frame (for plots/debugging)
+        self.stop = StopRule(control.stop_radius, control.theta_step)
         self.reset()
 
     def reset(self) -> None:
@@ -105,6 +106,7 @@ class PointGoalPolicy:
         self.generator = torch.Generator(device=self.device).manual_seed(self.seed)
         self.vetoes = 0
         self.decisions = 0
+        self.stop.reset()
         if self.escape is not None:
             self.escape.reset()
         if self.turn_commit is not None:
@@ -172,10 +174,11 @@ class PointGoalPolicy:
         rgb, pointgoal = self._check(obs)
         with torch.inference_mode(), intra_op_threads(self.threads if self.device.type == "cpu" else None):
             tokens = self._push(rgb)
-            if np.linalg.norm(pointgoal) < self.control.stop_radius:
+            near = self.stop.act(pointgoal)  # within stop_radius: STOP (a step on after one the env did not count)
+            if near is not None:
                 if self.turn_commit is not None:
-                    self.turn_commit.taken(int(Action.STOP))
-                return int(Action.STOP)
+                    self.turn_commit.taken(int(near))
+                return int(near)
             samples = self.sample(tokens, pointgoal)
             self.decisions += 1
             self.last_waypoints = self.choose(samples, pointgoal)

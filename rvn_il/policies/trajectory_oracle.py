@@ -20,13 +20,14 @@ episodes the fallback lifts it from SR_1 0.955, E(G) 22.1, CPK 3.1 to 0.980 / 25
 
 ``stop_radius`` is the IL policies' ``model.policy.stop_radius`` (null: the success distance, 2·r_robot): the
 policies see the planar point goal, the env counts a STOP by the geodesic distance, which is never shorter (about a
-millimetre longer on open floor), so a STOP issued between the two repeats until the timeout.
+millimetre longer on open floor). A STOP issued between the two repeated until the timeout (13 of the 8ffc2da row's
+200 episodes); since `rvn_data.conventions.StopRule`, a STOP the env did not count is followed by a step toward the goal.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from rvn_data.conventions import Action, AgentConfig, to_local, to_planar
+from rvn_data.conventions import Action, AgentConfig, StopRule, to_local, to_planar
 from rvn_data.dataset.settings import DatasetConfig
 from rvn_data.planning import ExpertPlanner, PathFollower
 from rvn_data.planning.follower import integrate
@@ -73,10 +74,13 @@ class TrajectoryOraclePolicy:
                              f"r_robot + margin_offset = {self.margin} below 0; raise it")
         self.control = ControlConfig.from_agent(self.agent, stop_radius=self.stop_radius,
                                                 lookahead_min_dist=self.lookahead_min_dist, waypoint_index=self.waypoint_index)
+        self.stop = StopRule(self.control.stop_radius, self.control.theta_step)
         self.planner = self.fallback = None
 
     def reset(self) -> None:
         self.last_waypoints = None
+        if self.env is not None:
+            self.stop.reset()
 
     def _planner(self, fallback: bool = False) -> ExpertPlanner:
         """The expert planner of the env's current scene (made again when the scene changes); ``fallback``: the one
@@ -114,6 +118,9 @@ class TrajectoryOraclePolicy:
         if self.env is None:
             raise RuntimeError("TrajectoryOraclePolicy needs privileged state: call policy.bind(env) first")
         pointgoal = np.asarray(obs["pointgoal"], np.float64)
+        near = self.stop.act(pointgoal)  # as the IL policies: STOP within stop_radius, a step on if not counted
+        if near is not None:
+            return int(near)
         self.last_waypoints = self.predict(np.asarray(self.env.position, np.float64), float(self.env.yaw),
                                            np.asarray(self.env.goal, np.float64))
         return int(waypoints_to_action(self.last_waypoints, pointgoal, self.control))
