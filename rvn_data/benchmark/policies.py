@@ -34,13 +34,14 @@ class OraclePolicy:
     without a new best for the goal (0: never), the oracle plans the whole way there over
     the discrete actions instead: A* over poses (landing point in ``replan_cell`` cells,
     heading; cost: actions; heuristic: geodesic distance over d_step), at most
-    ``replan_nodes`` poses, and follows the plan; none found, greedy again for as long (and
-    for the rest of the goal where the search saw every pose it can reach).
+    ``replan_nodes`` poses, and follows the plan; none found, greedy again for as long.
+    (A search that saw every pose it reaches at that cell size does not prove the goal out of
+    reach from elsewhere: procedural:val/27#1 reaches its goal by a later search.)
     """
 
     def __init__(self, turn_cost: float = 0.01, revisit_cost: float = 0.3, cell: float = 0.05,
                  near_radius: float = 1.2, plan_depth: int = 12, plan_nodes: int = 4000,
-                 replan_after: int = 20, replan_nodes: int = 60000, replan_cell: float = 0.1):
+                 replan_after: int = 20, replan_nodes: int = 20000, replan_cell: float = 0.1):
         self.turn_cost = float(turn_cost)
         self.revisit_cost = float(revisit_cost)
         self.cell = float(cell)
@@ -56,7 +57,7 @@ class OraclePolicy:
             if not ok:
                 raise ValueError(f"policy.{name}={value!r}: must be {rule}")
         self.env = None
-        self._best, self._stalled, self._replan_open = math.inf, 0, True
+        self._best, self._stalled = math.inf, 0
         self._sim = None
         self._sim_navmesh = None
         self._visits: dict = {}
@@ -70,7 +71,7 @@ class OraclePolicy:
 
     def reset(self) -> None:
         self._visits.clear()
-        self._best, self._stalled, self._replan_open = math.inf, 0, True
+        self._best, self._stalled = math.inf, 0
         self._goal_key = None
         self._plan, self._planned = [], False
 
@@ -93,7 +94,7 @@ class OraclePolicy:
         if goal_key != self._goal_key:
             self._goal_key = goal_key
             self._visits.clear()
-            self._best, self._stalled, self._replan_open = math.inf, 0, True
+            self._best, self._stalled = math.inf, 0
             self._plan, self._planned = [], False
         if env.at_goal():
             return int(Action.STOP)
@@ -113,7 +114,7 @@ class OraclePolicy:
             self._best, self._stalled = d_now, 0
         else:
             self._stalled += 1
-        if 0 < self.replan_after <= self._stalled and self._replan_open:
+        if 0 < self.replan_after <= self._stalled:
             self._stalled = 0
             self._plan = self._astar(env)
             if self._plan:
@@ -171,7 +172,6 @@ class OraclePolicy:
                     continue
                 tie += 1
                 heapq.heappush(heap, (g + 1 + d / d_step, g + 1, tie, c, kc, plan))
-        self._replan_open = bool(heap)  # every pose it reaches at this cell size seen: do not search again
         return []
 
     def _search(self, env) -> list[int]:
