@@ -12,9 +12,9 @@ Rule, with waypoints in metres in the robot frame (x forward, y left):
    no waypoint is that far (the model predicts staying in place), the point goal itself.
    Why the first: with the true future poses (`trajectory_oracle.py`: the expert's next 8
    poses, replanned every step) this rule reproduces every expert action, and on the
-   benchmark it reaches SR_1 0.980, E(G) 25.1, CPK 1.85 (the recipe's 200 val episodes, 32
+   benchmark it reaches SR_1 0.980, E(G) 25.9, CPK 1.86 (the recipe's 200 val episodes, 32
    goals, expert A* with the soft clearance, goals inside the expert's margin reached from the
-   free cell nearest them, a tighter margin where the expert's leaves no path; before those,
+   free cell nearest them, a tighter margin where the expert's leaves no path, `StopRule`; before those,
    2026-12-06, 0.750 / 3.96 / 38.3: it steered at such goals blind and hit the wall). The
    last waypoint (-1) cuts corners toward a point 2 m ahead: SR_1 0.07,
    CPK 334 with the same perfect predictions; waypoint 1: 0.75 on 20 episodes, 0 (a turn

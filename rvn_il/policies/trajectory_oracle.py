@@ -16,7 +16,8 @@ Where the expert's margin leaves no path (a passage narrower than twice it, a go
 rejects such start and goal pairs) it plans with the margin r_robot + ``fallback_margin_offset`` (default 0.02 m; null:
 none, and then it predicts staying in place, and the adapter steers at the goal itself). On the recipe's 200 val
 episodes the fallback lifts it from SR_1 0.955, E(G) 22.1, CPK 3.1 to 0.980 / 25.1 / 1.85; on the real apartment
-(20 episodes) from 0.55 / 3.2 / 38 to 0.80 / 5.5 / 14 (docs/results/2026-12-06_trajectory_oracle).
+(20 episodes) from 0.55 / 3.2 / 38 to 0.80 / 5.5 / 14 (docs/results/2026-12-06_trajectory_oracle); with the STOP
+rule below, 0.980 / 25.9 / 1.86 on the 200 episodes (docs/results/2026-12-06_rl_main).
 
 ``stop_radius`` is the IL policies' ``model.policy.stop_radius`` (null: the success distance, 2·r_robot): the
 policies see the planar point goal, the env counts a STOP by the geodesic distance, which is never shorter (about a
