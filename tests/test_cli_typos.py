@@ -36,7 +36,9 @@ def run(prog: str, *args: str, cwd: Path) -> subprocess.CompletedProcess:
     ("rvn-rl", ["ppo.lr=abc"], "ppo.lr=abc: Value 'abc' of type 'str' could not be converted to Float"),
     ("rvn_rl.depth.cli", ["train.lr=abc"], "train.lr=abc: Value 'abc' of type 'str' could not be converted to Float"),
     ("rvn-eval", ["policy=oracle", "policy.turn_cost=abc"], "policy.turn_cost='abc': give a number (default 0.01)"),
-    ("rvn-eval", ["policy=oracle", "policy.replan_after=-1"], "policy 'oracle': policy.replan_after=-1: must be >= 0"),
+    ("rvn-eval", ["policy=oracle", "policy.replan_after=-1"], "policy 'oracle': policy.replan_after=-1: must be a whole number >= 0"),
+    ("rvn-eval", ["policy=oracle", "policy.replan_after=1.5"], "policy.replan_after=1.5: must be a whole number >= 0"),
+    ("rvn-eval", ["policy=oracle", "+policy.replan_nodes=abc"], "policy.replan_nodes='abc': must be a whole number > 0"),
     ("rvn-eval", ["policy=orcle"], "policy=orcle is not an option; choose one of checkpoint, goal_follower, oracle"),
     ("rvn-train", ["x=[1"], "cannot read the override 'x=[1'"),
     ("rvn-rl", ["out_dir="], "out_dir= is empty: give a folder or file"),  # would write into the current folder

@@ -17,6 +17,19 @@ import numpy as np
 from rvn_data.conventions import Action, AgentConfig, StopRule, turn_toward
 
 
+def _checked(name: str, value, kind: type, ok, rule: str):
+    """``value`` as ``kind`` (int: a whole number; float: a finite one) where ``ok`` of it holds; else a ValueError
+    naming ``policy.<name>``."""
+    try:
+        number = not isinstance(value, bool) and math.isfinite(float(value))
+        number = number and (kind is float or float(value).is_integer())
+    except (TypeError, ValueError):
+        number = False
+    if number and ok(kind(float(value))):
+        return kind(float(value))
+    raise ValueError(f"policy.{name}={value!r}: must be a {'whole ' if kind is int else ''}number {rule}")
+
+
 class OraclePolicy:
     """Geodesic shortest-path follower with the discrete actions (privileged).
 
@@ -48,14 +61,9 @@ class OraclePolicy:
         self.near_radius = float(near_radius)
         self.plan_depth = int(plan_depth)
         self.plan_nodes = int(plan_nodes)
-        self.replan_after = int(replan_after)
-        self.replan_nodes = int(replan_nodes)
-        self.replan_cell = float(replan_cell)
-        for name, value, ok, rule in (("replan_after", replan_after, self.replan_after >= 0, ">= 0 (0: never plan)"),
-                                      ("replan_nodes", replan_nodes, self.replan_nodes > 0, "> 0"),
-                                      ("replan_cell", replan_cell, self.replan_cell > 0, "> 0 (metres)")):
-            if not ok:
-                raise ValueError(f"policy.{name}={value!r}: must be {rule}")
+        self.replan_after = _checked("replan_after", replan_after, int, lambda v: v >= 0, ">= 0 (0: never plan)")
+        self.replan_nodes = _checked("replan_nodes", replan_nodes, int, lambda v: v > 0, "> 0")
+        self.replan_cell = _checked("replan_cell", replan_cell, float, lambda v: v > 0, "> 0 (metres)")
         self.env = None
         self._best, self._stalled = math.inf, 0
         self._sim = None
