@@ -83,8 +83,10 @@ class OraclePolicy:
         self._goal_key = None
         self._plan, self._planned = [], False
 
-    def _key(self, p) -> tuple[int, int]:
-        return int(round(p[0] / self.cell)), int(round(p[2] / self.cell))
+    def _key(self, p, cell: float | None = None) -> tuple[int, int]:
+        """The planar cell of position ``p`` (``cell`` metres; default the greedy rule's ``self.cell``)."""
+        cell = self.cell if cell is None else cell
+        return int(round(p[0] / cell)), int(round(p[2] / cell))
 
     def _forward(self, position, yaw):
         """(landing position, collided) of a MOVE_FORWARD from a pose."""
@@ -161,7 +163,7 @@ class OraclePolicy:
         seen, tie = set(), 0
         while heap and len(seen) < self.replan_nodes:
             _, g, _, p, k, acts = heapq.heappop(heap)
-            key = (int(round(p[0] / cell)), int(round(p[2] / cell)), k % n_turns)
+            key = (*self._key(p, cell), k % n_turns)
             if key in seen:
                 continue
             seen.add(key)
@@ -170,7 +172,7 @@ class OraclePolicy:
             children = [(q, k, Action.MOVE_FORWARD)] if not collided else []
             children += [(p, k + 1, Action.TURN_LEFT), (p, k - 1, Action.TURN_RIGHT)]
             for c, kc, a in children:
-                if (int(round(c[0] / cell)), int(round(c[2] / cell)), kc % n_turns) in seen:
+                if (*self._key(c, cell), kc % n_turns) in seen:
                     continue
                 plan = acts + [int(a)]
                 if a == Action.MOVE_FORWARD and env.at_goal(c):
