@@ -73,6 +73,26 @@ class _Evaluate(nn.Module):
         return self.policy.evaluate(obs, state, prev_actions, masks, actions, pieces)
 
 
+def _replica(learner: nn.Module, device: torch.device) -> nn.Module:
+    """The DistributedDataParallel replica of ``learner``. Its buffers (the visual input's running mean and variance,
+    which the module averages over ranks itself) are not synced at each forward: ``forward_sync_buffers=False`` where
+    torch has it (2.13 deprecates ``broadcast_buffers``; both sync at the start, which copies rank 0's buffers, the
+    same as every rank's: one seed, or one checkpoint). The gradients of the stride-2 1x1 downsample convolutions come
+    out of backward with channels-last strides on a CPU, which over a kernel of 1x1 are the same bytes as the weights'
+    own; DDP then copies them into its bucket instead of using them in place (three tensors of at most 8,192 elements
+    at base_planes 16) and says so once a rank, "Grad strides do not match bucket view strides": not a fault here, so
+    not said (tests/test_rl_ddppo.py)."""
+    import inspect
+    import warnings
+
+    from torch.nn.parallel import DistributedDataParallel as DDP
+
+    sync = "forward_sync_buffers" if "forward_sync_buffers" in inspect.signature(DDP).parameters else "broadcast_buffers"
+    warnings.filterwarnings("ignore", message="Grad strides do not match bucket view strides", category=UserWarning)
+    return DDP(learner, device_ids=[device.index] if device.type == "cuda" else None, find_unused_parameters=False,
+               gradient_as_bucket_view=True, **{sync: False})
+
+
 @dataclass
 class Run:
     """What the loop carries from one update to the next, and what a checkpoint restores."""
@@ -107,9 +127,7 @@ class Run:
                 lagrange.load_state_dict(state["lagrange"])
         learner = _Evaluate(policy)
         if d.enabled:
-            from torch.nn.parallel import DistributedDataParallel as DDP
-            learner = DDP(learner, device_ids=[device.index] if device.type == "cuda" else None,
-                          broadcast_buffers=False, find_unused_parameters=False, gradient_as_bucket_view=True)
+            learner = _replica(learner, device)
         updates = state.get("updates", 0)
         gen = torch.Generator().manual_seed(int(np.random.SeedSequence([seed, d.rank, updates]).generate_state(1)[0]))
         return cls(policy, learner, optimizer, lagrange, gen, state.get("env_steps", 0), updates,

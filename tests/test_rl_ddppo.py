@@ -62,6 +62,10 @@ def test_rl_small_recipe_smoke(tmp_path):
     # rollout each; straggler pre-emption may end one early, never before a quarter of it)
     ddppo = [json.loads(line) for line in (out / "train" / "ddppo" / "metrics.jsonl").read_text().splitlines()]
     assert ddppo[-1]["env_steps"] >= 64 and all(4 <= r["rollout_steps"] <= 16 for r in ddppo)
+    # DistributedDataParallel says nothing: no deprecated argument (torch 2.13's forward_sync_buffers), no stride
+    # note for the downsample convolutions' gradients (rvn_rl.trainer._replica)
+    log = (out / "logs" / "train_ddppo.log").read_text()
+    assert "broadcast_buffers" not in log and "bucket view strides" not in log, log[-3000:]
     from rvn_rl.policy import load_rl_policy
     assert load_rl_policy(out / "train" / "ddppo").net.visual_encoder.running_mean_and_var._count > 0  # rank 0's
     for algo in ("ppo", "ppo_lag", "ddppo", "ddppo_depth"):
