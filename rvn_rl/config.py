@@ -161,7 +161,8 @@ class RLConfig:
         e = self.env
         return {"mode": "train", "split": "train", "scenes": scenes, "agent": self.agent,
                 "navmesh": self.navmesh, "camera": self.camera, "renderer": asdict(self.renderer),
-                "episodes": self.episode_kwargs(), "t_max": e.t_max, "scene_switch_every": e.scene_switch_every,
+                "episodes": self.episode_kwargs(), "t_max": e.t_max, "stop_far_is_failure": bool(e.stop_far_is_failure),
+                "scene_switch_every": e.scene_switch_every,
                 "scene_switch_steps": e.scene_switch_steps,
                 "goal_pool": int(self.env.goal_pool), "depth": bool(self.env.depth) or self.uses_true_depth,
                 "cache_dir": str(cache_root(self.cache_dir, self.out_dir).absolute())}

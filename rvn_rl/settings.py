@@ -48,6 +48,11 @@ class EnvSettings:
     prefetch_scenes: bool = True
     workers: int = 0  # env worker processes (0: step the envs in this process)
     t_max: int = 500  # steps allowed per goal
+    # STOP far from the goal: a no-op that costs a step (false: the benchmark's rule, rvn-eval's default) or the end of
+    # the episode, a failure (true: Habitat's PointNav, where any STOP ends it). With false a policy can wait out
+    # its collisions: PPO-Lagrangian at small scale spent a third of its val steps on far STOPs
+    # (docs/results/2026-12-06_rl_lag_ddppo)
+    stop_far_is_failure: bool = False
     depth: bool = False  # rendered depth in the observation (set by depth.source=true)
 
 

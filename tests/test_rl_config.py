@@ -154,3 +154,23 @@ def test_every_observation_size_validation_passes_builds_a_policy_that_acts(size
     with torch.no_grad():
         action, _, values, _ = policy.act(obs, policy.initial_state(2), torch.zeros(2), torch.zeros(2))
     assert action.shape == (2,) and values.shape == (2, 1)
+
+
+@pytest.mark.parametrize("failure", [False, True])
+def test_stop_far_from_the_goal_ends_the_training_episode_only_when_asked(tmp_path, failure):
+    """env.stop_far_is_failure goes to the train-mode envs: a STOP at an episode's start (the goal >= d_min away) is a
+    no-op step by default (the benchmark's rule), the end of the episode with it (Habitat's PointNav)."""
+    from rvn_rl.vec_env import BatchEnv
+
+    cfg = compose(TINY + [f"out_dir={tmp_path / 'run'}", f"cache_dir={tmp_path / 'cache'}", "renderer=raycast",
+                          f"env.stop_far_is_failure={str(failure).lower()}"])
+    assert cfg.record()["env"]["stop_far_is_failure"] is failure
+    envs = BatchEnv(cfg.env_kwargs(), 1, seed=0, prefetch=False)
+    try:
+        envs.reset()
+        _, _, _, done, infos = envs.step([0])  # STOP
+        assert bool(done[0]) is failure
+        if failure:
+            assert infos[0]["episode"]["termination"] == "stop_far" and infos[0]["episode"]["goals_reached"] == 0
+    finally:
+        envs.close()
