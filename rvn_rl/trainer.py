@@ -76,8 +76,9 @@ class _Evaluate(nn.Module):
 def _replica(learner: nn.Module, device: torch.device) -> nn.Module:
     """The DistributedDataParallel replica of ``learner``. Its buffers (the visual input's running mean and variance,
     which the module averages over ranks itself) are not synced at each forward: ``forward_sync_buffers=False`` where
-    torch has it (2.13 deprecates ``broadcast_buffers``; both sync at the start, which copies rank 0's buffers, the
-    same as every rank's: one seed, or one checkpoint). The gradients of the stride-2 1x1 downsample convolutions come
+    torch has it (2.13 deprecates ``broadcast_buffers``). Unlike ``broadcast_buffers=False`` it syncs them once at the
+    start, which copies rank 0's buffers over every rank's equal ones (one seed, or one checkpoint): a 2-rank run gives
+    the same weights to the byte either way. The gradients of the stride-2 1x1 downsample convolutions come
     out of backward with channels-last strides on a CPU, which over a kernel of 1x1 are the same bytes as the weights'
     own; DDP then copies them into its bucket instead of using them in place (three tensors of at most 8,192 elements
     at base_planes 16) and says so once a rank, "Grad strides do not match bucket view strides": not a fault here, so
