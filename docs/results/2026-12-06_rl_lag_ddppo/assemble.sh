@@ -14,14 +14,14 @@ for d in ../2026-12-05_escape/eval/{random,nomad_pointgoal,nomad_neg,nomad_neg_v
   [ -f "$HERE/$d/metrics.json" ] && DIRS+=("$d")
 done
 for run in "$LAG:ppo_lag" "$DDPPO:ddppo"; do
-  root=${run%:*} n=${run#*:} d=${run%:*}/eval/${run#*:}
+  root=${run%:*} n=${run#*:}; d=$root/eval/$n
   [ -f "$d/metrics.json" ] || { echo "skip $n (no metrics.json: not run or unfinished)"; continue; }
   mkdir -p "$HERE/eval/$n" "$HERE/train/$n"
   cp "$d"/{metrics.json,episodes.jsonl,run.json,rvn-eval.log} "$HERE/eval/$n/"
   cp "$root"/train/$n/{config.yaml,metrics.jsonl,learning_curve.png} "$HERE/train/$n/"
   DIRS+=("eval/$n")
 done
-{ grep -P '^train_ppo_lag\t|^eval_ppo_lag\t' "$LAG/timings.tsv" || true; grep -P '^(train|eval)_ddppo\t' "$DDPPO/timings.tsv" || true; } \
+for run in "$LAG:ppo_lag" "$DDPPO:ddppo"; do grep -P "^(train|eval)_${run#*:}\t" "${run%:*}/timings.tsv" || true; done \
   > "$HERE/timings.tsv"
 cd "$HERE"
 CMP=("PPO-Lagrangian=PPO" "DD-PPO=PPO" "PPO-Lagrangian=Goal follower" "DD-PPO=Goal follower"
