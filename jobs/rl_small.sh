@@ -11,6 +11,9 @@
 #                                                # OUT/eval ddppo_depth_true: the predicted-depth run's stay its own)
 #   SCALE=tiny bash jobs/rl_small.sh /tmp/x      # smoke test: a few hundred steps, 1 episode
 #   IL_RUNS="runs/small_experiment_small/eval/nomad_pointgoal ..." bash jobs/rl_small.sh   # other rows beside
+#   ALGOS=ppo_lag TAG=stop_far RL_EXTRA="env.stop_far_is_failure=true" bash jobs/rl_small.sh runs/rl_small_small
+#                                                # a variant beside the runs in OUT: OUT/{train,eval}/ppo_lag_stop_far,
+#                                                # "PPO-Lagrangian (stop_far)", the same caches and val episodes
 #
 # Every knob below can be set in the environment. Rerunning resumes: a step whose exact command
 # already succeeded is skipped (OUT/.done/) unless a step before it ran again (jobs/lib.sh); rvn-rl continues
@@ -52,6 +55,10 @@ esac
 : "${DEVICE:=cpu}"
 : "${RENDERER:=auto}"
 : "${IL_RUNS:=}"              # rvn-eval out_dirs of other rows (same val episodes) to put in the report
+: "${RL_EXTRA:=}"             # more rvn-rl overrides for every training, separated by spaces (e.g.
+                              # env.stop_far_is_failure=true); needs TAG where OUT holds the untagged runs already
+: "${TAG:=}"                  # a variant's name: its runs are OUT/train/<algo>_TAG and OUT/eval/<algo>_TAG, its rows
+                              # "<method> (TAG)", so that it neither resumes nor overwrites the untagged runs
 : "${COMPARE:=}"              # extra "A=B" method pairs to test in the report, separated by ';' (e.g. "DD-PPO=PPO" with
                               # a PPO row among IL_RUNS)
 has() { [[ " $ALGOS " == *" $1 "* ]]; }
@@ -69,6 +76,22 @@ if { has ddppo || has ddppo_depth; } && (( RANKS < 1 || NUM_ENVS % RANKS || NUM_
   echo "rl_small.sh: error: NUM_ENVS=$NUM_ENVS must split over RANKS=$RANKS DD-PPO ranks into at least" \
        "MINI_BATCHES=$MINI_BATCHES envs each" >&2; exit 2
 fi
+if [[ -n "$TAG" && ! "$TAG" =~ ^[A-Za-z0-9_-]+$ ]]; then
+  echo "rl_small.sh: error: TAG='$TAG'; use letters, digits, '_' and '-' (it names run folders)" >&2; exit 2
+fi
+read -ra RL_EXTRA_ARGS <<<"$RL_EXTRA"
+SUFFIX=${TAG:+_$TAG}
+# each algo's run folder; the rendered-depth ablation its own, so it neither resumes nor overwrites the predicted-depth run
+declare -A RUN_NAME=([ppo]=ppo$SUFFIX [ppo_lag]=ppo_lag$SUFFIX [ddppo]=ddppo$SUFFIX
+                     [ddppo_depth]=$([[ "$DEPTH_SOURCE" == true ]] && echo ddppo_depth_true || echo ddppo_depth)$SUFFIX)
+if [[ ${#RL_EXTRA_ARGS[@]} -gt 0 && -z "$TAG" ]]; then
+  for algo in $ALGOS; do
+    if [[ -d "$OUT/train/${RUN_NAME[$algo]}" ]]; then
+      echo "rl_small.sh: error: RL_EXTRA='$RL_EXTRA' would continue $OUT/train/${RUN_NAME[$algo]}, trained without it;" \
+           "give the variant a TAG (TAG=name: OUT/train/${RUN_NAME[$algo]}_name) or another OUT" >&2; exit 2
+    fi
+  done
+fi
 PY=${PYTHON:-python}
 mkdir -p "$OUT/logs" "$OUT/.done"
 OUT=$(cd "$OUT" && pwd)
@@ -82,17 +105,18 @@ CAMERA=("camera.width=$IMAGE" "camera.height=$IMAGE")
 RL=("scale=small" "env.size=$IMAGE" "env.num_scenes=$TRAIN_SCENES" "env.workers=$ENV_WORKERS"
     "model.backbone=$BACKBONE" "model.base_planes=$BASE_PLANES" "model.ngroups=$((BASE_PLANES / 2))"
     "env.goal_pool=$GOAL_POOL" "ppo.num_steps=$ROLLOUT" "ppo.num_mini_batch=$MINI_BATCHES" "train.total_steps=$TOTAL_STEPS"
-    "train.checkpoint_every=20" "env.t_max=$T_MAX" "seed=$SEED" "device=$DEVICE" "renderer=$RENDERER" "progress=false")
+    "train.checkpoint_every=20" "env.t_max=$T_MAX" "seed=$SEED" "device=$DEVICE" "renderer=$RENDERER" "progress=false"
+    "${RL_EXTRA_ARGS[@]}")
 EVAL=("split=val" "episodes.num_scenes=$EVAL_SCENES" "episodes.per_scene=$EVAL_EPISODES" "episodes.n_goals=$N_GOALS"
       "env.t_max=$T_MAX" "episodes.dir=$OUT/episodes" "workers=$WORKERS" "progress=false" "seed=$SEED" "renderer=$RENDERER"
       "${CAMERA[@]}")
 echo "rl_small: SCALE=$SCALE OUT=$OUT: $ALGOS, $TOTAL_STEPS env steps each, $BACKBONE, ${IMAGE}x$IMAGE," \
      "$NUM_ENVS envs, $TRAIN_SCENES train scenes; eval $EVAL_SCENES val scenes x $EVAL_EPISODES episodes x $N_GOALS goals"
 SINGLE=("env.num_envs=$NUM_ENVS" "train.threads=$THREADS" "${RL[@]}")
-train_ppo() { step train_ppo rvn-rl algo=ppo out_dir="$OUT/train/ppo" "${SINGLE[@]}"; }
+train_ppo() { step "train_${RUN_NAME[ppo]}" rvn-rl algo=ppo out_dir="$OUT/train/${RUN_NAME[ppo]}" "${SINGLE[@]}"; }
 train_ppo_lag() {
-  step train_ppo_lag rvn-rl algo=ppo_lag out_dir="$OUT/train/ppo_lag" algo.cost_limit="$COST_LIMIT" \
-    algo.lambda_max="$LAMBDA_MAX" "${SINGLE[@]}"
+  step "train_${RUN_NAME[ppo_lag]}" rvn-rl algo=ppo_lag out_dir="$OUT/train/${RUN_NAME[ppo_lag]}" \
+    algo.cost_limit="$COST_LIMIT" algo.lambda_max="$LAMBDA_MAX" "${SINGLE[@]}"
 }
 if [[ "$PARALLEL" == 1 ]] && has ppo && has ppo_lag; then  # the two trainings side by side, THREADS torch threads each
   # each in a process group of its own (set -m), so that when one fails, or the recipe is stopped, the other is stopped
@@ -107,7 +131,8 @@ if [[ "$PARALLEL" == 1 ]] && has ppo && has ppo_lag; then  # the two trainings s
     wait -n || { echo "rl_small: a training failed (logs in $OUT/logs/); the other one was stopped" >&2; exit 1; }
   done
   trap - EXIT
-  step_seen train_ppo train_ppo_lag   # ran in subshells: a training that ran makes every evaluation run again
+  # they ran in subshells: a training that ran makes every evaluation run again
+  step_seen "train_${RUN_NAME[ppo]}" "train_${RUN_NAME[ppo_lag]}"
 else
   if has ppo; then train_ppo; fi
   if has ppo_lag; then train_ppo_lag; fi
@@ -120,10 +145,7 @@ train_ddppo() {
     --nproc_per_node="$RANKS" -m rvn_rl.cli algo="$algo" out_dir="$OUT/train/$name" "$@" \
     "env.num_envs=$((NUM_ENVS / RANKS))" "train.threads=1" "${RL[@]}"
 }
-# each algo's run folder; the rendered-depth ablation its own, so it neither resumes nor overwrites the predicted-depth run
-declare -A RUN_NAME=([ppo]=ppo [ppo_lag]=ppo_lag [ddppo]=ddppo
-                     [ddppo_depth]=$([[ "$DEPTH_SOURCE" == true ]] && echo ddppo_depth_true || echo ddppo_depth))
-if has ddppo; then train_ddppo ddppo ddppo; fi
+if has ddppo; then train_ddppo ddppo "${RUN_NAME[ddppo]}"; fi
 if has ddppo_depth; then  # the same DD-PPO with depth as a 4th channel
   DEPTH_ARGS=("depth.source=$DEPTH_SOURCE")
   if [[ "$DEPTH_SOURCE" == model ]]; then
@@ -141,6 +163,7 @@ step eval_goal_follower rvn-eval policy=goal_follower "method=Goal follower" out
 RUNS=("$OUT/eval/goal_follower")
 DEPTH_NAME=$([[ "$DEPTH_SOURCE" == true ]] && echo rendered || echo predicted)
 declare -A METHOD=([ppo]=PPO [ppo_lag]=PPO-Lagrangian [ddppo]=DD-PPO [ddppo_depth]="DD-PPO + $DEPTH_NAME depth")
+if [[ -n "$TAG" ]]; then for algo in "${!METHOD[@]}"; do METHOD[$algo]+=" ($TAG)"; done; fi
 for algo in $ALGOS; do
   EXTRA_EVAL=()
   if [[ $algo == ddppo_depth && "$DEPTH_SOURCE" == true ]]; then EXTRA_EVAL=("env.depth=true"); fi

@@ -142,6 +142,32 @@ def test_rl_small_evaluates_again_after_a_training_ran(tmp_path):
     assert len([c for c in calls if c[0] == "rvn-eval"]) == 3
 
 
+def test_rl_small_trains_a_tagged_variant_beside_the_runs_it_keeps(tmp_path):
+    """RL_EXTRA passes more rvn-rl overrides (env.stop_far_is_failure=true); with TAG the variant trains and is
+    evaluated in run folders of its own, under its own label, beside the untagged runs of the same OUT (their caches
+    and val episodes). Without TAG, where OUT holds an untagged run, it is refused: rvn-rl would continue that run."""
+    env = rl_small_stubs(tmp_path)
+    out = tmp_path / "rl"
+    proc, _ = run_script("rl_small.sh", tmp_path, str(out), **env, ALGOS="ppo_lag")
+    assert proc.returncode == 0, proc.stderr
+    (out / "train" / "ppo_lag").mkdir(parents=True)  # the stub trains nothing
+    extra = {"ALGOS": "ppo_lag", "RL_EXTRA": "env.stop_far_is_failure=true"}
+    proc, calls = run_script("rl_small.sh", tmp_path, str(out), **env, **extra)
+    assert proc.returncode == 2 and not calls, proc.stderr
+    assert "RL_EXTRA='env.stop_far_is_failure=true' would continue" in proc.stderr and "TAG" in proc.stderr
+    proc, calls = run_script("rl_small.sh", tmp_path, str(out), **env, **extra, TAG="a b")
+    assert proc.returncode == 2 and "TAG='a b'" in proc.stderr and not calls, proc.stderr
+    done = (out / ".done" / "train_ppo_lag").read_text()
+    proc, calls = run_script("rl_small.sh", tmp_path, str(out), **env, **extra, TAG="stop_far")
+    assert proc.returncode == 0, proc.stderr
+    [train] = [c for c in calls if c[0] == "rvn-rl"]
+    assert f"out_dir={out}/train/ppo_lag_stop_far" in train and train[-1] == "env.stop_far_is_failure=true"
+    evals = {c[c.index("policy=checkpoint") + 2]: c for c in calls if "policy=checkpoint" in c}
+    assert list(evals) == ["method=PPO-Lagrangian (stop_far)"]
+    assert f"out_dir={out}/eval/ppo_lag_stop_far" in evals["method=PPO-Lagrangian (stop_far)"]
+    assert (out / ".done" / "train_ppo_lag").read_text() == done and (out / ".done" / "train_ppo_lag_stop_far").exists()
+
+
 def slurm_stubs(tmp_path: Path) -> None:
     """Stubs for the Slurm recipes: sbatch (fails the job named $FAIL_JOB, given as --job-name= or in the script on
     stdin), rvn-gen (a multirun exits with $MULTIRUN_STATUS; merge writes the train split the recipe reads), rvn-eval,
