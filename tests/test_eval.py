@@ -61,6 +61,11 @@ def test_workers_do_not_change_results(runs):
     assert not (runs / "oracle2" / "cache").exists()  # read from oracle1's cache root: the same episodes
     for name in ("episodes.jsonl", "metrics.json"):
         assert (runs / "oracle1" / name).read_bytes() == (runs / "oracle2" / name).read_bytes()
+    # each scene's renderer line, logged where the episodes ran: in rvn-eval's process with workers=1, in the worker
+    # processes with workers=2, whose records reached neither the console nor the run's log file before
+    for run in ("oracle1", "oracle2"):
+        log = (runs / run / "rvn-eval.log").read_text()
+        assert all(f"[INFO] - renderer for procedural:val/{i}: " in log for i in (0, 1)), (run, log)
 
 
 def test_random_policy(runs):

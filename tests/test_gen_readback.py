@@ -169,7 +169,9 @@ def test_deterministic_across_workers(expert, tmp_path):
     builds and writes them, the second reads them)."""
     out, _ = expert
     cache = {"RVN_CACHE_DIR": str(tmp_path / "cache")}
-    rvn_gen(f"out_dir={tmp_path / 'again'}", *TINY, "workers=2", env=cache)
+    proc = rvn_gen(f"out_dir={tmp_path / 'again'}", *TINY, "workers=2", env=cache)
+    said = proc.stdout + proc.stderr  # the workers' renderer lines, in the run's console as with workers=1
+    assert all(f"renderer for procedural:train/{i}: " in said for i in (0, 1)), said
     assert len(list((tmp_path / "cache" / "navmesh").glob("*.npz"))) == 2
     rvn_gen(f"out_dir={tmp_path / 'third'}", *TINY, env=cache)
     one = tree_hashes(out)

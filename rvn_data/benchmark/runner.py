@@ -9,6 +9,7 @@ env (privileged state) once.
 """
 from __future__ import annotations
 
+import contextlib
 import multiprocessing as mp
 import operator
 import sys
@@ -22,6 +23,7 @@ from rvn_data.benchmark.traces import TraceRecorder
 from rvn_data.conventions import Action
 from rvn_data.numba_note import note_first_compile
 from rvn_data.warning_lines import install_from_env
+from rvn_data.worker_logs import forwarded, log_to
 from rvn_data.worker_threads import settle_worker_threads, threads_per_worker, worker_threads
 
 
@@ -182,18 +184,26 @@ def _prepare_task(args) -> int:
     return ensure_scene_episodes(env, slot)
 
 
+@contextlib.contextmanager
 def _pool(workers: int, job: EvalJob | None = None):
-    """``workers`` processes, each with its share of the cores (`rvn_data.worker_threads`); with ``job``, each
-    builds its env and policy first."""
+    """``workers`` processes, each with its share of the cores (`rvn_data.worker_threads`), logging through this
+    process's handlers (`rvn_data.worker_logs`); with ``job``, each builds its env and policy first. Closed and
+    joined when the work is done (the workers' last records sent), terminated on an error or an early stop."""
     ctx = mp.get_context("spawn")  # GL contexts and torch do not survive fork
     threads = threads_per_worker(workers)
-    with worker_threads(threads):
-        return ctx.Pool(workers, initializer=_start_worker, initargs=(threads, job))
+    with forwarded(ctx) as logs:
+        with worker_threads(threads):
+            pool = ctx.Pool(workers, initializer=_start_worker, initargs=(threads, job, logs))
+        with pool:
+            yield pool
+            pool.close()
+            pool.join()
 
 
-def _start_worker(threads: int, job: EvalJob | None) -> None:
-    """A worker's start: the run's warnings as the run says them (`rvn_data.warning_lines`), its CPU threads, and with
-    ``job`` its env and policy."""
+def _start_worker(threads: int, job: EvalJob | None, logs: tuple) -> None:
+    """A worker's start: its log records to the run's (`rvn_data.worker_logs`), the run's warnings as the run says
+    them (`rvn_data.warning_lines`), its CPU threads, and with ``job`` its env and policy."""
+    log_to(*logs)
     install_from_env()
     if job is None:
         settle_worker_threads(threads)
