@@ -12,6 +12,7 @@
 #   SCALE=tiny bash jobs/rl_small.sh /tmp/x      # smoke test: a few hundred steps, 1 episode
 #   IL_RUNS="runs/small_experiment_small/eval/nomad_pointgoal ..." bash jobs/rl_small.sh   # other rows beside
 #   ALGOS=ppo_lag TAG=stop_far RL_EXTRA="env.stop_far_is_failure=true" bash jobs/rl_small.sh runs/rl_small_small
+#   TRAIN_SEED=1 TAG=seed1 bash jobs/rl_small.sh runs/rl_small_small    # a second training seed, the same val episodes
 #                                                # a variant beside the runs in OUT: OUT/{train,eval}/ppo_lag_stop_far,
 #                                                # "PPO-Lagrangian (stop_far)", the same caches and val episodes
 #
@@ -51,7 +52,9 @@ esac
                               # or true (the rendered depth: the ablation row)
 : "${DEPTH_MODEL:=}"          # a trained depth model's out_dir (python -m rvn_rl.depth.cli) to use instead
 : "${DEPTH_THREADS:=2}"       # torch threads of the depth network's training (it runs alone)
-: "${SEED:=0}"
+: "${SEED:=0}"                # the val episodes' seed, and the trainings' unless TRAIN_SEED says otherwise
+: "${TRAIN_SEED:=$SEED}"      # the trainings' (and the depth network's) seed: another training seed evaluated on the
+                              # same val episodes is TRAIN_SEED=1 TAG=seed1 in the same OUT
 : "${DEVICE:=cpu}"
 : "${RENDERER:=auto}"
 : "${IL_RUNS:=}"              # rvn-eval out_dirs of other rows (same val episodes) to put in the report
@@ -105,7 +108,7 @@ CAMERA=("camera.width=$IMAGE" "camera.height=$IMAGE")
 RL=("scale=small" "env.size=$IMAGE" "env.num_scenes=$TRAIN_SCENES" "env.workers=$ENV_WORKERS"
     "model.backbone=$BACKBONE" "model.base_planes=$BASE_PLANES" "model.ngroups=$((BASE_PLANES / 2))"
     "env.goal_pool=$GOAL_POOL" "ppo.num_steps=$ROLLOUT" "ppo.num_mini_batch=$MINI_BATCHES" "train.total_steps=$TOTAL_STEPS"
-    "train.checkpoint_every=20" "env.t_max=$T_MAX" "seed=$SEED" "device=$DEVICE" "renderer=$RENDERER" "progress=false"
+    "train.checkpoint_every=20" "env.t_max=$T_MAX" "seed=$TRAIN_SEED" "device=$DEVICE" "renderer=$RENDERER" "progress=false"
     "${RL_EXTRA_ARGS[@]}")
 EVAL=("split=val" "episodes.num_scenes=$EVAL_SCENES" "episodes.per_scene=$EVAL_EPISODES" "episodes.n_goals=$N_GOALS"
       "env.t_max=$T_MAX" "episodes.dir=$OUT/episodes" "workers=$WORKERS" "progress=false" "seed=$SEED" "renderer=$RENDERER"
@@ -153,7 +156,7 @@ if has ddppo_depth; then  # the same DD-PPO with depth as a 4th channel
       DEPTH_MODEL="$OUT/depth_model"
       step train_depth_model $PY -m rvn_rl.depth.cli out_dir="$DEPTH_MODEL" image_size="$IMAGE" \
         pairs.train_scenes="$TRAIN_SCENES" pairs.val_scenes="$DEPTH_VAL_SCENES" pairs.per_scene="$DEPTH_PAIRS" \
-        train.steps="$DEPTH_STEPS" threads="$DEPTH_THREADS" seed="$SEED" renderer="$RENDERER" progress=false
+        train.steps="$DEPTH_STEPS" threads="$DEPTH_THREADS" seed="$TRAIN_SEED" renderer="$RENDERER" progress=false
     fi
     DEPTH_ARGS+=("depth.model_path=$DEPTH_MODEL")
   fi

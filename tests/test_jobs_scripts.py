@@ -168,6 +168,20 @@ def test_rl_small_trains_a_tagged_variant_beside_the_runs_it_keeps(tmp_path):
     assert (out / ".done" / "train_ppo_lag").read_text() == done and (out / ".done" / "train_ppo_lag_stop_far").exists()
 
 
+def test_rl_small_trains_another_seed_on_the_same_val_episodes(tmp_path):
+    """TRAIN_SEED seeds the trainings alone: a second training seed (TAG=seed1) is evaluated on SEED's val episodes."""
+    env = rl_small_stubs(tmp_path)
+    out = tmp_path / "rl"
+    proc, calls = run_script("rl_small.sh", tmp_path, str(out), **env, TRAIN_SEED="1", TAG="seed1")
+    assert proc.returncode == 0, proc.stderr
+    trains = [c for c in calls if c[0] == "rvn-rl"]
+    evals = [c for c in calls if c[0] == "rvn-eval"]
+    assert len(trains) == 2 and all("seed=1" in c and "seed=0" not in c for c in trains)
+    assert len(evals) == 3 and all("seed=0" in c and "seed=1" not in c for c in evals)
+    assert {c[c.index("policy=checkpoint") + 2] for c in evals if "policy=checkpoint" in c} == {
+        "method=PPO (seed1)", "method=PPO-Lagrangian (seed1)"}
+
+
 def slurm_stubs(tmp_path: Path) -> None:
     """Stubs for the Slurm recipes: sbatch (fails the job named $FAIL_JOB, given as --job-name= or in the script on
     stdin), rvn-gen (a multirun exits with $MULTIRUN_STATUS; merge writes the train split the recipe reads), rvn-eval,
