@@ -51,7 +51,9 @@ class EnvSettings:
     # STOP far from the goal: a no-op that costs a step (false: the benchmark's rule, rvn-eval's default) or the end of
     # the episode, a failure (true: Habitat's PointNav, where any STOP ends it). With false a policy can wait out
     # its collisions: PPO-Lagrangian at small scale spent a third of its val steps on far STOPs
-    # (docs/results/2026-12-06_rl_lag_ddppo)
+    # (docs/results/2026-12-06_rl_lag_ddppo). With true at that scale, a STOP at the first step is the safe episode:
+    # PPO-Lagrangian collapsed to it within 10k env steps, PPO drifted toward it, and episodes of 1-2 steps switch
+    # scenes every 8-16 steps, which halved collection (docs/results/2026-12-06_stop_far)
     stop_far_is_failure: bool = False
     depth: bool = False  # rendered depth in the observation (set by depth.source=true)
 
