@@ -36,6 +36,7 @@ from .ppo import Lagrange, ppo_update
 from .rollout import DeviceRollouts, RolloutStorage
 from .runlog import RunLog, episode_sums, plot_learning_curve, summary
 from .settings import AlgoConfig, PPOConfig, TrainSettings
+from .vec_env import quiet_scene_logs
 from .vec_procs import make_envs
 
 
@@ -195,7 +196,6 @@ def train(cfg: RLConfig, on_checked=None) -> dict:
             from .depth import load_depth_model
             depth_fn = load_depth_model(str(cfg.depth.model_path), device=device)
         envs = make_envs(env_kwargs, cfg.env, seed=cfg.seed + 7919 * run.updates, rank=d.rank, depth_fn=depth_fn)
-        logging.getLogger("rvn").setLevel(logging.WARNING)  # the first scenes' renderer lines are enough
         log = RunLog(out_dir, d.rank == 0, env_steps=run.env_steps)  # an earlier run's rows past them dropped
         try:
             result = _loop(run, envs, log, cfg, d, device, out_dir, actor)
@@ -219,6 +219,7 @@ def _loop(run: Run, envs, log: RunLog, cfg: RLConfig, d: Dist, device, out_dir: 
     ppo, total = cfg.ppo, cfg.train.total_steps
     policy, n, heads = run.policy, envs.num_envs, 2 if run.lagrange is not None else 1
     obs = envs.reset()
+    quiet_scene_logs()  # the first scenes' renderer lines are enough (env workers do the same)
     space = {k: (v.shape[1:], torch.uint8 if v.dtype == np.uint8 else torch.float32) for k, v in obs.items()}
     state = policy.initial_state(n, device)
     buffers = [RolloutStorage(ppo.num_steps, n, space, tuple(state.shape), heads) for _ in range(1 + (actor is not None))]

@@ -13,6 +13,7 @@ batch (predicted depth); with ``depth=True`` in the env settings the rendered de
 """
 from __future__ import annotations
 
+import logging
 from collections import OrderedDict
 from concurrent.futures import Future, ThreadPoolExecutor
 
@@ -119,6 +120,12 @@ class CachedSceneEnv(RVNEnv):
         while self._cache:
             self._cache.popitem()[1].close()
         super().close()
+
+
+def quiet_scene_logs() -> None:
+    """After a run's first reset, in every process that steps envs: the first scenes' lines (each env's renderer, and
+    why ``renderer=auto`` picked it) are in the run's log, the thousands of scene switches after them are not."""
+    logging.getLogger("rvn").setLevel(logging.WARNING)
 
 
 def env_seed(seed: int, rank: int, index: int) -> int:

@@ -19,10 +19,11 @@ from multiprocessing import shared_memory
 import numpy as np
 
 from rvn_data.warning_lines import install_from_env
+from rvn_data.worker_logs import Forwarder, log_to
 from rvn_data.worker_threads import settle_worker_threads, threads_per_worker, worker_threads
 
 from .settings import EnvSettings
-from .vec_env import BatchEnv
+from .vec_env import BatchEnv, quiet_scene_logs
 
 
 class ObsBlocks:
@@ -71,7 +72,9 @@ def gather_obs(blocks: list[ObsBlocks], layouts: list) -> dict:
 
 
 def _worker(conn, env_kwargs: dict, indices: list[int], seed: int, rank: int, scene_cache: int, threads: int,
-            prefetch: bool = True) -> None:
+            prefetch: bool = True, logs: tuple | None = None) -> None:
+    if logs is not None:
+        log_to(*logs)  # its log records in the run's (rvn_data.worker_logs)
     install_from_env()  # the run's warnings, said once (rvn_data.warning_lines)
     settle_worker_threads(threads)
     envs, blocks = None, ObsBlocks()
@@ -83,6 +86,7 @@ def _worker(conn, env_kwargs: dict, indices: list[int], seed: int, rank: int, sc
             cmd, arg = conn.recv()
             if cmd == "reset":
                 conn.send(("ok", (blocks.write(envs.reset()),)))
+                quiet_scene_logs()
             elif cmd == "step":
                 obs, reward, cost, done, infos = envs.step(arg)
                 infos = [{"episode": i["episode"]} if "episode" in i else {} for i in infos]
@@ -124,11 +128,13 @@ class ProcessBatchEnv:
         self.bounds = bounds = worker_bounds(num_envs, workers)
         threads = threads_per_worker(workers)  # each worker's share of the cores (rvn_data.worker_threads)
         self.conns, self.procs = [], []
+        self._logs = Forwarder(ctx)  # the workers' log records (each env's first renderer) in the run's
         with worker_threads(threads):
             for w in range(workers):
                 parent, child = ctx.Pipe()
                 p = ctx.Process(target=_worker, daemon=True, args=(
-                    child, env_kwargs, list(range(bounds[w], bounds[w + 1])), seed, rank, scene_cache, threads, prefetch))
+                    child, env_kwargs, list(range(bounds[w], bounds[w + 1])), seed, rank, scene_cache, threads, prefetch,
+                    self._logs.args))
                 p.start()
                 child.close()
                 self.conns.append(parent)
@@ -214,11 +220,16 @@ class ProcessBatchEnv:
                 conn.send(("close", None))
             except (OSError, BrokenPipeError):
                 pass
+        clean = True
         for p in self.procs:
             p.join(timeout=10)
             if p.is_alive():
                 p.terminate()
+                clean = False
         self.conns, self.procs = [], []
+        if getattr(self, "_logs", None) is not None:
+            self._logs.close(clean)
+            self._logs = None
 
 
 def make_envs(env_kwargs: dict, env: EnvSettings, seed: int, rank: int = 0, depth_fn=None):

@@ -100,6 +100,18 @@ def test_rvn_rl_double_buffered_collects_the_plain_runs_transitions(monkeypatch,
             assert b[key] == pytest.approx(a[key], rel=1e-3, abs=1e-6), key
 
 
+def test_env_workers_log_each_envs_first_renderer_in_the_run(monkeypatch, tmp_path, caplog):
+    """Each env's first renderer line (which backend, and why renderer=auto picked it) reaches the run's log from
+    the env worker processes, where nothing of theirs did before (spawned, they had no logging set up); the scene
+    switches after the first reset are quiet there as in the trainer's process (a switch at every reset here)."""
+    logging.getLogger("rvn").setLevel(logging.NOTSET)  # an earlier run in this process quieted it
+    with caplog.at_level(logging.INFO):
+        _, rows = run(monkeypatch, tmp_path / "run", "env.scene_switch_every=1")
+    lines = [r.getMessage() for r in caplog.records if r.getMessage().startswith("renderer for procedural:train/")]
+    assert len(lines) == 3 and all("raycast" in line for line in lines), lines
+    assert rows[-1]["episodes"] > 0  # episodes ended, each drawing another scene: no line for those
+
+
 class Preempting:
     """DD-PPO's pre-emption as `Dist` answers it once the other ranks are done: from step ``at`` of the rollout."""
 
