@@ -14,7 +14,7 @@
 #   ALGOS=ppo_lag TAG=stop_far RL_EXTRA="env.stop_far_is_failure=true" bash jobs/rl_small.sh runs/rl_small_small
 #   TRAIN_SEED=1 TAG=seed1 bash jobs/rl_small.sh runs/rl_small_small    # a second training seed, the same val episodes
 #                                                # a variant beside the runs in OUT: OUT/{train,eval}/ppo_lag_stop_far,
-#                                                # "PPO-Lagrangian (stop_far)", the same caches and val episodes
+#                                                # "PPO-Lagrangian stop_far", the same caches and val episodes
 #
 # Every knob below can be set in the environment. Rerunning resumes: a step whose exact command
 # already succeeded is skipped (OUT/.done/) unless a step before it ran again (jobs/lib.sh); rvn-rl continues
@@ -61,7 +61,7 @@ esac
 : "${RL_EXTRA:=}"             # more rvn-rl overrides for every training, separated by spaces (e.g.
                               # env.stop_far_is_failure=true); needs TAG where OUT holds the untagged runs already
 : "${TAG:=}"                  # a variant's name: its runs are OUT/train/<algo>_TAG and OUT/eval/<algo>_TAG, its rows
-                              # "<method> (TAG)", so that it neither resumes nor overwrites the untagged runs
+                              # "<method> TAG", so that it neither resumes nor overwrites the untagged runs
 : "${COMPARE:=}"              # extra "A=B" method pairs to test in the report, separated by ';' (e.g. "DD-PPO=PPO" with
                               # a PPO row among IL_RUNS)
 has() { [[ " $ALGOS " == *" $1 "* ]]; }
@@ -166,7 +166,8 @@ step eval_goal_follower rvn-eval policy=goal_follower "method=Goal follower" out
 RUNS=("$OUT/eval/goal_follower")
 DEPTH_NAME=$([[ "$DEPTH_SOURCE" == true ]] && echo rendered || echo predicted)
 declare -A METHOD=([ppo]=PPO [ppo_lag]=PPO-Lagrangian [ddppo]=DD-PPO [ddppo_depth]="DD-PPO + $DEPTH_NAME depth")
-if [[ -n "$TAG" ]]; then for algo in "${!METHOD[@]}"; do METHOD[$algo]+=" ($TAG)"; done; fi
+# a tagged variant's rows: "<method> TAG"; with TAG=seed<s> the report also tests each pair pooled over the seeds
+if [[ -n "$TAG" ]]; then for algo in "${!METHOD[@]}"; do METHOD[$algo]+=" $TAG"; done; fi
 for algo in $ALGOS; do
   EXTRA_EVAL=()
   if [[ $algo == ddppo_depth && "$DEPTH_SOURCE" == true ]]; then EXTRA_EVAL=("env.depth=true"); fi

@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# Copies run.sh's records into this folder and writes report.md: PPO and PPO-Lagrangian with training seeds 0 and 1
+# beside DD-PPO, NoMaD-PointGoal of both seeds and the reference rows, paired on the same 200 val episodes (episode set
+# a7556e2bca0b); a pair whose rows both have a "seed1" row is also tested pooled over the seeds (400 paired episodes):
+#   bash docs/results/2026-12-06_rl_seed1/assemble.sh runs/rl_main
+set -euo pipefail
+RUN=$(cd "${1:-runs/rl_main}" && pwd)
+HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+DIRS=()
+for d in ../2026-12-05_escape/eval/{random,nomad_pointgoal} ../2026-12-05_neg_seed1/eval/nomad_pointgoal \
+         ../2026-12-06_rl_main/eval/{goal_follower_stoprule,ppo} ../2026-12-06_rl_lag_ddppo/eval/{ppo_lag,ddppo}; do
+  [ -f "$HERE/$d/metrics.json" ] && DIRS+=("$d")
+done
+for n in ppo_seed1 ppo_lag_seed1; do
+  d=$RUN/eval/$n
+  [ -f "$d/metrics.json" ] || { echo "skip $n (no metrics.json: not run or unfinished)"; continue; }
+  mkdir -p "$HERE/eval/$n" "$HERE/train/$n"
+  cp "$d"/{metrics.json,episodes.jsonl,run.json,rvn-eval.log} "$HERE/eval/$n/"
+  cp "$RUN"/train/$n/{config.yaml,metrics.jsonl,learning_curve.png} "$HERE/train/$n/"
+  DIRS+=("eval/$n")
+done
+grep -P "^(train|eval)_(ppo|ppo_lag)_seed1\t" "$RUN/timings.tsv" > "$HERE/timings.tsv" || true
+cd "$HERE"
+CMP=("PPO seed1=PPO" "PPO-Lagrangian seed1=PPO-Lagrangian" "PPO-Lagrangian=PPO" "PPO-Lagrangian seed1=PPO seed1"
+     "PPO seed1=Goal follower" "PPO-Lagrangian seed1=Goal follower" "DD-PPO=PPO seed1"
+     "NoMaD-PointGoal=PPO" "NoMaD-PointGoal seed1=PPO seed1" "NoMaD-PointGoal=PPO-Lagrangian"
+     "NoMaD-PointGoal seed1=PPO-Lagrangian seed1")
+python -m rvn_data.benchmark.report "${DIRS[@]}" -o report.md \
+  --title "PPO and PPO-Lagrangian, training seeds 0 and 1, beside DD-PPO, NoMaD-PointGoal and the references (same 200 val episodes)" \
+  --compare-present "${CMP[@]/#/--compare=}"
