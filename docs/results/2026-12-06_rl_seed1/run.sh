@@ -4,7 +4,7 @@
 # recipe (jobs/rl_small.sh, 400k env steps each, side by side, one torch thread each) in the same run folder (its train
 # scenes' caches and val episodes), run folders of their own (train/ppo_seed1, train/ppo_lag_seed1):
 #   bash docs/results/2026-12-06_rl_seed1/run.sh runs/rl_main      # rerun to resume
-# As run: started on e19c19d, whose rows were labelled "PPO (seed1)"; 8 minutes in, the recipe's bash processes were
+# As run: started on e19c19d, whose rows were labelled "PPO (seed1)"; 6 minutes in, the recipe's bash processes were
 # stopped (SIGKILL: its trainings, left running, finished at e19c19d) and the label became "PPO seed1", which the
 # report pools with seed 0's "PPO"; the rerun on main then found both trainings finished (rvn-rl returns at once) and
 # evaluated them. Then: bash docs/results/2026-12-06_rl_seed1/assemble.sh runs/rl_main
