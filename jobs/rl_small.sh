@@ -181,9 +181,9 @@ PAIRS=()
 declare -A SEEN=()
 pair() { if [[ -n "$1" && -z "${SEEN[$1]:-}" ]]; then SEEN[$1]=1; PAIRS+=("$1"); fi; }   # each pair once
 for algo in $ALGOS; do pair "${METHOD[$algo]}=Goal follower"; done
-if has ppo && has ppo_lag; then pair "PPO-Lagrangian=PPO"; fi
-if has ppo && has ddppo; then pair "DD-PPO=PPO"; fi
-if has ddppo && has ddppo_depth; then pair "${METHOD[ddppo_depth]}=DD-PPO"; fi
+if has ppo && has ppo_lag; then pair "${METHOD[ppo_lag]}=${METHOD[ppo]}"; fi
+if has ppo && has ddppo; then pair "${METHOD[ddppo]}=${METHOD[ppo]}"; fi
+if has ddppo && has ddppo_depth; then pair "${METHOD[ddppo_depth]}=${METHOD[ddppo]}"; fi
 IFS=';' read -ra EXTRA <<<"$COMPARE"
 for p in "${EXTRA[@]}"; do pair "$p"; done
 $PY -m rvn_data.benchmark.report "${RUNS[@]}" -o "$OUT/report.md" "${PAIRS[@]/#/--compare=}" \

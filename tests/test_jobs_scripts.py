@@ -180,6 +180,8 @@ def test_rl_small_trains_another_seed_on_the_same_val_episodes(tmp_path):
     assert len(evals) == 3 and all("seed=0" in c and "seed=1" not in c for c in evals)
     assert {c[c.index("policy=checkpoint") + 2] for c in evals if "policy=checkpoint" in c} == {
         "method=PPO seed1", "method=PPO-Lagrangian seed1"}  # the report pools "PPO" with "PPO seed1"
+    [report] = [c for c in calls if c[0] == "python"]  # the variant's own pairs, not the untagged rows'
+    assert "--compare=PPO-Lagrangian seed1=PPO seed1" in report and "--compare=PPO-Lagrangian=PPO" not in report
 
 
 def slurm_stubs(tmp_path: Path) -> None:
