@@ -19,7 +19,8 @@ for n in ppo_seed1 ppo_lag_seed1; do
   cp "$RUN"/train/$n/{config.yaml,metrics.jsonl,learning_curve.png} "$HERE/train/$n/"
   DIRS+=("eval/$n")
 done
-grep -P "^(train|eval)_(ppo|ppo_lag)_seed1\t" "$RUN/timings.tsv" > "$HERE/timings.tsv" || true
+# the evaluations' wall times (the trainings' are in README.md: the rerun that recorded their steps returned at once)
+grep -P "^eval_(ppo|ppo_lag)_seed1\t" "$RUN/timings.tsv" > "$HERE/timings.tsv" || true
 cd "$HERE"
 CMP=("PPO seed1=PPO" "PPO-Lagrangian seed1=PPO-Lagrangian" "PPO-Lagrangian=PPO" "PPO-Lagrangian seed1=PPO seed1"
      "PPO seed1=Goal follower" "PPO-Lagrangian seed1=Goal follower" "DD-PPO=PPO seed1"
