@@ -12,9 +12,9 @@
 #   SCALE=tiny bash jobs/rl_small.sh /tmp/x      # smoke test: a few hundred steps, 1 episode
 #   IL_RUNS="runs/small_experiment_small/eval/nomad_pointgoal ..." bash jobs/rl_small.sh   # other rows beside
 #   ALGOS=ppo_lag TAG=stop_far RL_EXTRA="env.stop_far_is_failure=true" bash jobs/rl_small.sh runs/rl_small_small
-#   TRAIN_SEED=1 TAG=seed1 bash jobs/rl_small.sh runs/rl_small_small    # a second training seed, the same val episodes
 #                                                # a variant beside the runs in OUT: OUT/{train,eval}/ppo_lag_stop_far,
 #                                                # "PPO-Lagrangian stop_far", the same caches and val episodes
+#   TRAIN_SEED=1 TAG=seed1 bash jobs/rl_small.sh runs/rl_small_small    # a second training seed, the same val episodes
 #
 # Every knob below can be set in the environment. Rerunning resumes: a step whose exact command
 # already succeeded is skipped (OUT/.done/) unless a step before it ran again (jobs/lib.sh); rvn-rl continues

@@ -220,12 +220,13 @@ class ProcessBatchEnv:
                 conn.send(("close", None))
             except (OSError, BrokenPipeError):
                 pass
-        clean = True
         for p in self.procs:
             p.join(timeout=10)
             if p.is_alive():
                 p.terminate()
-                clean = False
+                p.join()
+        # every worker ended by itself: its records are all sent (one killed may hold the log queue's lock)
+        clean = all(p.exitcode == 0 for p in self.procs)
         self.conns, self.procs = [], []
         if getattr(self, "_logs", None) is not None:
             self._logs.close(clean)
