@@ -8,17 +8,22 @@ when it started and puts them on a queue; the run's process hands each to its lo
 handlers (Hydra's console, the run's log file) write it as one of its own (the standard library's
 `logging.handlers.QueueHandler` and `QueueListener`)::
 
-    with forwarded(ctx) as logs:                       # the run's process, around the pool's life
-        pool = ctx.Pool(n, initializer=start, initargs=(logs, ...))
-    def start(logs, ...):                              # each worker, first thing
+    with spawned_pool(n, threads, initializer, initargs) as pool:   # a pool: rvn-eval's, rvn-gen's
+        ...
+    with forwarded(ctx) as logs:                       # other workers, around their life (or `Forwarder`)
+        ctx.Process(target=work, args=(logs, ...))
+    def work(logs, ...):                               # each worker, first thing
         log_to(*logs)
 """
 from __future__ import annotations
 
 import contextlib
 import logging
+import multiprocessing as mp
 from logging.handlers import QueueHandler, QueueListener
-from typing import Iterator
+from typing import Callable, Iterator
+
+from rvn_data.worker_threads import worker_threads
 
 
 class _ToOwnLogger(logging.Handler):
@@ -93,4 +98,26 @@ def log_to(queue, run_levels: dict[str, int]) -> None:
         logging.getLogger(name or None).setLevel(level)
 
 
-__all__ = ["Forwarder", "forwarded", "levels", "log_to"]
+@contextlib.contextmanager
+def spawned_pool(workers: int, threads: int, initializer: Callable | None = None, initargs: tuple = ()):
+    """A ``spawn`` pool of ``workers`` processes (GL contexts and torch do not survive fork), each started with
+    ``threads`` CPU threads (`rvn_data.worker_threads`), logging through this process's handlers, then running
+    ``initializer(*initargs)``. Closed and joined when the work is done (the workers' last records sent), terminated
+    on an error or an early stop."""
+    ctx = mp.get_context("spawn")
+    with forwarded(ctx) as logs:
+        with worker_threads(threads):
+            pool = ctx.Pool(workers, initializer=_start_pool_worker, initargs=(logs, initializer, initargs))
+        with pool:
+            yield pool
+            pool.close()
+            pool.join()
+
+
+def _start_pool_worker(logs: tuple, initializer: Callable | None, initargs: tuple) -> None:
+    log_to(*logs)
+    if initializer is not None:
+        initializer(*initargs)
+
+
+__all__ = ["Forwarder", "forwarded", "levels", "log_to", "spawned_pool"]

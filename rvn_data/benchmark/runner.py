@@ -9,8 +9,6 @@ env (privileged state) once.
 """
 from __future__ import annotations
 
-import contextlib
-import multiprocessing as mp
 import operator
 import sys
 from collections.abc import Callable, Iterable, Iterator
@@ -23,8 +21,8 @@ from rvn_data.benchmark.traces import TraceRecorder
 from rvn_data.conventions import Action
 from rvn_data.numba_note import note_first_compile
 from rvn_data.warning_lines import install_from_env
-from rvn_data.worker_logs import forwarded, log_to
-from rvn_data.worker_threads import settle_worker_threads, threads_per_worker, worker_threads
+from rvn_data.worker_logs import spawned_pool
+from rvn_data.worker_threads import settle_worker_threads, threads_per_worker
 
 
 
@@ -184,26 +182,16 @@ def _prepare_task(args) -> int:
     return ensure_scene_episodes(env, slot)
 
 
-@contextlib.contextmanager
 def _pool(workers: int, job: EvalJob | None = None):
-    """``workers`` processes, each with its share of the cores (`rvn_data.worker_threads`), logging through this
-    process's handlers (`rvn_data.worker_logs`); with ``job``, each builds its env and policy first. Closed and
-    joined when the work is done (the workers' last records sent), terminated on an error or an early stop."""
-    ctx = mp.get_context("spawn")  # GL contexts and torch do not survive fork
+    """``workers`` processes, each with its share of the cores, logging through this process's handlers
+    (`rvn_data.worker_logs.spawned_pool`); with ``job``, each builds its env and policy first."""
     threads = threads_per_worker(workers)
-    with forwarded(ctx) as logs:
-        with worker_threads(threads):
-            pool = ctx.Pool(workers, initializer=_start_worker, initargs=(threads, job, logs))
-        with pool:
-            yield pool
-            pool.close()
-            pool.join()
+    return spawned_pool(workers, threads, _start_worker, (threads, job))
 
 
-def _start_worker(threads: int, job: EvalJob | None, logs: tuple) -> None:
-    """A worker's start: its log records to the run's (`rvn_data.worker_logs`), the run's warnings as the run says
-    them (`rvn_data.warning_lines`), its CPU threads, and with ``job`` its env and policy."""
-    log_to(*logs)
+def _start_worker(threads: int, job: EvalJob | None) -> None:
+    """A worker's start: the run's warnings as the run says them (`rvn_data.warning_lines`), its CPU threads, and with
+    ``job`` its env and policy."""
     install_from_env()
     if job is None:
         settle_worker_threads(threads)

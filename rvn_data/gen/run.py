@@ -8,7 +8,6 @@ how shards meet.
 """
 from __future__ import annotations
 
-import multiprocessing as mp
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -27,8 +26,8 @@ from rvn_data.dataset.verify import summarise
 from rvn_data.gen.summary import summary
 from rvn_data.numba_note import note_first_compile
 from rvn_data.scenes.sets import ScenesConfig, shared_splits, shared_splits_note
-from rvn_data.worker_logs import forwarded, log_to
-from rvn_data.worker_threads import settle_worker_threads, worker_threads
+from rvn_data.worker_logs import spawned_pool
+from rvn_data.worker_threads import settle_worker_threads
 
 
 def list_scenes(scenes: ScenesConfig) -> list[str]:
@@ -177,26 +176,16 @@ def _run(jobs: list[tuple], workers: int, n: int, progress: bool) -> list[SceneR
                 out.append(SceneResult(slug=naming.scene_slug(spec), spec=spec, error=_message(spec, e)))
         bar.close()
         return out
-    ctx = mp.get_context("spawn")
-    with forwarded(ctx) as logs:  # the workers' records (each scene's renderer) in the run's console and log file
-        with worker_threads(GEN_WORKER_THREADS):
-            pool = ctx.Pool(min(workers, len(jobs)), initializer=_start_worker, initargs=(logs,))
-        with pool:
-            bar = tqdm(total=len(jobs), unit="scene", disable=not progress, dynamic_ncols=True)
-            out = []
-            for r in pool.imap_unordered(_scene_worker, jobs):
-                out.append(r)
-                bar.update(1)
-            bar.close()
-            pool.close()
-            pool.join()
+    # each worker's records (each scene's renderer) in the run's console and log file
+    with spawned_pool(min(workers, len(jobs)), GEN_WORKER_THREADS, settle_worker_threads,
+                      (GEN_WORKER_THREADS,)) as pool:
+        bar = tqdm(total=len(jobs), unit="scene", disable=not progress, dynamic_ncols=True)
+        out = []
+        for r in pool.imap_unordered(_scene_worker, jobs):
+            out.append(r)
+            bar.update(1)
+        bar.close()
     return sorted(out, key=lambda r: r.slug)
-
-
-def _start_worker(logs: tuple) -> None:
-    """A generation worker's start: its log records to the run's (`rvn_data.worker_logs`), then its CPU threads."""
-    log_to(*logs)
-    settle_worker_threads(GEN_WORKER_THREADS)
 
 
 __all__ = ["GenReport", "generate", "merge", "redone_line", "TIMERS"]
