@@ -14,7 +14,8 @@
 #   ALGOS=ppo_lag TAG=stop_far RL_EXTRA="env.stop_far_is_failure=true" bash jobs/rl_small.sh runs/rl_small_small
 #                                                # a variant beside the runs in OUT: OUT/{train,eval}/ppo_lag_stop_far,
 #                                                # "PPO-Lagrangian stop_far", the same caches and val episodes
-#   TRAIN_SEED=1 TAG=seed1 bash jobs/rl_small.sh runs/rl_small_small    # a second training seed, the same val episodes
+#   TRAIN_SEED=1 TAG=seed1 bash jobs/rl_small.sh runs/rl_small_small    # a second training seed, the same val episodes;
+#                                                # its report holds the first seed's rows too, pairs pooled over both
 #
 # Every knob below can be set in the environment. Rerunning resumes: a step whose exact command
 # already succeeded is skipped (OUT/.done/) unless a step before it ran again (jobs/lib.sh); rvn-rl continues
@@ -166,8 +167,18 @@ step eval_goal_follower rvn-eval policy=goal_follower "method=Goal follower" out
 RUNS=("$OUT/eval/goal_follower")
 DEPTH_NAME=$([[ "$DEPTH_SOURCE" == true ]] && echo rendered || echo predicted)
 declare -A METHOD=([ppo]=PPO [ppo_lag]=PPO-Lagrangian [ddppo]=DD-PPO [ddppo_depth]="DD-PPO + $DEPTH_NAME depth")
-# a tagged variant's rows: "<method> TAG"; with TAG=seed<s> the report also tests each pair pooled over the seeds
-if [[ -n "$TAG" ]]; then for algo in "${!METHOD[@]}"; do METHOD[$algo]+=" $TAG"; done; fi
+# a tagged variant's rows: "<method> TAG"; beside them the untagged runs of the same algos that OUT holds (their
+# rows "<method>"), each variant tested against its own algo's run; with TAG=seed<s> the pairs of untagged rows are
+# tested pooled over the seeds too (rvn_data.benchmark.significance.pooled_pairs)
+declare -A BASE_METHOD=() BASE_RUN=()
+if [[ -n "$TAG" ]]; then
+  for algo in "${!METHOD[@]}"; do
+    BASE_METHOD[$algo]=${METHOD[$algo]}
+    METHOD[$algo]+=" $TAG"
+    base=$OUT/eval/${RUN_NAME[$algo]%"$SUFFIX"}
+    if has "$algo" && [[ -f "$base/metrics.json" ]]; then BASE_RUN[$algo]=$base; fi
+  done
+fi
 for algo in $ALGOS; do
   EXTRA_EVAL=()
   if [[ $algo == ddppo_depth && "$DEPTH_SOURCE" == true ]]; then EXTRA_EVAL=("env.depth=true"); fi
@@ -176,14 +187,24 @@ for algo in $ALGOS; do
     out_dir="$OUT/eval/$name" "${EVAL[@]}" "${EXTRA_EVAL[@]}"
   RUNS+=("$OUT/eval/$name")
 done
+for algo in $ALGOS; do if [[ -n "${BASE_RUN[$algo]:-}" ]]; then RUNS+=("${BASE_RUN[$algo]}"); fi; done
 for run in $IL_RUNS; do RUNS+=("$run"); done
 PAIRS=()
 declare -A SEEN=()
 pair() { if [[ -n "$1" && -z "${SEEN[$1]:-}" ]]; then SEEN[$1]=1; PAIRS+=("$1"); fi; }   # each pair once
-for algo in $ALGOS; do pair "${METHOD[$algo]}=Goal follower"; done
-if has ppo && has ppo_lag; then pair "${METHOD[ppo_lag]}=${METHOD[ppo]}"; fi
-if has ppo && has ddppo; then pair "${METHOD[ddppo]}=${METHOD[ppo]}"; fi
-if has ddppo && has ddppo_depth; then pair "${METHOD[ddppo_depth]}=${METHOD[ddppo]}"; fi
+for algo in $ALGOS; do
+  pair "${METHOD[$algo]}=Goal follower"
+  if [[ -n "${BASE_RUN[$algo]:-}" ]]; then pair "${METHOD[$algo]}=${BASE_METHOD[$algo]}"; fi
+done
+between() {  # two algos' rows: this run's, and the untagged runs' where the report holds both
+  if has "$1" && has "$2"; then
+    pair "${METHOD[$1]}=${METHOD[$2]}"
+    if [[ -n "${BASE_RUN[$1]:-}" && -n "${BASE_RUN[$2]:-}" ]]; then pair "${BASE_METHOD[$1]}=${BASE_METHOD[$2]}"; fi
+  fi
+}
+between ppo_lag ppo
+between ddppo ppo
+between ddppo_depth ddppo
 IFS=';' read -ra EXTRA <<<"$COMPARE"
 for p in "${EXTRA[@]}"; do pair "$p"; done
 $PY -m rvn_data.benchmark.report "${RUNS[@]}" -o "$OUT/report.md" "${PAIRS[@]/#/--compare=}" \

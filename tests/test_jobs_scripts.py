@@ -184,6 +184,39 @@ def test_rl_small_trains_another_seed_on_the_same_val_episodes(tmp_path):
     assert "--compare=PPO-Lagrangian seed1=PPO seed1" in report and "--compare=PPO-Lagrangian=PPO" not in report
 
 
+def test_rl_small_reports_a_second_seed_beside_the_first_pooled(tmp_path):
+    """With TAG, the untagged runs of the same algos that OUT holds join the report: each variant is tested against
+    its own algo's run, and with TAG=seed1 the untagged pair again, pooled over both seeds. The report runs for real on
+    the records of docs/results (PPO and PPO-Lagrangian, training seeds 0 and 1, the same 200 val episodes)."""
+    import shutil
+
+    env = {**rl_small_stubs(tmp_path), "PYTHON": sys.executable}
+    out = tmp_path / "rl"
+    results = REPO / "docs" / "results"
+    for src, name in [("2026-12-06_rl_main/eval/goal_follower_stoprule", "goal_follower"),
+                      ("2026-12-06_rl_main/eval/ppo", "ppo"), ("2026-12-06_rl_lag_ddppo/eval/ppo_lag", "ppo_lag"),
+                      ("2026-12-06_rl_seed1/eval/ppo_seed1", "ppo_seed1"),
+                      ("2026-12-06_rl_seed1/eval/ppo_lag_seed1", "ppo_lag_seed1")]:
+        shutil.copytree(results / src, out / "eval" / name)  # the stub rvn-eval leaves them as they are
+    proc, _ = run_script("rl_small.sh", tmp_path, str(out), **env, TRAIN_SEED="1", TAG="seed1")
+    assert proc.returncode == 0, proc.stderr
+    text = (out / "report.md").read_text()
+    for label in ("PPO", "PPO seed1", "PPO-Lagrangian", "PPO-Lagrangian seed1", "Goal follower"):
+        assert f"| RVN (ours) | {label} |" in text, label
+    # the variant against its own algo's run, the variant's pair, and the untagged pair, per seed and pooled
+    assert "| PPO seed1 | PPO | 0.285 (57/200) | 0.185 (37/200) |" in text
+    assert "| PPO-Lagrangian seed1 | PPO-Lagrangian |" in text and "| PPO-Lagrangian seed1 | PPO seed1 |" in text
+    pooled = text[text.index("pooled over training seeds"):]
+    assert "| PPO-Lagrangian | PPO | unlabelled + seed1 | 400 | 0.077 | 0.235 | 16–79, <1e-4 |" in pooled
+    assert "1.04 [0.88, 1.22], 0.66 |" in pooled
+    # one algo's second seed: the PPO runs in OUT are no algo of this run, so they stay out
+    proc, _ = run_script("rl_small.sh", tmp_path, str(out), **env, ALGOS="ppo_lag", TRAIN_SEED="1", TAG="seed1")
+    assert proc.returncode == 0, proc.stderr
+    text = (out / "report.md").read_text()
+    assert "| PPO-Lagrangian seed1 | PPO-Lagrangian |" in text and "| RVN (ours) | PPO-Lagrangian |" in text
+    assert "| RVN (ours) | PPO |" not in text and "| RVN (ours) | PPO seed1 |" not in text
+
+
 def slurm_stubs(tmp_path: Path) -> None:
     """Stubs for the Slurm recipes: sbatch (fails the job named $FAIL_JOB, given as --job-name= or in the script on
     stdin), rvn-gen (a multirun exits with $MULTIRUN_STATUS; merge writes the train split the recipe reads), rvn-eval,
