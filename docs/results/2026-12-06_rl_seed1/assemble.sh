@@ -8,7 +8,7 @@ RUN=$(cd "${1:-runs/rl_main}" && pwd)
 HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 DIRS=()
 for d in ../2026-12-05_escape/eval/{random,nomad_pointgoal} ../2026-12-05_neg_seed1/eval/nomad_pointgoal \
-         ../2026-12-06_rl_main/eval/{goal_follower_stoprule,ppo} ../2026-12-06_rl_lag_ddppo/eval/{ppo_lag,ddppo}; do
+         ../2026-12-06_rl_main/eval/{goal_follower_stoprule,trajectory_oracle,ppo} ../2026-12-06_rl_lag_ddppo/eval/{ppo_lag,ddppo}; do
   [ -f "$HERE/$d/metrics.json" ] && DIRS+=("$d")
 done
 for n in ppo_seed1 ppo_lag_seed1; do
