@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# PPO with half again its env steps: both training seeds' 400k runs (2026-12-06_rl_main's PPO, 2026-12-06_rl_seed1's PPO
+# seed1) continued from their last checkpoint (400,384 env steps) to 600k, side by side, one torch thread each, with
+# jobs/rl_small.sh's SCALE=small settings; PPO has no schedule over train.total_steps (constant lr, clip and entropy
+# weight), so a continued run is the run that a 600k budget would have trained. Copies of the run folders are
+# continued (train/ppo_600k, train/ppo_600k_seed1): the 400k checkpoints stay as they were evaluated. Then rvn-eval on
+# the same 200 val episodes (episode set a7556e2bca0b) as rows "PPO 600k" and "PPO 600k seed1", which the report pools
+# with the 400k rows' "PPO" and "PPO seed1":
+#   bash docs/results/2026-12-06_ppo_600k/run.sh runs/rl_main      # rerun to resume
+# Then: bash docs/results/2026-12-06_ppo_600k/assemble.sh runs/rl_main
+set -euo pipefail
+OUT=$(cd "${1:-runs/rl_main}" && pwd)
+export RVN_CACHE_DIR=$OUT/cache OMP_NUM_THREADS=1 MKL_NUM_THREADS=1
+# jobs/rl_small.sh's RL and EVAL arguments at SCALE=small (TOTAL_STEPS=600000)
+RL=("scale=small" "env.size=64" "env.num_scenes=50" "env.workers=0" "model.backbone=resnet18" "model.base_planes=16"
+    "model.ngroups=8" "env.goal_pool=64" "ppo.num_steps=64" "ppo.num_mini_batch=4" "train.total_steps=600000"
+    "train.checkpoint_every=20" "env.t_max=500" "device=cpu" "renderer=auto" "progress=false"
+    "env.num_envs=8" "train.threads=1")
+EVAL=("split=val" "episodes.num_scenes=50" "episodes.per_scene=4" "episodes.n_goals=32" "env.t_max=500"
+      "episodes.dir=$OUT/episodes" "workers=2" "progress=false" "seed=0" "renderer=auto" "camera.width=64" "camera.height=64")
+declare -A FROM=([0]=ppo [1]=ppo_seed1) NAME=([0]=ppo_600k [1]=ppo_600k_seed1) METHOD=([0]="PPO 600k" [1]="PPO 600k seed1")
+mkdir -p "$OUT/logs"
+pids=()
+for s in 0 1; do
+  dst=$OUT/train/${NAME[$s]}
+  if [[ ! -d "$dst" ]]; then  # the 400k run, copied whole (checkpoints, metrics.jsonl, tb/), under a temporary name
+    cp -a "$OUT/train/${FROM[$s]}" "$dst.part" && mv "$dst.part" "$dst"
+  fi
+  ( start=$SECONDS
+    rvn-rl algo=ppo out_dir="$dst" seed="$s" "${RL[@]}" >>"$OUT/logs/train_${NAME[$s]}.log" 2>&1
+    printf 'train_%s\t%s\n' "${NAME[$s]}" "$((SECONDS - start))" >>"$OUT/timings.tsv" ) &
+  pids+=($!)
+done
+for p in "${pids[@]}"; do wait "$p"; done
+for s in 0 1; do
+  start=$SECONDS
+  rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/${NAME[$s]}" "method=${METHOD[$s]}" \
+    out_dir="$OUT/eval/${NAME[$s]}" "${EVAL[@]}" >>"$OUT/logs/eval_${NAME[$s]}.log" 2>&1
+  printf 'eval_%s\t%s\n' "${NAME[$s]}" "$((SECONDS - start))" >>"$OUT/timings.tsv"
+done
+echo "ppo_600k run: done in $SECONDS s"
