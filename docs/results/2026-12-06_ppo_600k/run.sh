@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
-# PPO with half again its env steps: both training seeds' 400k runs (2026-12-06_rl_main's PPO, 2026-12-06_rl_seed1's PPO
-# seed1) continued from their last checkpoint (400,384 env steps) to 600k, side by side, one torch thread each, with
-# jobs/rl_small.sh's SCALE=small settings; PPO has no schedule over train.total_steps (constant lr, clip and entropy
-# weight), so a continued run is the run that a 600k budget would have trained. Copies of the run folders are
-# continued (train/ppo_600k, train/ppo_600k_seed1): the 400k checkpoints stay as they were evaluated. Then rvn-eval on
-# the same 200 val episodes (episode set a7556e2bca0b) as rows "PPO 600k" and "PPO 600k seed1", which the report pools
-# with the 400k rows' "PPO" and "PPO seed1":
+# PPO with half again its env steps: both training seeds' 400k runs (2026-12-06_rl_main's PPO, 2026-12-06_rl_seed1's
+# PPO seed1) continued from their last checkpoint (400,384 env steps) to 600k, side by side, one torch thread each,
+# with jobs/rl_small.sh's SCALE=small settings; PPO has no schedule over train.total_steps (constant lr, clip and
+# entropy weight), so a continued run trains as a 600k budget would have (its envs start fresh episodes at the
+# resume). Copies of the run folders are continued (train/ppo_600k, train/ppo_600k_seed1): the 400k checkpoints stay
+# as they were evaluated. Then rvn-eval on the same 200 val episodes (episode set a7556e2bca0b) as rows "PPO 600k" and
+# "PPO 600k seed1", which the report pools with the 400k rows' "PPO" and "PPO seed1":
 #   bash docs/results/2026-12-06_ppo_600k/run.sh runs/rl_main      # rerun to resume
 # Then: bash docs/results/2026-12-06_ppo_600k/assemble.sh runs/rl_main
 set -euo pipefail
