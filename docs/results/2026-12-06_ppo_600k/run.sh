@@ -24,23 +24,20 @@ EVAL=("split=val" "episodes.num_scenes=50" "episodes.per_scene=4" "episodes.n_go
 if [[ "$FROM_K" == 400 ]]; then declare -A FROM=([0]=ppo [1]=ppo_seed1)
 else declare -A FROM=([0]=ppo_${FROM_K}k [1]=ppo_${FROM_K}k_seed1); fi
 declare -A NAME=([0]=ppo_${TO_K}k [1]=ppo_${TO_K}k_seed1) METHOD=([0]="PPO ${TO_K}k" [1]="PPO ${TO_K}k seed1")
-mkdir -p "$OUT/logs"
+mkdir -p "$OUT/logs" "$OUT/.done"
+source "$(dirname "${BASH_SOURCE[0]}")/../../../jobs/lib.sh"   # step NAME CMD...: skip if done, log, time
 pids=()
 for s in 0 1; do
   dst=$OUT/train/${NAME[$s]}
   if [[ ! -d "$dst" ]]; then  # the FROM_K run, copied whole (checkpoints, metrics.jsonl, tb/), under a temporary name
-    cp -a "$OUT/train/${FROM[$s]}" "$dst.part" && mv "$dst.part" "$dst"
+    rm -rf "$dst.part" && cp -a "$OUT/train/${FROM[$s]}" "$dst.part" && mv "$dst.part" "$dst"
   fi
-  ( start=$SECONDS
-    rvn-rl algo=ppo out_dir="$dst" seed="$s" "${RL[@]}" >>"$OUT/logs/train_${NAME[$s]}.log" 2>&1
-    printf 'train_%s\t%s\n' "${NAME[$s]}" "$((SECONDS - start))" >>"$OUT/timings.tsv" ) &
-  pids+=($!)
+  step "train_${NAME[$s]}" rvn-rl algo=ppo out_dir="$dst" seed="$s" "${RL[@]}" & pids+=($!)
 done
 for p in "${pids[@]}"; do wait "$p"; done
+step_seen "train_${NAME[0]}" "train_${NAME[1]}"   # they ran in subshells
 for s in 0 1; do
-  start=$SECONDS
-  rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/${NAME[$s]}" "method=${METHOD[$s]}" \
-    out_dir="$OUT/eval/${NAME[$s]}" "${EVAL[@]}" >>"$OUT/logs/eval_${NAME[$s]}.log" 2>&1
-  printf 'eval_%s\t%s\n' "${NAME[$s]}" "$((SECONDS - start))" >>"$OUT/timings.tsv"
+  step "eval_${NAME[$s]}" rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/${NAME[$s]}" \
+    "method=${METHOD[$s]}" out_dir="$OUT/eval/${NAME[$s]}" "${EVAL[@]}"
 done
 echo "ppo_${TO_K}k run: done in $SECONDS s"
