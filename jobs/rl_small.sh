@@ -16,6 +16,11 @@
 #                                                # "PPO-Lagrangian stop_far", the same caches and val episodes
 #   TRAIN_SEED=1 TAG=seed1 bash jobs/rl_small.sh runs/rl_small_small    # a second training seed, the same val episodes;
 #                                                # its report holds the first seed's rows too, pairs pooled over both
+#   ALGOS=ppo TOTAL_STEPS=600000 FROM=untagged TAG=600k bash jobs/rl_small.sh runs/rl_small_small
+#                                                # the PPO run trained on to 600k env steps in OUT/train/ppo_600k
+#                                                # (rvn-rl train.continue_from), the 400k run left as it was evaluated:
+#                                                # row "PPO 600k" against "PPO"; a second seed's: TRAIN_SEED=1
+#                                                # FROM=seed1 TAG=600k_seed1, row "PPO 600k seed1", pooled with seed 0's
 #
 # Every knob below can be set in the environment. Rerunning resumes: a step whose exact command
 # already succeeded is skipped (OUT/.done/) unless a step before it ran again (jobs/lib.sh); rvn-rl continues
@@ -62,7 +67,13 @@ esac
 : "${RL_EXTRA:=}"             # more rvn-rl overrides for every training, separated by spaces (e.g.
                               # env.stop_far_is_failure=true); needs TAG where OUT holds the untagged runs already
 : "${TAG:=}"                  # a variant's name: its runs are OUT/train/<algo>_TAG and OUT/eval/<algo>_TAG, its rows
-                              # "<method> TAG", so that it neither resumes nor overwrites the untagged runs
+                              # "<method> TAG", so that it neither resumes nor overwrites the untagged runs; a TAG
+                              # ending in _seed<s> is another training seed of a variant: rows "<method> <variant>
+                              # seed<s>", which the report pools with the variant's "<method> <variant>"
+: "${FROM:=}"                 # the TAG of runs in OUT to continue (untagged: the untagged runs): each algo's run of this
+                              # TAG starts from the latest checkpoint of OUT/train/<algo>_FROM (rvn-rl
+                              # train.continue_from) and trains on to TOTAL_STEPS, which counts that run's steps; that
+                              # run stays as it was evaluated, and the report tests the new rows against its rows
 : "${COMPARE:=}"              # extra "A=B" method pairs to test in the report, separated by ';' (e.g. "DD-PPO=PPO" with
                               # a PPO row among IL_RUNS)
 has() { [[ " $ALGOS " == *" $1 "* ]]; }
@@ -80,14 +91,36 @@ if { has ddppo || has ddppo_depth; } && (( RANKS < 1 || NUM_ENVS % RANKS || NUM_
   echo "rl_small.sh: error: NUM_ENVS=$NUM_ENVS must split over RANKS=$RANKS DD-PPO ranks into at least" \
        "MINI_BATCHES=$MINI_BATCHES envs each" >&2; exit 2
 fi
-if [[ -n "$TAG" && ! "$TAG" =~ ^[A-Za-z0-9_-]+$ ]]; then
-  echo "rl_small.sh: error: TAG='$TAG'; use letters, digits, '_' and '-' (it names run folders)" >&2; exit 2
+for knob in TAG FROM; do
+  if [[ -n "${!knob}" && ! "${!knob}" =~ ^[A-Za-z0-9_-]+$ ]]; then
+    echo "rl_small.sh: error: $knob='${!knob}'; use letters, digits, '_' and '-' (it names run folders)" >&2; exit 2
+  fi
+done
+if [[ "$TAG" == untagged ]]; then
+  echo "rl_small.sh: error: TAG=untagged names the untagged runs (FROM=untagged); choose another TAG" >&2; exit 2
+fi
+if [[ -n "$FROM" && ( -z "$TAG" || "$FROM" == "$TAG" ) ]]; then
+  echo "rl_small.sh: error: FROM=$FROM continues those runs in runs of another TAG; give one (e.g. TAG=${FROM}_more)," \
+       "so that the runs continued stay as they were evaluated" >&2; exit 2
 fi
 read -ra RL_EXTRA_ARGS <<<"$RL_EXTRA"
-SUFFIX=${TAG:+_$TAG}
-# each algo's run folder; the rendered-depth ablation its own, so it neither resumes nor overwrites the predicted-depth run
-declare -A RUN_NAME=([ppo]=ppo$SUFFIX [ppo_lag]=ppo_lag$SUFFIX [ddppo]=ddppo$SUFFIX
-                     [ddppo_depth]=$([[ "$DEPTH_SOURCE" == true ]] && echo ddppo_depth_true || echo ddppo_depth)$SUFFIX)
+# each algo's run folder (run_of ALGO TAG; the untagged run with TAG empty); the rendered-depth ablation its own, so it
+# neither resumes nor overwrites the predicted-depth run
+declare -A BASE_NAME=([ppo]=ppo [ppo_lag]=ppo_lag [ddppo]=ddppo
+                      [ddppo_depth]=$([[ "$DEPTH_SOURCE" == true ]] && echo ddppo_depth_true || echo ddppo_depth))
+run_of() { echo "${BASE_NAME[$1]}${2:+_$2}"; }
+declare -A RUN_NAME=() CONTINUE=()
+FROM_TAG=$([[ "$FROM" == untagged ]] || echo "$FROM")
+for algo in "${!BASE_NAME[@]}"; do RUN_NAME[$algo]=$(run_of "$algo" "$TAG"); done
+for algo in $ALGOS; do  # the runs to continue: each must have saved a checkpoint
+  if [[ -z "$FROM" ]]; then continue; fi
+  src=$OUT/train/$(run_of "$algo" "$FROM_TAG")
+  if [[ ! -f "$src/checkpoints/latest" ]]; then
+    echo "rl_small.sh: error: FROM=$FROM: $src holds no checkpoint to continue; train it first, or give FROM the TAG" \
+         "of runs in $OUT/train" >&2; exit 2
+  fi
+  CONTINUE[$algo]=train.continue_from=$(cd "$src" && pwd)
+done
 if [[ ${#RL_EXTRA_ARGS[@]} -gt 0 && -z "$TAG" ]]; then
   for algo in $ALGOS; do
     if [[ -d "$OUT/train/${RUN_NAME[$algo]}" ]]; then
@@ -117,10 +150,14 @@ EVAL=("split=val" "episodes.num_scenes=$EVAL_SCENES" "episodes.per_scene=$EVAL_E
 echo "rl_small: SCALE=$SCALE OUT=$OUT: $ALGOS, $TOTAL_STEPS env steps each, $BACKBONE, ${IMAGE}x$IMAGE," \
      "$NUM_ENVS envs, $TRAIN_SCENES train scenes; eval $EVAL_SCENES val scenes x $EVAL_EPISODES episodes x $N_GOALS goals"
 SINGLE=("env.num_envs=$NUM_ENVS" "train.threads=$THREADS" "${RL[@]}")
-train_ppo() { step "train_${RUN_NAME[ppo]}" rvn-rl algo=ppo out_dir="$OUT/train/${RUN_NAME[ppo]}" "${SINGLE[@]}"; }
+train_ppo() {
+  step "train_${RUN_NAME[ppo]}" rvn-rl algo=ppo out_dir="$OUT/train/${RUN_NAME[ppo]}" "${SINGLE[@]}" \
+    ${CONTINUE[ppo]+"${CONTINUE[ppo]}"}
+}
 train_ppo_lag() {
   step "train_${RUN_NAME[ppo_lag]}" rvn-rl algo=ppo_lag out_dir="$OUT/train/${RUN_NAME[ppo_lag]}" \
-    algo.cost_limit="$COST_LIMIT" algo.lambda_max="$LAMBDA_MAX" "${SINGLE[@]}"
+    algo.cost_limit="$COST_LIMIT" algo.lambda_max="$LAMBDA_MAX" "${SINGLE[@]}" \
+    ${CONTINUE[ppo_lag]+"${CONTINUE[ppo_lag]}"}
 }
 if [[ "$PARALLEL" == 1 ]] && has ppo && has ppo_lag; then  # the two trainings side by side, THREADS torch threads each
   # each in a process group of its own (set -m), so that when one fails, or the recipe is stopped, the other is stopped
@@ -147,7 +184,7 @@ train_ddppo() {
   local algo=$1 name=$2; shift 2
   step "train_$name" env OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $PY -m torch.distributed.run --standalone \
     --nproc_per_node="$RANKS" -m rvn_rl.cli algo="$algo" out_dir="$OUT/train/$name" "$@" \
-    "env.num_envs=$((NUM_ENVS / RANKS))" "train.threads=1" "${RL[@]}"
+    "env.num_envs=$((NUM_ENVS / RANKS))" "train.threads=1" "${RL[@]}" ${CONTINUE[$algo]+"${CONTINUE[$algo]}"}
 }
 if has ddppo; then train_ddppo ddppo "${RUN_NAME[ddppo]}"; fi
 if has ddppo_depth; then  # the same DD-PPO with depth as a 4th channel
@@ -167,44 +204,67 @@ step eval_goal_follower rvn-eval policy=goal_follower "method=Goal follower" out
 RUNS=("$OUT/eval/goal_follower")
 DEPTH_NAME=$([[ "$DEPTH_SOURCE" == true ]] && echo rendered || echo predicted)
 declare -A METHOD=([ppo]=PPO [ppo_lag]=PPO-Lagrangian [ddppo]=DD-PPO [ddppo_depth]="DD-PPO + $DEPTH_NAME depth")
-# a tagged variant's rows: "<method> TAG"; beside them the untagged runs of the same algos that OUT holds (their
-# rows "<method>"), each variant tested against its own algo's run; with TAG=seed<s> the pairs of untagged rows are
-# tested pooled over the seeds too (rvn_data.benchmark.significance.pooled_pairs)
-declare -A BASE_METHOD=() BASE_RUN=()
-if [[ -n "$TAG" ]]; then
-  for algo in "${!METHOD[@]}"; do
-    BASE_METHOD[$algo]=${METHOD[$algo]}
-    METHOD[$algo]+=" $TAG"
-    base=$OUT/eval/${RUN_NAME[$algo]%"$SUFFIX"}
-    if has "$algo" && [[ -f "$base/metrics.json" ]]; then BASE_RUN[$algo]=$base; fi
-  done
-fi
+# a row's label: "<method>", "<method> TAG", a TAG ending in _seed<s> as "<method> <variant> seed<s>" (the report pools
+# "<A> seed<s>" rows with "<A>": rvn_data.benchmark.significance.pooled_pairs)
+label_of() {
+  local tag=$2
+  if [[ "$tag" =~ ^(.+)_(seed[0-9]+)$ ]]; then tag="${BASH_REMATCH[1]} ${BASH_REMATCH[2]}"; fi
+  echo "${METHOD[$1]}${tag:+ $tag}"
+}
+# TAG=<v>_seed<s> is seed s of variant <v> (its seed-0 runs: TAG=<v>); TAG=seed<s> seed s of the untagged runs
+seed_of() { if [[ "$1" =~ (^|_)seed([0-9]+)$ ]]; then echo "${BASH_REMATCH[2]}"; fi; }
+variant_of() {
+  local s; s=$(seed_of "$1")
+  if [[ -z "$s" ]]; then echo "$1"; else local v=${1%seed"$s"}; echo "${v%_}"; fi
+}
+PAIRS=()
+declare -A SEEN=() ADDED=()
+pair() { if [[ -n "$1" && -z "${SEEN[$1]:-}" ]]; then SEEN[$1]=1; PAIRS+=("$1"); fi; }   # each pair once
+row() {  # row ALGO TAG: that run's evaluation joins the report where OUT holds it (each once); status 1 where not
+  local dir; dir=$OUT/eval/$(run_of "$1" "$2")
+  [[ -f "$dir/metrics.json" ]] || return 1
+  if [[ -z "${ADDED[$dir]:-}" ]]; then ADDED[$dir]=1; RUNS+=("$dir"); fi
+}
 for algo in $ALGOS; do
   EXTRA_EVAL=()
   if [[ $algo == ddppo_depth && "$DEPTH_SOURCE" == true ]]; then EXTRA_EVAL=("env.depth=true"); fi
   name=${RUN_NAME[$algo]}
-  step "eval_$name" rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/$name" "method=${METHOD[$algo]}" \
-    out_dir="$OUT/eval/$name" "${EVAL[@]}" "${EXTRA_EVAL[@]}"
+  step "eval_$name" rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/$name" \
+    "method=$(label_of "$algo" "$TAG")" out_dir="$OUT/eval/$name" "${EVAL[@]}" "${EXTRA_EVAL[@]}"
+  ADDED[$OUT/eval/$name]=1
   RUNS+=("$OUT/eval/$name")
 done
-for algo in $ALGOS; do if [[ -n "${BASE_RUN[$algo]:-}" ]]; then RUNS+=("${BASE_RUN[$algo]}"); fi; done
-for run in $IL_RUNS; do RUNS+=("$run"); done
-PAIRS=()
-declare -A SEEN=()
-pair() { if [[ -n "$1" && -z "${SEEN[$1]:-}" ]]; then SEEN[$1]=1; PAIRS+=("$1"); fi; }   # each pair once
+# a tagged variant's references: the untagged run of its algo (of its seed, for TAG=<v>_seed<s>) and the run it
+# continued (FROM), each tested against it where OUT holds that run's evaluation; for TAG=<v>_seed<s> the seed-0 pair
+# too (variant <v> against the reference's seed-0 run), which the report pools over the seeds
+TAG_SEED=$(seed_of "$TAG") VARIANT=$(variant_of "$TAG")
+PEER=$([[ -n "$VARIANT" && -n "$TAG_SEED" ]] && echo "$VARIANT" || true)   # the variant's seed-0 tag, where it has one
+against() {  # against ALGO REF_TAG
+  if ! row "$1" "$2"; then return; fi
+  pair "$(label_of "$1" "$TAG")=$(label_of "$1" "$2")"
+  if [[ -n "$PEER" && "$(seed_of "$2")" == "$TAG_SEED" ]] && row "$1" "$PEER" && row "$1" "$(variant_of "$2")"; then
+    pair "$(label_of "$1" "$PEER")=$(label_of "$1" "$(variant_of "$2")")"
+  fi
+}
 for algo in $ALGOS; do
-  pair "${METHOD[$algo]}=Goal follower"
-  if [[ -n "${BASE_RUN[$algo]:-}" ]]; then pair "${METHOD[$algo]}=${BASE_METHOD[$algo]}"; fi
+  pair "$(label_of "$algo" "$TAG")=Goal follower"
+  if [[ -n "$TAG" ]]; then
+    against "$algo" "$([[ -n "$PEER" ]] && echo "seed$TAG_SEED" || true)"
+    if [[ -n "$FROM" ]]; then against "$algo" "$FROM_TAG"; fi
+  fi
 done
-between() {  # two algos' rows: this run's, and the untagged runs' where the report holds both
+between() {  # two algos' rows: this run's, and their seed-0 runs' (the untagged ones for TAG=seed<s> or an unseeded TAG)
   if has "$1" && has "$2"; then
-    pair "${METHOD[$1]}=${METHOD[$2]}"
-    if [[ -n "${BASE_RUN[$1]:-}" && -n "${BASE_RUN[$2]:-}" ]]; then pair "${BASE_METHOD[$1]}=${BASE_METHOD[$2]}"; fi
+    pair "$(label_of "$1" "$TAG")=$(label_of "$2" "$TAG")"
+    if [[ -n "$TAG" ]] && row "$1" "$PEER" && row "$2" "$PEER"; then
+      pair "$(label_of "$1" "$PEER")=$(label_of "$2" "$PEER")"
+    fi
   fi
 }
 between ppo_lag ppo
 between ddppo ppo
 between ddppo_depth ddppo
+for run in $IL_RUNS; do RUNS+=("$run"); done
 IFS=';' read -ra EXTRA <<<"$COMPARE"
 for p in "${EXTRA[@]}"; do pair "$p"; done
 $PY -m rvn_data.benchmark.report "${RUNS[@]}" -o "$OUT/report.md" "${PAIRS[@]/#/--compare=}" \

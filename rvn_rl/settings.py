@@ -132,6 +132,12 @@ class TrainSettings:
     checkpoint_every: int = 50  # updates between checkpoints
     keep_checkpoints: int = 2
     resume: bool = True  # continue from out_dir's latest checkpoint (false: refused where out_dir holds checkpoints)
+    # another run's out_dir: a new out_dir starts from its latest checkpoint (weights, optimiser, multiplier, env steps
+    # and updates, metrics.jsonl's rows) and trains on to train.total_steps, which counts the source's steps; the
+    # source stays as it was evaluated. config.yaml's continued_from records the source and the code that trained it;
+    # a rerun resumes the new out_dir's own checkpoints (`rvn_rl.checkpoint.continue_point`). E.g. a 400k run on to
+    # 600k: train.continue_from=runs/rl/ppo train.total_steps=600000 out_dir=runs/rl/ppo_600k
+    continue_from: str | None = None
     threads: int | None = None  # torch intra-op threads (null = torch's setting)
     # fp32 | bf16: the visual encoder (ResNet, compression, visual_fc) under torch.autocast(bfloat16) in rollouts and
     # updates; the LSTM, heads, losses, weights and optimiser stay float32. For GPUs with bf16 (Ampere on) and CPUs

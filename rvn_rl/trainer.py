@@ -1,6 +1,6 @@
 """The rvn-rl training loop. `train` checks the settings, device and out_dir (nothing is written before), then
 builds the `Run` (policy, its learner replica, optimiser, Lagrange multiplier, counters, resumed from out_dir's
-latest checkpoint when there is one), the environments and the log, and runs `_loop`: collect a rollout of
+latest checkpoint when there is one, else from ``train.continue_from``'s), the environments and the log, and runs `_loop`: collect a rollout of
 ``ppo.num_steps`` steps (`rvn_rl.collect`; DD-PPO ranks may stop early once ``ddppo.sync_frac`` of the ranks
 finished), GAE, the Lagrange multiplier for PPO-Lagrangian, a PPO update through a DistributedDataParallel replica
 when distributed, the log row and resumable checkpoints in ``out_dir``. Each setting group goes to where it acts:
@@ -173,7 +173,15 @@ def train(cfg: RLConfig, on_checked=None) -> dict:
             if cfg.cache_dir or os.environ.get(CACHE_ENV):  # else <out_dir>/cache, checked with out_dir
                 check_writable_dir(env_kwargs["cache_dir"], "cache_dir=" if cfg.cache_dir else f"{CACHE_ENV}=")
             resume_from = ck.resume_point(out_dir, policy_kwargs, cfg.algo.name, cfg.train.resume, record["depth"])
-        done = ck.env_steps_of(resume_from) if resume_from is not None else 0
+            own, origin = resume_from, None
+            if cfg.train.continue_from:  # another run's checkpoint, continued in this out_dir
+                resume_from, origin = ck.continue_point(Path(cfg.train.continue_from), out_dir, policy_kwargs,
+                                                        cfg.algo.name, record["depth"], own)
+            done = ck.env_steps_of(resume_from) if resume_from is not None else 0
+            if origin is not None and own is None and done >= cfg.train.total_steps:
+                raise ValueError(f"train.continue_from={origin['out_dir']} stopped at {done} env steps, "
+                                 f"train.total_steps={cfg.train.total_steps}: nothing to train; raise "
+                                 f"train.total_steps above {done}")
         if done >= cfg.train.total_steps:  # a finished run: nothing to collect, nothing written
             said = (f"rvn-rl {cfg.algo.name}: out_dir={out_dir} holds a finished run ({done} env steps, "
                     f"train.total_steps={cfg.train.total_steps}); nothing to train: raise train.total_steps to go on")
@@ -181,7 +189,10 @@ def train(cfg: RLConfig, on_checked=None) -> dict:
         if on_checked is not None:
             on_checked()
         if d.rank == 0:
-            ck.write_config(out_dir, {**record, "policy": policy_kwargs}, resuming=resume_from is not None)
+            ck.write_config(out_dir, {**record, "policy": policy_kwargs}, resuming=own is not None,
+                            continued_from=origin)
+            if origin is not None and own is None:
+                ck.continue_log(Path(origin["out_dir"]), out_dir, done)
         if cfg.train.threads:
             torch.set_num_threads(cfg.train.threads)
         run = Run.start(cfg.seed, policy_kwargs, cfg.ppo, cfg.algo, d, device, resume_from)

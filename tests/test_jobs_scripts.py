@@ -217,6 +217,66 @@ def test_rl_small_reports_a_second_seed_beside_the_first_pooled(tmp_path):
     assert "| RVN (ours) | PPO |" not in text and "| RVN (ours) | PPO seed1 |" not in text
 
 
+
+def test_rl_small_continues_runs_under_a_new_tag(tmp_path):
+    """FROM=<tag> continues the runs of that tag (FROM=untagged: the untagged ones) in runs of TAG, each from its
+    latest checkpoint (rvn-rl train.continue_from); the runs continued keep their folders. A FROM without a TAG of its
+    own, or whose runs saved no checkpoint, is refused before any work."""
+    env = {**rl_small_stubs(tmp_path), "ALGOS": "ppo ppo_lag", "TOTAL_STEPS": "128"}
+    out = tmp_path / "rl"
+    for bad, said in [({"FROM": "untagged"}, "FROM=untagged continues those runs in runs of another TAG"),
+                      ({"FROM": "seed1", "TAG": "seed1"}, "FROM=seed1 continues those runs in runs of another TAG"),
+                      ({"FROM": "a/b", "TAG": "x"}, "FROM='a/b'; use letters"),
+                      ({"TAG": "untagged"}, "TAG=untagged names the untagged runs"),
+                      ({"FROM": "untagged", "TAG": "x"}, f"FROM=untagged: {out}/train/ppo holds no checkpoint")]:
+        proc, calls = run_script("rl_small.sh", tmp_path, str(out), **env, **bad)
+        assert proc.returncode == 2 and said in proc.stderr and not calls, (bad, proc.stderr)
+    for run in ("ppo", "ppo_lag"):
+        (out / "train" / run / "checkpoints").mkdir(parents=True)
+        (out / "train" / run / "checkpoints" / "latest").write_text("ckpt_000000000064\n")
+    proc, calls = run_script("rl_small.sh", tmp_path, str(out), **env, FROM="untagged", TAG="128")
+    assert proc.returncode == 0, proc.stderr
+    trains = {c[1]: c for c in calls if c[0] == "rvn-rl"}
+    for algo in ("ppo", "ppo_lag"):
+        assert f"out_dir={out}/train/{algo}_128" in trains[f"algo={algo}"]
+        assert trains[f"algo={algo}"][-1] == f"train.continue_from={out}/train/{algo}"
+    evals = [c for c in calls if "policy=checkpoint" in c]
+    assert {c[c.index("policy=checkpoint") + 2] for c in evals} == {"method=PPO 128", "method=PPO-Lagrangian 128"}
+    proc, calls = run_script("rl_small.sh", tmp_path, str(out), **env, FROM="untagged", TAG="128")
+    assert proc.returncode == 0 and not [c for c in calls if c[0] != "python"], proc.stderr  # all done: resumed
+
+
+def test_rl_small_reports_a_continued_second_seed_pooled(tmp_path):
+    """TRAIN_SEED=1 FROM=seed1 TAG=600k_seed1: the row "PPO 600k seed1" against the run it continued ("PPO seed1"),
+    and the seed-0 pair ("PPO 600k" against "PPO") pooled over both seeds. The report runs for real on the records of
+    docs/results (PPO at 400k and 600k env steps, training seeds 0 and 1): the pooled figures of
+    2026-12-06_ppo_600k's report."""
+    import shutil
+
+    env = {**rl_small_stubs(tmp_path), "PYTHON": sys.executable, "ALGOS": "ppo"}
+    out = tmp_path / "rl"
+    results = REPO / "docs" / "results"
+    for src, name in [("2026-12-06_rl_main/eval/goal_follower_stoprule", "goal_follower"),
+                      ("2026-12-06_rl_main/eval/ppo", "ppo"), ("2026-12-06_rl_seed1/eval/ppo_seed1", "ppo_seed1"),
+                      ("2026-12-06_ppo_600k/eval/ppo_600k", "ppo_600k"),
+                      ("2026-12-06_ppo_600k/eval/ppo_600k_seed1", "ppo_600k_seed1")]:
+        shutil.copytree(results / src, out / "eval" / name)  # the stub rvn-eval leaves them as they are
+    (out / "train" / "ppo_seed1" / "checkpoints").mkdir(parents=True)
+    (out / "train" / "ppo_seed1" / "checkpoints" / "latest").write_text("ckpt_000000400384\n")
+    proc, calls = run_script("rl_small.sh", tmp_path, str(out), **env, TRAIN_SEED="1", FROM="seed1",
+                             TAG="600k_seed1")
+    assert proc.returncode == 0, proc.stderr
+    [train] = [c for c in calls if c[0] == "rvn-rl"]
+    assert f"out_dir={out}/train/ppo_600k_seed1" in train and "seed=1" in train
+    assert train[-1] == f"train.continue_from={out}/train/ppo_seed1"
+    text = (out / "report.md").read_text()
+    for label in ("PPO", "PPO seed1", "PPO 600k", "PPO 600k seed1", "Goal follower"):
+        assert f"| RVN (ours) | {label} |" in text, label
+    assert "| PPO 600k seed1 | PPO seed1 | 0.230 (46/200) | 0.285 (57/200) |" in text
+    pooled = text[text.index("pooled over training seeds"):]
+    assert "| PPO 600k | PPO | unlabelled + seed1 | 400 | 0.225 | 0.235 | 41–45, 0.75 |" in pooled
+    assert "0.66 [0.57, 0.78], <1e-4 |" in pooled
+
 def slurm_stubs(tmp_path: Path) -> None:
     """Stubs for the Slurm recipes: sbatch (fails the job named $FAIL_JOB, given as --job-name= or in the script on
     stdin), rvn-gen (a multirun exits with $MULTIRUN_STATUS; merge writes the train split the recipe reads), rvn-eval,

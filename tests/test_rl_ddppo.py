@@ -75,6 +75,18 @@ def test_rl_small_recipe_smoke(tmp_path):
     assert len(list((out / "cache" / "goal_pools").rglob("*.npz"))) == 2
     assert len(list((out / "cache" / "navmesh").rglob("*.npz"))) == 3
     assert not list(out.glob("*/*/cache")), "a run kept caches of its own"
+    # FROM=untagged TAG=more: PPO trained on from its last checkpoint (64 env steps) to 128 in train/ppo_more, the run
+    # it continued left as it was, the new row tested against it
+    before = (out / "train" / "ppo" / "checkpoints" / "latest").read_text()
+    proc = subprocess.run(["bash", str(script), str(out)], capture_output=True, text=True, timeout=900,
+                          cwd=script.parents[1], env={**env, "ALGOS": "ppo", "FROM": "untagged", "TAG": "more",
+                                                      "TOTAL_STEPS": "128"})
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-3000:]
+    record = yaml.safe_load((out / "train" / "ppo_more" / "config.yaml").read_text())["continued_from"]
+    assert record["out_dir"] == str((out / "train" / "ppo").resolve()) and record["env_steps"] == 64
+    assert (out / "train" / "ppo_more" / "checkpoints" / "latest").read_text().strip() == "ckpt_000000000128"
+    assert (out / "train" / "ppo" / "checkpoints" / "latest").read_text() == before
+    assert "| PPO more | PPO |" in (out / "report.md").read_text()
 
 
 def test_rl_small_keeps_the_rendered_depth_ablation_apart(tmp_path):

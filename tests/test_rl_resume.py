@@ -114,3 +114,54 @@ def test_a_resumed_run_steps_by_its_own_learning_rates(tmp_path):
     saved, again = run.optimizer.state_dict()["state"], resumed.optimizer.state_dict()["state"]
     assert saved.keys() == again.keys() and all(torch.equal(saved[k]["exp_avg"], again[k]["exp_avg"]) for k in saved)
     assert resumed.lagrange.optimizer.state_dict()["state"][0]["step"] == 1
+
+
+@pytest.mark.slow
+def test_a_run_continued_from_another_trains_on_in_its_own_out_dir(finished, tmp_path):
+    """train.continue_from: a new out_dir starts from another run's latest checkpoint and trains on as that run would
+    have in place (the same weights, to the bit), its log holding the source's rows first; the source is left as it
+    was. A rerun resumes the new out_dir's own checkpoints, with or without the setting; config.yaml records where it
+    started. Bad sources and budgets are refused before anything is written."""
+    import json
+
+    import yaml
+    from safetensors.torch import load_file
+
+    from rvn_data.cli.common import ConfigError
+
+    cache = finished.parent / "cache"
+    source = snapshot(finished)
+    in_place = copy(finished, tmp_path / "a")
+    train(in_place, "train.total_steps=48", cache=cache)
+    out = tmp_path / "b" / "ppo_48"
+    train(out, "train.total_steps=48", f"train.continue_from={finished}", cache=cache)
+    assert snapshot(finished) == source
+    ckpt = "checkpoints/ckpt_000000000048/weights.safetensors"
+    a, b = load_file(str(in_place / ckpt)), load_file(str(out / ckpt))
+    assert a.keys() == b.keys() and all(a[k].equal(b[k]) for k in a)
+    assert [json.loads(line)["env_steps"] for line in (out / "metrics.jsonl").read_text().splitlines()] == [16, 32, 48]
+    record = yaml.safe_load((out / "config.yaml").read_text())["continued_from"]
+    assert record["out_dir"] == str(finished) and record["env_steps"] == 32 and "commit" in str(record["provenance"])
+    train(out, "train.total_steps=64", cache=cache)  # resumed without the setting: the record stays
+    train(out, "train.total_steps=80", f"train.continue_from={finished}", cache=cache)
+    assert [json.loads(line)["env_steps"] for line in (out / "metrics.jsonl").read_text().splitlines()] == \
+        [16, 32, 48, 64, 80]
+    assert yaml.safe_load((out / "config.yaml").read_text())["continued_from"] == record
+    fresh = tmp_path / "c"
+    for source_dir, total, said in [(out, 96, f"train.continue_from={out} is out_dir itself"),
+                                    (finished, 32, f"train.continue_from={finished} stopped at 32 env steps, "
+                                                   "train.total_steps=32: nothing to train; raise train.total_steps "
+                                                   "above 32"),
+                                    (tmp_path / "none", 96, f"train.continue_from={tmp_path / 'none'} is not a "
+                                                            "directory"),
+                                    (cache, 96, f"train.continue_from: {cache} is not an rvn-rl checkpoint directory")]:
+        target = out if source_dir == out else fresh
+        before = snapshot(out)
+        with pytest.raises(ConfigError) as err:
+            train(target, f"train.total_steps={total}", f"train.continue_from={source_dir}", cache=cache)
+        assert said in str(err.value)
+        assert not fresh.exists() and snapshot(out) == before
+    with pytest.raises(ConfigError) as err:  # a run of its own in out_dir, not started from the source
+        train(in_place, "train.total_steps=96", f"train.continue_from={finished}", cache=cache)
+    assert str(err.value).startswith(f"out_dir={in_place} holds a run that started afresh, not from "
+                                     f"train.continue_from={finished}")
