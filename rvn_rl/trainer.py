@@ -1,13 +1,13 @@
-"""The rvn-rl training loop. `train` checks the settings, device and out_dir (nothing is written before), then
-builds the `Run` (policy, its learner replica, optimiser, Lagrange multiplier, counters, resumed from out_dir's
-latest checkpoint when there is one, else from ``train.continue_from``'s), the environments and the log, and runs `_loop`: collect a rollout of
-``ppo.num_steps`` steps (`rvn_rl.collect`; DD-PPO ranks may stop early once ``ddppo.sync_frac`` of the ranks
-finished), GAE, the Lagrange multiplier for PPO-Lagrangian, a PPO update through a DistributedDataParallel replica
-when distributed, the log row and resumable checkpoints in ``out_dir``. Each setting group goes to where it acts:
-``ppo`` to the rollout and the update, ``env`` to the environments, ``algo`` to the multiplier, ``train`` to the
-loop's length, checkpoints, the visual trunk's precision and compilation, ``train.overlap`` (each update in a learner
-thread while a copy of the policy collects the next rollout: `rvn_rl.overlap`), ``train.graph_act`` (`rvn_rl.graphed`)
-and ``train.double_buffered`` (`rvn_rl.collect`)."""
+"""The rvn-rl training loop. `train` checks the settings, device and out_dir (nothing is written before), then builds
+the `Run` (policy, its learner replica, optimiser, Lagrange multiplier, counters, resumed from out_dir's latest
+checkpoint when there is one, else from ``train.continue_from``'s), the environments and the log, and runs `_loop`:
+collect a rollout of ``ppo.num_steps`` steps (`rvn_rl.collect`; DD-PPO ranks may stop early once ``ddppo.sync_frac``
+of the ranks finished), GAE, the Lagrange multiplier for PPO-Lagrangian, a PPO update through a
+DistributedDataParallel replica when distributed, the log row and resumable checkpoints in ``out_dir``. Each setting
+group goes to where it acts: ``ppo`` to the rollout and the update, ``env`` to the environments, ``algo`` to the
+multiplier, ``train`` to the loop's length, checkpoints, the visual trunk's precision and compilation,
+``train.overlap`` (each update in a learner thread while a copy of the policy collects the next rollout:
+`rvn_rl.overlap`), ``train.graph_act`` (`rvn_rl.graphed`) and ``train.double_buffered`` (`rvn_rl.collect`)."""
 from __future__ import annotations
 
 import logging
