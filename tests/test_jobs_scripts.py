@@ -128,6 +128,17 @@ def rl_small_stubs(tmp_path: Path) -> dict[str, str]:
     return {"PYTHON": "python", "SCALE": "tiny"}
 
 
+
+def recorded_evals(out: Path, runs: list[str]) -> None:
+    """Evaluations recorded in docs/results (``<folder after 2026-12-06_>/eval/<run>``) copied into ``out/eval/<run>``
+    beside the blind goal follower's, on the same 200 val episodes: the stub rvn-eval leaves them as they are."""
+    import shutil
+
+    results = REPO / "docs" / "results"
+    for run in ["rl_main/eval/goal_follower_stoprule", *runs]:
+        name = "goal_follower" if run.endswith("goal_follower_stoprule") else Path(run).name
+        shutil.copytree(results / f"2026-12-06_{run}", out / "eval" / name)
+
 def test_rl_small_evaluates_again_after_a_training_ran(tmp_path):
     """rl_small.sh trains PPO and PPO-Lagrangian in background subshells: a training that ran there must make the
     evaluations after it run again too."""
@@ -188,16 +199,10 @@ def test_rl_small_reports_a_second_seed_beside_the_first_pooled(tmp_path):
     """With TAG, the untagged runs of the same algos that OUT holds join the report: each variant is tested against
     its own algo's run, and with TAG=seed1 the untagged pair again, pooled over both seeds. The report runs for real on
     the records of docs/results (PPO and PPO-Lagrangian, training seeds 0 and 1, the same 200 val episodes)."""
-    import shutil
-
     env = {**rl_small_stubs(tmp_path), "PYTHON": sys.executable}
     out = tmp_path / "rl"
-    results = REPO / "docs" / "results"
-    for src, name in [("2026-12-06_rl_main/eval/goal_follower_stoprule", "goal_follower"),
-                      ("2026-12-06_rl_main/eval/ppo", "ppo"), ("2026-12-06_rl_lag_ddppo/eval/ppo_lag", "ppo_lag"),
-                      ("2026-12-06_rl_seed1/eval/ppo_seed1", "ppo_seed1"),
-                      ("2026-12-06_rl_seed1/eval/ppo_lag_seed1", "ppo_lag_seed1")]:
-        shutil.copytree(results / src, out / "eval" / name)  # the stub rvn-eval leaves them as they are
+    recorded_evals(out, ["rl_main/eval/ppo", "rl_lag_ddppo/eval/ppo_lag", "rl_seed1/eval/ppo_seed1",
+                         "rl_seed1/eval/ppo_lag_seed1"])
     proc, _ = run_script("rl_small.sh", tmp_path, str(out), **env, TRAIN_SEED="1", TAG="seed1")
     assert proc.returncode == 0, proc.stderr
     text = (out / "report.md").read_text()
@@ -251,16 +256,10 @@ def test_rl_small_reports_a_continued_second_seed_pooled(tmp_path):
     and the seed-0 pair ("PPO 600k" against "PPO") pooled over both seeds. The report runs for real on the records of
     docs/results (PPO at 400k and 600k env steps, training seeds 0 and 1): the pooled figures of
     2026-12-06_ppo_600k's report."""
-    import shutil
-
     env = {**rl_small_stubs(tmp_path), "PYTHON": sys.executable, "ALGOS": "ppo"}
     out = tmp_path / "rl"
-    results = REPO / "docs" / "results"
-    for src, name in [("2026-12-06_rl_main/eval/goal_follower_stoprule", "goal_follower"),
-                      ("2026-12-06_rl_main/eval/ppo", "ppo"), ("2026-12-06_rl_seed1/eval/ppo_seed1", "ppo_seed1"),
-                      ("2026-12-06_ppo_600k/eval/ppo_600k", "ppo_600k"),
-                      ("2026-12-06_ppo_600k/eval/ppo_600k_seed1", "ppo_600k_seed1")]:
-        shutil.copytree(results / src, out / "eval" / name)  # the stub rvn-eval leaves them as they are
+    recorded_evals(out, ["rl_main/eval/ppo", "rl_seed1/eval/ppo_seed1", "ppo_600k/eval/ppo_600k",
+                         "ppo_600k/eval/ppo_600k_seed1"])
     (out / "train" / "ppo_seed1" / "checkpoints").mkdir(parents=True)
     (out / "train" / "ppo_seed1" / "checkpoints" / "latest").write_text("ckpt_000000400384\n")
     proc, calls = run_script("rl_small.sh", tmp_path, str(out), **env, TRAIN_SEED="1", FROM="seed1",
