@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Copies run.sh's records into this folder and writes report.md: PPO at 600k (and 800k, where run) env steps with
+# Copies run.sh's records into this folder and writes report.md: PPO at 600k (800k, 1000k, where run) env steps with
 # training seeds 0 and 1 beside the same runs at 400k (2026-12-06_rl_main's PPO, 2026-12-06_rl_seed1's PPO seed1),
 # NoMaD-PointGoal of both seeds and the reference rows, paired on the same 200 val episodes (episode set
 # a7556e2bca0b); a pair whose rows both have a "seed1" row is also tested pooled over the seeds (400 paired episodes):
@@ -12,7 +12,7 @@ for d in ../2026-12-05_escape/eval/{random,nomad_pointgoal} ../2026-12-05_neg_se
          ../2026-12-06_rl_main/eval/{goal_follower_stoprule,trajectory_oracle,ppo} ../2026-12-06_rl_seed1/eval/ppo_seed1; do
   [ -f "$HERE/$d/metrics.json" ] && DIRS+=("$d")
 done
-for n in ppo_600k ppo_600k_seed1 ppo_800k ppo_800k_seed1; do  # 800k: run.sh with FROM_K=600 TO_K=800
+for n in ppo_{600,800,1000}k{,_seed1}; do  # 800k: run.sh with FROM_K=600 TO_K=800; 1000k: FROM_K=800 TO_K=1000
   d=$RUN/eval/$n
   [ -f "$d/metrics.json" ] || { echo "skip $n (no metrics.json: not run or unfinished)"; continue; }
   mkdir -p "$HERE/eval/$n" "$HERE/train/$n"
@@ -20,12 +20,14 @@ for n in ppo_600k ppo_600k_seed1 ppo_800k ppo_800k_seed1; do  # 800k: run.sh wit
   cp "$RUN"/train/$n/{config.yaml,metrics.jsonl,learning_curve.png} "$HERE/train/$n/"
   DIRS+=("eval/$n")
 done
-grep -P "^(train|eval)_ppo_[68]00k(_seed1)?\t" "$RUN/timings.tsv" > "$HERE/timings.tsv" || true
+grep -P "^(train|eval)_ppo_(600|800|1000)k(_seed1)?\t" "$RUN/timings.tsv" > "$HERE/timings.tsv" || true
 cd "$HERE"
 CMP=("PPO 600k=PPO" "PPO 600k seed1=PPO seed1" "NoMaD-PointGoal=PPO 600k" "NoMaD-PointGoal seed1=PPO 600k seed1"
      "PPO 600k=Goal follower" "PPO 600k seed1=Goal follower" "PPO 800k=PPO 600k" "PPO 800k seed1=PPO 600k seed1"
      "PPO 800k=PPO" "PPO 800k seed1=PPO seed1" "NoMaD-PointGoal=PPO 800k" "NoMaD-PointGoal seed1=PPO 800k seed1"
-     "PPO 800k=Goal follower" "PPO 800k seed1=Goal follower")
+     "PPO 800k=Goal follower" "PPO 800k seed1=Goal follower" "PPO 1000k=PPO 800k" "PPO 1000k seed1=PPO 800k seed1"
+     "PPO 1000k=PPO" "PPO 1000k seed1=PPO seed1" "NoMaD-PointGoal=PPO 1000k" "NoMaD-PointGoal seed1=PPO 1000k seed1"
+     "PPO 1000k=Goal follower" "PPO 1000k seed1=Goal follower")
 python -m rvn_data.benchmark.report "${DIRS[@]}" -o report.md \
-  --title "PPO at 600k and 800k env steps (both training seeds' 400k runs continued) beside the same runs at 400k, NoMaD-PointGoal and the references (same 200 val episodes)" \
+  --title "PPO at 600k, 800k and 1000k env steps (both training seeds' 400k runs continued) beside the same runs at 400k, NoMaD-PointGoal and the references (same 200 val episodes)" \
   --compare-present "${CMP[@]/#/--compare=}"
