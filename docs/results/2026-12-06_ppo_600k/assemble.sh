@@ -20,14 +20,22 @@ for n in ppo_{600,800,1000}k{,_seed1}; do  # 800k: run.sh with FROM_K=600 TO_K=8
   cp "$RUN"/train/$n/{config.yaml,metrics.jsonl,learning_curve.png} "$HERE/train/$n/"
   DIRS+=("eval/$n")
 done
-grep -P "^(train|eval)_ppo_(600|800|1000)k(_seed1)?\t" "$RUN/timings.tsv" > "$HERE/timings.tsv" || true
+for n in ppo_{800,1000}k{,_seed1}_prev; do  # neighbours.sh: the other kept checkpoint of each 800k and 1000k run
+  d=$RUN/eval/$n
+  [ -f "$d/metrics.json" ] || { echo "skip $n (no metrics.json: not run or unfinished)"; continue; }
+  mkdir -p "$HERE/eval/$n"
+  cp "$d"/{metrics.json,episodes.jsonl,run.json,rvn-eval.log} "$HERE/eval/$n/"
+  DIRS+=("eval/$n")
+done
+grep -P "^(train|eval)_ppo_(600|800|1000)k(_seed1)?(_prev)?\t" "$RUN/timings.tsv" > "$HERE/timings.tsv" || true
 cd "$HERE"
 CMP=("PPO 600k=PPO" "PPO 600k seed1=PPO seed1" "NoMaD-PointGoal=PPO 600k" "NoMaD-PointGoal seed1=PPO 600k seed1"
      "PPO 600k=Goal follower" "PPO 600k seed1=Goal follower" "PPO 800k=PPO 600k" "PPO 800k seed1=PPO 600k seed1"
      "PPO 800k=PPO" "PPO 800k seed1=PPO seed1" "NoMaD-PointGoal=PPO 800k" "NoMaD-PointGoal seed1=PPO 800k seed1"
      "PPO 800k=Goal follower" "PPO 800k seed1=Goal follower" "PPO 1000k=PPO 800k" "PPO 1000k seed1=PPO 800k seed1"
      "PPO 1000k=PPO" "PPO 1000k seed1=PPO seed1" "NoMaD-PointGoal=PPO 1000k" "NoMaD-PointGoal seed1=PPO 1000k seed1"
-     "PPO 1000k=Goal follower" "PPO 1000k seed1=Goal follower")
+     "PPO 1000k=Goal follower" "PPO 1000k seed1=Goal follower" "PPO 800k=PPO 799k" "PPO 800k seed1=PPO 799k seed1"
+     "PPO 1000k=PPO 993k" "PPO 1000k seed1=PPO 993k seed1" "PPO 993k=PPO 799k" "PPO 993k seed1=PPO 799k seed1")
 python -m rvn_data.benchmark.report "${DIRS[@]}" -o report.md \
   --title "PPO at 600k, 800k and 1000k env steps (both training seeds' 400k runs continued) beside the same runs at 400k, NoMaD-PointGoal and the references (same 200 val episodes)" \
   --compare-present "${CMP[@]/#/--compare=}"
