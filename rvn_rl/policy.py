@@ -16,7 +16,7 @@ from rvn_data.embodiment import embodiment_of
 from . import checkpoint as ck
 from .model import PointNavResNetPolicy
 
-POLICY_KEYS = {"deterministic", "threads", "depth_model_path"}
+POLICY_KEYS = {"deterministic", "threads", "depth_model_path", "env_steps"}
 
 
 class RLPolicy:
@@ -77,7 +77,9 @@ def load_rl_policy(checkpoint_path: str | Path, device: str | torch.device = "cp
                    **overrides) -> RLPolicy:
     """`RLPolicy` from an rvn-rl ``out_dir``; keywords: ``deterministic`` (argmax instead of
     sampling, default false as habitat-baselines' evaluation), ``threads``, ``depth_model_path``
-    (another frozen depth model than the training run's). ``model`` (optional) asserts the algo."""
+    (another frozen depth model than the training run's), ``env_steps`` (a kept checkpoint other than the
+    latest: ``checkpoints/ckpt_<env_steps>``, e.g. to evaluate a run over its last few). ``model`` (optional)
+    asserts the algo."""
     from rvn_il.policies.loader import resolve_device
 
     out_dir = Path(checkpoint_path).expanduser()
@@ -90,6 +92,13 @@ def load_rl_policy(checkpoint_path: str | Path, device: str | torch.device = "cp
     ckpt = ck.latest(out_dir)
     if ckpt is None:
         raise ValueError(f"no checkpoint in {out_dir}/checkpoints: rvn-rl has not saved one yet")
+    if overrides.get("env_steps") is not None:  # a kept checkpoint other than the latest
+        ckpt = ckpt.parent / f"ckpt_{int(overrides['env_steps']):012d}"
+        if not (ckpt / "weights.safetensors").is_file():
+            kept = sorted(ck.env_steps_of(p) for p in ckpt.parent.glob("ckpt_*")
+                          if (p / "weights.safetensors").is_file())
+            raise ValueError(f"{out_dir} keeps no checkpoint of {overrides['env_steps']} env steps (policy.env_steps); "
+                             f"it keeps {', '.join(map(str, kept))}")
     dev = resolve_device(device, "policy.device")
     net = PointNavResNetPolicy(**cfg["policy"])
     ck.load_weights(net, ckpt)

@@ -165,3 +165,35 @@ def test_a_run_continued_from_another_trains_on_in_its_own_out_dir(finished, tmp
         train(in_place, "train.total_steps=96", f"train.continue_from={finished}", cache=cache)
     assert str(err.value).startswith(f"out_dir={in_place} holds a run that started afresh, not from "
                                      f"train.continue_from={finished}")
+
+
+@pytest.mark.slow
+def test_a_kept_checkpoint_other_than_the_latest_is_evaluated(finished, tmp_path):
+    """policy.env_steps: rvn-eval runs a kept checkpoint other than the run's latest (its weights, and its env steps in
+    the run's identity); one the run does not keep is refused in one line naming those it keeps, nothing written."""
+    import json
+    import os
+    import subprocess
+
+    import torch
+    from safetensors.torch import load_file
+
+    from rvn_rl.policy import load_rl_policy
+
+    for steps, name in [(16, "ckpt_000000000016"), (None, "ckpt_000000000032")]:
+        net = load_rl_policy(finished, **({"env_steps": steps} if steps else {})).net
+        saved = load_file(str(finished / "checkpoints" / name / "weights.safetensors"))
+        assert all(torch.equal(v, saved[k]) for k, v in net.state_dict().items())
+    args = ["rvn-eval", "policy=checkpoint", f"policy.checkpoint_path={finished}", "split=val", "episodes.num_scenes=1",
+            "episodes.per_scene=1", "episodes.n_goals=1", "env.t_max=10", "camera.width=32", "camera.height=32",
+            "progress=false", "renderer=raycast", f"episodes.dir={tmp_path / 'episodes'}"]
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    proc = subprocess.run([*args, "+policy.env_steps=16", f"out_dir={tmp_path / 'ev'}"], capture_output=True, text=True,
+                          env=env, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert json.loads((tmp_path / "ev" / "run.json").read_text())["policy"]["env_steps"] == 16
+    proc = subprocess.run([*args, "+policy.env_steps=8", f"out_dir={tmp_path / 'bad'}"], capture_output=True,
+                          text=True, env=env, timeout=600)
+    assert proc.returncode != 0 and f"{finished} keeps no checkpoint of 8 env steps (policy.env_steps); it keeps " \
+        "16, 32" in proc.stderr, proc.stderr[-2000:]
+    assert not (tmp_path / "bad").exists()
