@@ -81,7 +81,7 @@ def continue_point(source: Path, out_dir: Path, policy: dict, algo: str, depth: 
     if not source.is_dir():
         raise ValueError(f"train.continue_from={source} is not a directory; give the out_dir of an rvn-rl run")
     try:
-        read_rl_config(source)
+        made = read_rl_config(source)
     except ValueError as e:
         raise ValueError(f"train.continue_from: {e}") from None
     resume_point(source, policy, algo, True, depth, named="train.continue_from")
@@ -96,7 +96,6 @@ def continue_point(source: Path, out_dir: Path, policy: dict, algo: str, depth: 
             raise ValueError(f"out_dir={out_dir} holds a run that started {said}, not from train.continue_from="
                              f"{source}; choose a new out_dir, or leave train.continue_from unset to resume that run")
         return resume_from, started
-    made = yaml.safe_load((source / "config.yaml").read_text())
     return ckpt, {"out_dir": str(source), "checkpoint": ckpt.name, "env_steps": env_steps_of(ckpt),
                   **{k: made[k] for k in ("provenance", "resumed_by", "continued_from") if made.get(k)}}
 
@@ -135,14 +134,19 @@ def latest(out_dir: str | Path) -> Path | None:
     return ckpt if (ckpt / "weights.safetensors").is_file() else None
 
 
+def checkpoint_at(out_dir: Path, env_steps: int) -> Path:
+    """The folder of ``out_dir``'s checkpoint after ``env_steps`` env steps (whether or not it is kept)."""
+    return out_dir / "checkpoints" / f"ckpt_{env_steps:012d}"
+
+
 def env_steps_of(ckpt: Path) -> int:
     """The env steps over all ranks after which ``ckpt`` was saved (its name: ckpt_<env steps>)."""
     return int(ckpt.name.removeprefix("ckpt_"))
 
 
 def save(out_dir: Path, env_steps: int, model: torch.nn.Module, state: dict, keep: int = 2) -> Path:
-    root = out_dir / "checkpoints"
-    ckpt = root / f"ckpt_{env_steps:012d}"
+    ckpt = checkpoint_at(out_dir, env_steps)
+    root = ckpt.parent
     ckpt.mkdir(parents=True, exist_ok=True)
     weights = {k: v.detach().cpu().contiguous() for k, v in model.state_dict().items()}
     with atomic_path(ckpt / "weights.safetensors") as tmp:

@@ -93,7 +93,7 @@ def load_rl_policy(checkpoint_path: str | Path, device: str | torch.device = "cp
     if ckpt is None:
         raise ValueError(f"no checkpoint in {out_dir}/checkpoints: rvn-rl has not saved one yet")
     if overrides.get("env_steps") is not None:  # a kept checkpoint other than the latest
-        ckpt = ckpt.parent / f"ckpt_{int(overrides['env_steps']):012d}"
+        ckpt = ck.checkpoint_at(out_dir, int(overrides["env_steps"]))
         if not (ckpt / "weights.safetensors").is_file():
             kept = sorted(ck.env_steps_of(p) for p in ckpt.parent.glob("ckpt_*")
                           if (p / "weights.safetensors").is_file())
