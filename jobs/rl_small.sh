@@ -21,6 +21,10 @@
 #                                                # (rvn-rl train.continue_from), the 400k run left as it was evaluated:
 #                                                # row "PPO 600k" against "PPO"; a second seed's: TRAIN_SEED=1
 #                                                # FROM=seed1 TAG=600k_seed1, row "PPO 600k seed1", pooled with seed 0's
+#   EVAL_CHECKPOINTS=2 bash jobs/rl_small.sh runs/rl_small_small
+#                                                # each run's row also at its checkpoint before the latest: rows
+#                                                # "PPO ckpt<env steps>" (OUT/eval/ppo_ckpt<env steps>), and the report
+#                                                # reads each row over its checkpoints (their mean, tested pair by pair)
 #
 # Every knob below can be set in the environment. Rerunning resumes: a step whose exact command
 # already succeeded is skipped (OUT/.done/) unless a step before it ran again (jobs/lib.sh); rvn-rl continues
@@ -63,7 +67,8 @@ esac
                               # same val episodes is TRAIN_SEED=1 TAG=seed1 in the same OUT
 : "${DEVICE:=cpu}"
 : "${RENDERER:=auto}"
-: "${IL_RUNS:=}"              # rvn-eval out_dirs of other rows (same val episodes) to put in the report
+: "${IL_RUNS:=}"              # rvn-eval out_dirs of other rows (same val episodes) to put in the report, each with
+                              # its evaluations of other checkpoints beside it (<out_dir>_ckpt<env steps>)
 : "${RL_EXTRA:=}"             # more rvn-rl overrides for every training, separated by spaces (e.g.
                               # env.stop_far_is_failure=true); needs TAG where OUT holds the untagged runs already
 : "${TAG:=}"                  # a variant's name: its runs are OUT/train/<algo>_TAG and OUT/eval/<algo>_TAG, its rows
@@ -74,6 +79,11 @@ esac
                               # TAG starts from the latest checkpoint of OUT/train/<algo>_FROM (rvn-rl
                               # train.continue_from) and trains on to TOTAL_STEPS, which counts that run's steps; that
                               # run stays as it was evaluated, and the report tests the new rows against its rows
+: "${EVAL_CHECKPOINTS:=1}"     # evaluate each run at its last EVAL_CHECKPOINTS kept checkpoints (rvn-eval
+                              # +policy.env_steps): the latest as the row, the others as rows "<row> ckpt<env steps>"
+                              # that the report reads the row over (rvn_data.benchmark.significance.over_checkpoints),
+                              # since at this scale neighbouring checkpoints evaluate as far apart as budgets do; above 2,
+                              # rvn-rl keeps as many (train.keep_checkpoints; a run trained before keeps 2)
 : "${COMPARE:=}"              # extra "A=B" method pairs to test in the report, separated by ';' (e.g. "DD-PPO=PPO" with
                               # a PPO row among IL_RUNS)
 has() { [[ " $ALGOS " == *" $1 "* ]]; }
@@ -96,6 +106,14 @@ for knob in TAG FROM; do
     echo "rl_small.sh: error: $knob='${!knob}'; use letters, digits, '_' and '-' (it names run folders)" >&2; exit 2
   fi
 done
+if [[ ! "$EVAL_CHECKPOINTS" =~ ^[1-9][0-9]*$ ]]; then
+  echo "rl_small.sh: error: EVAL_CHECKPOINTS=$EVAL_CHECKPOINTS; give how many of each run's last checkpoints to evaluate (1: the latest)" >&2
+  exit 2
+fi
+if [[ "$TAG" =~ (^|_)ckpt[0-9]+$ ]]; then
+  echo "rl_small.sh: error: TAG=$TAG ends like an evaluation of another checkpoint (<run>_ckpt<env steps>); choose another TAG" >&2
+  exit 2
+fi
 if [[ "$TAG" == untagged ]]; then
   echo "rl_small.sh: error: TAG=untagged names the untagged runs (FROM=untagged); choose another TAG" >&2; exit 2
 fi
@@ -144,6 +162,7 @@ RL=("scale=small" "env.size=$IMAGE" "env.num_scenes=$TRAIN_SCENES" "env.workers=
     "env.goal_pool=$GOAL_POOL" "ppo.num_steps=$ROLLOUT" "ppo.num_mini_batch=$MINI_BATCHES" "train.total_steps=$TOTAL_STEPS"
     "train.checkpoint_every=20" "env.t_max=$T_MAX" "seed=$TRAIN_SEED" "device=$DEVICE" "renderer=$RENDERER" "progress=false"
     "${RL_EXTRA_ARGS[@]}")
+if (( EVAL_CHECKPOINTS > 2 )); then RL+=("train.keep_checkpoints=$EVAL_CHECKPOINTS"); fi
 EVAL=("split=val" "episodes.num_scenes=$EVAL_SCENES" "episodes.per_scene=$EVAL_EPISODES" "episodes.n_goals=$N_GOALS"
       "env.t_max=$T_MAX" "episodes.dir=$OUT/episodes" "workers=$WORKERS" "progress=false" "seed=$SEED" "renderer=$RENDERER"
       "${CAMERA[@]}")
@@ -220,19 +239,39 @@ variant_of() {
 PAIRS=()
 declare -A SEEN=() ADDED=()
 pair() { if [[ -n "$1" && -z "${SEEN[$1]:-}" ]]; then SEEN[$1]=1; PAIRS+=("$1"); fi; }   # each pair once
-row() {  # row ALGO TAG: that run's evaluation joins the report where OUT holds it (each once); status 1 where not
+add_run() {  # add_run DIR: an evaluation joins the report (each once), with its evaluations of other checkpoints
+  local dir=$1 other
+  if [[ -n "${ADDED[$dir]:-}" ]]; then return; fi
+  ADDED[$dir]=1; RUNS+=("$dir")
+  for other in "${dir}"_ckpt*; do
+    if [[ "$other" =~ _ckpt[0-9]+$ && -f "$other/metrics.json" ]]; then ADDED[$other]=1; RUNS+=("$other"); fi
+  done
+}
+row() {  # row ALGO TAG: that run's evaluation joins the report where OUT holds it; status 1 where not
   local dir; dir=$OUT/eval/$(run_of "$1" "$2")
   [[ -f "$dir/metrics.json" ]] || return 1
-  if [[ -z "${ADDED[$dir]:-}" ]]; then ADDED[$dir]=1; RUNS+=("$dir"); fi
+  add_run "$dir"
 }
-for algo in $ALGOS; do
-  EXTRA_EVAL=()
-  if [[ $algo == ddppo_depth && "$DEPTH_SOURCE" == true ]]; then EXTRA_EVAL=("env.depth=true"); fi
+evaluate() {  # evaluate ALGO [ENV_STEPS]: its run's latest checkpoint as its row, or that of ENV_STEPS as "<row> ckpt<n>"
+  local algo=$1 name=${RUN_NAME[$1]} at=${2:-} extra=()
+  if [[ $algo == ddppo_depth && "$DEPTH_SOURCE" == true ]]; then extra=("env.depth=true"); fi
+  if [[ -n "$at" ]]; then extra+=("+policy.env_steps=$at"); fi
+  step "eval_$name${at:+_ckpt$at}" rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/$name" \
+    "method=$(label_of "$algo" "$TAG")${at:+ ckpt$at}" out_dir="$OUT/eval/$name${at:+_ckpt$at}" "${EVAL[@]}" "${extra[@]}"
+}
+for algo in $ALGOS; do evaluate "$algo"; done
+for algo in $ALGOS; do  # EVAL_CHECKPOINTS: the kept checkpoints before the latest, newest first
   name=${RUN_NAME[$algo]}
-  step "eval_$name" rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/$name" \
-    "method=$(label_of "$algo" "$TAG")" out_dir="$OUT/eval/$name" "${EVAL[@]}" "${EXTRA_EVAL[@]}"
-  ADDED[$OUT/eval/$name]=1
-  RUNS+=("$OUT/eval/$name")
+  if (( EVAL_CHECKPOINTS > 1 )); then
+    kept=()
+    for ckpt in "$OUT/train/$name/checkpoints"/ckpt_*; do if [[ -d "$ckpt" ]]; then kept=("${ckpt##*/}" "${kept[@]}"); fi; done
+    if (( ${#kept[@]} < EVAL_CHECKPOINTS )); then
+      echo "rl_small: $OUT/train/$name keeps ${#kept[@]} checkpoints (train.keep_checkpoints when it trained);" \
+           "EVAL_CHECKPOINTS=$EVAL_CHECKPOINTS evaluates those"
+    fi
+    for ckpt in "${kept[@]:1:EVAL_CHECKPOINTS-1}"; do evaluate "$algo" $((10#${ckpt#ckpt_})); done
+  fi
+  add_run "$OUT/eval/$name"
 done
 # a tagged variant's references: the untagged run of its algo (of its seed, for TAG=<v>_seed<s>) and the run it
 # continued (FROM), each tested against it where OUT holds that run's evaluation; for TAG=<v>_seed<s> the seed-0 pair
@@ -264,7 +303,7 @@ between() {  # two algos' rows: this run's, and their seed-0 runs' (the untagged
 between ppo_lag ppo
 between ddppo ppo
 between ddppo_depth ddppo
-for run in $IL_RUNS; do RUNS+=("$run"); done
+for run in $IL_RUNS; do add_run "$run"; done   # with its evaluations of other checkpoints beside it
 IFS=';' read -ra EXTRA <<<"$COMPARE"
 for p in "${EXTRA[@]}"; do pair "$p"; done
 $PY -m rvn_data.benchmark.report "${RUNS[@]}" -o "$OUT/report.md" "${PAIRS[@]/#/--compare=}" \

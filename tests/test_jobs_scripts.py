@@ -276,6 +276,45 @@ def test_rl_small_reports_a_continued_second_seed_pooled(tmp_path):
     assert "| PPO 600k | PPO | unlabelled + seed1 | 400 | 0.225 | 0.235 | 41–45, 0.75 |" in pooled
     assert "0.66 [0.57, 0.78], <1e-4 |" in pooled
 
+def test_rl_small_evaluates_each_run_at_its_last_checkpoints(tmp_path):
+    """EVAL_CHECKPOINTS=k: each run's row at its latest checkpoint, and its k-1 kept checkpoints before it as rows
+    "<row> ckpt<env steps>" (rvn-eval +policy.env_steps) that join the report; above 2, rvn-rl keeps k checkpoints.
+    A run keeping fewer is evaluated at those it keeps, and said so; a bad k, or a TAG named like such an evaluation,
+    is refused before any work."""
+    env = {**rl_small_stubs(tmp_path), "ALGOS": "ppo"}
+    out = tmp_path / "rl"
+    for bad, said in [({"EVAL_CHECKPOINTS": "0"}, "EVAL_CHECKPOINTS=0; give how many"),
+                      ({"EVAL_CHECKPOINTS": "two"}, "EVAL_CHECKPOINTS=two; give how many"),
+                      ({"TAG": "ckpt64"}, "TAG=ckpt64 ends like an evaluation of another checkpoint"),
+                      ({"TAG": "more_ckpt64"}, "TAG=more_ckpt64 ends like")]:
+        proc, calls = run_script("rl_small.sh", tmp_path, str(out), **env, **bad)
+        assert proc.returncode == 2 and said in proc.stderr and not calls, (bad, proc.stderr)
+    for steps in (64, 128, 192):
+        (out / "train" / "ppo" / "checkpoints" / f"ckpt_{steps:012d}").mkdir(parents=True)
+    (out / "eval" / "ppo_ckpt128").mkdir(parents=True)
+    (out / "eval" / "ppo_ckpt128" / "metrics.json").write_text("{}")
+
+    def evals(calls):
+        return [(c[c.index("policy=checkpoint") + 2], c[-1]) for c in calls if "policy=checkpoint" in c]
+
+    proc, calls = run_script("rl_small.sh", tmp_path, str(out), **env, EVAL_CHECKPOINTS="3")
+    assert proc.returncode == 0, proc.stderr
+    [train] = [c for c in calls if c[0] == "rvn-rl"]
+    assert train[-1] == "train.keep_checkpoints=3"
+    assert evals(calls)[1:] == [("method=PPO ckpt128", "+policy.env_steps=128"), ("method=PPO ckpt64", "+policy.env_steps=64")]
+    assert evals(calls)[0][0] == "method=PPO" and "+policy.env_steps" not in evals(calls)[0][1]
+    assert f"out_dir={out}/eval/ppo_ckpt64" in [c for c in calls if "method=PPO ckpt64" in c][0]
+    [report] = [c for c in calls if c[0] == "python"]
+    assert f"{out}/eval/ppo_ckpt128" in report and f"{out}/eval/ppo_ckpt64" not in report  # where it has its record
+    proc, calls = run_script("rl_small.sh", tmp_path, str(out), **env, EVAL_CHECKPOINTS="2")
+    assert proc.returncode == 0, proc.stderr
+    assert "train.keep_checkpoints" not in " ".join(c for call in calls for c in call)  # rvn-rl's default keeps 2
+    assert [m for m, _ in evals(calls)] == ["method=PPO", "method=PPO ckpt128"]
+    proc, calls = run_script("rl_small.sh", tmp_path, str(out), **env, EVAL_CHECKPOINTS="5")
+    assert proc.returncode == 0 and f"{out}/train/ppo keeps 3 checkpoints" in proc.stdout, proc.stdout
+    assert [m for m, _ in evals(calls)] == ["method=PPO", "method=PPO ckpt128", "method=PPO ckpt64"]
+
+
 def slurm_stubs(tmp_path: Path) -> None:
     """Stubs for the Slurm recipes: sbatch (fails the job named $FAIL_JOB, given as --job-name= or in the script on
     stdin), rvn-gen (a multirun exits with $MULTIRUN_STATUS; merge writes the train split the recipe reads), rvn-eval,

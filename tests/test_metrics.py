@@ -150,9 +150,15 @@ def test_run_records_the_code_and_who_resumed_it(tmp_path, monkeypatch):
     monkeypatch.setattr(results, "provenance", lambda: later)
     run = results.RunDir(tmp_path, ident)
     assert list(run.open()) == [(0, 0)]
+    # resumed, nothing added yet (a rerun of a finished evaluation adds nothing): the record is the first code's
+    assert json.loads((tmp_path / "run.json").read_text()) == {**ident, "provenance": first}
+    run.finish([RECORDS[0]], {**compute_metrics([RECORDS[0]]), "split": "val"}, "table\n")
+    assert "resumed_by" not in json.loads((tmp_path / "metrics.json").read_text())
+    run = results.RunDir(tmp_path, ident)
+    run.open()
+    run.append(RECORDS[1])
     stored = json.loads((tmp_path / "run.json").read_text())
     assert stored["provenance"] == first and stored["resumed_by"] == [later]
-    run.append(RECORDS[1])
     recs = [RECORDS[0], RECORDS[1]]
     run.finish(recs, {**compute_metrics(recs), "split": "val"}, "table\n")
     metrics = json.loads((tmp_path / "metrics.json").read_text())

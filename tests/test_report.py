@@ -289,3 +289,41 @@ def test_pairs_are_pooled_over_training_seeds(tmp_path):
     assert "pooled" not in tests(rows, [("A", "C")])
     # seed 1's rows on other episodes than each other: not paired, so not pooled
     assert "pooled" not in tests([run("A", 12), run("B", 4), run("A seed1", 10), run("B seed1", 6, shift=0.5)], [("A", "B")])
+
+
+def test_rows_are_read_over_their_checkpoints(tmp_path):
+    """Rows of a run's other checkpoints ("<method> ckpt<env steps>", as jobs/rl_small.sh's EVAL_CHECKPOINTS labels
+    them) beside a compared row: the report also tests it read as their mean, per episode the share of checkpoints that
+    reached the first goal, by a paired randomisation test on the per-episode differences; pooled over seeds too."""
+    from rvn_data.benchmark.report import tests
+    from rvn_data.benchmark.runs import Run
+    from rvn_data.benchmark.significance import Row, over_checkpoints, paired
+
+    def run(name, wins, n=20, km=10.0):  # the first `wins` episodes reach their first goal; one collision each
+        records = [{"episode_id": f"s#{i}", "scene_id": "s", "episode_index": i, "first_goal_success": i < wins,
+                    "collisions": 1, "path_length": km, "d0": 4.0 + i / 10} for i in range(n)]
+        return Run(tmp_path / name, {"method": name, "split": "val", "collisions": n, "distance_km": n * km / 1e3}, records)
+
+    rows = [run("A", 12), run("A ckpt50", 8, km=30.0), run("B", 4)]
+    text = tests(rows, [("A", "B")])
+    assert "| A | B | 0.600 (12/20) | 0.200 (4/20) |" in text  # the row itself, as before
+    assert "| A | 50, the row's | 0.400, 0.600 | 0.500 | 33, 100 | 50.0 |" in text, text  # 1 / 30 m, 1 / 10 m
+    line = next(ln for ln in text.splitlines() if ln.startswith("| A | B | 2 / 1 | 20 |"))
+    # shares 1 (episodes 0-7), 0.5 (8-11), 0 against B's 1 on 0-3: +1 on four episodes, +0.5 on four; all eight
+    # signs alike, 2 / 256 = 0.0078, is the only draw as far out (10,000 draws: 0.0073)
+    assert "| 0.500 | 0.200 | 6–0, 0.0073 | 50.0 | 100.0 | 0.50 [0.50, 0.50], <1e-4 |" in line, line
+    assert "read over checkpoints and pooled" not in text
+    # with seed 1's rows: the mean rows pooled over the seeds
+    seeded = rows + [run("A seed1", 10), run("A seed1 ckpt40", 10), run("B seed1", 10)]
+    text = tests(seeded, [("A", "B"), ("A seed1", "B seed1")])
+    pooled = text.split("read over checkpoints and pooled over training seeds:")[1]
+    assert "| A | B | unlabelled + seed1 | 40 | 0.500 | 0.350 | 6–0, 0.0" in pooled, pooled
+    # without such rows, or on other episodes, nothing is read over checkpoints
+    assert "checkpoints" not in tests([run("A", 12), run("B", 4)], [("A", "B")])
+    assert "checkpoints" not in tests([run("A", 12), run("A ckpt50", 8, n=19), run("B", 4)], [("A", "B")])
+    # a mean of rows alike keeps whole shares: McNemar's exact test, as on the row alone
+    a = Row("a", 12, 20, 20, 0.2, {i: (i < 12, 1, 0.01) for i in range(20)})
+    b = Row("b", 4, 20, 20, 0.2, {i: (i < 4, 1, 0.01) for i in range(20)})
+    means, groups = over_checkpoints([a, Row("a ckpt5", 12, 20, 20, 0.2, dict(a.per_episode)), b])
+    assert [r.label for r in means] == ["a", "b"] and len(groups["a"]) == 2
+    assert paired(means[0], b)["mcnemar_p"] == paired(a, b)["mcnemar_p"] == pytest.approx(2 * 0.5 ** 8)

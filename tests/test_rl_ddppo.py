@@ -87,6 +87,17 @@ def test_rl_small_recipe_smoke(tmp_path):
     assert (out / "train" / "ppo_more" / "checkpoints" / "latest").read_text().strip() == "ckpt_000000000128"
     assert (out / "train" / "ppo" / "checkpoints" / "latest").read_text() == before
     assert "| PPO more | PPO |" in (out / "report.md").read_text()
+    # EVAL_CHECKPOINTS=3: PPO more continued to 256 env steps, a checkpoint every update (192, 256), evaluated at both:
+    # the row "PPO more2" and "PPO more2 ckpt192", which the report reads it over
+    proc = subprocess.run(["bash", str(script), str(out)], capture_output=True, text=True, timeout=900,
+                          cwd=script.parents[1], env={**env, "ALGOS": "ppo", "FROM": "more", "TAG": "more2",
+                                                      "TOTAL_STEPS": "256", "RL_EXTRA": "train.checkpoint_every=1",
+                                                      "EVAL_CHECKPOINTS": "3"})
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-3000:]
+    assert f"{out}/train/ppo_more2 keeps 2 checkpoints" in proc.stdout
+    assert json.loads((out / "eval" / "ppo_more2_ckpt192" / "run.json").read_text())["policy"]["env_steps"] == 192
+    report = (out / "report.md").read_text()
+    assert "| PPO more2 | 192, the row's |" in report and "| PPO more2 | PPO more | 2 / 1 | 1 |" in report, report
 
 
 def test_rl_small_keeps_the_rendered_depth_ablation_apart(tmp_path):

@@ -12,7 +12,9 @@ method and split, run details with links to the per-episode logs, plots written 
 the report (``<stem>_sr1.png``, ``<stem>_cpk.png``, ``<stem>_goals.png``, ``<stem>_ends.png``: how
 goals ended), how goals ended with CPK over all kilometres and outside timed-out stretches, significance tests between rows (each
 compared pair also pooled over training seeds where the rows of other seeds, labelled ``"<method> seed<s>"`` as the
-recipes do, are there: `rvn_data.benchmark.significance.pooled_pairs`), and every episode's record. Runs appear in
+recipes do, are there: `rvn_data.benchmark.significance.pooled_pairs`; and each row read over its run's checkpoints
+where rows ``"<method> ckpt<env steps>"`` of its other checkpoints are there: `over_checkpoints`), and every episode's
+record. Runs appear in
 the order given.
 """
 from __future__ import annotations
@@ -21,13 +23,15 @@ import argparse
 import os
 import sys
 from collections import Counter
+from itertools import combinations
 from pathlib import Path
 
 from rvn_data.benchmark.metrics import TERMINATIONS, write_text_atomic
 from rvn_data.benchmark.plots import bar_plot, ends_plot, goals_plot
 from rvn_data.benchmark.results import episode_key
 from rvn_data.benchmark.runs import Run, find_runs, load_run, merge_shards, provenance_note  # noqa: F401 (API)
-from rvn_data.benchmark.significance import Row, pooled_table, significance_table
+from rvn_data.benchmark.significance import (Row, checkpoint_table, mean_pairs_table, over_checkpoints, pooled_table,
+                                             significance_table)
 from rvn_data.benchmark.table import SPLIT_TITLES, format_metric, render_table
 
 def _rel(path: Path, base: Path) -> str:
@@ -123,9 +127,30 @@ def tests(runs: list[Run], compare: list[tuple[str, str]] | None = None, compare
             if pooled:  # rows of other training seeds ("<method> seed<s>") beside the compared ones
                 out += [f"{SPLIT_TITLES.get(split, split)}, pooled over training seeds (each pair above with its rows of "
                         "other seeds, \"<method> seed<s>\"; every seed's episodes paired with the same seed's):\n", pooled]
+            out += over_checkpoints_tests(rows, wanted, SPLIT_TITLES.get(split, split))
     if compare_present and absent:
         out.append("Not tested (a row is not among these runs): " + ", ".join(f"{a} = {b}" for a, b in absent) + ".\n")
     return "\n".join(out)
+
+
+def over_checkpoints_tests(rows: list[Row], wanted: list[tuple[str, str]] | None, title: str) -> list[str]:
+    """The tests again with each row that has rows of its run's other checkpoints ("<method> ckpt<env steps>") read
+    as their mean (`significance.over_checkpoints`): the rows one by one, each pair with such a row, and those pairs
+    pooled over training seeds. Nothing where no row has them."""
+    means, groups = over_checkpoints(rows)
+    if not groups:
+        return []
+    labels = [r.label for r in means]
+    touched = [(a, b) for a, b in (combinations(labels, 2) if wanted is None else wanted) if a in labels and b in labels
+               and any(x in groups or any(g.startswith(f"{x} seed") for g in groups) for x in (a, b))]
+    out = [f"{title}, each row read over its run's checkpoints (rows \"<method> ckpt<env steps>\" beside it, on the "
+           "same episodes: per episode the share of the checkpoints that reached the first goal; won–lost sums the "
+           "per-episode differences in that share, p a paired randomisation test on them):\n", checkpoint_table(groups),
+           mean_pairs_table(means, groups, touched)]
+    pooled = pooled_table(means, touched)
+    if pooled:
+        out += [f"{title}, read over checkpoints and pooled over training seeds:\n", pooled]
+    return out
 
 
 def episode_tables(runs: list[Run]) -> str:

@@ -120,6 +120,7 @@ class RunDir:
         self.table_path = self.dir / "table.md"
         self.provenance = provenance()
         self.resumed_by: list[dict] = []
+        self._resumer: dict | None = None  # this code, resuming another's run: recorded with its first episode
 
     def open(self, resume: bool = True) -> dict[tuple[int, int], dict]:
         """Prepare the directory; returns the records already done (when resuming)."""
@@ -149,20 +150,28 @@ class RunDir:
                 started_by = earlier or {"commit": None, "dirty": None, "version": "unknown", "generator_version": None}
                 self.resumed_by = list(resumed_by)
                 if short(self.provenance) not in {short(p) for p in [started_by, *self.resumed_by]}:
-                    self.resumed_by.append(self.provenance)  # other code added episodes
+                    self._resumer = self.provenance  # other code: recorded once it adds an episode (`append`)
         self.provenance = started_by
-        record = {**self.identity, **self.notes, "provenance": started_by,
-                  **({"resumed_by": self.resumed_by} if self.resumed_by else {})}
-        write_text_atomic(self.run_path, json.dumps(record, sort_keys=True, indent=1) + "\n")
+        self._write_run()
         write_records(self.records_path, done.values())  # clean file: no torn tail to append after
         for stale in (self.metrics_path, self.table_path):
             if stale.exists() and not done:
                 stale.unlink()
         return done
 
+    def _write_run(self) -> None:
+        record = {**self.identity, **self.notes, "provenance": self.provenance,
+                  **({"resumed_by": self.resumed_by} if self.resumed_by else {})}
+        write_text_atomic(self.run_path, json.dumps(record, sort_keys=True, indent=1) + "\n")
+
     def append(self, rec: dict) -> None:
         """Append one record, flushed to disk. A write that stores part of it (a full disk) is continued until the
-        line is whole, or its OSError raised: a torn line followed by the next record could not be resumed."""
+        line is whole, or its OSError raised: a torn line followed by the next record could not be resumed. The first
+        record other code adds to a run records that code in ``resumed_by`` (a resume that adds none changes nothing)."""
+        if self._resumer is not None:
+            self.resumed_by.append(self._resumer)
+            self._resumer = None
+            self._write_run()
         data = memoryview((dumps_record(rec) + "\n").encode())
         fd = os.open(self.records_path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
         try:

@@ -24,6 +24,14 @@ Rows of several training seeds: the recipes label a row of another seed than the
 ``"<method> seed<s>"`` (jobs/small_experiment.sh's ``SEEDS``). A compared pair (A, B) whose rows of other
 seeds are there too ("A seed1", "B seed1") is also tested pooled over the seeds (`pooled_pairs`,
 `pool_rows`): every episode of each seed's pair is one paired observation, keyed by seed and episode.
+
+Rows of several checkpoints of one training run: the recipes label a row of a checkpoint other than the run's latest
+``"<method> ckpt<env steps>"`` (jobs/rl_small.sh's ``EVAL_CHECKPOINTS``), since an RL row at small scale moves as much
+between neighbouring checkpoints as between budgets. A row "A" with such rows on the same episodes is also read as
+their mean (`over_checkpoints`, `mean_row`): per episode the share of its checkpoints that reached the first goal and
+their mean collisions and km. Pairs of such rows are tested on the episodes, the unit that is sampled: SR_1 by a paired
+randomisation test on the per-episode differences in that share (signs flipped per episode; with shares of 0 or 1 it is
+McNemar's test, which is then used), CPK as before.
 """
 from __future__ import annotations
 
@@ -37,6 +45,7 @@ from scipy.stats import binomtest, fisher_exact
 
 PERMUTATIONS = 10_000
 SEED_LABEL = re.compile(r"^(?P<base>.+) seed(?P<seed>\d+)$")  # the recipes' label of another training seed's row
+CKPT_LABEL = re.compile(r"^(?P<base>.+) ckpt(?P<steps>\d+)$")  # ... and of a run's checkpoint other than its latest
 
 
 @dataclass(frozen=True)
@@ -44,11 +53,12 @@ class Row:
     """What the tests need of one evaluated row."""
 
     label: str
-    successes: int  # episodes whose first goal was reached
+    successes: float  # episodes whose first goal was reached (a mean over checkpoints: fractional)
     episodes: int
-    collisions: int
+    collisions: float
     km: float  # distance travelled, kilometres
-    # per episode id: (first goal reached, collisions, km); empty when the row's records are not at hand
+    # per episode id: (first goal reached, collisions, km), of a mean row (first goal: the share of checkpoints that
+    # reached it); empty when the row's records are not at hand
     per_episode: dict = field(default_factory=dict, compare=False)
 
     @property
@@ -80,8 +90,7 @@ def paired(a: Row, b: Row, seed: int = 0) -> dict | None:
         return None
     keys = sorted(a.per_episode)
     ea, eb = np.array([a.per_episode[k] for k in keys], float), np.array([b.per_episode[k] for k in keys], float)
-    won, lost = int(((ea[:, 0] > 0) & (eb[:, 0] == 0)).sum()), int(((ea[:, 0] == 0) & (eb[:, 0] > 0)).sum())
-    mcnemar = float(binomtest(won, won + lost).pvalue) if won + lost else 1.0
+    won, lost, mcnemar = _first_goal_test(ea[:, 0], eb[:, 0], seed)
     rng = np.random.default_rng(seed)
 
     def log_ratio(ca, ka, cb, kb):  # +0.5: defined with no collisions on one side
@@ -96,6 +105,20 @@ def paired(a: Row, b: Row, seed: int = 0) -> dict | None:
     ratio = a.cpk / b.cpk if b.cpk else float("nan")
     return {"won": won, "lost": lost, "mcnemar_p": mcnemar, "cpk_ratio": ratio, "cpk_paired_p": p_cpk,
             "cpk_ratio_ci": _ratio_interval(ea[:, 1:], eb[:, 1:], rng) if np.isfinite(ratio) else (np.nan, np.nan)}
+
+
+def _first_goal_test(sa: np.ndarray, sb: np.ndarray, seed: int) -> tuple:
+    """(won, lost, p) of two rows' first goals on the same episodes: McNemar's exact test where every episode's value
+    is 0 or 1; else (a mean over checkpoints) won and lost are the summed per-episode differences either way and p a
+    paired randomisation test of their sum (signs flipped per episode, `PERMUTATIONS` draws, its own seeded stream)."""
+    if np.isin(sa, (0, 1)).all() and np.isin(sb, (0, 1)).all():
+        won, lost = int(((sa > 0) & (sb == 0)).sum()), int(((sa == 0) & (sb > 0)).sum())
+        return won, lost, float(binomtest(won, won + lost).pvalue) if won + lost else 1.0
+    d = sa - sb
+    won, lost = float(d[d > 0].sum()), float(-d[d < 0].sum())
+    flip = np.random.default_rng([seed, 1]).random((PERMUTATIONS, len(d))) < 0.5
+    drawn = np.where(flip, -d, d).sum(1)
+    return won, lost, float((1 + np.sum(np.abs(drawn) >= abs(d.sum()) - 1e-12)) / (1 + PERMUTATIONS))
 
 
 def _ratio_interval(ea: np.ndarray, eb: np.ndarray, rng: np.random.Generator) -> tuple[float, float]:
@@ -118,6 +141,11 @@ def _ratio_interval(ea: np.ndarray, eb: np.ndarray, rng: np.random.Generator) ->
 
 def format_p(p: float) -> str:
     return f"{p:.2g}" if p >= 1e-4 else "<1e-4"
+
+
+def format_count(x: float) -> str:
+    """An episode count, or a mean row's fractional one to a tenth."""
+    return str(int(x)) if float(x).is_integer() else f"{x:.1f}"
 
 
 def pairs(rows: Sequence[Row], compare: Iterable[tuple[str, str]] | None = None) -> list[tuple[Row, Row]]:
@@ -145,7 +173,7 @@ def significance_table(rows: Sequence[Row], compare: Iterable[tuple[str, str]] |
             extra = "– | –"
         else:
             lo, hi = pair["cpk_ratio_ci"]
-            extra = (f"{pair['won']}–{pair['lost']}, {format_p(pair['mcnemar_p'])} | "
+            extra = (f"{format_count(pair['won'])}–{format_count(pair['lost'])}, {format_p(pair['mcnemar_p'])} | "
                      f"{pair['cpk_ratio']:.2f} [{lo:.2f}, {hi:.2f}], {format_p(pair['cpk_paired_p'])}")
         lines.append(f"| {a.label} | {b.label} | {a.sr1:.3f} ({a.successes}/{a.episodes}) | "
                      f"{b.sr1:.3f} ({b.successes}/{b.episodes}) | {format_p(sr1_p(a, b))} | {a.cpk:.0f} | {b.cpk:.0f} | "
@@ -192,6 +220,62 @@ def pooled_table(rows: Sequence[Row], compare: Iterable[tuple[str, str]] | None 
         t = paired(a, b)
         lo, hi = t["cpk_ratio_ci"]
         lines.append(f"| {a.label} | {b.label} | {which} | {a.episodes} | {a.sr1:.3f} | {b.sr1:.3f} | "
-                     f"{t['won']}–{t['lost']}, {format_p(t['mcnemar_p'])} | {a.cpk:.1f} | {b.cpk:.1f} | "
+                     f"{format_count(t['won'])}–{format_count(t['lost'])}, {format_p(t['mcnemar_p'])} | {a.cpk:.1f} | {b.cpk:.1f} | "
                      f"{t['cpk_ratio']:.2f} [{lo:.2f}, {hi:.2f}], {format_p(t['cpk_paired_p'])} |")
     return "\n".join(lines) + "\n"
+
+
+def over_checkpoints(rows: Sequence[Row]) -> tuple[list[Row], dict[str, list[Row]]]:
+    """``rows`` with each row "A" that has rows "A ckpt<n>" on its episodes read as the mean over them all
+    (`mean_row`, labelled "A"), those rows left out; and {"A": the rows averaged, oldest checkpoint first, A last}.
+    A checkpoint row whose episodes differ from A's, or with no row A, stays a row of its own."""
+    by_label = {r.label: r for r in rows}
+    found: dict[str, list[tuple[int, Row]]] = {}
+    for r in rows:
+        m = CKPT_LABEL.match(r.label)
+        base = by_label.get(m["base"]) if m else None
+        if base is not None and base.per_episode and set(r.per_episode) == set(base.per_episode):
+            found.setdefault(base.label, []).append((int(m["steps"]), r))
+    groups = {label: [r for _, r in sorted(found[label], key=lambda x: x[0])] + [by_label[label]] for label in found}
+    averaged = {r.label for group in groups.values() for r in group[:-1]}
+    means = [mean_row(r.label, groups[r.label]) if r.label in groups else r for r in rows if r.label not in averaged]
+    return means, groups
+
+
+def mean_row(label: str, rows: Sequence[Row]) -> Row:
+    """One row as the mean of several on the same episodes (a run's checkpoints): per episode the share of the rows
+    that reached the first goal and their mean collisions and km; SR_1 the mean of theirs, CPK their collisions over
+    their km."""
+    n, keys = len(rows), rows[-1].per_episode
+    per = {k: tuple(float(np.mean([r.per_episode[k][i] for r in rows])) for i in range(3)) for k in keys}
+    return Row(label, sum(r.successes for r in rows) / n, rows[-1].episodes, sum(r.collisions for r in rows) / n,
+               sum(r.km for r in rows) / n, per)
+
+
+def checkpoint_table(groups: dict[str, list[Row]]) -> str:
+    """Markdown table: each row read over its checkpoints, their SR_1 and CPK one by one (oldest first) and over all."""
+    lines = ["| row | checkpoints (env steps; the row's own last) | SR_1 of each | SR_1 mean | CPK of each | CPK over all |",
+             "|---|---|---|---:|---|---:|"]
+    for label, group in groups.items():
+        steps = [CKPT_LABEL.match(r.label)["steps"] for r in group[:-1]] + ["the row's"]
+        mean = mean_row(label, group)
+        lines.append(f"| {label} | {', '.join(steps)} | {', '.join(f'{r.sr1:.3f}' for r in group)} | {mean.sr1:.3f} | "
+                     f"{', '.join(f'{r.cpk:.0f}' for r in group)} | {mean.cpk:.1f} |")
+    return "\n".join(lines) + "\n"
+
+
+def mean_pairs_table(means: Sequence[Row], groups: dict[str, list[Row]],
+                     compare: Iterable[tuple[str, str]] | None = None) -> str:
+    """Markdown table of the paired tests of each pair with a row read over its checkpoints (empty when none)."""
+    lines = ["| A | B | checkpoints A / B | episodes | SR_1 A | SR_1 B | won–lost (first goals), p | CPK A | CPK B | "
+             "CPK A / B [95 % CI], paired p |", "|---|---|---|---:|---:|---:|---:|---:|---:|---:|"]
+    for a, b in pairs(means, compare):
+        t = paired(a, b) if a.label in groups or b.label in groups else None
+        if t is None:
+            continue
+        lo, hi = t["cpk_ratio_ci"]
+        lines.append(f"| {a.label} | {b.label} | {len(groups.get(a.label, [a]))} / {len(groups.get(b.label, [b]))} | "
+                     f"{a.episodes} | {a.sr1:.3f} | {b.sr1:.3f} | {format_count(t['won'])}–{format_count(t['lost'])}, "
+                     f"{format_p(t['mcnemar_p'])} | {a.cpk:.1f} | {b.cpk:.1f} | "
+                     f"{t['cpk_ratio']:.2f} [{lo:.2f}, {hi:.2f}], {format_p(t['cpk_paired_p'])} |")
+    return "\n".join(lines) + "\n" if len(lines) > 2 else ""
