@@ -23,6 +23,6 @@ seed0 & s0=$!
 sleep "${STAGGER:-180}"  # the two recipes' goal-follower evaluations (one out_dir, its episodes all there) 3 min apart
 seed1 & s1=$!
 wait "$s0"
-wait "$s1"
+wait "$s1" || echo "ppo_lag_600k run: the seed-1 recipe stopped (its report names seed 0's row, which may not be there yet); it runs again below"
 seed1  # every step done: the report again, with seed 0's row certainly in it
 echo "ppo_lag_600k run: done in $SECONDS s; report: $OUT/report.md"
