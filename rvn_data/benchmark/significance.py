@@ -143,9 +143,12 @@ def format_p(p: float) -> str:
     return f"{p:.2g}" if p >= 1e-4 else "<1e-4"
 
 
-def format_count(x: float) -> str:
-    """An episode count, or a mean row's fractional one to a tenth."""
-    return str(int(x)) if float(x).is_integer() else f"{x:.1f}"
+def paired_cells(t: dict) -> str:
+    """A `paired` result as two table cells: won–lost with its p; the CPK ratio with its interval and paired p."""
+    won, lost = (str(int(x)) if float(x).is_integer() else f"{x:.1f}" for x in (t["won"], t["lost"]))  # a mean's: .1
+    lo, hi = t["cpk_ratio_ci"]
+    return (f"{won}–{lost}, {format_p(t['mcnemar_p'])} | "
+            f"{t['cpk_ratio']:.2f} [{lo:.2f}, {hi:.2f}], {format_p(t['cpk_paired_p'])}")
 
 
 def pairs(rows: Sequence[Row], compare: Iterable[tuple[str, str]] | None = None) -> list[tuple[Row, Row]]:
@@ -169,12 +172,7 @@ def significance_table(rows: Sequence[Row], compare: Iterable[tuple[str, str]] |
              "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for a, b in pairs(rows, compare):
         pair = paired(a, b)
-        if pair is None:
-            extra = "– | –"
-        else:
-            lo, hi = pair["cpk_ratio_ci"]
-            extra = (f"{format_count(pair['won'])}–{format_count(pair['lost'])}, {format_p(pair['mcnemar_p'])} | "
-                     f"{pair['cpk_ratio']:.2f} [{lo:.2f}, {hi:.2f}], {format_p(pair['cpk_paired_p'])}")
+        extra = "– | –" if pair is None else paired_cells(pair)
         lines.append(f"| {a.label} | {b.label} | {a.sr1:.3f} ({a.successes}/{a.episodes}) | "
                      f"{b.sr1:.3f} ({b.successes}/{b.episodes}) | {format_p(sr1_p(a, b))} | {a.cpk:.0f} | {b.cpk:.0f} | "
                      f"{format_p(cpk_p(a, b))} | {extra} |")
@@ -217,11 +215,9 @@ def pooled_table(rows: Sequence[Row], compare: Iterable[tuple[str, str]] | None 
     lines = ["| A | B | seeds pooled | episodes | SR_1 A | SR_1 B | won–lost, McNemar p | CPK A | CPK B | "
              "CPK A / B [95 % CI], paired p |", "|---|---|---|---:|---:|---:|---:|---:|---:|---:|"]
     for a, b, which in found:
-        t = paired(a, b)
-        lo, hi = t["cpk_ratio_ci"]
-        lines.append(f"| {a.label} | {b.label} | {which} | {a.episodes} | {a.sr1:.3f} | {b.sr1:.3f} | "
-                     f"{format_count(t['won'])}–{format_count(t['lost'])}, {format_p(t['mcnemar_p'])} | {a.cpk:.1f} | {b.cpk:.1f} | "
-                     f"{t['cpk_ratio']:.2f} [{lo:.2f}, {hi:.2f}], {format_p(t['cpk_paired_p'])} |")
+        won_lost, ratio = paired_cells(paired(a, b)).split(" | ")
+        lines.append(f"| {a.label} | {b.label} | {which} | {a.episodes} | {a.sr1:.3f} | {b.sr1:.3f} | {won_lost} | "
+                     f"{a.cpk:.1f} | {b.cpk:.1f} | {ratio} |")
     return "\n".join(lines) + "\n"
 
 
@@ -273,9 +269,7 @@ def mean_pairs_table(means: Sequence[Row], groups: dict[str, list[Row]],
         t = paired(a, b) if a.label in groups or b.label in groups else None
         if t is None:
             continue
-        lo, hi = t["cpk_ratio_ci"]
+        won_lost, ratio = paired_cells(t).split(" | ")
         lines.append(f"| {a.label} | {b.label} | {len(groups.get(a.label, [a]))} / {len(groups.get(b.label, [b]))} | "
-                     f"{a.episodes} | {a.sr1:.3f} | {b.sr1:.3f} | {format_count(t['won'])}–{format_count(t['lost'])}, "
-                     f"{format_p(t['mcnemar_p'])} | {a.cpk:.1f} | {b.cpk:.1f} | "
-                     f"{t['cpk_ratio']:.2f} [{lo:.2f}, {hi:.2f}], {format_p(t['cpk_paired_p'])} |")
+                     f"{a.episodes} | {a.sr1:.3f} | {b.sr1:.3f} | {won_lost} | {a.cpk:.1f} | {b.cpk:.1f} | {ratio} |")
     return "\n".join(lines) + "\n" if len(lines) > 2 else ""
