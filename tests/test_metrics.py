@@ -220,3 +220,14 @@ def test_the_model_files_a_policy_loaded_are_part_of_the_eval_run(tmp_path):
     del stored["policy_files"]["depth_model_path"]
     (out / "run.json").write_text(json.dumps(stored))
     assert list(RunDir(out, ident(loaded)).open()) == [(0, 1)]
+    # the checkpoint folder reached by another path (a link to it): the same files, the same run, resumed; run.json
+    # names the path it was last reached by. Other files under the other path: refused
+    (tmp_path / "link").symlink_to(ckpt)
+    ckpt = tmp_path / "link"
+    assert list(RunDir(out, ident(loaded)).open()) == [(0, 1)]
+    assert json.loads((out / "run.json").read_text())["policy"]["checkpoint_path"] == str(tmp_path / "link")
+    ckpt = tmp_path / "rl2"
+    ckpt.mkdir()
+    (ckpt / "config.yaml").write_text("kind: rl\nother: 1\n")
+    with pytest.raises(ValueError, match="checkpoint_path"):
+        RunDir(out, ident(loaded)).open()

@@ -101,6 +101,18 @@ def moved_targets(identity: dict) -> dict:
     return identity
 
 
+def moved_folders(stored: dict, identity: dict) -> None:
+    """A checkpoint folder the stored run named by another path (a link to it, the runs folder moved or mounted
+    elsewhere) whose files are the same (their digest, ``policy_files``) is the same policy: its path in ``stored`` is
+    taken as this run's, so the run resumes (and run.json names the path it was last reached by)."""
+    old, new = stored.get("policy") or {}, identity.get("policy") or {}
+    for key, path in new.items():
+        digest = (identity.get("policy_files") or {}).get(key)
+        if key.endswith("checkpoint_path") and old.get(key) != path and digest is not None \
+                and (stored.get("policy_files") or {}).get(key) == digest:
+            old[key] = path
+
+
 def record_key(rec: dict) -> tuple[int, int]:
     return int(rec["scene_index"]), int(rec["episode_index"])
 
@@ -141,6 +153,7 @@ class RunDir:
             files = self.identity.get("policy_files", {})
             if "depth_model_path" in files and "depth_model_path" not in stored["policy_files"]:
                 stored["policy_files"]["depth_model_path"] = files["depth_model_path"]  # from before it was counted
+            moved_folders(stored, self.identity)
             check_settings(self.run_path, stored, self.identity, what="rvn-eval run",
                            hint=f"use another out_dir (e.g. out_dir={other_dir(self.dir, stored, self.identity)}), "
                            "or resume=false to start it over")
