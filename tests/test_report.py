@@ -327,3 +327,21 @@ def test_rows_are_read_over_their_checkpoints(tmp_path):
     means, groups = over_checkpoints([a, Row("a ckpt5", 12, 20, 20, 0.2, dict(a.per_episode)), b])
     assert [r.label for r in means] == ["a", "b"] and len(groups["a"]) == 2
     assert paired(means[0], b)["mcnemar_p"] == paired(a, b)["mcnemar_p"] == pytest.approx(2 * 0.5 ** 8)
+
+
+def test_rows_read_over_checkpoints_on_recorded_evaluations():
+    """The report on docs/results' records of PPO at 600k and 800k env steps, each with its earlier checkpoint's row,
+    both training seeds: read over the two checkpoints, pooled, 800k leads 60-32 (2026-12-06_rl_checkpoints)."""
+    from rvn_data.benchmark.report import tests
+    from rvn_data.benchmark.runs import load_run
+
+    results = Path(__file__).resolve().parents[1] / "docs" / "results"
+    dirs = [f"2026-12-06_ppo_600k/eval/ppo_{k}{s}" for k in ("600k", "800k") for s in ("", "_seed1")]
+    dirs += [f"2026-12-06_rl_checkpoints/eval/ppo_{k}{s}_ckpt{at}" for k, at in (("600k", 593920), ("800k", 798720))
+             for s in ("", "_seed1")]
+    text = tests([load_run(results / d) for d in dirs], [("PPO 800k", "PPO 600k"), ("PPO 800k seed1", "PPO 600k seed1")])
+    assert "| PPO 800k seed1 | 798720, the row's | 0.250, 0.335 | 0.292 |" in text, text
+    pooled = text.split("read over checkpoints and pooled over training seeds:")[1]
+    assert "| PPO 800k | PPO 600k | unlabelled + seed1 | 400 | 0.291 | 0.221 | 60–32, 0.0006 |" in pooled, pooled
+    single = text.split("Val, pooled over training seeds")[1]  # the latest checkpoints alone
+    assert "| PPO 800k | PPO 600k | unlabelled + seed1 | 400 | 0.312 | 0.225 | 71–36," in single, single
