@@ -79,7 +79,7 @@ esac
                               # TAG starts from the latest checkpoint of OUT/train/<algo>_FROM (rvn-rl
                               # train.continue_from) and trains on to TOTAL_STEPS, which counts that run's steps; that
                               # run stays as it was evaluated, and the report tests the new rows against its rows
-: "${EVAL_CHECKPOINTS:=1}"     # evaluate each run at its last EVAL_CHECKPOINTS kept checkpoints (rvn-eval
+: "${EVAL_CHECKPOINTS:=1}"    # evaluate each run at its last EVAL_CHECKPOINTS kept checkpoints (rvn-eval
                               # +policy.env_steps): the latest as the row, the others as rows "<row> ckpt<env steps>"
                               # that the report reads the row over (rvn_data.benchmark.significance.over_checkpoints),
                               # since at this scale neighbouring checkpoints evaluate as far apart as budgets do; above 2,

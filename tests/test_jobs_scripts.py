@@ -276,6 +276,7 @@ def test_rl_small_reports_a_continued_second_seed_pooled(tmp_path):
     assert "| PPO 600k | PPO | unlabelled + seed1 | 400 | 0.225 | 0.235 | 41–45, 0.75 |" in pooled
     assert "0.66 [0.57, 0.78], <1e-4 |" in pooled
 
+
 def test_rl_small_evaluates_each_run_at_its_last_checkpoints(tmp_path):
     """EVAL_CHECKPOINTS=k: each run's row at its latest checkpoint, and its k-1 kept checkpoints before it as rows
     "<row> ckpt<env steps>" (rvn-eval +policy.env_steps) that join the report; above 2, rvn-rl keeps k checkpoints.
@@ -301,7 +302,8 @@ def test_rl_small_evaluates_each_run_at_its_last_checkpoints(tmp_path):
     assert proc.returncode == 0, proc.stderr
     [train] = [c for c in calls if c[0] == "rvn-rl"]
     assert train[-1] == "train.keep_checkpoints=3"
-    assert evals(calls)[1:] == [("method=PPO ckpt128", "+policy.env_steps=128"), ("method=PPO ckpt64", "+policy.env_steps=64")]
+    assert evals(calls)[1:] == [("method=PPO ckpt128", "+policy.env_steps=128"),
+                                ("method=PPO ckpt64", "+policy.env_steps=64")]
     assert evals(calls)[0][0] == "method=PPO" and "+policy.env_steps" not in evals(calls)[0][1]
     assert f"out_dir={out}/eval/ppo_ckpt64" in [c for c in calls if "method=PPO ckpt64" in c][0]
     [report] = [c for c in calls if c[0] == "python"]
