@@ -21,10 +21,10 @@
 #                                                # (rvn-rl train.continue_from), the 400k run left as it was evaluated:
 #                                                # row "PPO 600k" against "PPO"; a second seed's: TRAIN_SEED=1
 #                                                # FROM=seed1 TAG=600k_seed1, row "PPO 600k seed1", pooled with seed 0's
-#   EVAL_CHECKPOINTS=2 bash jobs/rl_small.sh runs/rl_small_small
-#                                                # each run's row also at its checkpoint before the latest: rows
-#                                                # "PPO ckpt<env steps>" (OUT/eval/ppo_ckpt<env steps>), and the report
-#                                                # reads each row over its checkpoints (their mean, tested pair by pair)
+#   EVAL_CHECKPOINTS=3 bash jobs/rl_small.sh runs/rl_small_small
+#                                                # each run's row also at its 2 checkpoints before the latest (SCALE=small's
+#                                                # default: 1 before it): rows "PPO ckpt<env steps>" (OUT/eval/ppo_ckpt<env
+#                                                # steps>); the report reads each row over them (their mean, tested pair by pair)
 #
 # Every knob below can be set in the environment. Rerunning resumes: a step whose exact command
 # already succeeded is skipped (OUT/.done/) unless a step before it ran again (jobs/lib.sh); rvn-rl continues
@@ -35,7 +35,7 @@ OUT=${1:-${OUT:-runs/rl_small_${SCALE}}}
 case "$SCALE" in
   small)  # two trainings side by side, ~95-105 min at 65-75 env steps/s each (collection + learning); evaluations ~2.5 min each
     : "${TOTAL_STEPS:=400000}" "${IMAGE:=64}" "${NUM_ENVS:=8}" "${TRAIN_SCENES:=50}" "${ROLLOUT:=64}" "${MINI_BATCHES:=4}"
-    : "${EVAL_SCENES:=50}" "${EVAL_EPISODES:=4}" "${N_GOALS:=32}" "${T_MAX:=500}"
+    : "${EVAL_SCENES:=50}" "${EVAL_EPISODES:=4}" "${N_GOALS:=32}" "${T_MAX:=500}" "${EVAL_CHECKPOINTS:=2}"
     : "${DEPTH_PAIRS:=40}" "${DEPTH_VAL_SCENES:=10}" "${DEPTH_STEPS:=2000}" ;;
   tiny)   # smoke test of the whole chain
     : "${TOTAL_STEPS:=64}" "${IMAGE:=32}" "${NUM_ENVS:=4}" "${TRAIN_SCENES:=2}" "${ROLLOUT:=16}" "${MINI_BATCHES:=2}"
@@ -79,10 +79,11 @@ esac
                               # TAG starts from the latest checkpoint of OUT/train/<algo>_FROM (rvn-rl
                               # train.continue_from) and trains on to TOTAL_STEPS, which counts that run's steps; that
                               # run stays as it was evaluated, and the report tests the new rows against its rows
-: "${EVAL_CHECKPOINTS:=1}"    # evaluate each run at its last EVAL_CHECKPOINTS kept checkpoints (rvn-eval
+: "${EVAL_CHECKPOINTS:=1}"    # SCALE=small: 2. Evaluate each run at its last EVAL_CHECKPOINTS kept checkpoints (rvn-eval
                               # +policy.env_steps): the latest as the row, the others as rows "<row> ckpt<env steps>"
                               # that the report reads the row over (rvn_data.benchmark.significance.over_checkpoints),
-                              # since at this scale neighbouring checkpoints evaluate as far apart as budgets do; above 2,
+                              # since at this scale a row moves by an SD of 0.03-0.04 SR_1 between checkpoints, a 200-
+                              # episode row's binomial error (docs/results/2026-12-06_ppo_five_checkpoints); above 2,
                               # rvn-rl keeps as many (train.keep_checkpoints; a run trained before keeps 2)
 : "${COMPARE:=}"              # extra "A=B" method pairs to test in the report, separated by ';' (e.g. "DD-PPO=PPO" with
                               # a PPO row among IL_RUNS)

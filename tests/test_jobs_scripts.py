@@ -278,8 +278,9 @@ def test_rl_small_reports_a_continued_second_seed_pooled(tmp_path):
 
 
 def test_rl_small_evaluates_each_run_at_its_last_checkpoints(tmp_path):
-    """EVAL_CHECKPOINTS=k: each run's row at its latest checkpoint, and its k-1 kept checkpoints before it as rows
-    "<row> ckpt<env steps>" (rvn-eval +policy.env_steps) that join the report; above 2, rvn-rl keeps k checkpoints.
+    """EVAL_CHECKPOINTS=k (SCALE=small: 2, tiny: 1): each run's row at its latest checkpoint, and its k-1 kept
+    checkpoints before it as rows "<row> ckpt<env steps>" (rvn-eval +policy.env_steps) that join the report; above 2,
+    rvn-rl keeps k checkpoints.
     A run keeping fewer is evaluated at those it keeps, and said so; a bad k, or a TAG named like such an evaluation,
     is refused before any work."""
     env = {**rl_small_stubs(tmp_path), "ALGOS": "ppo"}
@@ -315,6 +316,8 @@ def test_rl_small_evaluates_each_run_at_its_last_checkpoints(tmp_path):
     proc, calls = run_script("rl_small.sh", tmp_path, str(out), **env, EVAL_CHECKPOINTS="5")
     assert proc.returncode == 0 and f"{out}/train/ppo keeps 3 checkpoints" in proc.stdout, proc.stdout
     assert [m for m, _ in evals(calls)] == ["method=PPO", "method=PPO ckpt128", "method=PPO ckpt64"]
+    proc, calls = run_script("rl_small.sh", tmp_path, str(out), **{**env, "SCALE": "small"})  # its default: 2
+    assert proc.returncode == 0 and [m for m, _ in evals(calls)] == ["method=PPO", "method=PPO ckpt128"], proc.stderr
 
 
 def slurm_stubs(tmp_path: Path) -> None:
