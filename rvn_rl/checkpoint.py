@@ -59,7 +59,7 @@ def resume_point(out_dir: Path, policy: dict, algo: str, resume: bool, depth: di
         if key in was and was[key] != depth.get(key):
             raise ValueError(f"{named}={out_dir} holds a run trained with depth.{key}={was[key]}, not "
                              f"{depth.get(key)} (another depth input); choose another {named}")
-    if not resume and any(p.is_dir() for p in (out_dir / "checkpoints").glob("ckpt_*")):
+    if not resume and kept(out_dir):
         raise ValueError(f"out_dir={out_dir} holds the checkpoints of a run, which train.resume=false would start "
                          "over; choose a new out_dir, or train.resume=true to continue that run")
     return latest(out_dir) if resume else None
@@ -139,6 +139,11 @@ def checkpoint_at(out_dir: Path, env_steps: int) -> Path:
     return out_dir / "checkpoints" / f"ckpt_{env_steps:012d}"
 
 
+def kept(out_dir: Path) -> list[Path]:
+    """``out_dir``'s checkpoint folders, oldest first (a folder whose weights are not yet written included)."""
+    return sorted(p for p in (out_dir / "checkpoints").glob("ckpt_*") if p.is_dir())
+
+
 def env_steps_of(ckpt: Path) -> int:
     """The env steps over all ranks after which ``ckpt`` was saved (its name: ckpt_<env steps>)."""
     return int(ckpt.name.removeprefix("ckpt_"))
@@ -155,7 +160,7 @@ def save(out_dir: Path, env_steps: int, model: torch.nn.Module, state: dict, kee
     torch.save(state, buf)
     write_bytes_atomic(ckpt / "state.pt", buf.getvalue())
     write_text_atomic(root / "latest", ckpt.name + "\n")
-    for old in sorted(p for p in root.glob("ckpt_*") if p.is_dir())[:-keep]:
+    for old in kept(out_dir)[:-keep]:
         shutil.rmtree(old, ignore_errors=True)
     return ckpt
 

@@ -95,8 +95,7 @@ def load_rl_policy(checkpoint_path: str | Path, device: str | torch.device = "cp
     if overrides.get("env_steps") is not None:  # a kept checkpoint other than the latest
         ckpt = ck.checkpoint_at(out_dir, int(overrides["env_steps"]))
         if not (ckpt / "weights.safetensors").is_file():
-            kept = sorted(ck.env_steps_of(p) for p in ckpt.parent.glob("ckpt_*")
-                          if (p / "weights.safetensors").is_file())
+            kept = [ck.env_steps_of(p) for p in ck.kept(out_dir) if (p / "weights.safetensors").is_file()]
             raise ValueError(f"{out_dir} keeps no checkpoint of {overrides['env_steps']} env steps (policy.env_steps); "
                              f"it keeps {', '.join(map(str, kept))}")
     dev = resolve_device(device, "policy.device")
