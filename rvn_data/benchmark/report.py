@@ -30,8 +30,8 @@ from rvn_data.benchmark.metrics import TERMINATIONS, write_text_atomic
 from rvn_data.benchmark.plots import bar_plot, ends_plot, goals_plot
 from rvn_data.benchmark.results import episode_key
 from rvn_data.benchmark.runs import Run, find_runs, load_run, merge_shards, provenance_note  # noqa: F401 (API)
-from rvn_data.benchmark.significance import (Row, checkpoint_table, mean_pairs_table, over_checkpoints, pooled_table,
-                                             significance_table)
+from rvn_data.benchmark.significance import (SEED_LABEL, Row, checkpoint_table, mean_pairs_table, over_checkpoints,
+                                             pooled_table, significance_table)
 from rvn_data.benchmark.table import SPLIT_TITLES, format_metric, render_table
 
 def _rel(path: Path, base: Path) -> str:
@@ -141,8 +141,9 @@ def over_checkpoints_tests(rows: list[Row], wanted: list[tuple[str, str]] | None
     if not groups:
         return []
     labels = [r.label for r in means]
-    touched = [(a, b) for a, b in (combinations(labels, 2) if wanted is None else wanted) if a in labels and b in labels
-               and any(x in groups or any(g.startswith(f"{x} seed") for g in groups) for x in (a, b))]
+    read = set(groups) | {m["base"] for g in groups if (m := SEED_LABEL.match(g))}  # "A" too for its "A seed<s>"
+    touched = [(a, b) for a, b in (combinations(labels, 2) if wanted is None else wanted)
+               if a in labels and b in labels and (a in read or b in read)]
     out = [f"{title}, each row read over its run's checkpoints (rows \"<method> ckpt<env steps>\" beside it, on the "
            "same episodes: per episode the share of the checkpoints that reached the first goal; won–lost sums the "
            "per-episode differences in that share, p a paired randomisation test on them):\n", checkpoint_table(groups),
