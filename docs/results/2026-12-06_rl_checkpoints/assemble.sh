@@ -15,14 +15,16 @@ for d in ../2026-12-05_escape/eval/{random,nomad_pointgoal} ../2026-12-05_neg_se
   [ -f "$HERE/$d/metrics.json" ] || { echo "assemble: $d missing" >&2; exit 1; }
   DIRS+=("$d")
 done
+RUNS="ppo|ppo_lag|ppo_600k|ppo_800k|ppo_1000k|ppo_lag_600k|ddppo"  # run.sh's runs (later folders' ckpt rows left out)
 for out in "${1:-runs/rl_main}" "${2:-runs/rl_ddppo}"; do
   for d in "$out"/eval/*_ckpt*; do
     n=${d##*/}
+    [[ "$n" =~ ^($RUNS)(_seed1)?_ckpt[0-9]+$ ]] || continue
     mkdir -p "$HERE/eval/$n"
     cp "$d"/{metrics.json,episodes.jsonl,run.json,rvn-eval.log} "$HERE/eval/$n/"
     DIRS+=("eval/$n")
   done
-  grep -P "^eval_.*_ckpt\d+\t" "$out/timings.tsv" >> "$HERE/timings.part" || true
+  grep -P "^eval_($RUNS)(_seed1)?_ckpt\d+\t" "$out/timings.tsv" >> "$HERE/timings.part" || true
 done
 mv "$HERE/timings.part" "$HERE/timings.tsv"
 cd "$HERE"
