@@ -203,6 +203,27 @@ def test_resume_continues_exactly(data, tmp_path):
     assert latest_checkpoint(part / "model").name == "ckpt_00000004"
 
 
+def test_policy_step_loads_a_kept_checkpoint(data, tmp_path):
+    """policy.step: a kept checkpoint other than the latest (a run read over its last few), its EMA weights; a step the
+    run does not keep names the ones it does; a bad value or an ensemble is refused."""
+    run = tmp_path / "run"
+    train([f"out_dir={run}", f"data.root={data / 'expert'}", "model=nomad_pointgoal", "train.max_steps=6",
+           "train.ckpt_every=2", "train.keep_checkpoints=3", "data.num_workers=0", *SMALL])
+    assert sorted(p.name for p in (run / "model").glob("ckpt_*")) == ["ckpt_00000002", "ckpt_00000004", "ckpt_00000006"]
+    for step, ckpt in ((2, "ckpt_00000002"), (4, "ckpt_00000004"), (None, "ckpt_00000006")):
+        net = load_policy(run, step=step).members[0].model
+        ema = load_file(str(run / "model" / ckpt / "ema.safetensors"))
+        for k, v in net.state_dict().items():
+            torch.testing.assert_close(v, ema[k], rtol=0, atol=0, msg=f"step={step}: {k}")
+    with pytest.raises(ValueError, match=r"keeps no checkpoint of step 3 \(policy.step\); it keeps 2, 4, 6"):
+        load_policy(run, step=3)
+    for bad in ("4", -1, 2.0, True):
+        with pytest.raises(ValueError, match="policy.step=.*integer"):
+            load_policy(run, step=bad)
+    with pytest.raises(ValueError, match="policy.step=2 with policy.ensemble"):
+        load_policy(run, step=2, aggregate="vote", ensemble=[str(run)])
+
+
 def test_cli_bad_input_one_line(data, tmp_path):
     empty = tmp_path / "empty"
     empty.mkdir()

@@ -66,7 +66,7 @@ def save_checkpoint(member_dir: Path, step: int, weights: Mapping[str, torch.Ten
                     state: Mapping[str, Any], ema: Mapping[str, torch.Tensor] | None = None, keep: int = 2) -> Path:
     """Write ``ckpt_<step>`` atomically, point ``latest`` at it, keep the newest ``keep``."""
     member_dir.mkdir(parents=True, exist_ok=True)
-    name = f"ckpt_{step:08d}"
+    name = checkpoint_at(member_dir, step).name
     tmp = member_dir / f".{name}.tmp-{os.getpid()}"
     shutil.rmtree(tmp, ignore_errors=True)
     tmp.mkdir()
@@ -97,6 +97,30 @@ def latest_checkpoint(member_dir: Path) -> Path | None:
     if not (path / "weights.safetensors").is_file():
         raise ValueError(f"checkpoint {path} named by {pointer} is missing or incomplete; delete {member_dir} to start over")
     return path
+
+
+def checkpoint_at(member_dir: Path, step: int) -> Path:
+    """A member's checkpoint after ``step`` optimiser steps (``ckpt_<step>``), kept or not."""
+    return member_dir / f"ckpt_{step:08d}"
+
+
+def kept_steps(member_dir: Path) -> list[int]:
+    """The steps of a member's complete checkpoints (``train.keep_checkpoints`` of them), oldest first."""
+    return sorted(int(p.name.removeprefix("ckpt_")) for p in member_dir.glob("ckpt_*")
+                  if p.is_dir() and p.name.removeprefix("ckpt_").isdigit() and (p / "weights.safetensors").is_file())
+
+
+def checkpoint_of(member_dir: Path, step: int | None) -> Path | None:
+    """The latest checkpoint of a member (``step`` None; None when it has none yet), else its kept checkpoint after
+    ``step`` steps: a ValueError naming ``policy.step`` and the steps it keeps when there is none."""
+    if step is None:
+        return latest_checkpoint(member_dir)
+    ckpt = checkpoint_at(member_dir, step)
+    if not (ckpt / "weights.safetensors").is_file():
+        kept = kept_steps(member_dir)
+        raise ValueError(f"{member_dir} keeps no checkpoint of step {step} (policy.step); it keeps "
+                         f"{', '.join(map(str, kept)) or 'none'} (rvn-train keeps the newest train.keep_checkpoints)")
+    return ckpt
 
 
 def read_stats(ckpt: Path) -> dict:

@@ -5,7 +5,8 @@ rvn-eval's ``policy=checkpoint`` (conf/policy/checkpoint.yaml, registered as ent
 selection: argmin}`` — every keyword besides ``checkpoint_path``/``device``/``model`` overrides
 a ``model.policy`` setting (lookahead_min_dist, waypoint_index, num_samples, aggregate, stop_radius,
 selection, cor_alpha, ensemble, sampler, depth_veto, depth_veto_rule, depth_veto_hfov, escape_after, escape_steps,
-escape_clearance, turn_commit), the seed, ``threads`` (torch intra-op threads of a decision
+escape_clearance, turn_commit), the seed, ``step`` (a kept checkpoint other than the latest, by its optimiser
+step: ``<member>/ckpt_<step>``, e.g. to evaluate a run over its last few), ``threads`` (torch intra-op threads of a decision
 on CPU, default 1, null: torch's setting; see :mod:`.policy`) or an agent setting (r_robot, d_step, theta_step_deg).
 
 ``ensemble``: more rvn-train out_dirs of the same model (ViNT- or NoMaD-PointGoal) whose samples join
@@ -42,7 +43,7 @@ from rvn_data.embodiment import AGENT_KEYS as EMBODIMENT_AGENT_KEYS
 
 from ..data.images import crop_setting
 from ..models import build_model, resolve_size
-from ..models.checkpoint import (latest_checkpoint, load_state_dict_checked, members_of, read_config, read_stats,
+from ..models.checkpoint import (checkpoint_of, load_state_dict_checked, members_of, read_config, read_stats,
                                  read_weights)
 from ..models.compiled import check_compile, compile_for_inference
 from ..models.nomad import check_sampler
@@ -54,7 +55,7 @@ from .policy import Member, NoMaDNegPolicy, PointGoalPolicy
 
 POLICY_KEYS = {"lookahead_min_dist", "waypoint_index", "num_samples", "aggregate", "stop_radius", "selection", "cor_alpha",
                "seed", "threads", "ensemble", "sampler", "compile", "depth_veto", "depth_veto_rule", "depth_veto_hfov",
-               "escape_after", "escape_steps", "escape_clearance", "turn_commit"}
+               "escape_after", "escape_steps", "escape_clearance", "turn_commit", "step"}
 AGENT_KEYS = set(EMBODIMENT_AGENT_KEYS)  # policy.* settings that change the robot's control
 
 
@@ -77,10 +78,11 @@ def resolve_device(device: str | torch.device, setting: str = "device") -> torch
     return dev
 
 
-def load_member(out_dir: Path, member: str, model_cfg: dict, device: torch.device) -> Member:
-    """One trained network (EMA weights when present) and its statistics, in eval mode; its
-    crop is the checkpoint's ``crop`` (older stats: ``crop_to_aspect``, true → aspect, false → none)."""
-    ckpt = latest_checkpoint(out_dir / member)
+def load_member(out_dir: Path, member: str, model_cfg: dict, device: torch.device, step: int | None = None) -> Member:
+    """One trained network (EMA weights when present) and its statistics, in eval mode, from its latest checkpoint
+    or the one after ``step`` steps; its crop is the checkpoint's ``crop`` (older stats: ``crop_to_aspect``, true →
+    aspect, false → none)."""
+    ckpt = checkpoint_of(out_dir / member, step)
     if ckpt is None:
         raise ValueError(f"no checkpoint for {member!r} in {out_dir}: rvn-train has not saved one yet")
     model = build_model(model_cfg)
@@ -150,7 +152,8 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
     control = ControlConfig.from_agent(agent, pol.get("stop_radius"), pol.get("lookahead_min_dist"), pol.get("waypoint_index"))
     dev = resolve_device(device, "policy.device")
     compiled = check_compile(pol.get("compile", False), "policy.compile")
-    members = [load_member(out_dir, m, model_cfg, dev) for m in members_of(name)]
+    step = checked_step(pol.get("step"), pol.get("ensemble"))
+    members = [load_member(out_dir, m, model_cfg, dev, step) for m in members_of(name)]
     hfov = pol.get("depth_veto_hfov")
     veto = check_depth_veto(pol.get("depth_veto"), members[0].model.depth_head is not None, pol.get("depth_veto_rule", "band"),
                             members[0].hfov_deg if hfov is None else hfov, agent.r_robot, agent.d_step)
@@ -183,6 +186,20 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
     set_sampler(members, pol.get("sampler"), name)
     compile_members(members, compiled, dev)
     return with_training_record(PointGoalPolicy(members, control, aggregate=aggregate, **common), cfg, members)
+
+
+def checked_step(step: Any, ensemble: Any) -> int | None:
+    """``policy.step`` as an int (None: the latest checkpoint); a ValueError for anything but a step count, or with
+    ``policy.ensemble``, whose runs keep checkpoints at steps of their own."""
+    if step is None:
+        return None
+    if isinstance(step, bool) or not isinstance(step, int) or step < 0:
+        raise ValueError(f"policy.step={step!r}: give a kept checkpoint's optimiser step (an integer >= 0; its folder "
+                         "<member>/ckpt_<step>), or leave it unset for the latest")
+    if ensemble_dirs(ensemble):
+        raise ValueError(f"policy.step={step} with policy.ensemble: the ensemble's runs keep checkpoints at steps of "
+                         "their own; evaluate an ensemble at its runs' latest checkpoints (leave policy.step unset)")
+    return step
 
 
 def with_training_record(policy, cfg: dict, members: list[Member]):
