@@ -327,6 +327,16 @@ def test_rows_are_read_over_their_checkpoints(tmp_path):
     means, groups = over_checkpoints([a, Row("a ckpt5", 12, 20, 20, 0.2, dict(a.per_episode)), b])
     assert [r.label for r in means] == ["a", "b"] and len(groups["a"]) == 2
     assert paired(means[0], b)["mcnemar_p"] == paired(a, b)["mcnemar_p"] == pytest.approx(2 * 0.5 ** 8)
+    # a row with no collisions against a mean row with half of one (one of its two checkpoints collided once): the
+    # ratio 0, its interval unbounded (B's collisions rounded down: none to bound it); with one and a half, B's one
+    c = Row("c", 1, 2, 0, 0.02, {0: (1, 0, 0.01), 1: (0, 0, 0.01)})
+    d = Row("d", 1, 2, 1, 0.02, {0: (1, 1, 0.01), 1: (0, 0, 0.01)})
+    means, _ = over_checkpoints([d, Row("d ckpt5", 1, 2, 0, 0.02, {0: (1, 0, 0.01), 1: (0, 0, 0.01)}), c])
+    assert paired(c, means[0])["cpk_ratio_ci"] == (0.0, float("inf"))
+    three = Row("e", 1, 2, 3, 0.02, {0: (1, 3, 0.01), 1: (0, 0, 0.01)})
+    means, _ = over_checkpoints([three, Row("e ckpt5", 1, 2, 0, 0.02, {0: (1, 0, 0.01), 1: (0, 0, 0.01)}), c])
+    one = Row("f", 1, 2, 1, 0.02, {0: (1, 1, 0.01), 1: (0, 0, 0.01)})
+    assert paired(c, means[0])["cpk_ratio_ci"] == paired(c, one)["cpk_ratio_ci"]
 
 
 def test_rows_read_over_checkpoints_on_recorded_evaluations():

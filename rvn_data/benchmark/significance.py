@@ -26,8 +26,9 @@ seeds are there too ("A seed1", "B seed1") is also tested pooled over the seeds 
 `pool_rows`): every episode of each seed's pair is one paired observation, keyed by seed and episode.
 
 Rows of several checkpoints of one training run: the recipes label a row of a checkpoint other than the run's latest
-``"<method> ckpt<env steps>"`` (jobs/rl_small.sh's ``EVAL_CHECKPOINTS``), since an RL row at small scale moves as much
-between neighbouring checkpoints as between budgets. A row "A" with such rows on the same episodes is also read as
+``"<method> ckpt<step>"`` (RL: env steps, IL: training steps; ``EVAL_CHECKPOINTS`` of jobs/rl_small.sh and
+jobs/small_experiment.sh), since an RL row at small scale moves as much between neighbouring checkpoints as between
+budgets. A row "A" with such rows on the same episodes is also read as
 their mean (`over_checkpoints`, `mean_row`): per episode the share of its checkpoints that reached the first goal and
 their mean collisions and km. Pairs of such rows are tested on the episodes, the unit that is sampled: SR_1 by a paired
 randomisation test on the per-episode differences in that share (signs flipped per episode; with shares of 0 or 1 it is
@@ -127,9 +128,12 @@ def _ratio_interval(ea: np.ndarray, eb: np.ndarray, rng: np.random.Generator) ->
     with no collisions on a side; in this interval it put a ratio of 0 at [0.05, 0.33] with none against 5). A draw
     with no collisions on either side has no ratio and is left out; one with none on B's side is unbounded (inf).
     With no collisions in A every draw is 0, which bounds nothing: the interval is then the exact conditional one of
-    two Poisson rates (`cpk_p`'s binomial, Clopper-Pearson)."""
+    two Poisson rates (`cpk_p`'s binomial, Clopper-Pearson), B's collisions rounded down where B is a mean over
+    checkpoints (a wider interval; unbounded below one collision)."""
     (ca, ka), (cb, kb) = ea.sum(0), eb.sum(0)
     if ca == 0:
+        if int(cb) == 0:  # a mean row's fraction of one collision bounds nothing
+            return 0.0, float("inf")
         high = binomtest(0, int(cb), ka / (ka + kb)).proportion_ci(0.95, method="exact").high
         return 0.0, float(high / (1 - high) * kb / ka)
     idx = rng.integers(0, len(ea), (PERMUTATIONS, len(ea)))
@@ -250,7 +254,7 @@ def mean_row(label: str, rows: Sequence[Row]) -> Row:
 
 def checkpoint_table(groups: dict[str, list[Row]]) -> str:
     """Markdown table: each row read over its checkpoints, their SR_1 and CPK one by one (oldest first) and over all."""
-    lines = ["| row | checkpoints (env steps; the row's own last) | SR_1 of each | SR_1 mean | CPK of each | CPK over all |",
+    lines = ["| row | checkpoints (steps; the row's own last) | SR_1 of each | SR_1 mean | CPK of each | CPK over all |",
              "|---|---|---|---:|---|---:|"]
     for label, group in groups.items():
         steps = [CKPT_LABEL.match(r.label)["steps"] for r in group[:-1]] + ["the row's"]
