@@ -8,6 +8,8 @@
 #      oracle, trajectory oracle, blind goal follower, random)
 #   SEEDS="0 1": NoMaD-PointGoal and NoMaD-Neg (and their eval rows) once per training seed; data, episodes,
 #   ViNT and the reference rows once (seed SEED). Rows of another seed than SEED are labelled "<method> seed<s>".
+#   EVAL_CHECKPOINTS=k: NoMaD-PointGoal also at its k-1 kept checkpoints before the latest ("<method> ckpt<step>"),
+#   which the report reads the row over.
 #   -> python -m rvn_data.benchmark.report -> OUT/report.md (+ plots, per-episode logs in OUT/eval/*/)
 #
 #   bash jobs/small_experiment.sh [OUT]              # SCALE=small on 2 CPU cores: wall time per step in OUT/timings.tsv
@@ -70,6 +72,12 @@ esac
                               # docs/results/2026-11-25_small_experiment_8/) | band (the central half of the columns)
 : "${SEED:=0}"                # data, episodes, ViNT and the reference rows
 : "${SEEDS:=$SEED}"           # training seeds of NoMaD-PointGoal and NoMaD-Neg (space-separated, e.g. "0 1")
+: "${EVAL_CHECKPOINTS:=1}"    # NoMaD-PointGoal's row also at its k-1 kept checkpoints before the latest (rvn-eval
+                              # policy.step; rows "NoMaD-PointGoal ckpt<step>", ~1.5-6 min each at SCALE=small), read
+                              # over the k by the report (per episode the share that reached the first goal; an RL
+                              # row moves by an SD of 0.03-0.04 SR_1 between checkpoints, docs/results/2026-12-06_ppo_five_checkpoints/).
+                              # Above 2, NoMaD-PointGoal keeps k (train.keep_checkpoints). NoMaD-Neg's NoMaD_e is the latest
+: "${CKPT_EVERY:=}"           # NoMaD-PointGoal's train.ckpt_every (empty: rvn-train's 1000 steps; SCALE=small trains ~11k)
 : "${DEVICE:=cpu}"            # rvn-train device (cpu | cuda | auto); rvn-eval's policies stay on the CPU
 : "${RENDERER:=auto}"         # rvn-gen / rvn-eval renderer: auto | gl | raycast
 PY=${PYTHON:-python}
@@ -83,6 +91,12 @@ if [[ "$TURN_COMMIT" == 1 && -z "$DEPTH_VETO" ]]; then
   echo "small_experiment.sh: error: TURN_COMMIT=1 adds a row to the veto's: set DEPTH_VETO (e.g. 0.5, with DEPTH_AUX > 0)" >&2; exit 2
 fi
 [[ "$DEPTH_VETO_RULE" =~ ^(band|swept)$ ]] || { echo "small_experiment.sh: error: DEPTH_VETO_RULE=$DEPTH_VETO_RULE; choose swept or band" >&2; exit 2; }
+if [[ ! "$EVAL_CHECKPOINTS" =~ ^[1-9][0-9]*$ ]]; then
+  echo "small_experiment.sh: error: EVAL_CHECKPOINTS=$EVAL_CHECKPOINTS; give how many of NoMaD-PointGoal's last checkpoints to evaluate (1: the latest)" >&2; exit 2
+fi
+if [[ -n "$CKPT_EVERY" && ! "$CKPT_EVERY" =~ ^[1-9][0-9]*$ ]]; then
+  echo "small_experiment.sh: error: CKPT_EVERY=$CKPT_EVERY; give NoMaD-PointGoal's steps between checkpoints (empty: rvn-train's 1000)" >&2; exit 2
+fi
 [[ "$SEEDS" =~ ^[0-9]+( [0-9]+)*$ ]] || { echo "small_experiment.sh: error: SEEDS=$SEEDS; give whole numbers separated by spaces, e.g. SEEDS=\"0 1\"" >&2; exit 2; }
 [[ "$DEPTH_NEG_PER_SCENE" =~ ^[0-9]+$ ]] || { echo "small_experiment.sh: error: DEPTH_NEG_PER_SCENE=$DEPTH_NEG_PER_SCENE; give a whole number (0: off)" >&2; exit 2; }
 if [[ "$DEPTH_NEG_PER_SCENE" != 0 && "$DEPTH_AUX" == 0 ]]; then
@@ -103,6 +117,9 @@ DEPTH_GEN=()
 if [[ "$DEPTH_AUX" != 0 ]]; then TRAIN_SIZE+=("model.depth_aux_weight=$DEPTH_AUX"); DEPTH_GEN=("dataset.save_depth=true"); fi
 [[ -n "$LR" ]] && TRAIN_SIZE+=("train.lr=$LR")
 TRAIN_SIZE+=("data.pad_context=$PAD_CONTEXT")
+NOMAD_CKPT=()
+[[ -n "$CKPT_EVERY" ]] && NOMAD_CKPT+=("train.ckpt_every=$CKPT_EVERY")
+(( EVAL_CHECKPOINTS > 2 )) && NOMAD_CKPT+=("train.keep_checkpoints=$EVAL_CHECKPOINTS")
 EVAL=("split=val" "episodes.num_scenes=$EVAL_SCENES" "episodes.per_scene=$EVAL_EPISODES" "episodes.n_goals=$N_GOALS"
       "env.t_max=$T_MAX" "episodes.dir=$OUT/episodes" "workers=$WORKERS" "progress=false" "seed=$SEED" "renderer=$RENDERER" "${CAMERA[@]}")
 
@@ -166,7 +183,8 @@ for S in $SEEDS; do
   SFX=""; LBL=""; [[ "$S" != "$SEED" ]] && { SFX="_seed$S"; LBL=" seed$S"; }
   export OMP_NUM_THREADS=$THREADS MKL_NUM_THREADS=$THREADS
   step "train_nomad$SFX" rvn-train model=nomad_pointgoal model.prediction_type="$PREDICTION" data.root="$DATA/rvn_expert" \
-    out_dir="$OUT/train/nomad_pointgoal$SFX" train.epochs="$NOMAD_EPOCHS" "${TRAIN_SIZE[@]}" "${NOMAD_DEPTH[@]}" seed="$S"
+    out_dir="$OUT/train/nomad_pointgoal$SFX" train.epochs="$NOMAD_EPOCHS" "${TRAIN_SIZE[@]}" "${NOMAD_DEPTH[@]}" seed="$S" \
+    "${NOMAD_CKPT[@]}"
   NEG_TRAIN=()
   if [[ "$NEG_EXPERT" == reuse ]]; then NEG_TRAIN=("train.expert_from=$OUT/train/nomad_pointgoal$SFX"); fi
   step "train_nomad_neg$SFX" rvn-train model=nomad_neg model.prediction_type="$PREDICTION" data.root="$DATA/rvn_expert" \
@@ -183,6 +201,21 @@ for S in $SEEDS; do
   step "eval_nomad_neg$SFX" rvn-eval "${NEG[@]}" "method=NoMaD-Neg$LBL" +policy.waypoint_index="$LOOKAHEAD" \
     out_dir="$OUT/eval/nomad_neg$SFX" "${EVAL[@]}"
   RUNS+=("$OUT/eval/nomad_pointgoal$SFX" "$OUT/eval/nomad_pointgoal_vote$SFX" "$OUT/eval/nomad_neg$SFX")
+  if (( EVAL_CHECKPOINTS > 1 )); then  # the kept checkpoints before the latest, newest first
+    kept=()
+    for ckpt in "$OUT/train/nomad_pointgoal$SFX/model"/ckpt_*; do if [[ -d "$ckpt" ]]; then kept=("${ckpt##*/}" "${kept[@]}"); fi; done
+    if (( ${#kept[@]} < EVAL_CHECKPOINTS )); then
+      echo "small_experiment: $OUT/train/nomad_pointgoal$SFX keeps ${#kept[@]} checkpoints (train.keep_checkpoints and" \
+           "train.ckpt_every when it trained: CKPT_EVERY); EVAL_CHECKPOINTS=$EVAL_CHECKPOINTS evaluates those"
+    fi
+    for ckpt in "${kept[@]:1:EVAL_CHECKPOINTS-1}"; do
+      at=$((10#${ckpt#ckpt_}))
+      step "eval_nomad${SFX}_ckpt$at" rvn-eval "${NOMAD[@]}" "method=NoMaD-PointGoal$LBL ckpt$at" +policy.step="$at" \
+        +policy.waypoint_index="$LOOKAHEAD" +policy.num_samples="$NOMAD_SAMPLES" \
+        out_dir="$OUT/eval/nomad_pointgoal${SFX}_ckpt$at" "${EVAL[@]}"
+      RUNS+=("$OUT/eval/nomad_pointgoal${SFX}_ckpt$at")
+    done
+  fi
   COMPARE+=("NoMaD-PointGoal$LBL=Goal follower" "NoMaD-PointGoal$LBL=Trajectory oracle"
             "NoMaD-PointGoal-vote$LBL=NoMaD-PointGoal$LBL" "NoMaD-Neg$LBL=NoMaD-PointGoal$LBL")
   if [[ -n "$DEPTH_VETO" ]]; then  # the depth head of NoMaD-PointGoal (NoMaD-Neg's NoMaD_e) vetoes blocked forward steps

@@ -20,8 +20,10 @@ PER_SEED = ("NoMaD-PointGoal", "NoMaD-PointGoal-vote", "NoMaD-Neg", "NoMaD-Point
             "NoMaD-Neg-veto-commit", "NoMaD-Neg-argmin")
 METHODS = ("Random", "Oracle", "Goal follower", "Trajectory oracle", "ViNT-PointGoal", *PER_SEED,
            *(f"{m} seed1" for m in PER_SEED))
-# every row: the depth head and its veto, committed turns, the opt-in argmin row, two training seeds
-EVERY_ROW = dict(NEG_ARGMIN="1", SEEDS="0 1", DEPTH_AUX="0.5", DEPTH_VETO="0.5", TURN_COMMIT="1")
+# every row: the depth head and its veto, committed turns, the opt-in argmin row, two training seeds, NoMaD-PointGoal
+# read over its last two checkpoints (one a step: steps 1 and 2)
+EVERY_ROW = dict(NEG_ARGMIN="1", SEEDS="0 1", DEPTH_AUX="0.5", DEPTH_VETO="0.5", TURN_COMMIT="1", EVAL_CHECKPOINTS="2",
+                 CKPT_EVERY="1")
 
 
 def small_experiment(out: Path, **env) -> subprocess.CompletedProcess:
@@ -57,8 +59,8 @@ def test_tiny_experiment_end_to_end_and_rerun(tmp_path):
     steps = [ln.split("\t")[0] for ln in (out / "timings.tsv").read_text().splitlines()]
     assert steps[:4] == ["gen_expert", "gen_negative", "gen_val", "train_vint"]
     # each seed's trainings, then its rows: seed 0's are complete before seed 1 trains
-    assert steps[9:11] == ["train_nomad", "train_nomad_neg"] and steps[18:20] == ["train_nomad_seed1", "train_nomad_neg_seed1"]
-    assert len(steps) == 27
+    assert steps[9:11] == ["train_nomad", "train_nomad_neg"] and steps[19:21] == ["train_nomad_seed1", "train_nomad_neg_seed1"]
+    assert steps[14] == "eval_nomad_ckpt1" and steps[24] == "eval_nomad_seed1_ckpt1" and len(steps) == 29
     seed1 = (out / "train" / "nomad_pointgoal_seed1" / "config.yaml").read_text()
     assert "seed: 1" in seed1 and "expert_from: " + str(out / "train" / "nomad_pointgoal_seed1") in \
         (out / "train" / "nomad_neg_seed1" / "config.yaml").read_text()
@@ -84,10 +86,14 @@ def test_tiny_experiment_end_to_end_and_rerun(tmp_path):
     committed = json.loads((out / "eval" / "nomad_neg_veto_commit_seed1" / "run.json").read_text())
     assert committed["policy"]["turn_commit"] is True and committed["policy"]["depth_veto"] == 0.5
     assert "commits" in (out / "eval" / "nomad_neg_veto_commit" / "episodes.jsonl").read_text()
+    # EVAL_CHECKPOINTS=2: NoMaD-PointGoal at its checkpoint before the latest too (policy.step), read over both
+    assert json.loads((out / "eval" / "nomad_pointgoal_seed1_ckpt1" / "run.json").read_text())["policy"]["step"] == 1
+    assert "| NoMaD-PointGoal | 1, the row's |" in report and "| NoMaD-PointGoal seed1 | 1, the row's |" in report
+    assert "| NoMaD-Neg | NoMaD-PointGoal | 1 / 2 | 1 |" in report, report
     # a rerun skips every step and rewrites the same report
     again = small_experiment(out, **EVERY_ROW)
     assert again.returncode == 0, again.stderr[-3000:]
-    assert again.stdout.count("done before, skipped") == 27
+    assert again.stdout.count("done before, skipped") == 29
     assert (out / "report.md").read_text() == report
 
 
@@ -111,6 +117,10 @@ def test_bad_scale_is_refused(tmp_path):
     assert proc.returncode == 2 and "TURN_COMMIT=1 adds a row to the veto's: set DEPTH_VETO" in proc.stderr
     proc = small_experiment(tmp_path / "x", SCALE="tiny", DEPTH_VETO_RULE="wide")
     assert proc.returncode == 2 and "DEPTH_VETO_RULE=wide; choose swept or band" in proc.stderr
+    proc = small_experiment(tmp_path / "x", SCALE="tiny", EVAL_CHECKPOINTS="0")
+    assert proc.returncode == 2 and "EVAL_CHECKPOINTS=0; give how many of NoMaD-PointGoal's last" in proc.stderr
+    proc = small_experiment(tmp_path / "x", SCALE="tiny", CKPT_EVERY="1k")
+    assert proc.returncode == 2 and "CKPT_EVERY=1k; give NoMaD-PointGoal's steps between checkpoints" in proc.stderr
     proc = small_experiment(tmp_path / "x", SCALE="tiny", SEEDS="0,1")
     assert proc.returncode == 2 and "SEEDS=0,1; give whole numbers separated by spaces" in proc.stderr
     assert not (tmp_path / "x").exists()

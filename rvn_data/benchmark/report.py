@@ -13,9 +13,8 @@ the report (``<stem>_sr1.png``, ``<stem>_cpk.png``, ``<stem>_goals.png``, ``<ste
 goals ended), how goals ended with CPK over all kilometres and outside timed-out stretches, significance tests between rows (each
 compared pair also pooled over training seeds where the rows of other seeds, labelled ``"<method> seed<s>"`` as the
 recipes do, are there: `rvn_data.benchmark.significance.pooled_pairs`; and each row read over its run's checkpoints
-where rows ``"<method> ckpt<env steps>"`` of its other checkpoints are there: `over_checkpoints`), and every episode's
-record. Runs appear in
-the order given.
+where rows ``"<method> ckpt<step>"`` of its other checkpoints are there (RL: env steps, IL: training steps:
+`over_checkpoints`), and every episode's record. Runs appear in the order given.
 """
 from __future__ import annotations
 
@@ -134,7 +133,7 @@ def tests(runs: list[Run], compare: list[tuple[str, str]] | None = None, compare
 
 
 def over_checkpoints_tests(rows: list[Row], wanted: list[tuple[str, str]] | None, title: str) -> list[str]:
-    """The tests again with each row that has rows of its run's other checkpoints ("<method> ckpt<env steps>") read
+    """The tests again with each row that has rows of its run's other checkpoints ("<method> ckpt<step>") read
     as their mean (`significance.over_checkpoints`): the rows one by one, each pair with such a row, and those pairs
     pooled over training seeds. Nothing where no row has them."""
     means, groups = over_checkpoints(rows)
@@ -144,7 +143,7 @@ def over_checkpoints_tests(rows: list[Row], wanted: list[tuple[str, str]] | None
     read = set(groups) | {m["base"] for g in groups if (m := SEED_LABEL.match(g))}  # "A" too for its "A seed<s>"
     touched = [(a, b) for a, b in (combinations(labels, 2) if wanted is None else wanted)
                if a in labels and b in labels and (a in read or b in read)]
-    out = [f"{title}, each row read over its run's checkpoints (rows \"<method> ckpt<env steps>\" beside it, on the "
+    out = [f"{title}, each row read over its run's checkpoints (rows \"<method> ckpt<step>\" beside it, on the "
            "same episodes: per episode the share of the checkpoints that reached the first goal; won–lost sums the "
            "per-episode differences in that share, p a paired randomisation test on them):\n", checkpoint_table(groups),
            mean_pairs_table(means, groups, touched)]
