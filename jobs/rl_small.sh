@@ -86,7 +86,8 @@ esac
                               # episode row's binomial error (docs/results/2026-12-06_ppo_five_checkpoints); above 2,
                               # rvn-rl keeps as many (train.keep_checkpoints; a run trained before keeps 2)
 : "${COMPARE:=}"              # extra "A=B" method pairs to test in the report, separated by ';' (e.g. "DD-PPO=PPO" with
-                              # a PPO row among IL_RUNS)
+                              # a PPO row among IL_RUNS); a pair naming a row the report does not have (not evaluated
+                              # yet by a recipe running beside, or a typo) is listed as not tested, not an error
 has() { [[ " $ALGOS " == *" $1 "* ]]; }
 for algo in $ALGOS; do
   case "$algo" in ppo|ppo_lag|ddppo|ddppo_depth) ;; *) echo "rl_small.sh: error: ALGOS contains '$algo'; choose among ppo ppo_lag ddppo ddppo_depth" >&2; exit 2 ;; esac
@@ -307,7 +308,7 @@ between ddppo_depth ddppo
 for run in $IL_RUNS; do add_run "$run"; done   # with its evaluations of other checkpoints beside it
 IFS=';' read -ra EXTRA <<<"$COMPARE"
 for p in "${EXTRA[@]}"; do pair "$p"; done
-$PY -m rvn_data.benchmark.report "${RUNS[@]}" -o "$OUT/report.md" "${PAIRS[@]/#/--compare=}" \
+$PY -m rvn_data.benchmark.report "${RUNS[@]}" -o "$OUT/report.md" "${PAIRS[@]/#/--compare=}" --compare-present \
   --title "RL baselines, small scale (SCALE=$SCALE)"
 echo "rl_small: this run took $SECONDS s ($STEPS_SECONDS s in steps run now); report: $OUT/report.md;" \
      "learning curves: $OUT/train/*/learning_curve.png"
