@@ -95,15 +95,29 @@ def register_configs() -> None:
 
 
 def eval_run_name(method: str | None, policy: str | None, checkpoint_path: str | None = None,
-                  first_scene: int | None = 0) -> str:
+                  first_scene: int | None = 0, step: int | None = None, env_steps: int | None = None) -> str:
     """rvn-eval's default out_dir leaf (``${rvn_eval_name:...}`` in `EvalConfig.out_dir`): the
-    method label, else the checkpoint folder's name, else the policy config's name; so two
+    method label, else the checkpoint folder's name (`checkpoint_label`: with ``_ckpt<n>`` for a kept checkpoint
+    other than the latest, ``policy.step`` or ``policy.env_steps``), else the policy config's name; so two
     models' evaluations land in two folders (runs/eval/val/NoMaD-Neg, runs/eval/val/nomad). A shard that starts
     at another scene than the first (``episodes.first_scene``, e.g. a multirun over ``range(0,50,5)``) gets
     ``_first_scene<N>``, so the shards do not write into one folder (the report merges them)."""
-    name = method or (Path(str(checkpoint_path)).expanduser().name if checkpoint_path else None) or policy or "policy"
+    name = method or checkpoint_label(checkpoint_path, step, env_steps) or policy or "policy"
     name = "_".join(str(name).replace("/", "_").replace("\\", "_").split()) or "policy"
     return f"{name}_first_scene{first_scene}" if first_scene else name
+
+
+def checkpoint_label(checkpoint_path: str | None, step: int | None = None, env_steps: int | None = None,
+                     resolve: bool = False) -> str | None:
+    """A checkpoint's row label when method= is not given: its folder's name, and ``" ckpt<n>"`` for a kept
+    checkpoint other than the latest (``policy.step`` of rvn-train's, ``policy.env_steps`` of rvn-rl's), the label
+    the report reads a row over its checkpoints by ("nomad" and "nomad ckpt9000"). None without a checkpoint."""
+    if not checkpoint_path:
+        return None
+    path = Path(str(checkpoint_path)).expanduser()
+    name = (path.resolve() if resolve else path).name
+    at = step if step is not None else env_steps
+    return name if at is None else f"{name} ckpt{at}"
 
 
 def _register_resolvers() -> None:

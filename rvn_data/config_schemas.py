@@ -75,10 +75,12 @@ class EvalConfig:
     split: str = "val"
     seed: int = 0
     method: str | None = None  # row label in the table; null = the checkpoint folder's name, else the policy config's
-    # runs/eval/<split>/<method, else the checkpoint folder's name, else the policy's>, + _first_scene<N> when
+    # runs/eval/<split>/<method, else the checkpoint folder's name (+ _ckpt<n> with policy.step or policy.env_steps),
+    # else the policy's>, + _first_scene<N> when
     # episodes.first_scene is not 0: the shards of a multirun over it get a folder each (config.eval_run_name)
     out_dir: str = ("runs/eval/${split}/${rvn_eval_name:${method},${hydra:runtime.choices.policy},"
-                    "${oc.select:policy.checkpoint_path,null},${episodes.first_scene}}")
+                    "${oc.select:policy.checkpoint_path,null},${episodes.first_scene},${oc.select:policy.step,null},"
+                    "${oc.select:policy.env_steps,null}}")
     # cache root (rvn_data/cache_root.py): null = $RVN_CACHE_DIR, else <out_dir>/cache; set
     # RVN_CACHE_DIR (or cache_dir=) to one folder to share episode sets between evaluations
     cache_dir: str | None = None

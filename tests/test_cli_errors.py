@@ -73,6 +73,13 @@ def test_eval_default_out_dir_names_the_method_or_checkpoint(tmp_path):
     assert out_dir("policy=checkpoint", ckpt, "method=NoMaD-Neg") == "runs/eval/val/NoMaD-Neg"
     assert out_dir("policy=checkpoint", ckpt) == "runs/eval/val/nomad_neg"
     assert out_dir("policy=checkpoint", "policy.checkpoint_path=runs/train/nomad/", "split=test") == "runs/eval/test/nomad"
+    # a kept checkpoint other than the latest (rvn-train's policy.step, rvn-rl's policy.env_steps): a folder of its own
+    assert out_dir("policy=checkpoint", "policy.checkpoint_path=runs/train/nomad", "+policy.step=9000") == \
+        "runs/eval/val/nomad_ckpt9000"
+    assert out_dir("policy=checkpoint", "policy.checkpoint_path=runs/rl/ppo", "+policy.env_steps=399360") == \
+        "runs/eval/val/ppo_ckpt399360"
+    assert out_dir("policy=checkpoint", ckpt, "+policy.step=9000", "method=NoMaD-Neg ckpt9000") == \
+        "runs/eval/val/NoMaD-Neg_ckpt9000"
     assert out_dir("policy=random") == "runs/eval/val/random"
     assert out_dir("policy=random", "method=Goal follower") == "runs/eval/val/Goal_follower"
     # the shards of a multirun over episodes.first_scene: a folder each (they wrote into one before)

@@ -222,6 +222,15 @@ def test_policy_step_loads_a_kept_checkpoint(data, tmp_path):
             load_policy(run, step=bad)
     with pytest.raises(ValueError, match="policy.step=2 with policy.ensemble"):
         load_policy(run, step=2, aggregate="vote", ensemble=[str(run)])
+    # rvn-eval with no method=: the row "run ckpt2" in runs/eval/val/run_ckpt2, which the report reads "run" over
+    r = subprocess.run([sys.executable, "-m", "rvn_data.benchmark.cli", "policy=checkpoint", f"policy.checkpoint_path={run}",
+                        "+policy.step=2", "split=val", "episodes.num_scenes=1", "episodes.per_scene=1", "episodes.n_goals=1",
+                        "env.t_max=5", "camera.width=32", "camera.height=32", "progress=false",
+                        f"episodes.dir={tmp_path / 'episodes'}"], capture_output=True, text=True, env=ENV, timeout=300,
+                       cwd=tmp_path)
+    assert r.returncode == 0, r.stderr[-3000:]
+    metrics = json.loads((tmp_path / "runs" / "eval" / "val" / "run_ckpt2" / "metrics.json").read_text())
+    assert metrics["method"] == "run ckpt2" and metrics["episodes"] == 1
 
 
 def test_cli_bad_input_one_line(data, tmp_path):

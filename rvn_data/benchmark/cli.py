@@ -28,7 +28,7 @@ from rvn_data.benchmark.table import render_table
 from rvn_data.benchmark.traces import prune_traces, trace_file, write_trace
 from rvn_data.benchmark.trained_scenes import trained_scenes_evaluated, trained_scenes_note
 from rvn_data.cache_root import cache_root, keep_compiled_kernels
-from rvn_data.config import CONF_DIR, register_configs, typed
+from rvn_data.config import CONF_DIR, checkpoint_label, register_configs, typed
 from rvn_data.config_schemas import EvalConfig
 from rvn_data.embodiment import check_embodiment, describe, embodiment_of
 from rvn_data.scenes.sets import shared_splits, shared_splits_note
@@ -131,8 +131,9 @@ def _typed_config(cfg: DictConfig) -> tuple[EvalConfig, str]:
     if HydraConfig.initialized():
         choice = HydraConfig.get().runtime.choices.get("policy") or "policy"
     config = typed(EvalConfig, cfg)
-    ckpt = config.policy.get("checkpoint_path") if isinstance(config.policy, dict) else None
-    method = config.method or (Path(str(ckpt)).expanduser().resolve().name if ckpt else None) or choice
+    pol = config.policy if isinstance(config.policy, dict) else {}
+    method = config.method or checkpoint_label(pol.get("checkpoint_path"), pol.get("step"), pol.get("env_steps"),
+                                               resolve=True) or choice
     return replace(config, method=method), choice
 
 
