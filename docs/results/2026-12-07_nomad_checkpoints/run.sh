@@ -2,7 +2,7 @@
 # NoMaD-PointGoal read over its training checkpoints: the recipe's seed-0 NoMaD-PointGoal (jobs/small_experiment.sh at
 # SCALE=small, the commands of ../2026-12-05_escape/run.sh) trained again keeping its last five checkpoints
 # (train.keep_checkpoints=5; one every 1,000 steps, the last at the end of epoch 2), then evaluated at each of them
-# (rvn-eval policy.step) on the same 200 val episodes, beside the reference rows and NoMaD-Neg at the latest:
+# (rvn-eval policy.step) on the same 200 val episodes, beside the reference rows:
 #   bash docs/results/2026-12-07_nomad_checkpoints/run.sh runs/nomad_checkpoints      # rerun to resume
 set -euo pipefail
 OUT=${1:-runs/nomad_checkpoints}
@@ -55,6 +55,6 @@ for ckpt in $(ls -d "$OUT"/train/nomad_pointgoal/model/ckpt_* | sed 's/.*ckpt_0*
   evaluate "eval_nomad_ckpt$ckpt" rvn-eval "${NOMAD[@]}" +policy.step="$ckpt" "method=NoMaD-PointGoal ckpt$ckpt" \
     out_dir="$OUT/eval/nomad_pointgoal_ckpt$ckpt" "${EVAL[@]}"
 done
-evaluate eval_nomad_neg rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_neg" +policy.waypoint_index=null \
-  "method=NoMaD-Neg" out_dir="$OUT/eval/nomad_neg" "${EVAL[@]}"
+# NoMaD-Neg (trained above, 56 s) is not evaluated: its NoMaD_e is the latest checkpoint alone, and the session's time
+# went to the checkpoints
 echo "nomad_checkpoints run: done in $SECONDS s ($STEPS_SECONDS s in steps run now)"
