@@ -75,7 +75,7 @@ esac
 : "${EVAL_CHECKPOINTS:=1}"    # NoMaD-PointGoal's row also at its k-1 kept checkpoints before the latest (rvn-eval
                               # policy.step; rows "NoMaD-PointGoal ckpt<step>", ~1.5-6 min each at SCALE=small), read
                               # over the k by the report (per episode the share that reached the first goal). Default 1:
-                              # NoMaD-PointGoal's last four checkpoints moved by an SD of 0.015 SR_1, under a row's binomial
+                              # NoMaD-PointGoal's last five checkpoints moved by an SD of 0.014 SR_1, under a row's binomial
                               # error (docs/results/2026-12-07_nomad_checkpoints/; RL's 0.03-0.04: rl_small.sh evaluates 2).
                               # Above 2, NoMaD-PointGoal keeps k (train.keep_checkpoints). NoMaD-Neg's NoMaD_e is the latest
 : "${CKPT_EVERY:=}"           # NoMaD-PointGoal's train.ckpt_every (empty: rvn-train's 1000 steps; SCALE=small trains ~11k)
