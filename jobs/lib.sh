@@ -36,3 +36,15 @@ step() {
   step_seen "$name"
   echo "[$name] ok in $((SECONDS - t0)) s"
 }
+# earlier_checkpoints RUN SUB K WHO HINT: EARLIER=(the steps of RUN/SUB's checkpoint folders ckpt_<n> before the newest,
+# newest first, at most K-1 of them), the recipes' EVAL_CHECKPOINTS; where RUN keeps fewer than K, says so (WHO: the
+# recipe, HINT: what set how many it keeps)
+earlier_checkpoints() {
+  local run=$1 sub=$2 k=$3 ckpt kept=()
+  for ckpt in "$run/$sub"/ckpt_*; do if [[ -d "$ckpt" ]]; then kept=("${ckpt##*/}" "${kept[@]}"); fi; done
+  if (( ${#kept[@]} < k )); then
+    echo "$4: $run keeps ${#kept[@]} checkpoints ($5); EVAL_CHECKPOINTS=$k evaluates those"
+  fi
+  EARLIER=()
+  for ckpt in "${kept[@]:1:k-1}"; do EARLIER+=("$((10#${ckpt#ckpt_}))"); done
+}

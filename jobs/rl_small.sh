@@ -265,13 +265,8 @@ for algo in $ALGOS; do evaluate "$algo"; done
 for algo in $ALGOS; do  # EVAL_CHECKPOINTS: the kept checkpoints before the latest, newest first
   name=${RUN_NAME[$algo]}
   if (( EVAL_CHECKPOINTS > 1 )); then
-    kept=()
-    for ckpt in "$OUT/train/$name/checkpoints"/ckpt_*; do if [[ -d "$ckpt" ]]; then kept=("${ckpt##*/}" "${kept[@]}"); fi; done
-    if (( ${#kept[@]} < EVAL_CHECKPOINTS )); then
-      echo "rl_small: $OUT/train/$name keeps ${#kept[@]} checkpoints (train.keep_checkpoints when it trained);" \
-           "EVAL_CHECKPOINTS=$EVAL_CHECKPOINTS evaluates those"
-    fi
-    for ckpt in "${kept[@]:1:EVAL_CHECKPOINTS-1}"; do evaluate "$algo" $((10#${ckpt#ckpt_})); done
+    earlier_checkpoints "$OUT/train/$name" checkpoints "$EVAL_CHECKPOINTS" rl_small "train.keep_checkpoints when it trained"
+    for at in "${EARLIER[@]}"; do evaluate "$algo" "$at"; done
   fi
   add_run "$OUT/eval/$name"
 done

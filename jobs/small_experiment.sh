@@ -203,14 +203,9 @@ for S in $SEEDS; do
     out_dir="$OUT/eval/nomad_neg$SFX" "${EVAL[@]}"
   RUNS+=("$OUT/eval/nomad_pointgoal$SFX" "$OUT/eval/nomad_pointgoal_vote$SFX" "$OUT/eval/nomad_neg$SFX")
   if (( EVAL_CHECKPOINTS > 1 )); then  # the kept checkpoints before the latest, newest first
-    kept=()
-    for ckpt in "$OUT/train/nomad_pointgoal$SFX/model"/ckpt_*; do if [[ -d "$ckpt" ]]; then kept=("${ckpt##*/}" "${kept[@]}"); fi; done
-    if (( ${#kept[@]} < EVAL_CHECKPOINTS )); then
-      echo "small_experiment: $OUT/train/nomad_pointgoal$SFX keeps ${#kept[@]} checkpoints (train.keep_checkpoints and" \
-           "train.ckpt_every when it trained: CKPT_EVERY); EVAL_CHECKPOINTS=$EVAL_CHECKPOINTS evaluates those"
-    fi
-    for ckpt in "${kept[@]:1:EVAL_CHECKPOINTS-1}"; do
-      at=$((10#${ckpt#ckpt_}))
+    earlier_checkpoints "$OUT/train/nomad_pointgoal$SFX" model "$EVAL_CHECKPOINTS" small_experiment \
+      "train.keep_checkpoints and train.ckpt_every when it trained: CKPT_EVERY"
+    for at in "${EARLIER[@]}"; do
       step "eval_nomad${SFX}_ckpt$at" rvn-eval "${NOMAD[@]}" "method=NoMaD-PointGoal$LBL ckpt$at" +policy.step="$at" \
         +policy.waypoint_index="$LOOKAHEAD" +policy.num_samples="$NOMAD_SAMPLES" \
         out_dir="$OUT/eval/nomad_pointgoal${SFX}_ckpt$at" "${EVAL[@]}"
