@@ -203,12 +203,19 @@ def test_resume_continues_exactly(data, tmp_path):
     assert latest_checkpoint(part / "model").name == "ckpt_00000004"
 
 
-def test_policy_step_loads_a_kept_checkpoint(data, tmp_path):
-    """policy.step: a kept checkpoint other than the latest (a run read over its last few), its EMA weights; a step the
-    run does not keep names the ones it does; a bad value or an ensemble is refused."""
-    run = tmp_path / "run"
+@pytest.fixture(scope="module")
+def kept_run(data):
+    """NoMaD-PointGoal trained 6 steps keeping its checkpoints of steps 2, 4 and 6."""
+    run = data / "run"
     train([f"out_dir={run}", f"data.root={data / 'expert'}", "model=nomad_pointgoal", "train.max_steps=6",
            "train.ckpt_every=2", "train.keep_checkpoints=3", "data.num_workers=0", *SMALL])
+    return run
+
+
+def test_policy_step_loads_a_kept_checkpoint(kept_run, tmp_path):
+    """policy.step: a kept checkpoint other than the latest (a run read over its last few), its EMA weights; a step the
+    run does not keep names the ones it does; a bad value or an ensemble is refused."""
+    run = kept_run
     assert sorted(p.name for p in (run / "model").glob("ckpt_*")) == ["ckpt_00000002", "ckpt_00000004", "ckpt_00000006"]
     for step, ckpt in ((2, "ckpt_00000002"), (4, "ckpt_00000004"), (None, "ckpt_00000006")):
         net = load_policy(run, step=step).members[0].model
@@ -308,6 +315,39 @@ def test_nomad_neg_adopts_a_nomad_pointgoal_run_as_nomad_e(runs, data, tmp_path)
     r = rvn_train("model=nomad_neg", f"out_dir={tmp_path / 'bad'}", f"train.expert_from={runs['vint_pointgoal']}", *common)
     assert r.returncode != 0 and "train.expert_from" in r.stderr and "'vint_pointgoal' run" in r.stderr
     assert "Traceback" not in r.stderr
+
+
+def test_nomad_neg_adopts_a_kept_checkpoint_as_nomad_e(kept_run, data, tmp_path):
+    """train.expert_step: NoMaD-Neg's NoMaD_e is the NoMaD-PointGoal run's kept checkpoint of that step (NoMaD-Neg read
+    over NoMaD_e's checkpoints); NoMaD_n does not depend on which, the same seed trains the same weights. A step the run
+    does not keep names the kept ones; the setting without train.expert_from, or not a step, is refused in one line."""
+    common = [f"data.root={data / 'expert'}", f"data.negative_root={data / 'negative'}", "train.max_steps=2",
+              "data.num_workers=0", f"train.expert_from={kept_run}", *SMALL]
+    negatives = []
+    for step in (4, 2):
+        out = tmp_path / f"neg{step}"
+        train(["model=nomad_neg", f"out_dir={out}", f"train.expert_step={step}", *common])
+        mine, src = latest_checkpoint(out / "expert"), kept_run / "model" / f"ckpt_{step:08d}"
+        assert mine.name == src.name
+        a, b = load_file(str(mine / "ema.safetensors")), load_file(str(src / "ema.safetensors"))
+        assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
+        assert json.loads((mine / "stats.json").read_text())["adopted_from"] == str(src.resolve())
+        negatives.append(load_file(str(latest_checkpoint(out / "negative") / "weights.safetensors")))
+        assert isinstance(load_policy(out), NoMaDNegPolicy)
+    assert all(torch.equal(negatives[0][k], negatives[1][k]) for k in negatives[0])
+    # a rerun with another step: the run holds another NoMaD_e
+    r = rvn_train("model=nomad_neg", f"out_dir={tmp_path / 'neg4'}", "train.expert_step=6", *common)
+    assert r.returncode == 2 and "already holds a NoMaD_e checkpoint that is not" in r.stderr, r.stderr[-2000:]
+    assert "Traceback" not in r.stderr and not list((tmp_path / "neg4" / "negative").glob("*.tmp*"))
+    for bad, said in (("train.expert_step=3", "keeps no checkpoint of step 3 (train.expert_step); it keeps 2, 4, 6"),
+                      ("train.expert_step=abc", "train.expert_step"),
+                      ("train.expert_step=-2", "train.expert_step=-2: give a kept checkpoint's optimiser step")):
+        r = rvn_train("model=nomad_neg", f"out_dir={tmp_path / 'bad'}", bad, *common)
+        assert r.returncode == 2 and said in r.stderr and "Traceback" not in r.stderr, (bad, r.stderr[-2000:])
+        assert not (tmp_path / "bad").exists()
+    r = rvn_train("model=nomad_neg", f"out_dir={tmp_path / 'bad'}", "train.expert_step=2",
+                  *[c for c in common if not c.startswith("train.expert_from")])
+    assert r.returncode == 2 and "train.expert_step=2 needs train.expert_from" in r.stderr, r.stderr[-2000:]
 
 
 def test_a_current_packed_cache_spares_the_frame_check(runs, data):

@@ -1,4 +1,5 @@
-"""NoMaD-Neg's NoMaD_e taken from a trained NoMaD-PointGoal run (``train.expert_from``).
+"""NoMaD-Neg's NoMaD_e taken from a trained NoMaD-PointGoal run (``train.expert_from``; its latest checkpoint, or the
+kept one after ``train.expert_step`` steps).
 
 NoMaD_e is a NoMaD-PointGoal network trained on expert data (the paper's NoMaD-Neg), so a
 finished NoMaD-PointGoal run can serve as NoMaD_e instead of a second expert training (the
@@ -16,16 +17,23 @@ from safetensors.torch import load_file
 
 from ..data.images import crop_setting
 from ..models import build_model
-from ..models.checkpoint import (latest_checkpoint, load_state_dict_checked, read_config, read_stats, read_weights,
-                                 save_checkpoint)
+from ..models.checkpoint import (checkpoint_at, kept_steps, latest_checkpoint, load_state_dict_checked, read_config,
+                                 read_stats, read_weights, save_checkpoint)
 
 log = logging.getLogger(__name__)
 SAME = ("image_size", "crop", "context_size", "len_traj_pred", "metric_waypoint_spacing")
 
 
-def expert_source(source: str | Path, model_cfg: Mapping) -> Path:
-    """The latest checkpoint of the finished NoMaD-PointGoal run ``source`` (``train.expert_from``);
-    a ValueError naming the setting when there is none or it cannot serve as NoMaD_e."""
+def expert_source(source: str | Path, model_cfg: Mapping, step: int | None = None) -> Path:
+    """The latest checkpoint of the finished NoMaD-PointGoal run ``source`` (``train.expert_from``), or its kept
+    checkpoint after ``step`` steps (``train.expert_step``); a ValueError naming the setting when there is none or it
+    cannot serve as NoMaD_e."""
+    if step is not None and (isinstance(step, bool) or not isinstance(step, int) or step < 0):
+        raise ValueError(f"train.expert_step={step!r}: give a kept checkpoint's optimiser step of train.expert_from "
+                         "(an integer >= 0; its folder model/ckpt_<step>), or leave it unset for the latest")
+    if step is not None and not source:
+        raise ValueError(f"train.expert_step={step} needs train.expert_from (the NoMaD-PointGoal run whose checkpoint "
+                         "to adopt as NoMaD_e)")
     src_dir = Path(source).expanduser()
     if not src_dir.exists():
         raise ValueError(f"train.expert_from={source} does not exist; pass the out_dir of a finished "
@@ -38,6 +46,13 @@ def expert_source(source: str | Path, model_cfg: Mapping) -> Path:
     if theirs != ours:
         raise ValueError(f"train.expert_from={source} was trained with model.prediction_type={theirs}, this run has "
                          f"{ours}; set model.prediction_type={theirs}")
+    if step is not None:
+        ckpt = checkpoint_at(src_dir / "model", step)
+        if not (ckpt / "weights.safetensors").is_file():
+            kept = ", ".join(map(str, kept_steps(src_dir / "model"))) or "none"
+            raise ValueError(f"train.expert_from={source} keeps no checkpoint of step {step} (train.expert_step); it "
+                             f"keeps {kept} (rvn-train keeps the newest train.keep_checkpoints)")
+        return ckpt
     ckpt = latest_checkpoint(src_dir / "model")
     if ckpt is None:
         raise ValueError(f"train.expert_from={source} has no finished checkpoint (no {src_dir / 'model' / 'latest'}); "
@@ -45,16 +60,24 @@ def expert_source(source: str | Path, model_cfg: Mapping) -> Path:
     return ckpt
 
 
-def adopt_expert(source: str | Path, member_dir: Path, model_cfg: Mapping, stats: Mapping) -> Path:
-    """Copy the latest checkpoint of the NoMaD-PointGoal run ``source`` into ``member_dir``
-    (NoMaD-Neg's ``expert``) unless that already holds it; returns the adopted checkpoint."""
-    ckpt = expert_source(source, model_cfg)
+def adopted_before(member_dir: Path, ckpt: Path) -> Path | None:
+    """NoMaD-Neg's ``expert`` checkpoint in ``member_dir`` when it was adopted from ``ckpt`` (a rerun), None when there
+    is none yet; a ValueError when it holds another NoMaD_e (trained, or adopted from another run or step)."""
     mine = latest_checkpoint(member_dir)
+    if mine is None or read_stats(mine).get("adopted_from") == str(ckpt.resolve()):
+        return mine
+    raise ValueError(f"{member_dir} already holds a NoMaD_e checkpoint that is not {ckpt}; choose another out_dir=, or "
+                     "the train.expert_from (and train.expert_step) it was made with")
+
+
+def adopt_expert(source: str | Path, member_dir: Path, model_cfg: Mapping, stats: Mapping,
+                 step: int | None = None) -> Path:
+    """Copy the latest checkpoint of the NoMaD-PointGoal run ``source`` (its kept one after ``step`` steps) into
+    ``member_dir`` (NoMaD-Neg's ``expert``) unless that already holds it; returns the adopted checkpoint."""
+    ckpt = expert_source(source, model_cfg, step)
+    mine = adopted_before(member_dir, ckpt)
     if mine is not None:
-        if read_stats(mine).get("adopted_from") == str(ckpt.resolve()):
-            return mine
-        raise ValueError(f"{member_dir} already holds a NoMaD_e checkpoint that is not {ckpt}; choose another out_dir= "
-                         "or remove train.expert_from")
+        return mine
     src_stats = read_stats(ckpt)
     src_stats["crop"] = crop_setting(src_stats, setting=f"crop in {ckpt / 'stats.json'}")  # older stats: crop_to_aspect
     for key in SAME:

@@ -34,7 +34,7 @@ from ..models import resolve_size
 from ..models.checkpoint import members_of, read_config
 from ..models.nomad import check_prediction_type
 from ..policies.loader import resolve_device
-from .adopt import expert_source
+from .adopt import adopted_before, expert_source
 from .choices import TRAIN_COMPILE_MODES, check_compile_mode, check_precision, check_precision_on
 
 log = logging.getLogger(__name__)
@@ -191,11 +191,12 @@ def check_settings(cfg: Mapping) -> None:
 
 def check_datasets(cfg: Mapping) -> None:
     """Every member's datasets exist and list trajectories (and have depth sidecars when the
-    depth loss is on); ``train.expert_from`` for nomad_neg."""
+    depth loss is on); ``train.expert_from`` (and ``train.expert_step``) for nomad_neg."""
     data, tcfg = cfg["data"], cfg["train"]
     depth = depth_setting(resolve_size(cfg["model"])) is not None  # the depth loss reads rvn-gen's depth.npy
-    if tcfg["expert_from"] and "expert" in members_of(cfg["model"]["name"]):
-        expert_source(tcfg["expert_from"], resolve_size(cfg["model"]))
+    if (tcfg["expert_from"] or tcfg.get("expert_step") is not None) and "expert" in members_of(cfg["model"]["name"]):
+        ckpt = expert_source(tcfg["expert_from"], resolve_size(cfg["model"]), tcfg.get("expert_step"))
+        adopted_before(Path(str(cfg["out_dir"])).expanduser() / "expert", ckpt)  # a rerun adopts the same NoMaD_e
     for member, entries in member_entries(cfg).items():
         for e in entries:
             names = whole_split(e["key"], e["root"], e["split"], e["splits_dir"], e["name"], depth,

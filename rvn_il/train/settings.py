@@ -95,6 +95,9 @@ class TrainLoopConfig:
     # nomad_neg only: out_dir of a finished nomad_pointgoal run to use as NoMaD_e (not trained
     # again; it saw all expert data, not the paper's 93.75 %)
     expert_from: str | None = None
+    # with expert_from: the kept checkpoint of that run to adopt instead of its latest (its model/ckpt_<step>, as
+    # rvn-eval's policy.step), to read NoMaD-Neg over NoMaD_e's checkpoints; null: the latest
+    expert_step: int | None = None
     tqdm_interval: float = 1.0  # s between progress bar refreshes
     precision: str = "fp32"  # fp32 | bf16: mixed precision with torch.autocast (GPUs with bf16; CPUs run it too)
     # torch.compile of the encoder, Transformer and decoder (rvn_il/models/compiled.py): same losses to float

@@ -114,7 +114,8 @@ def train_member(cfg: Mapping, member: str, index: int, entries: list[dict], out
             adopt_expert(tcfg["expert_from"], out_dir / member, model_cfg,
                          {"model": model_cfg["name"], "image_size": list(model_cfg["image_size"]),
                           "crop": crop_setting(data_cfg, model_cfg),
-                          "context_size": model_cfg["context_size"], "len_traj_pred": model_cfg["len_traj_pred"]})
+                          "context_size": model_cfg["context_size"], "len_traj_pred": model_cfg["len_traj_pred"]},
+                         tcfg.get("expert_step"))
         if world > 1:
             dist.barrier()
         return
