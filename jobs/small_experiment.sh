@@ -9,7 +9,7 @@
 #   SEEDS="0 1": NoMaD-PointGoal and NoMaD-Neg (and their eval rows) once per training seed; data, episodes,
 #   ViNT and the reference rows once (seed SEED). Rows of another seed than SEED are labelled "<method> seed<s>".
 #   EVAL_CHECKPOINTS=k: NoMaD-PointGoal also at its k-1 kept checkpoints before the latest ("<method> ckpt<step>"),
-#   which the report reads the row over.
+#   and NoMaD-Neg with each of them as NoMaD_e, which the report reads the rows over.
 #   -> python -m rvn_data.benchmark.report -> OUT/report.md (+ plots, per-episode logs in OUT/eval/*/)
 #
 #   bash jobs/small_experiment.sh [OUT]              # SCALE=small on 2 CPU cores: wall time per step in OUT/timings.tsv
@@ -77,7 +77,10 @@ esac
                               # over the k by the report (per episode the share that reached the first goal). Default 1:
                               # NoMaD-PointGoal's last five checkpoints moved by an SD of 0.014 SR_1, under a row's binomial
                               # error (docs/results/2026-12-07_nomad_checkpoints/; RL's 0.03-0.04: rl_small.sh evaluates 2).
-                              # Above 2, NoMaD-PointGoal keeps k (train.keep_checkpoints). NoMaD-Neg's NoMaD_e is the latest
+                              # Above 2, NoMaD-PointGoal keeps k (train.keep_checkpoints). With NEG_EXPERT=reuse NoMaD-Neg
+                              # too, with each of those checkpoints as NoMaD_e (train.expert_step; rows "NoMaD-Neg
+                              # ckpt<step>", each tested against NoMaD-PointGoal's at that step; NoMaD_n trained again
+                              # each time, ~1 min at SCALE=small)
 : "${CKPT_EVERY:=}"           # NoMaD-PointGoal's train.ckpt_every (empty: rvn-train's 1000 steps; SCALE=small trains ~11k)
 : "${DEVICE:=cpu}"            # rvn-train device (cpu | cuda | auto); rvn-eval's policies stay on the CPU
 : "${RENDERER:=auto}"         # rvn-gen / rvn-eval renderer: auto | gl | raycast
@@ -210,6 +213,18 @@ for S in $SEEDS; do
         +policy.waypoint_index="$LOOKAHEAD" +policy.num_samples="$NOMAD_SAMPLES" \
         out_dir="$OUT/eval/nomad_pointgoal${SFX}_ckpt$at" "${EVAL[@]}"
       RUNS+=("$OUT/eval/nomad_pointgoal${SFX}_ckpt$at")
+      if [[ "$NEG_EXPERT" == reuse ]]; then  # NoMaD-Neg with that checkpoint as NoMaD_e (train.expert_step); NoMaD_n
+        # trained again (it does not depend on NoMaD_e: the same seed, the same weights)
+        OMP_NUM_THREADS=$THREADS MKL_NUM_THREADS=$THREADS step "train_nomad_neg${SFX}_ckpt$at" rvn-train model=nomad_neg \
+          model.prediction_type="$PREDICTION" data.root="$DATA/rvn_expert" data.negative_root="$DATA/rvn_negative" \
+          data.splits_dir="$OUT/splits_neg" data.skip_short=true out_dir="$OUT/train/nomad_neg${SFX}_ckpt$at" \
+          train.epochs="$NOMAD_EPOCHS" "${TRAIN_SIZE[@]}" "${NEG_TRAIN[@]}" train.expert_step="$at" seed="$S"
+        step "eval_nomad_neg${SFX}_ckpt$at" rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_neg${SFX}_ckpt$at" \
+          "method=NoMaD-Neg$LBL ckpt$at" +policy.waypoint_index="$LOOKAHEAD" out_dir="$OUT/eval/nomad_neg${SFX}_ckpt$at" \
+          "${EVAL[@]}"
+        RUNS+=("$OUT/eval/nomad_neg${SFX}_ckpt$at")
+        COMPARE+=("NoMaD-Neg$LBL ckpt$at=NoMaD-PointGoal$LBL ckpt$at")
+      fi
     done
   fi
   COMPARE+=("NoMaD-PointGoal$LBL=Goal follower" "NoMaD-PointGoal$LBL=Trajectory oracle"

@@ -21,7 +21,7 @@ PER_SEED = ("NoMaD-PointGoal", "NoMaD-PointGoal-vote", "NoMaD-Neg", "NoMaD-Point
 METHODS = ("Random", "Oracle", "Goal follower", "Trajectory oracle", "ViNT-PointGoal", *PER_SEED,
            *(f"{m} seed1" for m in PER_SEED))
 # every row: the depth head and its veto, committed turns, the opt-in argmin row, two training seeds, NoMaD-PointGoal
-# read over its last two checkpoints (one a step: steps 1 and 2)
+# and NoMaD-Neg read over NoMaD-PointGoal's last two checkpoints (one a step: steps 1 and 2)
 EVERY_ROW = dict(NEG_ARGMIN="1", SEEDS="0 1", DEPTH_AUX="0.5", DEPTH_VETO="0.5", TURN_COMMIT="1", EVAL_CHECKPOINTS="2",
                  CKPT_EVERY="1")
 
@@ -59,8 +59,9 @@ def test_tiny_experiment_end_to_end_and_rerun(tmp_path):
     steps = [ln.split("\t")[0] for ln in (out / "timings.tsv").read_text().splitlines()]
     assert steps[:4] == ["gen_expert", "gen_negative", "gen_val", "train_vint"]
     # each seed's trainings, then its rows: seed 0's are complete before seed 1 trains
-    assert steps[9:11] == ["train_nomad", "train_nomad_neg"] and steps[19:21] == ["train_nomad_seed1", "train_nomad_neg_seed1"]
-    assert steps[14] == "eval_nomad_ckpt1" and steps[24] == "eval_nomad_seed1_ckpt1" and len(steps) == 29
+    assert steps[9:11] == ["train_nomad", "train_nomad_neg"] and steps[21:23] == ["train_nomad_seed1", "train_nomad_neg_seed1"]
+    assert steps[14:17] == ["eval_nomad_ckpt1", "train_nomad_neg_ckpt1", "eval_nomad_neg_ckpt1"]
+    assert steps[26] == "eval_nomad_seed1_ckpt1" and len(steps) == 33
     seed1 = (out / "train" / "nomad_pointgoal_seed1" / "config.yaml").read_text()
     assert "seed: 1" in seed1 and "expert_from: " + str(out / "train" / "nomad_pointgoal_seed1") in \
         (out / "train" / "nomad_neg_seed1" / "config.yaml").read_text()
@@ -86,14 +87,22 @@ def test_tiny_experiment_end_to_end_and_rerun(tmp_path):
     committed = json.loads((out / "eval" / "nomad_neg_veto_commit_seed1" / "run.json").read_text())
     assert committed["policy"]["turn_commit"] is True and committed["policy"]["depth_veto"] == 0.5
     assert "commits" in (out / "eval" / "nomad_neg_veto_commit" / "episodes.jsonl").read_text()
-    # EVAL_CHECKPOINTS=2: NoMaD-PointGoal at its checkpoint before the latest too (policy.step), read over both
+    # EVAL_CHECKPOINTS=2: NoMaD-PointGoal at its checkpoint before the latest too (policy.step), and NoMaD-Neg with it
+    # as NoMaD_e (train.expert_step; NoMaD_n trained again, the same weights), each read over both, compared step by step
     assert json.loads((out / "eval" / "nomad_pointgoal_seed1_ckpt1" / "run.json").read_text())["policy"]["step"] == 1
     assert "| NoMaD-PointGoal | 1, the row's |" in report and "| NoMaD-PointGoal seed1 | 1, the row's |" in report
-    assert "| NoMaD-Neg | NoMaD-PointGoal | 1 / 2 | 1 |" in report, report
+    assert "| NoMaD-Neg | 1, the row's |" in report and "| NoMaD-Neg seed1 | 1, the row's |" in report
+    assert "| NoMaD-Neg | NoMaD-PointGoal | 2 / 2 | 1 |" in report, report
+    assert "| NoMaD-Neg ckpt1 | NoMaD-PointGoal ckpt1 |" in report and "| NoMaD-Neg seed1 ckpt1 | NoMaD-PointGoal seed1 ckpt1 |" in report
+    early = out / "train" / "nomad_neg_seed1_ckpt1"
+    assert json.loads((early / "expert" / "ckpt_00000001" / "stats.json").read_text())["adopted_from"] == \
+        str((out / "train" / "nomad_pointgoal_seed1" / "model" / "ckpt_00000001").resolve())
+    a, b = latest(early / "negative"), latest(out / "train" / "nomad_neg_seed1" / "negative")
+    assert a.keys() == b.keys() and all(bool((a[k] == b[k]).all()) for k in a)
     # a rerun skips every step and rewrites the same report
     again = small_experiment(out, **EVERY_ROW)
     assert again.returncode == 0, again.stderr[-3000:]
-    assert again.stdout.count("done before, skipped") == 29
+    assert again.stdout.count("done before, skipped") == 33
     assert (out / "report.md").read_text() == report
 
 
