@@ -189,11 +189,13 @@ for S in $SEEDS; do
   step "train_nomad$SFX" rvn-train model=nomad_pointgoal model.prediction_type="$PREDICTION" data.root="$DATA/rvn_expert" \
     out_dir="$OUT/train/nomad_pointgoal$SFX" train.epochs="$NOMAD_EPOCHS" "${TRAIN_SIZE[@]}" "${NOMAD_DEPTH[@]}" seed="$S" \
     "${NOMAD_CKPT[@]}"
-  NEG_TRAIN=()
-  if [[ "$NEG_EXPERT" == reuse ]]; then NEG_TRAIN=("train.expert_from=$OUT/train/nomad_pointgoal$SFX"); fi
-  step "train_nomad_neg$SFX" rvn-train model=nomad_neg model.prediction_type="$PREDICTION" data.root="$DATA/rvn_expert" \
-    data.negative_root="$DATA/rvn_negative" data.splits_dir="$OUT/splits_neg" data.skip_short=true \
-    out_dir="$OUT/train/nomad_neg$SFX" train.epochs="$NOMAD_EPOCHS" "${TRAIN_SIZE[@]}" "${NEG_TRAIN[@]}" seed="$S"
+  NEG_FROM=()
+  if [[ "$NEG_EXPERT" == reuse ]]; then NEG_FROM=("train.expert_from=$OUT/train/nomad_pointgoal$SFX"); fi
+  # NoMaD-Neg's training settings around its out_dir (the earlier checkpoints' NoMaD-Neg below takes them too)
+  NEG_DATA=(model=nomad_neg model.prediction_type="$PREDICTION" data.root="$DATA/rvn_expert"
+            data.negative_root="$DATA/rvn_negative" data.splits_dir="$OUT/splits_neg" data.skip_short=true)
+  NEG_TRAIN=(train.epochs="$NOMAD_EPOCHS" "${TRAIN_SIZE[@]}" "${NEG_FROM[@]}")
+  step "train_nomad_neg$SFX" rvn-train "${NEG_DATA[@]}" out_dir="$OUT/train/nomad_neg$SFX" "${NEG_TRAIN[@]}" seed="$S"
   export OMP_NUM_THREADS=1 MKL_NUM_THREADS=1
   NOMAD=(policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_pointgoal$SFX")
   NEG=(policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_neg$SFX")
@@ -215,10 +217,8 @@ for S in $SEEDS; do
       RUNS+=("$OUT/eval/nomad_pointgoal${SFX}_ckpt$at")
       if [[ "$NEG_EXPERT" == reuse ]]; then  # NoMaD-Neg with that checkpoint as NoMaD_e (train.expert_step); NoMaD_n
         # trained again (it does not depend on NoMaD_e: the same seed, the same weights)
-        OMP_NUM_THREADS=$THREADS MKL_NUM_THREADS=$THREADS step "train_nomad_neg${SFX}_ckpt$at" rvn-train model=nomad_neg \
-          model.prediction_type="$PREDICTION" data.root="$DATA/rvn_expert" data.negative_root="$DATA/rvn_negative" \
-          data.splits_dir="$OUT/splits_neg" data.skip_short=true out_dir="$OUT/train/nomad_neg${SFX}_ckpt$at" \
-          train.epochs="$NOMAD_EPOCHS" "${TRAIN_SIZE[@]}" "${NEG_TRAIN[@]}" train.expert_step="$at" seed="$S"
+        OMP_NUM_THREADS=$THREADS MKL_NUM_THREADS=$THREADS step "train_nomad_neg${SFX}_ckpt$at" rvn-train "${NEG_DATA[@]}" \
+          out_dir="$OUT/train/nomad_neg${SFX}_ckpt$at" "${NEG_TRAIN[@]}" train.expert_step="$at" seed="$S"
         step "eval_nomad_neg${SFX}_ckpt$at" rvn-eval policy=checkpoint policy.checkpoint_path="$OUT/train/nomad_neg${SFX}_ckpt$at" \
           "method=NoMaD-Neg$LBL ckpt$at" +policy.waypoint_index="$LOOKAHEAD" out_dir="$OUT/eval/nomad_neg${SFX}_ckpt$at" \
           "${EVAL[@]}"

@@ -110,15 +110,24 @@ def kept_steps(member_dir: Path) -> list[int]:
                   if p.is_dir() and p.name.removeprefix("ckpt_").isdigit() and (p / "weights.safetensors").is_file())
 
 
-def checkpoint_of(member_dir: Path, step: int | None) -> Path | None:
+def checked_step(step: Any, setting: str, folder: str) -> int | None:
+    """A kept checkpoint's optimiser step given as ``setting`` (policy.step, train.expert_step), as an int (None: the
+    latest); a ValueError naming the setting for anything but a step count (``folder``: where its ckpt_<step> lies)."""
+    if step is not None and (isinstance(step, bool) or not isinstance(step, int) or step < 0):
+        raise ValueError(f"{setting}={step!r}: give a kept checkpoint's optimiser step (an integer >= 0; its folder "
+                         f"{folder}/ckpt_<step>), or leave it unset for the latest")
+    return step
+
+
+def checkpoint_of(member_dir: Path, step: int | None, setting: str = "policy.step") -> Path | None:
     """The latest checkpoint of a member (``step`` None; None when it has none yet), else its kept checkpoint after
-    ``step`` steps: a ValueError naming ``policy.step`` and the steps it keeps when there is none."""
+    ``step`` steps: a ValueError naming ``setting`` and the steps it keeps when there is none."""
     if step is None:
         return latest_checkpoint(member_dir)
     ckpt = checkpoint_at(member_dir, step)
     if not (ckpt / "weights.safetensors").is_file():
         kept = kept_steps(member_dir)
-        raise ValueError(f"{member_dir} keeps no checkpoint of step {step} (policy.step); it keeps "
+        raise ValueError(f"{member_dir} keeps no checkpoint of step {step} ({setting}); it keeps "
                          f"{', '.join(map(str, kept)) or 'none'} (rvn-train keeps the newest train.keep_checkpoints)")
     return ckpt
 

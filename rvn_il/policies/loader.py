@@ -43,8 +43,8 @@ from rvn_data.embodiment import AGENT_KEYS as EMBODIMENT_AGENT_KEYS
 
 from ..data.images import crop_setting
 from ..models import build_model, resolve_size
-from ..models.checkpoint import (checkpoint_of, load_state_dict_checked, members_of, read_config, read_stats,
-                                 read_weights)
+from ..models.checkpoint import (checked_step, checkpoint_of, load_state_dict_checked, members_of, read_config,
+                                 read_stats, read_weights)
 from ..models.compiled import check_compile, compile_for_inference
 from ..models.nomad import check_sampler
 from .control import ControlConfig
@@ -152,7 +152,7 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
     control = ControlConfig.from_agent(agent, pol.get("stop_radius"), pol.get("lookahead_min_dist"), pol.get("waypoint_index"))
     dev = resolve_device(device, "policy.device")
     compiled = check_compile(pol.get("compile", False), "policy.compile")
-    step = checked_step(pol.get("step"), pol.get("ensemble"))
+    step = policy_step(pol.get("step"), pol.get("ensemble"))
     members = [load_member(out_dir, m, model_cfg, dev, step) for m in members_of(name)]
     hfov = pol.get("depth_veto_hfov")
     veto = check_depth_veto(pol.get("depth_veto"), members[0].model.depth_head is not None, pol.get("depth_veto_rule", "band"),
@@ -188,14 +188,11 @@ def load_policy(checkpoint_path: str | Path, device: str | torch.device = "cpu",
     return with_training_record(PointGoalPolicy(members, control, aggregate=aggregate, **common), cfg, members)
 
 
-def checked_step(step: Any, ensemble: Any) -> int | None:
+def policy_step(step: Any, ensemble: Any) -> int | None:
     """``policy.step`` as an int (None: the latest checkpoint); a ValueError for anything but a step count, or with
     ``policy.ensemble``, whose runs keep checkpoints at steps of their own."""
-    if step is None:
+    if checked_step(step, "policy.step", "<member>") is None:
         return None
-    if isinstance(step, bool) or not isinstance(step, int) or step < 0:
-        raise ValueError(f"policy.step={step!r}: give a kept checkpoint's optimiser step (an integer >= 0; its folder "
-                         "<member>/ckpt_<step>), or leave it unset for the latest")
     if ensemble_dirs(ensemble):
         raise ValueError(f"policy.step={step} with policy.ensemble: the ensemble's runs keep checkpoints at steps of "
                          "their own; evaluate an ensemble at its runs' latest checkpoints (leave policy.step unset)")

@@ -17,7 +17,7 @@ from safetensors.torch import load_file
 
 from ..data.images import crop_setting
 from ..models import build_model
-from ..models.checkpoint import (checkpoint_at, kept_steps, latest_checkpoint, load_state_dict_checked, read_config,
+from ..models.checkpoint import (checked_step, checkpoint_of, latest_checkpoint, load_state_dict_checked, read_config,
                                  read_stats, read_weights, save_checkpoint)
 
 log = logging.getLogger(__name__)
@@ -28,10 +28,7 @@ def expert_source(source: str | Path, model_cfg: Mapping, step: int | None = Non
     """The latest checkpoint of the finished NoMaD-PointGoal run ``source`` (``train.expert_from``), or its kept
     checkpoint after ``step`` steps (``train.expert_step``); a ValueError naming the setting when there is none or it
     cannot serve as NoMaD_e."""
-    if step is not None and (isinstance(step, bool) or not isinstance(step, int) or step < 0):
-        raise ValueError(f"train.expert_step={step!r}: give a kept checkpoint's optimiser step of train.expert_from "
-                         "(an integer >= 0; its folder model/ckpt_<step>), or leave it unset for the latest")
-    if step is not None and not source:
+    if checked_step(step, "train.expert_step", "train.expert_from's model") is not None and not source:
         raise ValueError(f"train.expert_step={step} needs train.expert_from (the NoMaD-PointGoal run whose checkpoint "
                          "to adopt as NoMaD_e)")
     src_dir = Path(source).expanduser()
@@ -47,12 +44,7 @@ def expert_source(source: str | Path, model_cfg: Mapping, step: int | None = Non
         raise ValueError(f"train.expert_from={source} was trained with model.prediction_type={theirs}, this run has "
                          f"{ours}; set model.prediction_type={theirs}")
     if step is not None:
-        ckpt = checkpoint_at(src_dir / "model", step)
-        if not (ckpt / "weights.safetensors").is_file():
-            kept = ", ".join(map(str, kept_steps(src_dir / "model"))) or "none"
-            raise ValueError(f"train.expert_from={source} keeps no checkpoint of step {step} (train.expert_step); it "
-                             f"keeps {kept} (rvn-train keeps the newest train.keep_checkpoints)")
-        return ckpt
+        return checkpoint_of(src_dir / "model", step, "train.expert_step")
     ckpt = latest_checkpoint(src_dir / "model")
     if ckpt is None:
         raise ValueError(f"train.expert_from={source} has no finished checkpoint (no {src_dir / 'model' / 'latest'}); "
