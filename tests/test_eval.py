@@ -5,6 +5,7 @@ import subprocess
 import sys
 
 import pytest
+from conftest import without_shared_cache
 
 from rvn_data.benchmark.metrics import compute_metrics, read_records
 from rvn_data.benchmark.table import main as table_main
@@ -36,7 +37,8 @@ def runs(tmp_path_factory):
     """One oracle run with 1 worker and one with 2, sharing an episode cache; the second reads the navmeshes
     the first built (its cache root)."""
     tmp = tmp_path_factory.mktemp("eval")
-    ok(rvn_eval(tmp, "policy=oracle", f"out_dir={tmp / 'oracle1'}", "workers=1"))
+    ok(rvn_eval(tmp, "policy=oracle", f"out_dir={tmp / 'oracle1'}", "workers=1",
+                env=without_shared_cache(os.environ)))  # its default cache root, <out_dir>/cache
     ok(rvn_eval(tmp, "policy=oracle", f"out_dir={tmp / 'oracle2'}", "workers=2", f"cache_dir={tmp / 'oracle1' / 'cache'}"))
     return tmp
 

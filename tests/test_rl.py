@@ -11,7 +11,7 @@ import sys
 
 import pytest
 import yaml
-from conftest import QUICK_COMPILE_ENV
+from conftest import QUICK_COMPILE_ENV, without_shared_cache
 
 pytestmark = pytest.mark.slow  # end-to-end runs of the CLIs; the fast tier is -m "not slow"
 
@@ -20,9 +20,12 @@ TINY = ["env.size=32", "env.num_envs=2", "env.num_scenes=2", "ppo.num_steps=8", 
 ENV = {**os.environ, "OMP_NUM_THREADS": "1"}
 
 
-def rvn_rl(*args, check=True, env=None):
+def rvn_rl(*args, check=True, env=None, shared_cache=True):
+    """rvn-rl ARGS; with ``shared_cache=False`` its caches under ``<out_dir>/cache`` (the default), not the suite's
+    shared cache root (tests/conftest.py `share_cache_root`)."""
+    full = {**ENV, **(env or {})}
     proc = subprocess.run([sys.executable, "-m", "rvn_rl.cli", *args], capture_output=True, text=True,
-                          env={**ENV, **(env or {})}, timeout=600)
+                          env=full if shared_cache else without_shared_cache(full), timeout=600)
     if check:
         assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-3000:]
     return proc
@@ -35,7 +38,7 @@ def rows(out_dir):
 @pytest.fixture(scope="module")
 def ppo_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("rl") / "ppo"
-    proc = rvn_rl("algo=ppo", f"out_dir={out}", "train.total_steps=32", *TINY)
+    proc = rvn_rl("algo=ppo", f"out_dir={out}", "train.total_steps=32", *TINY, shared_cache=False)
     return out, proc
 
 
@@ -150,7 +153,7 @@ def test_compiled_trunk_trains_as_the_plain_run(ppo_run, tmp_path):
     plain, _ = ppo_run
     out = tmp_path / "compiled"
     rvn_rl("algo=ppo", f"out_dir={out}", "train.total_steps=32", "train.compile=true", *TINY,
-           env=QUICK_COMPILE_ENV)
+           env=QUICK_COMPILE_ENV, shared_cache=False)
     a, b = rows(plain), rows(out)
     assert [(x["env_steps"], x.get("episodes")) for x in a] == [(x["env_steps"], x.get("episodes")) for x in b]
     for x, y in zip(a, b):
@@ -238,16 +241,11 @@ def test_checkpoint_of_another_kind_is_refused(tmp_path):
         load_policy(depth)
 
 
-@pytest.mark.parametrize("source", ["true", "model"])
-def test_ddppo_depth_trains_on_a_fourth_channel(tmp_path, source):
-    """algo=ddppo_depth (one rank): the rendered depth (depth.source=true) or a frozen depth
-    network's prediction (depth.source=model) as the 4th input channel; rvn-eval runs it."""
-    extra = ["depth.source=true"]
-    if source == "model":
-        from rvn_rl.depth.model import DepthNet, save_depth_model
-
-        save_depth_model(DepthNet(widths=(4, 8)), tmp_path / "depth", image_size=32)
-        extra = ["depth.source=model", f"depth.model_path={tmp_path / 'depth'}"]
+def test_ddppo_depth_trains_on_a_fourth_channel(tmp_path):
+    """algo=ddppo_depth (one rank): the rendered depth (depth.source=true) as the 4th input channel; rvn-eval runs it
+    with env.depth=true. A frozen depth network's prediction (depth.source=model) as that channel, trained on 2 ranks
+    and evaluated: the RL recipe's smoke test (tests/test_rl_ddppo.py)."""
+    source, extra = "true", ["depth.source=true"]
     out = tmp_path / "dd"
     rvn_rl("algo=ddppo_depth", f"out_dir={out}", "train.total_steps=16", *TINY, *extra)
     cfg = yaml.safe_load((out / "config.yaml").read_text())

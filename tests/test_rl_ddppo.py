@@ -30,7 +30,7 @@ def test_straggler_preemption_rule():
 
 
 @pytest.mark.slow
-def test_rl_small_recipe_smoke(tmp_path):
+def test_rl_small_recipe_smoke(tmp_path, own_cache_default):
     """jobs/rl_small.sh end to end at SCALE=tiny: PPO, PPO-Lagrangian, DD-PPO (2 ranks under torchrun) and
     DD-PPO + predicted depth (the depth network trained first, then frozen), five evaluations, the report with
     its tests; a bad ALGOS, env split, DEPTH_SOURCE or DEPTH_MODEL stops before any work."""
@@ -56,8 +56,8 @@ def test_rl_small_recipe_smoke(tmp_path):
     assert "| DD-PPO + predicted depth | DD-PPO |" in report
     depth = json.loads((out / "depth_model" / "metrics.json").read_text())
     assert 0 < depth["val"]["absrel"] < 10 and 0 <= depth["val"]["delta1"] <= 1
-    assert yaml.safe_load((out / "train" / "ddppo_depth" / "config.yaml").read_text())["depth"]["model_path"] == \
-        str(out / "depth_model")
+    depth_run = yaml.safe_load((out / "train" / "ddppo_depth" / "config.yaml").read_text())
+    assert depth_run["depth"]["model_path"] == str(out / "depth_model") and depth_run["policy"]["use_depth"] is True
     # DD-PPO's 2 ranks (torchrun, gloo) x 2 envs: each update counts the steps of both ranks (at most the 16-step
     # rollout each; straggler pre-emption may end one early, never before a quarter of it)
     ddppo = [json.loads(line) for line in (out / "train" / "ddppo" / "metrics.jsonl").read_text().splitlines()]
@@ -68,6 +68,8 @@ def test_rl_small_recipe_smoke(tmp_path):
     assert "broadcast_buffers" not in log and "bucket view strides" not in log, log[-3000:]
     from rvn_rl.policy import load_rl_policy
     assert load_rl_policy(out / "train" / "ddppo").net.visual_encoder.running_mean_and_var._count > 0  # rank 0's
+    # the frozen depth network's prediction as the 4th input channel (depth.source=model)
+    assert load_rl_policy(out / "train" / "ddppo_depth").net.visual_encoder.backbone.conv1[0].in_channels == 4
     for algo in ("ppo", "ppo_lag", "ddppo", "ddppo_depth"):
         assert (out / "train" / algo / "learning_curve.png").is_file()
         assert json.loads((out / "eval" / algo / "metrics.json").read_text())["episodes"] == 1
