@@ -245,9 +245,8 @@ def test_ddppo_depth_trains_on_a_fourth_channel(tmp_path):
     """algo=ddppo_depth (one rank): the rendered depth (depth.source=true) as the 4th input channel; rvn-eval runs it
     with env.depth=true. A frozen depth network's prediction (depth.source=model) as that channel, trained on 2 ranks
     and evaluated: the RL recipe's smoke test (tests/test_rl_ddppo.py)."""
-    source, extra = "true", ["depth.source=true"]
     out = tmp_path / "dd"
-    rvn_rl("algo=ddppo_depth", f"out_dir={out}", "train.total_steps=16", *TINY, *extra)
+    rvn_rl("algo=ddppo_depth", f"out_dir={out}", "train.total_steps=16", *TINY, "depth.source=true")
     cfg = yaml.safe_load((out / "config.yaml").read_text())
     assert cfg["policy"]["use_depth"] is True
     from rvn_rl.policy import load_rl_policy
@@ -256,9 +255,7 @@ def test_ddppo_depth_trains_on_a_fourth_channel(tmp_path):
     ev = tmp_path / "eval"
     args = ["rvn-eval", "policy=checkpoint", f"policy.checkpoint_path={out}", "split=val", "episodes.num_scenes=1",
             "episodes.per_scene=1", "episodes.n_goals=1", "env.t_max=10", "camera.width=32", "camera.height=32",
-            f"out_dir={ev}", "progress=false", "renderer=raycast", f"episodes.dir={tmp_path / 'episodes'}"]
-    if source == "true":
-        args.append("env.depth=true")
+            f"out_dir={ev}", "progress=false", "renderer=raycast", f"episodes.dir={tmp_path / 'episodes'}", "env.depth=true"]
     proc = subprocess.run(args, capture_output=True, text=True, env=ENV, timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
 
