@@ -9,7 +9,8 @@
 #   SEEDS="0 1": NoMaD-PointGoal and NoMaD-Neg (and their eval rows) once per training seed; data, episodes,
 #   ViNT and the reference rows once (seed SEED). Rows of another seed than SEED are labelled "<method> seed<s>".
 #   EVAL_CHECKPOINTS=k: NoMaD-PointGoal also at its k-1 kept checkpoints before the latest ("<method> ckpt<step>"),
-#   and NoMaD-Neg with each of them as NoMaD_e, which the report reads the rows over.
+#   and NoMaD-Neg with each of them as NoMaD_e, which the report reads the rows over; with SEEDS, each step's pair
+#   is also tested pooled over the seeds ("<method> seed<s> ckpt<step>" beside "<method> ckpt<step>").
 #   -> python -m rvn_data.benchmark.report -> OUT/report.md (+ plots, per-episode logs in OUT/eval/*/)
 #
 #   bash jobs/small_experiment.sh [OUT]              # SCALE=small on 2 CPU cores: wall time per step in OUT/timings.tsv

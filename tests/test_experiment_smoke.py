@@ -94,6 +94,7 @@ def test_tiny_experiment_end_to_end_and_rerun(tmp_path):
     assert "| NoMaD-Neg | 1, the row's |" in report and "| NoMaD-Neg seed1 | 1, the row's |" in report
     assert "| NoMaD-Neg | NoMaD-PointGoal | 2 / 2 | 1 |" in report, report
     assert "| NoMaD-Neg ckpt1 | NoMaD-PointGoal ckpt1 |" in report and "| NoMaD-Neg seed1 ckpt1 | NoMaD-PointGoal seed1 ckpt1 |" in report
+    assert "| NoMaD-Neg ckpt1 | NoMaD-PointGoal ckpt1 | unlabelled + seed1 | 2 |" in report  # that step, pooled over seeds
     early = out / "train" / "nomad_neg_seed1_ckpt1"
     assert json.loads((early / "expert" / "ckpt_00000001" / "stats.json").read_text())["adopted_from"] == \
         str((out / "train" / "nomad_pointgoal_seed1" / "model" / "ckpt_00000001").resolve())

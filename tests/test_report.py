@@ -289,6 +289,12 @@ def test_pairs_are_pooled_over_training_seeds(tmp_path):
     assert "pooled" not in tests(rows, [("A", "C")])
     # seed 1's rows on other episodes than each other: not paired, so not pooled
     assert "pooled" not in tests([run("A", 12), run("B", 4), run("A seed1", 10), run("B seed1", 6, shift=0.5)], [("A", "B")])
+    # a checkpoint's rows compared step by step: seed 1's are "<method> seed1 ckpt<n>" (small_experiment.sh's labels)
+    at_step = [run("A ckpt5", 12), run("B ckpt5", 4), run("A seed1 ckpt5", 10), run("B seed1 ckpt5", 6)]
+    text = tests(at_step, [("A ckpt5", "B ckpt5"), ("A seed1 ckpt5", "B seed1 ckpt5")])
+    assert [ln for ln in text.splitlines() if "| unlabelled" in ln] == [
+        "| A ckpt5 | B ckpt5 | unlabelled + seed1 | 40 | 0.550 | 0.250 | 12–0, 0.00049 | 100.0 | 100.0 | "
+        "1.00 [1.00, 1.00], 1 |"], text
 
 
 def test_rows_are_read_over_their_checkpoints(tmp_path):

@@ -47,6 +47,15 @@ from scipy.stats import binomtest, fisher_exact
 PERMUTATIONS = 10_000
 SEED_LABEL = re.compile(r"^(?P<base>.+) seed(?P<seed>\d+)$")  # the recipes' label of another training seed's row
 CKPT_LABEL = re.compile(r"^(?P<base>.+) ckpt(?P<steps>\d+)$")  # ... and of a run's checkpoint other than its latest
+# another seed's row of either kind: "A seed1", or its checkpoint's "A seed1 ckpt40" (small_experiment.sh's labels)
+SEEDED_LABEL = re.compile(r"^(?P<base>.+) seed(?P<seed>\d+)(?: ckpt\d+)?$")
+
+
+def seed_row_label(label: str, tag: str) -> str:
+    """The label of row ``label``'s run trained with another seed (``tag``: "seed1"): "A" -> "A seed1",
+    "A ckpt40" -> "A seed1 ckpt40" (the seed before the checkpoint, as the recipes write it)."""
+    m = CKPT_LABEL.match(label)
+    return f"{m['base']} {tag} ckpt{m['steps']}" if m else f"{label} {tag}"
 
 
 @dataclass(frozen=True)
@@ -186,17 +195,19 @@ def significance_table(rows: Sequence[Row], compare: Iterable[tuple[str, str]] |
 def pooled_pairs(rows: Sequence[Row], compare: Iterable[tuple[str, str]] | None = None) -> list[tuple[Row, Row, str]]:
     """The pairs to test pooled over training seeds: for each pair of ``compare`` (default: every pair) whose labels
     name no seed, with the rows "A seed<s>" and "B seed<s>" of at least one other seed on the same episodes as each
-    other, (pooled A, pooled B, which rows were pooled). A pooled row's episodes are keyed by (seed label, episode)."""
+    other, (pooled A, pooled B, which rows were pooled); for checkpoint rows "A ckpt<n>", their seed's "A seed<s>
+    ckpt<n>" (`seed_row_label`). A pooled row's episodes are keyed by (seed label, episode)."""
     by_label = {r.label: r for r in rows}
-    seeds = sorted({int(m["seed"]) for r in rows if (m := SEED_LABEL.match(r.label))})
-    base = [r.label for r in rows if not SEED_LABEL.match(r.label)]
+    seeds = sorted({int(m["seed"]) for r in rows if (m := SEEDED_LABEL.match(r.label))})
+    base = [r.label for r in rows if not SEEDED_LABEL.match(r.label)]
     out = []
     for a, b in (list(combinations(base, 2)) if compare is None else compare):
-        if a not in by_label or b not in by_label or SEED_LABEL.match(a) or SEED_LABEL.match(b):
+        if a not in by_label or b not in by_label or SEEDED_LABEL.match(a) or SEEDED_LABEL.match(b):
             continue
-        tags = [""] + [f"seed{s}" for s in seeds if f"{a} seed{s}" in by_label and f"{b} seed{s}" in by_label]
-        of_a = {t: by_label[f"{a} {t}" if t else a] for t in tags}
-        of_b = {t: by_label[f"{b} {t}" if t else b] for t in tags}
+        tags = [""] + [f"seed{s}" for s in seeds
+                       if seed_row_label(a, f"seed{s}") in by_label and seed_row_label(b, f"seed{s}") in by_label]
+        of_a = {t: by_label[seed_row_label(a, t) if t else a] for t in tags}
+        of_b = {t: by_label[seed_row_label(b, t) if t else b] for t in tags}
         if len(tags) < 2 or any(not of_a[t].per_episode or set(of_a[t].per_episode) != set(of_b[t].per_episode)
                                 for t in tags):
             continue
