@@ -91,7 +91,7 @@ def share_cache_root(config) -> None:
     navmeshes, goal pools and episode sets that an earlier test built (each keyed by what its content depends on, and
     built once by processes asking at once), instead of building them again under each test's out_dir. A user's own
     `RVN_CACHE_DIR` is not written into. Tests of where caches go (``<out_dir>/cache`` by default) take the variable
-    away (`own_cache_default`, `without_shared_cache`); tests giving ``cache_dir=`` or their own variable are as
+    away (`without_shared_cache`); tests giving ``cache_dir=`` or their own variable are as
     before. On the 2-core machine (2026-12-07, numba's kernels cached): the suite 880-922 s -> 724 s, its CPU time
     1,567-1,640 -> 1,286 s. What it costs: a refused command that built a cache before its checks would build it here,
     not in the out_dir that its test finds absent (the "nothing written" checks see the out_dir only)."""
@@ -128,13 +128,6 @@ def pytest_unconfigure(config):
         proc.wait()
         shutil.rmtree(config.rvn_warm_up_done.parent, ignore_errors=True)
         os.environ.pop(WARMING, None)
-
-
-@pytest.fixture
-def own_cache_default(monkeypatch):
-    """No `RVN_CACHE_DIR` for this test (see `share_cache_root`): its runs keep their caches where they would on a
-    user's machine without it, ``<out_dir>/cache``."""
-    monkeypatch.delenv(CACHE_ENV, raising=False)
 
 
 def without_shared_cache(env: dict) -> dict:

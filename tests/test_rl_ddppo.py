@@ -8,6 +8,7 @@ import subprocess
 
 import pytest
 import yaml
+from conftest import without_shared_cache
 
 
 def test_straggler_preemption_rule():
@@ -30,7 +31,7 @@ def test_straggler_preemption_rule():
 
 
 @pytest.mark.slow
-def test_rl_small_recipe_smoke(tmp_path, own_cache_default):
+def test_rl_small_recipe_smoke(tmp_path):
     """jobs/rl_small.sh end to end at SCALE=tiny: PPO, PPO-Lagrangian, DD-PPO (2 ranks under torchrun) and
     DD-PPO + predicted depth (the depth network trained first, then frozen), five evaluations, the report with
     its tests; a bad ALGOS, env split, DEPTH_SOURCE or DEPTH_MODEL stops before any work."""
@@ -38,7 +39,8 @@ def test_rl_small_recipe_smoke(tmp_path, own_cache_default):
 
     script = Path(__file__).resolve().parents[1] / "jobs" / "rl_small.sh"
     out = tmp_path / "rl"
-    env = {**os.environ, "SCALE": "tiny", "THREADS": "1", "WORKERS": "1", "RENDERER": "raycast"}
+    # the recipe's caches under OUT/cache (its default), not the suite's shared root
+    env = {**without_shared_cache(os.environ), "SCALE": "tiny", "THREADS": "1", "WORKERS": "1", "RENDERER": "raycast"}
     for bad, said in (({"ALGOS": "ppo dqn"}, "ALGOS contains 'dqn'"), ({"ALGOS": "ddppo", "NUM_ENVS": "2"}, "RANKS=2"),
                       ({"ALGOS": "ddppo_depth", "DEPTH_SOURCE": "sensor"}, "DEPTH_SOURCE=sensor"),
                       ({"ALGOS": "ddppo_depth", "DEPTH_MODEL": str(tmp_path)}, "holds no model.json")):
@@ -133,7 +135,7 @@ def test_rl_paper_scale_jobs_share_one_cache_root(tmp_path):
     from pathlib import Path
 
     script = Path(__file__).resolve().parents[1] / "jobs" / "rl_paper_scale.sh"
-    env = {k: v for k, v in os.environ.items() if k != "RVN_CACHE_DIR"}
+    env = without_shared_cache(os.environ)
     for given, root in ((None, tmp_path / "out" / "cache"), (str(tmp_path / "scratch"), tmp_path / "scratch")):
         run_env = {**env, "DRY_RUN": "1", "OUT": str(tmp_path / "out"), "DEPTH_SOURCE": "true",
                    **({"RVN_CACHE_DIR": given} if given else {})}

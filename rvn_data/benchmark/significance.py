@@ -53,7 +53,9 @@ SEEDED_LABEL = re.compile(r"^(?P<base>.+) seed(?P<seed>\d+)(?: ckpt\d+)?$")
 
 def seed_row_label(label: str, tag: str) -> str:
     """The label of row ``label``'s run trained with another seed (``tag``: "seed1"): "A" -> "A seed1",
-    "A ckpt40" -> "A seed1 ckpt40" (the seed before the checkpoint, as the recipes write it)."""
+    "A ckpt40" -> "A seed1 ckpt40" (the seed before the checkpoint, as the recipes write it); no tag: ``label``."""
+    if not tag:
+        return label
     m = CKPT_LABEL.match(label)
     return f"{m['base']} {tag} ckpt{m['steps']}" if m else f"{label} {tag}"
 
@@ -206,8 +208,8 @@ def pooled_pairs(rows: Sequence[Row], compare: Iterable[tuple[str, str]] | None 
             continue
         tags = [""] + [f"seed{s}" for s in seeds
                        if seed_row_label(a, f"seed{s}") in by_label and seed_row_label(b, f"seed{s}") in by_label]
-        of_a = {t: by_label[seed_row_label(a, t) if t else a] for t in tags}
-        of_b = {t: by_label[seed_row_label(b, t) if t else b] for t in tags}
+        of_a = {t: by_label[seed_row_label(a, t)] for t in tags}
+        of_b = {t: by_label[seed_row_label(b, t)] for t in tags}
         if len(tags) < 2 or any(not of_a[t].per_episode or set(of_a[t].per_episode) != set(of_b[t].per_episode)
                                 for t in tags):
             continue

@@ -43,9 +43,7 @@ def expert_source(source: str | Path, model_cfg: Mapping, step: int | None = Non
     if theirs != ours:
         raise ValueError(f"train.expert_from={source} was trained with model.prediction_type={theirs}, this run has "
                          f"{ours}; set model.prediction_type={theirs}")
-    if step is not None:
-        return checkpoint_of(src_dir / "model", step, "train.expert_step")
-    ckpt = latest_checkpoint(src_dir / "model")
+    ckpt = checkpoint_of(src_dir / "model", step, "train.expert_step")  # step None: the latest, None when none yet
     if ckpt is None:
         raise ValueError(f"train.expert_from={source} has no finished checkpoint (no {src_dir / 'model' / 'latest'}); "
                          "train it first")
