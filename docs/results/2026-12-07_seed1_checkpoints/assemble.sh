@@ -1,0 +1,52 @@
+#!/usr/bin/env bash
+# Copies run.sh's records into this folder and writes report.md: seed 1's NoMaD-PointGoal at its five kept checkpoints and
+# NoMaD-Neg with each as NoMaD_e, beside seed 0's same rows (../2026-12-07_nomad_checkpoints, ../2026-12-07_neg_checkpoints,
+# whose reference rows serve both seeds: same episodes), each pair step by step, read over the checkpoints and pooled over
+# the two seeds. Seed 1's latest rows are run.sh's when it evaluated them, else ../2026-12-05_neg_seed1's (the same
+# training command without kept checkpoints); reproduction.txt compares the two where both exist:
+#   bash docs/results/2026-12-07_seed1_checkpoints/assemble.sh runs/seed1_checkpoints
+set -euo pipefail
+RUN=$(cd "${1:-runs/seed1_checkpoints}" && pwd -P)
+HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+DIRS=()
+for n in random goal_follower trajectory_oracle oracle nomad_pointgoal nomad_pointgoal_ckpt{8000,9000,10000,11000}; do
+  DIRS+=("../2026-12-07_nomad_checkpoints/eval/$n")
+done
+for n in nomad_neg nomad_neg_ckpt{8000,9000,10000,11000}; do DIRS+=("../2026-12-07_neg_checkpoints/eval/$n"); done
+for d in "$RUN"/eval/*; do
+  n=${d##*/}
+  [ -f "$d/metrics.json" ] || { echo "assemble: skip $n (no metrics.json: not run or unfinished)"; continue; }
+  mkdir -p "$HERE/eval/$n"
+  cp "$d"/{metrics.json,episodes.jsonl,run.json,rvn-eval.log} "$HERE/eval/$n/"
+  DIRS+=("eval/$n")
+done
+for n in nomad_pointgoal nomad_neg; do  # seed 1's latest rows: ../2026-12-05_neg_seed1's where run.sh has none yet
+  [ -f "$HERE/eval/$n/metrics.json" ] || DIRS+=("../2026-12-05_neg_seed1/eval/$n")
+done
+for d in "$RUN"/train/*; do
+  n=${d##*/}; [ -f "$d/config.yaml" ] || continue
+  mkdir -p "$HERE/train/$n"; cp "$d/config.yaml" "$HERE/train/$n/"; cp "$d/rvn-train.log" "$HERE/train/$n/" 2>/dev/null || true
+  for m in "$d"/*/val.json; do [ -f "$m" ] && cp "$m" "$HERE/train/$n/$(basename "$(dirname "$m")")_val.json"; done
+done
+cp "$RUN/timings.tsv" "$HERE/timings.tsv"
+cd "$HERE"
+python - <<'PY' >reproduction.txt
+import json, pathlib
+print("seed 1's latest rows against ../2026-12-05_neg_seed1's (same training command, no kept checkpoints), episode by episode")
+for n in ("nomad_pointgoal", "nomad_neg"):
+    new, old = pathlib.Path("eval", n, "episodes.jsonl"), pathlib.Path("../2026-12-05_neg_seed1/eval", n, "episodes.jsonl")
+    if not new.exists():
+        print(f"{n}: not evaluated here"); continue
+    a = {r["episode_id"]: r for r in map(json.loads, new.read_text().splitlines())}
+    b = {r["episode_id"]: r for r in map(json.loads, old.read_text().splitlines())}
+    same = [e for e in a if e in b and a[e] == b[e]]
+    print(f"{n}: {len(same)} of {len(a)} episodes identical; differ: {sorted(set(a) - set(same))}")
+PY
+cat reproduction.txt
+CMP=("NoMaD-Neg=NoMaD-PointGoal" "NoMaD-Neg seed1=NoMaD-PointGoal seed1" "NoMaD-Neg=Goal follower" "NoMaD-Neg=Trajectory oracle")
+for at in 8000 9000 10000 11000; do  # step by step (pooled over the seeds where both have the step)
+  CMP+=("NoMaD-Neg ckpt$at=NoMaD-PointGoal ckpt$at" "NoMaD-Neg seed1 ckpt$at=NoMaD-PointGoal seed1 ckpt$at")
+done
+python -m rvn_data.benchmark.report "${DIRS[@]}" -o report.md \
+  --title "NoMaD-PointGoal and NoMaD-Neg at NoMaD-PointGoal's last five checkpoints, training seeds 0 and 1 (same 200 val episodes)" \
+  --compare-present "${CMP[@]/#/--compare=}"
