@@ -8,20 +8,25 @@
 set -euo pipefail
 RUN=$(cd "${1:-runs/seed1_checkpoints}" && pwd -P)
 HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+STEPS=(ckpt8000 ckpt9000 ckpt10000 ckpt11000)  # each model's rows in step order, its latest last
 DIRS=()
-for n in random goal_follower trajectory_oracle oracle nomad_pointgoal nomad_pointgoal_ckpt{8000,9000,10000,11000}; do
+for n in random goal_follower trajectory_oracle oracle "${STEPS[@]/#/nomad_pointgoal_}" nomad_pointgoal; do
   DIRS+=("../2026-12-07_nomad_checkpoints/eval/$n")
 done
-for n in nomad_neg nomad_neg_ckpt{8000,9000,10000,11000}; do DIRS+=("../2026-12-07_neg_checkpoints/eval/$n"); done
-for d in "$RUN"/eval/*; do
-  n=${d##*/}
-  [ -f "$d/metrics.json" ] || { echo "assemble: skip $n (no metrics.json: not run or unfinished)"; continue; }
-  mkdir -p "$HERE/eval/$n"
-  cp "$d"/{metrics.json,episodes.jsonl,run.json,rvn-eval.log} "$HERE/eval/$n/"
-  DIRS+=("eval/$n")
-done
-for n in nomad_pointgoal nomad_neg; do  # seed 1's latest rows: ../2026-12-05_neg_seed1's where run.sh has none yet
-  [ -f "$HERE/eval/$n/metrics.json" ] || DIRS+=("../2026-12-05_neg_seed1/eval/$n")
+for n in "${STEPS[@]/#/nomad_neg_}" nomad_neg; do DIRS+=("../2026-12-07_neg_checkpoints/eval/$n"); done
+for model in nomad_pointgoal nomad_neg; do
+  for n in "${STEPS[@]/#/${model}_}" "$model"; do
+    d=$RUN/eval/$n
+    if [ -f "$d/metrics.json" ]; then
+      mkdir -p "$HERE/eval/$n"
+      cp "$d"/{metrics.json,episodes.jsonl,run.json,rvn-eval.log} "$HERE/eval/$n/"
+      DIRS+=("eval/$n")
+    elif [ "$n" = "$model" ]; then  # seed 1's latest row: ../2026-12-05_neg_seed1's where run.sh has none yet
+      DIRS+=("../2026-12-05_neg_seed1/eval/$n")
+    else
+      echo "assemble: skip $n (no metrics.json: not run or unfinished)"
+    fi
+  done
 done
 for d in "$RUN"/train/*; do
   n=${d##*/}; [ -f "$d/config.yaml" ] || continue
