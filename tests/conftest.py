@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 import trimesh
 
+from rvn_data.cache_root import ENV as CACHE_ENV  # the run's shared cache root (share_cache_root)
 from rvn_data.scenes.scene import Part, Scene
 
 # the real apartment lives beside the checkout (../shared/scenes/), or where RVN_TEST_SCENE says
@@ -39,7 +40,6 @@ LONGEST_FIRST = ("test_compiled.py", "test_rl.py", "test_node_benchmark.py", "te
 KERNEL_FREE = ("test_compiled.py",)
 # Set while pytest's main process compiles numba's kernels for the workers: the file that appears when it has ended
 WARMING = "RVN_TEST_KERNELS_WARMING"
-CACHE_ENV = "RVN_CACHE_DIR"  # rvn_data.cache_root.ENV: the run's shared cache root (share_cache_root)
 _WARM_UP = """import pathlib, sys
 try:
     from rvn_data.warm_kernels import warm_kernels
