@@ -49,7 +49,7 @@ for n in ("nomad_pointgoal", "nomad_neg"):
 PY
 cat reproduction.txt
 CMP=("NoMaD-Neg=NoMaD-PointGoal" "NoMaD-Neg seed1=NoMaD-PointGoal seed1" "NoMaD-Neg=Goal follower" "NoMaD-Neg=Trajectory oracle")
-for at in 8000 9000 10000 11000; do  # step by step (pooled over the seeds where both have the step)
+for at in "${STEPS[@]#ckpt}"; do  # step by step (pooled over the seeds where both have the step)
   CMP+=("NoMaD-Neg ckpt$at=NoMaD-PointGoal ckpt$at" "NoMaD-Neg seed1 ckpt$at=NoMaD-PointGoal seed1 ckpt$at")
 done
 python -m rvn_data.benchmark.report "${DIRS[@]}" -o report.md \
