@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# Copies run.sh's records into this folder and writes report.md: NoMaD-PointGoal trained on 256 scenes (seeds 0 and 1)
+# beside the 128-scene rows of the same recipe and steps (seed 0: ../2026-12-07_nomad_checkpoints, seed 1:
+# ../2026-12-07_seed1_checkpoints, whose reference rows serve both: same episodes), and with the depth veto beside
+# ../2026-12-06_cor_controls's veto rows; each seed's pair tested and the pair pooled over the two seeds:
+#   bash docs/results/2026-12-07_data2x/assemble.sh runs/data2x
+set -euo pipefail
+RUN=$(cd "${1:-runs/data2x}" && pwd -P)
+HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+DIRS=()
+for n in random goal_follower trajectory_oracle oracle nomad_pointgoal; do DIRS+=("../2026-12-07_nomad_checkpoints/eval/$n"); done
+DIRS+=("../2026-12-07_seed1_checkpoints/eval/nomad_pointgoal")
+for n in nomad_pointgoal_veto nomad_pointgoal_veto_seed1; do DIRS+=("../2026-12-06_cor_controls/eval/$n"); done
+for d in "$RUN"/eval/*; do
+  n=${d##*/}
+  if [ -f "$d/metrics.json" ]; then
+    mkdir -p "$HERE/eval/$n"
+    cp "$d"/{metrics.json,episodes.jsonl,run.json,rvn-eval.log} "$HERE/eval/$n/"
+    DIRS+=("eval/$n")
+  else
+    echo "assemble: skip $n (no metrics.json: unfinished)"
+  fi
+done
+for d in "$RUN"/train/*; do
+  n=${d##*/}; [ -f "$d/config.yaml" ] || continue
+  mkdir -p "$HERE/train/$n"; cp "$d/config.yaml" "$HERE/train/$n/"; cp "$d/rvn-train.log" "$HERE/train/$n/" 2>/dev/null || true
+  for m in "$d"/*/val.json; do [ -f "$m" ] && cp "$m" "$HERE/train/$n/$(basename "$(dirname "$m")")_val.json"; done
+done
+cp "$RUN/timings.tsv" "$HERE/timings.tsv"
+cd "$HERE"
+CMP=("NoMaD-PointGoal 256 scenes=NoMaD-PointGoal" "NoMaD-PointGoal 256 scenes seed1=NoMaD-PointGoal seed1"
+     "NoMaD-PointGoal-veto 256 scenes=NoMaD-PointGoal-veto" "NoMaD-PointGoal-veto 256 scenes seed1=NoMaD-PointGoal-veto seed1"
+     "NoMaD-PointGoal 256 scenes=Goal follower" "NoMaD-PointGoal 256 scenes=Trajectory oracle")
+python -m rvn_data.benchmark.report "${DIRS[@]}" -o report.md \
+  --title "NoMaD-PointGoal on 256 train scenes against 128 at equal steps, training seeds 0 and 1 (same 200 val episodes)" \
+  --compare-present "${CMP[@]/#/--compare=}"
