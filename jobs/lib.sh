@@ -7,12 +7,19 @@
 # evaluation); each tool then resumes its own work, or refuses an input that changed under it with its own error.
 STEPS_SECONDS=${STEPS_SECONDS:-0}
 STEP_NEWEST=""   # the newest OUT/.done record of the steps met so far in this run
-# step_seen NAME...: count steps that ran in a background subshell (whose STEP_NEWEST is lost) as met, after `wait`
+# step_seen NAME...: count steps that ran in a background subshell (whose STEP_NEWEST and STEPS_SECONDS are lost) as
+# met, after `wait`: the newest record, and the seconds such a step left in OUT/.done/NAME.seconds ("<run's $$> <s>";
+# one an earlier run left, stopped between its `wait` and here, is dropped)
 step_seen() {
-  local n
+  local n run s
   for n in "$@"; do
     if [[ -f "$OUT/.done/$n" && ( -z "$STEP_NEWEST" || "$OUT/.done/$n" -nt "$STEP_NEWEST" ) ]]; then
       STEP_NEWEST=$OUT/.done/$n
+    fi
+    if [[ $BASHPID == "$$" && -f "$OUT/.done/$n.seconds" ]]; then
+      read -r run s <"$OUT/.done/$n.seconds" || true
+      if [[ "$run" == "$$" ]]; then STEPS_SECONDS=$((STEPS_SECONDS + s)); fi
+      rm -f "$OUT/.done/$n.seconds"
     fi
   done
 }
@@ -34,6 +41,7 @@ step() {
   STEPS_SECONDS=$((STEPS_SECONDS + SECONDS - t0))
   printf '%s' "$cmd" >"$record"
   step_seen "$name"
+  if [[ $BASHPID != "$$" ]]; then printf '%s %s\n' "$$" "$((SECONDS - t0))" >"$record.seconds"; fi  # for step_seen
   echo "[$name] ok in $((SECONDS - t0)) s"
 }
 # earlier_checkpoints RUN SUB K WHO HINT: EARLIER=(the steps of RUN/SUB's checkpoint folders ckpt_<n> before the newest,

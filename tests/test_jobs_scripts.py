@@ -118,6 +118,33 @@ def test_a_step_that_ran_makes_every_later_step_run(tmp_path):
     assert ran(EPOCHS="8") == []
 
 
+def test_steps_run_in_background_count_in_the_runs_seconds(tmp_path):
+    """jobs/lib.sh's STEPS_SECONDS (a recipe's "s in steps run now"): steps run side by side in background subshells
+    count once `step_seen` meets them after `wait`, as a step run in the foreground does; a rerun that skips them all
+    counts nothing."""
+    out = tmp_path / "out"
+    (out / "logs").mkdir(parents=True)
+    (out / ".done").mkdir()
+    recipe = tmp_path / "recipe.sh"
+    recipe.write_text(f'set -euo pipefail\nOUT={out}\nsource {REPO / "jobs" / "lib.sh"}\n'
+                      'step gen work gen\n( step train_a work a ) & a=$!\n( step train_b work b ) & b=$!\n'
+                      'wait $a; wait $b\nstep_seen train_a train_b\nstep eval work eval\n'
+                      'echo "steps: $STEPS_SECONDS"\n')
+    stub(tmp_path / "bin", "work", "sleep 1")
+
+    def steps_seconds() -> int:
+        proc, _ = run_script(str(recipe), tmp_path)
+        assert proc.returncode == 0, proc.stderr
+        return int(proc.stdout.strip().splitlines()[-1].removeprefix("steps: "))
+
+    first = steps_seconds()
+    timed = dict(line.split("\t") for line in (out / "timings.tsv").read_text().splitlines())
+    assert sorted(timed) == ["eval", "gen", "train_a", "train_b"]
+    assert first == sum(int(s) for s in timed.values()) >= 4
+    assert steps_seconds() == 0  # all skipped
+    assert not list((out / ".done").glob("*.seconds"))
+
+
 def rl_small_stubs(tmp_path: Path) -> dict[str, str]:
     """Stub rvn-rl, rvn-eval and the report's python for jobs/rl_small.sh; an rvn-rl whose first argument is
     $FAIL_ALGO fails after a moment, one whose first is $SLOW_ALGO trains until killed (its pid in $SLOW_PID)."""
