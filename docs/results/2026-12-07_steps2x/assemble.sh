@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# Copies run.sh's records into this folder and writes report.md: NoMaD-PointGoal at 22,532 steps on 128 and on 256
+# train scenes (seed 0) beside the same recipe at 11,266 steps (128 scenes: ../2026-12-07_nomad_checkpoints, 256:
+# ../2026-12-07_data2x), NoMaD-Neg on the 22,532-step model beside ../2026-12-07_neg_checkpoints's, and the depth veto
+# rows beside ../2026-12-06_cor_controls's and ../2026-12-07_data2x's; the reference rows are
+# ../2026-12-07_nomad_checkpoints's (same episodes):
+#   bash docs/results/2026-12-07_steps2x/assemble.sh runs/steps2x
+set -euo pipefail
+RUN=$(cd "${1:-runs/steps2x}" && pwd -P)
+HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+DIRS=()
+for n in random goal_follower trajectory_oracle oracle nomad_pointgoal; do DIRS+=("../2026-12-07_nomad_checkpoints/eval/$n"); done
+DIRS+=("../2026-12-07_neg_checkpoints/eval/nomad_neg" "../2026-12-06_cor_controls/eval/nomad_pointgoal_veto")
+for n in nomad_pointgoal_seed0 nomad_pointgoal_veto_seed0; do DIRS+=("../2026-12-07_data2x/eval/$n"); done
+for d in "$RUN"/eval/*; do
+  n=${d##*/}
+  if [ -f "$d/metrics.json" ]; then
+    mkdir -p "$HERE/eval/$n"
+    cp "$d"/{metrics.json,episodes.jsonl,run.json,rvn-eval.log} "$HERE/eval/$n/"
+    DIRS+=("eval/$n")
+  else
+    echo "assemble: skip $n (no metrics.json: unfinished)"
+  fi
+done
+for d in "$RUN"/train/*; do
+  n=${d##*/}; [ -f "$d/config.yaml" ] || continue
+  mkdir -p "$HERE/train/$n"; cp "$d/config.yaml" "$HERE/train/$n/"; cp "$d/rvn-train.log" "$HERE/train/$n/" 2>/dev/null || true
+  for m in "$d"/*/val.json; do [ -f "$m" ] && cp "$m" "$HERE/train/$n/$(basename "$(dirname "$m")")_val.json"; done
+done
+cp "$RUN/timings.tsv" "$HERE/timings.tsv"
+cd "$HERE"
+S=" 22532 steps"
+CMP=("NoMaD-PointGoal$S 128 scenes=NoMaD-PointGoal" "NoMaD-PointGoal$S 256 scenes=NoMaD-PointGoal 256 scenes"
+     "NoMaD-PointGoal$S 256 scenes=NoMaD-PointGoal$S 128 scenes"
+     "NoMaD-Neg$S 128 scenes=NoMaD-PointGoal$S 128 scenes" "NoMaD-Neg$S 128 scenes=NoMaD-Neg"
+     "NoMaD-PointGoal-veto$S 128 scenes=NoMaD-PointGoal-veto"
+     "NoMaD-PointGoal-veto$S 256 scenes=NoMaD-PointGoal-veto 256 scenes"
+     "NoMaD-PointGoal-veto$S 256 scenes=NoMaD-PointGoal-veto$S 128 scenes"
+     "NoMaD-PointGoal$S 128 scenes=Goal follower" "NoMaD-PointGoal$S 128 scenes=Trajectory oracle")
+python -m rvn_data.benchmark.report "${DIRS[@]}" -o report.md \
+  --title "NoMaD-PointGoal at twice the steps (22,532) on 128 and 256 train scenes, training seed 0 (same 200 val episodes)" \
+  --compare-present "${CMP[@]/#/--compare=}"

@@ -1,0 +1,61 @@
+#!/usr/bin/env bash
+# Twice the steps, on 128 and on 256 train scenes: the recipe's NoMaD-PointGoal (../2026-12-07_nomad_checkpoints/run.sh's
+# command, seed 0) trained for 22,532 steps (train.max_steps: twice the 11,266 of the 128-scene recipe's 2 epochs; its
+# warm-up and cosine schedule stretch with it) on the 128 scenes x 32 expert trajectories of BASE (4 epochs) and on the
+# 256 scenes x 32 of DATA256 (../2026-12-07_data2x's, 2 epochs), keeping the last five checkpoints; NoMaD-Neg on the
+# 128-scene model (the recipe's command, NoMaD_e = that model); all evaluated on BASE's 200 val episodes (episode set
+# a7556e2bca0b), plain and with the depth veto, beside the 11,266-step rows. The two trainings run side by side on one
+# torch thread each:
+#   bash docs/results/2026-12-07_steps2x/run.sh runs/steps2x runs/nomad_checkpoints runs/data2x/data   # rerun to resume
+set -euo pipefail
+OUT=${1:-runs/steps2x}
+BASE=$(cd "${2:-runs/nomad_checkpoints}" && pwd -P)
+DATA256=$(cd "${3:-runs/data2x/data}" && pwd -P)
+for need in "$BASE/data/rvn_expert" "$BASE/data/depth_negative" "$BASE/data/rvn_negative" "$BASE/splits_neg" \
+            "$BASE/data/val_expert" "$BASE/episodes"; do
+  [ -e "$need" ] || { echo "run.sh: $need not found: run docs/results/2026-12-07_nomad_checkpoints/run.sh $BASE first" >&2; exit 2; }
+done
+for need in "$DATA256/rvn_expert" "$DATA256/depth_negative"; do
+  [ -e "$need" ] || { echo "run.sh: $need not found: run docs/results/2026-12-07_data2x/run.sh first" >&2; exit 2; }
+done
+mkdir -p "$OUT/logs" "$OUT/.done"
+OUT=$(cd "$OUT" && pwd -P)
+source "$(dirname "${BASH_SOURCE[0]}")/../../../jobs/lib.sh"
+export RVN_CACHE_DIR=${RVN_CACHE_DIR:-$BASE/cache} OMP_NUM_THREADS=2 MKL_NUM_THREADS=2
+CAMERA=("camera.width=64" "camera.height=64")
+TRAIN=("model.size=small" "train.batch_size=32" "data.num_workers=0" "data.goal_offset=[1,40]" "train.tqdm_interval=30"
+       "device=cpu" "data.val_root=$BASE/data/val_expert" "model.depth_aux_weight=0.5" "train.lr=1e-3" "data.pad_context=true")
+EVAL=("split=val" "episodes.num_scenes=50" "episodes.per_scene=4" "episodes.n_goals=32" "env.t_max=500"
+      "episodes.dir=$BASE/episodes" "workers=2" "progress=false" "seed=0" "renderer=auto" "${CAMERA[@]}")
+evaluate() { OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 step "$@"; }
+
+# train_arm SCENES DATA EPOCHS: NoMaD-PointGoal for 22,532 steps on DATA (SCENES train scenes), one torch thread
+train_arm() {
+  OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 step "train_nomad_$1" rvn-train model=nomad_pointgoal model.prediction_type=sample \
+    data.root="$2/rvn_expert" out_dir="$OUT/train/nomad_pointgoal_$1" train.epochs="$3" train.max_steps=22532 \
+    "${TRAIN[@]}" data.depth_root="$2/depth_negative" seed=0 train.keep_checkpoints=5
+}
+train_arm 128 "$BASE/data" 4 & pid128=$!
+train_arm 256 "$DATA256" 2 & pid256=$!
+wait "$pid128"; wait "$pid256"  # set -e: a failed training stops the run here
+step_seen train_nomad_128 train_nomad_256
+
+step train_nomad_neg_128 rvn-train model=nomad_neg model.prediction_type=sample data.root="$BASE/data/rvn_expert" \
+  data.negative_root="$BASE/data/rvn_negative" data.splits_dir="$BASE/splits_neg" data.skip_short=true \
+  out_dir="$OUT/train/nomad_neg_128" train.epochs=2 "${TRAIN[@]}" train.expert_from="$OUT/train/nomad_pointgoal_128" seed=0
+
+VETO=(+policy.depth_veto=0.5 +policy.depth_veto_rule=swept)  # the depth veto rows (../2026-12-06_cor_controls's)
+POLICY=(policy=checkpoint +policy.waypoint_index=null +policy.num_samples=8)
+for scenes in 128 256; do
+  evaluate "eval_nomad_$scenes" rvn-eval "${POLICY[@]}" policy.checkpoint_path="$OUT/train/nomad_pointgoal_$scenes" \
+    "method=NoMaD-PointGoal 22532 steps $scenes scenes" out_dir="$OUT/eval/nomad_pointgoal_$scenes" "${EVAL[@]}"
+done
+NEG=(policy=checkpoint +policy.waypoint_index=null)  # the recipe's NoMaD-Neg row (../2026-12-07_neg_checkpoints's)
+evaluate eval_nomad_neg_128 rvn-eval "${NEG[@]}" policy.checkpoint_path="$OUT/train/nomad_neg_128" \
+  "method=NoMaD-Neg 22532 steps 128 scenes" out_dir="$OUT/eval/nomad_neg_128" "${EVAL[@]}"
+for scenes in 128 256; do
+  evaluate "eval_nomad_veto_$scenes" rvn-eval "${POLICY[@]}" policy.checkpoint_path="$OUT/train/nomad_pointgoal_$scenes" \
+    "${VETO[@]}" "method=NoMaD-PointGoal-veto 22532 steps $scenes scenes" out_dir="$OUT/eval/nomad_pointgoal_veto_$scenes" \
+    "${EVAL[@]}"
+done
+echo "steps2x run: done in $SECONDS s ($STEPS_SECONDS s in steps run now; the trainings ran in the background)"
