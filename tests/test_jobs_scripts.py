@@ -91,17 +91,23 @@ def test_paper_scale_datasets_put_every_train_scene_in_the_train_split(tmp_path)
     assert len(gens) == 4 and all("dataset.train_fraction=1.0" in c for c in gens), gens
 
 
-def test_a_step_that_ran_makes_every_later_step_run(tmp_path):
-    """jobs/lib.sh's `step`: an unchanged prefix of steps is skipped; after a step that ran (changed command, or one
-    that never finished), every later step runs too, unchanged or not: an evaluation after its model was retrained
-    must not keep the old model's numbers, also when the run that retrained it was stopped before the evaluation."""
+def lib_recipe(tmp_path: Path, body: str) -> tuple[Path, Path]:
+    """A recipe ``tmp_path/recipe.sh`` that sources jobs/lib.sh with OUT = ``tmp_path/out`` (made, as the recipes make
+    it) and runs ``body``; returns the recipe and OUT."""
     out = tmp_path / "out"
     (out / "logs").mkdir(parents=True)
     (out / ".done").mkdir()
     recipe = tmp_path / "recipe.sh"
-    recipe.write_text(f'set -euo pipefail\nOUT={out}\nsource {REPO / "jobs" / "lib.sh"}\n'
-                      'step gen work gen "${GEN:-1}"\nstep train work train "${EPOCHS:-1}"\n'
-                      'step eval work eval\nstep report work report\n')
+    recipe.write_text(f'set -euo pipefail\nOUT={out}\nsource {REPO / "jobs" / "lib.sh"}\n{body}')
+    return recipe, out
+
+
+def test_a_step_that_ran_makes_every_later_step_run(tmp_path):
+    """jobs/lib.sh's `step`: an unchanged prefix of steps is skipped; after a step that ran (changed command, or one
+    that never finished), every later step runs too, unchanged or not: an evaluation after its model was retrained
+    must not keep the old model's numbers, also when the run that retrained it was stopped before the evaluation."""
+    recipe, _ = lib_recipe(tmp_path, 'step gen work gen "${GEN:-1}"\nstep train work train "${EPOCHS:-1}"\n'
+                                     'step eval work eval\nstep report work report\n')
     stub(tmp_path / "bin", "work", 'if [[ "$1" == "${FAIL:-}" ]]; then exit 1; fi')
 
     def ran(**env) -> list[str]:
@@ -122,14 +128,9 @@ def test_steps_run_in_background_count_in_the_runs_seconds(tmp_path):
     """jobs/lib.sh's STEPS_SECONDS (a recipe's "s in steps run now"): steps run side by side in background subshells
     count once `step_seen` meets them after `wait`, as a step run in the foreground does; a rerun that skips them all
     counts nothing."""
-    out = tmp_path / "out"
-    (out / "logs").mkdir(parents=True)
-    (out / ".done").mkdir()
-    recipe = tmp_path / "recipe.sh"
-    recipe.write_text(f'set -euo pipefail\nOUT={out}\nsource {REPO / "jobs" / "lib.sh"}\n'
-                      'step gen work gen\n( step train_a work a ) & a=$!\n( step train_b work b ) & b=$!\n'
-                      'wait $a; wait $b\nstep_seen train_a train_b\nstep eval work eval\n'
-                      'echo "steps: $STEPS_SECONDS"\n')
+    recipe, out = lib_recipe(tmp_path, 'step gen work gen\n( step train_a work a ) & a=$!\n'
+                                       '( step train_b work b ) & b=$!\nwait $a; wait $b\nstep_seen train_a train_b\n'
+                                       'step eval work eval\necho "steps: $STEPS_SECONDS"\n')
     stub(tmp_path / "bin", "work", "sleep 1")
 
     def steps_seconds() -> int:
