@@ -37,12 +37,13 @@ step() {
     tail -n 20 "$OUT/logs/$name.log" >&2
     exit 1
   fi
-  printf '%s\t%s\n' "$name" "$((SECONDS - t0))" >>"$OUT/timings.tsv"
-  STEPS_SECONDS=$((STEPS_SECONDS + SECONDS - t0))
+  local took=$((SECONDS - t0))  # one reading: timings.tsv, STEPS_SECONDS and the line below agree
+  printf '%s\t%s\n' "$name" "$took" >>"$OUT/timings.tsv"
+  STEPS_SECONDS=$((STEPS_SECONDS + took))
   printf '%s' "$cmd" >"$record"
   step_seen "$name"
-  if [[ $BASHPID != "$$" ]]; then printf '%s %s\n' "$$" "$((SECONDS - t0))" >"$record.seconds"; fi  # for step_seen
-  echo "[$name] ok in $((SECONDS - t0)) s"
+  if [[ $BASHPID != "$$" ]]; then printf '%s %s\n' "$$" "$took" >"$record.seconds"; fi  # for step_seen
+  echo "[$name] ok in $took s"
 }
 # earlier_checkpoints RUN SUB K WHO HINT: EARLIER=(the steps of RUN/SUB's checkpoint folders ckpt_<n> before the newest,
 # newest first, at most K-1 of them), the recipes' EVAL_CHECKPOINTS; where RUN keeps fewer than K, says so (WHO: the
