@@ -7,25 +7,13 @@
 set -euo pipefail
 RUN=$(cd "${1:-runs/data2x}" && pwd -P)
 HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+source "$HERE/../lib.sh"  # copy_evals, copy_trainings
 DIRS=()
 for n in random goal_follower trajectory_oracle oracle nomad_pointgoal; do DIRS+=("../2026-12-07_nomad_checkpoints/eval/$n"); done
 DIRS+=("../2026-12-07_seed1_checkpoints/eval/nomad_pointgoal")
 for n in nomad_pointgoal_veto nomad_pointgoal_veto_seed1; do DIRS+=("../2026-12-06_cor_controls/eval/$n"); done
-for d in "$RUN"/eval/*; do
-  n=${d##*/}
-  if [ -f "$d/metrics.json" ]; then
-    mkdir -p "$HERE/eval/$n"
-    cp "$d"/{metrics.json,episodes.jsonl,run.json,rvn-eval.log} "$HERE/eval/$n/"
-    DIRS+=("eval/$n")
-  else
-    echo "assemble: skip $n (no metrics.json: unfinished)"
-  fi
-done
-for d in "$RUN"/train/*; do
-  n=${d##*/}; [ -f "$d/config.yaml" ] || continue
-  mkdir -p "$HERE/train/$n"; cp "$d/config.yaml" "$HERE/train/$n/"; cp "$d/rvn-train.log" "$HERE/train/$n/" 2>/dev/null || true
-  for m in "$d"/*/val.json; do [ -f "$m" ] && cp "$m" "$HERE/train/$n/$(basename "$(dirname "$m")")_val.json"; done
-done
+copy_evals "$RUN" "$HERE" '*'
+copy_trainings "$RUN" "$HERE" '*'
 cp "$RUN/timings.tsv" "$HERE/timings.tsv"
 cd "$HERE"
 CMP=("NoMaD-PointGoal 256 scenes=NoMaD-PointGoal" "NoMaD-PointGoal 256 scenes seed1=NoMaD-PointGoal seed1"

@@ -6,21 +6,13 @@
 set -euo pipefail
 RUN=$(cd "${1:-runs/nomad_checkpoints}" && pwd -P)
 HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+source "$HERE/../lib.sh"  # copy_evals, copy_trainings
 DIRS=()
 for n in random goal_follower trajectory_oracle oracle nomad_pointgoal nomad_pointgoal_ckpt{8000,9000,10000,11000}; do
   DIRS+=("../2026-12-07_nomad_checkpoints/eval/$n")
 done
-for d in "$RUN"/eval/nomad_neg{,_ckpt*}; do
-  n=${d##*/}
-  [ -f "$d/metrics.json" ] || { echo "assemble: skip $n (no metrics.json: not run or unfinished)"; continue; }
-  mkdir -p "$HERE/eval/$n"
-  cp "$d"/{metrics.json,episodes.jsonl,run.json,rvn-eval.log} "$HERE/eval/$n/"
-  DIRS+=("eval/$n")
-done
-for d in "$RUN"/train/nomad_neg_ckpt*; do
-  n=${d##*/}; [ -f "$d/config.yaml" ] || continue
-  mkdir -p "$HERE/train/$n"; cp "$d/config.yaml" "$HERE/train/$n/"; cp "$d/rvn-train.log" "$HERE/train/$n/" 2>/dev/null || true
-done
+copy_evals "$RUN" "$HERE" nomad_neg 'nomad_neg_ckpt*'
+copy_trainings "$RUN" "$HERE" 'nomad_neg_ckpt*'
 grep -E '^(eval|train)_nomad_neg' "$RUN/timings.tsv" >"$HERE/timings.tsv" || true
 cd "$HERE"
 CMP=("NoMaD-Neg=NoMaD-PointGoal" "NoMaD-Neg=Goal follower" "NoMaD-Neg=Trajectory oracle")

@@ -5,19 +5,10 @@
 set -euo pipefail
 RUN=$(cd "${1:-runs/nomad_checkpoints}" && pwd -P)
 HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+source "$HERE/../lib.sh"  # copy_evals, copy_trainings
 DIRS=()
-for d in "$RUN"/eval/{random,goal_follower,trajectory_oracle,oracle,nomad_pointgoal,nomad_pointgoal_ckpt*}; do
-  n=${d##*/}
-  [ -f "$d/metrics.json" ] || { echo "assemble: skip $n (no metrics.json: not run or unfinished)"; continue; }
-  mkdir -p "$HERE/eval/$n"
-  cp "$d"/{metrics.json,episodes.jsonl,run.json,rvn-eval.log} "$HERE/eval/$n/"
-  DIRS+=("eval/$n")
-done
-for n in nomad_pointgoal nomad_neg; do
-  d=$RUN/train/$n; [ -f "$d/config.yaml" ] || continue
-  mkdir -p "$HERE/train/$n"; cp "$d/config.yaml" "$HERE/train/$n/"; cp "$d/rvn-train.log" "$HERE/train/$n/" 2>/dev/null || true
-  for m in "$d"/*/val.json; do [ -f "$m" ] && cp "$m" "$HERE/train/$n/$(basename "$(dirname "$m")")_val.json"; done
-done
+copy_evals "$RUN" "$HERE" random goal_follower trajectory_oracle oracle nomad_pointgoal 'nomad_pointgoal_ckpt*'
+copy_trainings "$RUN" "$HERE" nomad_pointgoal nomad_neg
 cp "$RUN/timings.tsv" "$HERE/timings.tsv"
 cd "$HERE"
 CMP=("NoMaD-PointGoal=Goal follower" "NoMaD-PointGoal=Trajectory oracle")

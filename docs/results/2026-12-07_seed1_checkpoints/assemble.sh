@@ -8,6 +8,7 @@
 set -euo pipefail
 RUN=$(cd "${1:-runs/seed1_checkpoints}" && pwd -P)
 HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+source "$HERE/../lib.sh"  # copy_evals, copy_trainings
 STEPS=(ckpt8000 ckpt9000 ckpt10000 ckpt11000)  # each model's rows in step order, its latest last
 DIRS=()
 for n in random goal_follower trajectory_oracle oracle "${STEPS[@]/#/nomad_pointgoal_}" nomad_pointgoal; do
@@ -16,23 +17,15 @@ done
 for n in "${STEPS[@]/#/nomad_neg_}" nomad_neg; do DIRS+=("../2026-12-07_neg_checkpoints/eval/$n"); done
 for model in nomad_pointgoal nomad_neg; do
   for n in "${STEPS[@]/#/${model}_}" "$model"; do
-    d=$RUN/eval/$n
-    if [ -f "$d/metrics.json" ]; then
-      mkdir -p "$HERE/eval/$n"
-      cp "$d"/{metrics.json,episodes.jsonl,run.json,rvn-eval.log} "$HERE/eval/$n/"
-      DIRS+=("eval/$n")
-    elif [ "$n" = "$model" ]; then  # seed 1's latest row: ../2026-12-05_neg_seed1's where run.sh has none yet
+    copy_eval "$RUN" "$HERE" "$n" && continue
+    if [ "$n" = "$model" ]; then  # seed 1's latest row: ../2026-12-05_neg_seed1's where run.sh has none yet
       DIRS+=("../2026-12-05_neg_seed1/eval/$n")
     else
       echo "assemble: skip $n (no metrics.json: not run or unfinished)"
     fi
   done
 done
-for d in "$RUN"/train/*; do
-  n=${d##*/}; [ -f "$d/config.yaml" ] || continue
-  mkdir -p "$HERE/train/$n"; cp "$d/config.yaml" "$HERE/train/$n/"; cp "$d/rvn-train.log" "$HERE/train/$n/" 2>/dev/null || true
-  for m in "$d"/*/val.json; do [ -f "$m" ] && cp "$m" "$HERE/train/$n/$(basename "$(dirname "$m")")_val.json"; done
-done
+copy_trainings "$RUN" "$HERE" '*'
 cp "$RUN/timings.tsv" "$HERE/timings.tsv"
 cd "$HERE"
 python - <<'PY' >reproduction.txt
