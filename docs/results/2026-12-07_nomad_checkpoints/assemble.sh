@@ -9,7 +9,9 @@ source "$HERE/../lib.sh"  # copy_evals, copy_trainings
 DIRS=()
 copy_evals "$RUN" "$HERE" random goal_follower trajectory_oracle oracle nomad_pointgoal 'nomad_pointgoal_ckpt*'
 copy_trainings "$RUN" "$HERE" nomad_pointgoal nomad_neg
-cp "$RUN/timings.tsv" "$HERE/timings.tsv"
+# the NoMaD-Neg evaluations and per-checkpoint trainings later run in the same folder are ../2026-12-07_neg_checkpoints's
+# records (its timings.tsv); this folder keeps its own rows, so a rerun here writes the same file
+grep -Ev '^(eval_nomad_neg|train_nomad_neg_ckpt)' "$RUN/timings.tsv" >"$HERE/timings.tsv"
 cd "$HERE"
 CMP=("NoMaD-PointGoal=Goal follower" "NoMaD-PointGoal=Trajectory oracle")
 for d in eval/nomad_pointgoal_ckpt*; do  # the latest against each earlier checkpoint
