@@ -3,7 +3,9 @@
 # train scenes (seed 0) beside the same recipe at 11,266 steps (128 scenes: ../2026-12-07_nomad_checkpoints, 256:
 # ../2026-12-07_data2x), NoMaD-Neg on the 22,532-step model beside ../2026-12-07_neg_checkpoints's, and the depth veto
 # rows beside ../2026-12-06_cor_controls's and ../2026-12-07_data2x's; the reference rows are
-# ../2026-12-07_nomad_checkpoints's (same episodes):
+# ../2026-12-07_nomad_checkpoints's (same episodes). Where run.sh's SEED=1 rows exist, seed 1's 11,266-step rows join
+# (../2026-12-07_seed1_checkpoints, ../2026-12-07_data2x, ../2026-12-06_cor_controls), each pair is tested for seed 1
+# too and pooled over the two seeds:
 #   bash docs/results/2026-12-07_steps2x/assemble.sh runs/steps2x
 set -euo pipefail
 RUN=$(cd "${1:-runs/steps2x}" && pwd -P)
@@ -13,18 +15,26 @@ DIRS=()
 for n in random goal_follower trajectory_oracle oracle nomad_pointgoal; do DIRS+=("../2026-12-07_nomad_checkpoints/eval/$n"); done
 DIRS+=("../2026-12-07_neg_checkpoints/eval/nomad_neg" "../2026-12-06_cor_controls/eval/nomad_pointgoal_veto")
 for n in nomad_pointgoal_seed0 nomad_pointgoal_veto_seed0; do DIRS+=("../2026-12-07_data2x/eval/$n"); done
+TAGS=("")  # the seeds' row suffixes
+if compgen -G "$RUN/eval/*_seed1" >/dev/null; then  # seed 1's 11,266-step rows, where seed 1 ran here
+  TAGS+=(" seed1")
+  DIRS+=(../2026-12-07_seed1_checkpoints/eval/nomad_{pointgoal,neg} ../2026-12-06_cor_controls/eval/nomad_pointgoal_veto_seed1)
+  for n in nomad_pointgoal_seed1 nomad_pointgoal_veto_seed1; do DIRS+=("../2026-12-07_data2x/eval/$n"); done
+fi
 copy_evals "$RUN" "$HERE" '*'
 copy_trainings "$RUN" "$HERE" '*'
 cp "$RUN/timings.tsv" "$HERE/timings.tsv"
 cd "$HERE"
 S=" 22532 steps"
-CMP=("NoMaD-PointGoal$S 128 scenes=NoMaD-PointGoal" "NoMaD-PointGoal$S 256 scenes=NoMaD-PointGoal 256 scenes"
-     "NoMaD-PointGoal$S 256 scenes=NoMaD-PointGoal$S 128 scenes"
-     "NoMaD-Neg$S 128 scenes=NoMaD-PointGoal$S 128 scenes" "NoMaD-Neg$S 128 scenes=NoMaD-Neg"
-     "NoMaD-PointGoal-veto$S 128 scenes=NoMaD-PointGoal-veto"
-     "NoMaD-PointGoal-veto$S 256 scenes=NoMaD-PointGoal-veto 256 scenes"
-     "NoMaD-PointGoal-veto$S 256 scenes=NoMaD-PointGoal-veto$S 128 scenes"
-     "NoMaD-PointGoal$S 128 scenes=Goal follower" "NoMaD-PointGoal$S 128 scenes=Trajectory oracle")
+CMP=("NoMaD-PointGoal$S 128 scenes=Goal follower" "NoMaD-PointGoal$S 128 scenes=Trajectory oracle")
+for t in "${TAGS[@]}"; do  # each seed's pairs; the report pools a pair over the seeds that have it
+  CMP+=("NoMaD-PointGoal$S 128 scenes$t=NoMaD-PointGoal$t" "NoMaD-PointGoal$S 256 scenes$t=NoMaD-PointGoal 256 scenes$t"
+        "NoMaD-PointGoal$S 256 scenes$t=NoMaD-PointGoal$S 128 scenes$t"
+        "NoMaD-Neg$S 128 scenes$t=NoMaD-PointGoal$S 128 scenes$t" "NoMaD-Neg$S 128 scenes$t=NoMaD-Neg$t"
+        "NoMaD-PointGoal-veto$S 128 scenes$t=NoMaD-PointGoal-veto$t"
+        "NoMaD-PointGoal-veto$S 256 scenes$t=NoMaD-PointGoal-veto 256 scenes$t"
+        "NoMaD-PointGoal-veto$S 256 scenes$t=NoMaD-PointGoal-veto$S 128 scenes$t")
+done
 python -m rvn_data.benchmark.report "${DIRS[@]}" -o report.md \
-  --title "NoMaD-PointGoal at twice the steps (22,532) on 128 and 256 train scenes, training seed 0 (same 200 val episodes)" \
+  --title "NoMaD-PointGoal at twice the steps (22,532) on 128 and 256 train scenes (same 200 val episodes)" \
   --compare-present "${CMP[@]/#/--compare=}"

@@ -5,9 +5,14 @@
 # 256 scenes x 32 of DATA256 (../2026-12-07_data2x's, 2 epochs), keeping the last five checkpoints; NoMaD-Neg on the
 # 128-scene model (the recipe's command, NoMaD_e = that model); all evaluated on BASE's 200 val episodes (episode set
 # a7556e2bca0b), plain and with the depth veto, beside the 11,266-step rows. The two trainings run side by side on one
-# torch thread each:
+# torch thread each. SEED=1 runs the same for training seed 1 (its steps, folders and rows named ..._seed1 / "... seed1"
+# beside seed 0's in the same OUT; seed 0's commands are the ones run first, unchanged):
 #   bash docs/results/2026-12-07_steps2x/run.sh runs/steps2x runs/nomad_checkpoints runs/data2x/data   # rerun to resume
+#   SEED=1 bash docs/results/2026-12-07_steps2x/run.sh runs/steps2x runs/nomad_checkpoints runs/data2x/data
 set -euo pipefail
+SEED=${SEED:-0}
+[[ "$SEED" =~ ^[0-9]+$ ]] || { echo "run.sh: SEED=$SEED; give a whole number (the training seed)" >&2; exit 2; }
+S=""; M=""; [ "$SEED" = 0 ] || { S="_seed$SEED"; M=" seed$SEED"; }  # seed 0 keeps the names it ran under
 OUT=${1:-runs/steps2x}
 BASE=$(cd "${2:-runs/nomad_checkpoints}" && pwd -P)
 DATA256=$(cd "${3:-runs/data2x/data}" && pwd -P)
@@ -31,31 +36,32 @@ evaluate() { OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 step "$@"; }
 
 # train_arm SCENES DATA EPOCHS: NoMaD-PointGoal for 22,532 steps on DATA (SCENES train scenes), one torch thread
 train_arm() {
-  OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 step "train_nomad_$1" rvn-train model=nomad_pointgoal model.prediction_type=sample \
-    data.root="$2/rvn_expert" out_dir="$OUT/train/nomad_pointgoal_$1" train.epochs="$3" train.max_steps=22532 \
-    "${TRAIN[@]}" data.depth_root="$2/depth_negative" seed=0 train.keep_checkpoints=5
+  OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 step "train_nomad_$1$S" rvn-train model=nomad_pointgoal model.prediction_type=sample \
+    data.root="$2/rvn_expert" out_dir="$OUT/train/nomad_pointgoal_$1$S" train.epochs="$3" train.max_steps=22532 \
+    "${TRAIN[@]}" data.depth_root="$2/depth_negative" seed="$SEED" train.keep_checkpoints=5
 }
 train_arm 128 "$BASE/data" 4 & pid128=$!
 train_arm 256 "$DATA256" 2 & pid256=$!
 wait "$pid128"; wait "$pid256"  # set -e: a failed training stops the run here
-step_seen train_nomad_128 train_nomad_256
+step_seen "train_nomad_128$S" "train_nomad_256$S"
 
-step train_nomad_neg_128 rvn-train model=nomad_neg model.prediction_type=sample data.root="$BASE/data/rvn_expert" \
+step "train_nomad_neg_128$S" rvn-train model=nomad_neg model.prediction_type=sample data.root="$BASE/data/rvn_expert" \
   data.negative_root="$BASE/data/rvn_negative" data.splits_dir="$BASE/splits_neg" data.skip_short=true \
-  out_dir="$OUT/train/nomad_neg_128" train.epochs=2 "${TRAIN[@]}" train.expert_from="$OUT/train/nomad_pointgoal_128" seed=0
+  out_dir="$OUT/train/nomad_neg_128$S" train.epochs=2 "${TRAIN[@]}" train.expert_from="$OUT/train/nomad_pointgoal_128$S" \
+  seed="$SEED"
 
 VETO=(+policy.depth_veto=0.5 +policy.depth_veto_rule=swept)  # the depth veto rows (../2026-12-06_cor_controls's)
 POLICY=(policy=checkpoint +policy.waypoint_index=null +policy.num_samples=8)
 for scenes in 128 256; do
-  evaluate "eval_nomad_$scenes" rvn-eval "${POLICY[@]}" policy.checkpoint_path="$OUT/train/nomad_pointgoal_$scenes" \
-    "method=NoMaD-PointGoal 22532 steps $scenes scenes" out_dir="$OUT/eval/nomad_pointgoal_$scenes" "${EVAL[@]}"
+  evaluate "eval_nomad_$scenes$S" rvn-eval "${POLICY[@]}" policy.checkpoint_path="$OUT/train/nomad_pointgoal_$scenes$S" \
+    "method=NoMaD-PointGoal 22532 steps $scenes scenes$M" out_dir="$OUT/eval/nomad_pointgoal_$scenes$S" "${EVAL[@]}"
 done
 NEG=(policy=checkpoint +policy.waypoint_index=null)  # the recipe's NoMaD-Neg row (../2026-12-07_neg_checkpoints's)
-evaluate eval_nomad_neg_128 rvn-eval "${NEG[@]}" policy.checkpoint_path="$OUT/train/nomad_neg_128" \
-  "method=NoMaD-Neg 22532 steps 128 scenes" out_dir="$OUT/eval/nomad_neg_128" "${EVAL[@]}"
+evaluate "eval_nomad_neg_128$S" rvn-eval "${NEG[@]}" policy.checkpoint_path="$OUT/train/nomad_neg_128$S" \
+  "method=NoMaD-Neg 22532 steps 128 scenes$M" out_dir="$OUT/eval/nomad_neg_128$S" "${EVAL[@]}"
 for scenes in 128 256; do
-  evaluate "eval_nomad_veto_$scenes" rvn-eval "${POLICY[@]}" policy.checkpoint_path="$OUT/train/nomad_pointgoal_$scenes" \
-    "${VETO[@]}" "method=NoMaD-PointGoal-veto 22532 steps $scenes scenes" out_dir="$OUT/eval/nomad_pointgoal_veto_$scenes" \
-    "${EVAL[@]}"
+  evaluate "eval_nomad_veto_$scenes$S" rvn-eval "${POLICY[@]}" policy.checkpoint_path="$OUT/train/nomad_pointgoal_$scenes$S" \
+    "${VETO[@]}" "method=NoMaD-PointGoal-veto 22532 steps $scenes scenes$M" \
+    out_dir="$OUT/eval/nomad_pointgoal_veto_$scenes$S" "${EVAL[@]}"
 done
-echo "steps2x run: done in $SECONDS s ($STEPS_SECONDS s in steps run now; the trainings ran in the background)"
+echo "steps2x run (seed $SEED): done in $SECONDS s ($STEPS_SECONDS s in steps run now; the trainings ran in the background)"
