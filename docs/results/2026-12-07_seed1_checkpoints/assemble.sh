@@ -8,7 +8,7 @@
 set -euo pipefail
 RUN=$(cd "${1:-runs/seed1_checkpoints}" && pwd -P)
 HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
-source "$HERE/../lib.sh"  # copy_evals, copy_trainings
+source "$HERE/../lib.sh"  # copy_eval, copy_trainings
 STEPS=(ckpt8000 ckpt9000 ckpt10000 ckpt11000)  # each model's rows in step order, its latest last
 DIRS=()
 for n in random goal_follower trajectory_oracle oracle "${STEPS[@]/#/nomad_pointgoal_}" nomad_pointgoal; do
