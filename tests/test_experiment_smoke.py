@@ -1,5 +1,6 @@
 """jobs/small_experiment.sh end to end at SCALE=tiny (1 train scene × 2 trajectories, 2 training
-steps per model, 1 val episode of 2 goals), its rerun (every step skipped), and
+steps per model, 1 val episode of 2 goals, one training seed: a second seed's steps, folders, labels and pairs are
+tests/test_jobs_scripts.py's, the report's pooling over seeds tests/test_report.py's), its rerun (every step skipped), and
 jobs/experiment_slurm.sh's commands (DRY_RUN; the rvn-gen / rvn-eval / rvn-train overrides
 compose with Hydra)."""
 from __future__ import annotations
@@ -18,12 +19,10 @@ from conftest import run_recipe
 REPO = Path(__file__).resolve().parents[1]
 PER_SEED = ("NoMaD-PointGoal", "NoMaD-PointGoal-vote", "NoMaD-Neg", "NoMaD-PointGoal-vote-veto", "NoMaD-Neg-veto",
             "NoMaD-Neg-veto-commit", "NoMaD-Neg-argmin")
-METHODS = ("Random", "Oracle", "Goal follower", "Trajectory oracle", "ViNT-PointGoal", *PER_SEED,
-           *(f"{m} seed1" for m in PER_SEED))
-# every row: the depth head and its veto, committed turns, the opt-in argmin row, two training seeds, NoMaD-PointGoal
-# and NoMaD-Neg read over NoMaD-PointGoal's last two checkpoints (one a step: steps 1 and 2)
-EVERY_ROW = dict(NEG_ARGMIN="1", SEEDS="0 1", DEPTH_AUX="0.5", DEPTH_VETO="0.5", TURN_COMMIT="1", EVAL_CHECKPOINTS="2",
-                 CKPT_EVERY="1")
+METHODS = ("Random", "Oracle", "Goal follower", "Trajectory oracle", "ViNT-PointGoal", *PER_SEED)
+# every row: the depth head and its veto, committed turns, the opt-in argmin row, NoMaD-PointGoal and NoMaD-Neg read
+# over NoMaD-PointGoal's last two checkpoints (one a step: steps 1 and 2)
+EVERY_ROW = dict(NEG_ARGMIN="1", DEPTH_AUX="0.5", DEPTH_VETO="0.5", TURN_COMMIT="1", EVAL_CHECKPOINTS="2", CKPT_EVERY="1")
 
 
 def small_experiment(out: Path, **env) -> subprocess.CompletedProcess:
@@ -58,18 +57,16 @@ def test_tiny_experiment_end_to_end_and_rerun(tmp_path):
     assert adopted.keys() == source.keys() and all(bool((adopted[k] == source[k]).all()) for k in source)
     steps = [ln.split("\t")[0] for ln in (out / "timings.tsv").read_text().splitlines()]
     assert steps[:4] == ["gen_expert", "gen_negative", "gen_val", "train_vint"]
-    # each seed's trainings, then its rows: seed 0's are complete before seed 1 trains
-    assert steps[9:11] == ["train_nomad", "train_nomad_neg"] and steps[21:23] == ["train_nomad_seed1", "train_nomad_neg_seed1"]
+    assert steps[9:11] == ["train_nomad", "train_nomad_neg"] and len(steps) == 21
     assert steps[14:17] == ["eval_nomad_ckpt1", "train_nomad_neg_ckpt1", "eval_nomad_neg_ckpt1"]
-    assert steps[26] == "eval_nomad_seed1_ckpt1" and len(steps) == 33
-    seed1 = (out / "train" / "nomad_pointgoal_seed1" / "config.yaml").read_text()
-    assert "seed: 1" in seed1 and "expert_from: " + str(out / "train" / "nomad_pointgoal_seed1") in \
-        (out / "train" / "nomad_neg_seed1" / "config.yaml").read_text()
+    trained = (out / "train" / "nomad_pointgoal" / "config.yaml").read_text()
+    assert "seed: 0" in trained and "expert_from: " + str(out / "train" / "nomad_pointgoal") in \
+        (out / "train" / "nomad_neg" / "config.yaml").read_text()
     # provenance: the code that made each row, in the training config, run.json, metrics.json and the report
     from rvn_data.provenance import provenance, short
 
     here = provenance()
-    assert f"code_commit: {here['code_commit']}" in seed1 if here["code_commit"] else "provenance:" in seed1
+    assert f"code_commit: {here['code_commit']}" in trained if here["code_commit"] else "provenance:" in trained
     for name in ("run.json", "metrics.json"):
         assert json.loads((out / "eval" / "nomad_neg" / name).read_text())["provenance"] == here
     assert f"| {short(here)} |" in report and "Warning" not in report  # one commit, one episode set
@@ -81,29 +78,25 @@ def test_tiny_experiment_end_to_end_and_rerun(tmp_path):
     config = (out / "train" / "nomad_pointgoal" / "config.yaml").read_text()
     assert "prediction_type: sample" in config and "pad_context: true" in config  # the small recipe's first decisions
     assert "| NoMaD-Neg | NoMaD-PointGoal |" in report and "| NoMaD-PointGoal | Goal follower |" in report
-    assert "| NoMaD-Neg-veto-commit seed1 | NoMaD-Neg-veto seed1 |" in report
-    # each seed's comparison, and pooled over the two seeds' episodes
-    assert "| NoMaD-Neg | NoMaD-PointGoal | unlabelled + seed1 | 2 |" in report
-    committed = json.loads((out / "eval" / "nomad_neg_veto_commit_seed1" / "run.json").read_text())
+    assert "| NoMaD-Neg-veto-commit | NoMaD-Neg-veto |" in report
+    committed = json.loads((out / "eval" / "nomad_neg_veto_commit" / "run.json").read_text())
     assert committed["policy"]["turn_commit"] is True and committed["policy"]["depth_veto"] == 0.5
     assert "commits" in (out / "eval" / "nomad_neg_veto_commit" / "episodes.jsonl").read_text()
     # EVAL_CHECKPOINTS=2: NoMaD-PointGoal at its checkpoint before the latest too (policy.step), and NoMaD-Neg with it
     # as NoMaD_e (train.expert_step; NoMaD_n trained again, the same weights), each read over both, compared step by step
-    assert json.loads((out / "eval" / "nomad_pointgoal_seed1_ckpt1" / "run.json").read_text())["policy"]["step"] == 1
-    assert "| NoMaD-PointGoal | 1, the row's |" in report and "| NoMaD-PointGoal seed1 | 1, the row's |" in report
-    assert "| NoMaD-Neg | 1, the row's |" in report and "| NoMaD-Neg seed1 | 1, the row's |" in report
+    assert json.loads((out / "eval" / "nomad_pointgoal_ckpt1" / "run.json").read_text())["policy"]["step"] == 1
+    assert "| NoMaD-PointGoal | 1, the row's |" in report and "| NoMaD-Neg | 1, the row's |" in report
     assert "| NoMaD-Neg | NoMaD-PointGoal | 2 / 2 | 1 |" in report, report
-    assert "| NoMaD-Neg ckpt1 | NoMaD-PointGoal ckpt1 |" in report and "| NoMaD-Neg seed1 ckpt1 | NoMaD-PointGoal seed1 ckpt1 |" in report
-    assert "| NoMaD-Neg ckpt1 | NoMaD-PointGoal ckpt1 | unlabelled + seed1 | 2 |" in report  # that step, pooled over seeds
-    early = out / "train" / "nomad_neg_seed1_ckpt1"
+    assert "| NoMaD-Neg ckpt1 | NoMaD-PointGoal ckpt1 |" in report
+    early = out / "train" / "nomad_neg_ckpt1"
     assert json.loads((early / "expert" / "ckpt_00000001" / "stats.json").read_text())["adopted_from"] == \
-        str((out / "train" / "nomad_pointgoal_seed1" / "model" / "ckpt_00000001").resolve())
-    a, b = latest(early / "negative"), latest(out / "train" / "nomad_neg_seed1" / "negative")
+        str((out / "train" / "nomad_pointgoal" / "model" / "ckpt_00000001").resolve())
+    a, b = latest(early / "negative"), latest(out / "train" / "nomad_neg" / "negative")
     assert a.keys() == b.keys() and all(bool((a[k] == b[k]).all()) for k in a)
     # a rerun skips every step and rewrites the same report
     again = small_experiment(out, **EVERY_ROW)
     assert again.returncode == 0, again.stderr[-3000:]
-    assert again.stdout.count("done before, skipped") == 33
+    assert again.stdout.count("done before, skipped") == 21
     assert (out / "report.md").read_text() == report
 
 

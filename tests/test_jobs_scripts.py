@@ -458,3 +458,59 @@ def test_merge_runs_after_a_failed_multirun(tmp_path):
     assert [c[1] for c in calls if c[0] == "rvn-gen"] == ["-m", "-m", "mode=merge", "mode=merge"]
     assert not [c for c in calls if c[0] in ("sbatch", "rvn-eval")]  # nothing trained on incomplete data
     assert "experiment_slurm.sh: error: the datasets are incomplete" in proc.stderr
+
+
+def test_small_experiment_trains_and_evaluates_each_seed_after_the_last(tmp_path):
+    """jobs/small_experiment.sh with SEEDS="0 1" and every optional row (tests/test_experiment_smoke.py runs the real
+    tools for one seed): seed 1's trainings and rows follow seed 0's complete block, with the suffix _seed1 on its
+    folders and steps and " seed1" on its labels, NoMaD-Neg seed 1 adopts seed 1's NoMaD-PointGoal (at its earlier
+    checkpoint too), and the report gets both seeds' rows and pairs (tests/test_report.py pools them over seeds)."""
+    real_python = sys.executable
+    stub(tmp_path / "bin", "rvn-gen", 'for a in "$@"; do [[ "$a" == out_dir=* ]] && out=${a#out_dir=}; done\n'
+                                      'mkdir -p "$out/data_splits/${out##*/}/train"\n'
+                                      'printf "proc_train_0000_expert_0000\\nproc_train_0000_expert_0001\\n" '
+                                      '>"$out/data_splits/${out##*/}/train/traj_names.txt"')
+    stub(tmp_path / "bin", "rvn-train", 'for a in "$@"; do [[ "$a" == out_dir=* ]] && out=${a#out_dir=}; done\n'
+                                        'mkdir -p "$out/model/ckpt_00000001" "$out/model/ckpt_00000002"')
+    stub(tmp_path / "bin", "rvn-eval")
+    stub(tmp_path / "bin", "python", f'[[ "$1" == -c ]] && exec {shlex.quote(real_python)} "$@"\nexit 0')
+    out = tmp_path / "exp"
+    proc, calls = run_script("small_experiment.sh", tmp_path, str(out), SCALE="tiny", PYTHON="python", NEG_ARGMIN="1",
+                             SEEDS="0 1", DEPTH_AUX="0.5", DEPTH_VETO="0.5", TURN_COMMIT="1", EVAL_CHECKPOINTS="2",
+                             CKPT_EVERY="1")
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    steps = [ln.split("\t")[0] for ln in (out / "timings.tsv").read_text().splitlines()]
+    per_seed = ["train_nomad", "train_nomad_neg", "eval_nomad", "eval_nomad_vote", "eval_nomad_neg", "eval_nomad_ckpt1",
+                "train_nomad_neg_ckpt1", "eval_nomad_neg_ckpt1", "eval_nomad_vote_veto", "eval_nomad_neg_veto",
+                "eval_nomad_neg_veto_commit", "eval_nomad_neg_argmin"]
+    seed1 = [s.replace("_ckpt1", "_seed1_ckpt1") if "ckpt1" in s else s + "_seed1" for s in per_seed]
+    assert steps == ["gen_expert", "gen_negative", "gen_val", "train_vint", "eval_random", "eval_oracle",
+                     "eval_goal_follower", "eval_trajectory_oracle", "eval_vint", *per_seed, *seed1]
+    exp = str(out.resolve())
+    trains = {next(a for a in c if a.startswith("out_dir=")).rsplit("/", 1)[1]: c for c in calls if c[0] == "rvn-train"}
+    assert "seed=1" in trains["nomad_pointgoal_seed1"] and "seed=0" in trains["nomad_pointgoal"]
+    for name in ("nomad_neg_seed1", "nomad_neg_seed1_ckpt1"):
+        assert f"train.expert_from={exp}/train/nomad_pointgoal_seed1" in trains[name] and "seed=1" in trains[name]
+    assert "train.expert_step=1" in trains["nomad_neg_seed1_ckpt1"]
+    evals = {next(a for a in c if a.startswith("out_dir=")).rsplit("/", 1)[1]: c for c in calls if c[0] == "rvn-eval"}
+    for method, name in (("NoMaD-PointGoal", "nomad_pointgoal"), ("NoMaD-PointGoal-vote", "nomad_pointgoal_vote"),
+                         ("NoMaD-Neg", "nomad_neg"), ("NoMaD-PointGoal-vote-veto", "nomad_pointgoal_vote_veto"),
+                         ("NoMaD-Neg-veto", "nomad_neg_veto"), ("NoMaD-Neg-veto-commit", "nomad_neg_veto_commit"),
+                         ("NoMaD-Neg-argmin", "nomad_neg_argmin")):
+        assert f"method={method} seed1" in evals[f"{name}_seed1"] and f"method={method}" in evals[name]
+        source = "nomad_neg" if name.startswith("nomad_neg") else "nomad_pointgoal"
+        assert f"policy.checkpoint_path={exp}/train/{source}_seed1" in evals[f"{name}_seed1"]
+    early = evals["nomad_pointgoal_seed1_ckpt1"]
+    assert "method=NoMaD-PointGoal seed1 ckpt1" in early and "+policy.step=1" in early
+    assert f"policy.checkpoint_path={exp}/train/nomad_neg_seed1_ckpt1" in evals["nomad_neg_seed1_ckpt1"]
+    report = next(c for c in calls if c[0] == "python" and "rvn_data.benchmark.report" in c)
+    rows = ["random", "oracle", "goal_follower", "trajectory_oracle", "vint_pointgoal"]
+    for sfx in ("", "_seed1"):
+        rows += [f"nomad_pointgoal{sfx}", f"nomad_pointgoal_vote{sfx}", f"nomad_neg{sfx}", f"nomad_pointgoal{sfx}_ckpt1",
+                 f"nomad_neg{sfx}_ckpt1", f"nomad_pointgoal_vote_veto{sfx}", f"nomad_neg_veto{sfx}",
+                 f"nomad_neg_veto_commit{sfx}", f"nomad_neg_argmin{sfx}"]
+    assert [a for a in report if a.startswith(exp + "/eval/")] == [f"{exp}/eval/{n}" for n in rows]
+    for pair in ("NoMaD-Neg seed1=NoMaD-PointGoal seed1", "NoMaD-Neg seed1 ckpt1=NoMaD-PointGoal seed1 ckpt1",
+                 "NoMaD-Neg-veto-commit seed1=NoMaD-Neg-veto seed1", "NoMaD-Neg-argmin seed1=NoMaD-Neg seed1",
+                 "NoMaD-PointGoal seed1=Goal follower", "NoMaD-Neg=NoMaD-PointGoal"):
+        assert f"--compare={pair}" in report, pair

@@ -79,25 +79,9 @@ def test_rl_small_recipe_smoke(tmp_path):
     assert len(list((out / "cache" / "goal_pools").rglob("*.npz"))) == 2
     assert len(list((out / "cache" / "navmesh").rglob("*.npz"))) == 3
     assert not list(out.glob("*/*/cache")), "a run kept caches of its own"
-    # FROM=untagged TAG=more: PPO trained on from its last checkpoint (64 env steps) to 192 in train/ppo_more, the run
-    # it continued left as it was, the new row tested against it; EVAL_CHECKPOINTS=3 with a checkpoint every update
-    # (128, 192): evaluated at both, the row "PPO more" and "PPO more ckpt128", which the report reads it over (the
-    # run keeps 2, said). Continuing a tagged run (FROM=<tag>): tests/test_jobs_scripts.py
-    before = (out / "train" / "ppo" / "checkpoints" / "latest").read_text()
-    proc = subprocess.run(["bash", str(script), str(out)], capture_output=True, text=True, timeout=900,
-                          cwd=script.parents[1], env={**env, "ALGOS": "ppo", "FROM": "untagged", "TAG": "more",
-                                                      "TOTAL_STEPS": "192", "RL_EXTRA": "train.checkpoint_every=1",
-                                                      "EVAL_CHECKPOINTS": "3"})
-    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-3000:]
-    record = yaml.safe_load((out / "train" / "ppo_more" / "config.yaml").read_text())["continued_from"]
-    assert record["out_dir"] == str((out / "train" / "ppo").resolve()) and record["env_steps"] == 64
-    assert (out / "train" / "ppo_more" / "checkpoints" / "latest").read_text().strip() == "ckpt_000000000192"
-    assert (out / "train" / "ppo" / "checkpoints" / "latest").read_text() == before
-    assert f"{out}/train/ppo_more keeps 2 checkpoints" in proc.stdout
-    assert json.loads((out / "eval" / "ppo_more_ckpt128" / "run.json").read_text())["policy"]["env_steps"] == 128
-    report = (out / "report.md").read_text()
-    assert "| PPO more | PPO |" in report
-    assert "| PPO more | 128, the row's |" in report and "| PPO more | PPO | 2 / 1 | 1 |" in report, report
+    # FROM / TAG (a run continued in a tagged one) and EVAL_CHECKPOINTS: the recipe's commands in
+    # tests/test_jobs_scripts.py, rvn-rl's train.continue_from and rvn-eval's +policy.env_steps in tests/test_rl_resume.py,
+    # a row read over its checkpoints in tests/test_report.py
 
 
 def test_rl_small_keeps_the_rendered_depth_ablation_apart(tmp_path):
