@@ -460,7 +460,7 @@ def test_merge_runs_after_a_failed_multirun(tmp_path):
     assert "experiment_slurm.sh: error: the datasets are incomplete" in proc.stderr
 
 
-def test_small_experiment_trains_and_evaluates_each_seed_after_the_last(tmp_path):
+def test_small_experiment_runs_each_seeds_rows_after_the_seed_before(tmp_path):
     """jobs/small_experiment.sh with SEEDS="0 1" and every optional row (tests/test_experiment_smoke.py runs the real
     tools for one seed): seed 1's trainings and rows follow seed 0's complete block, with the suffix _seed1 on its
     folders and steps and " seed1" on its labels, NoMaD-Neg seed 1 adopts seed 1's NoMaD-PointGoal (at its earlier
