@@ -460,18 +460,22 @@ def test_merge_runs_after_a_failed_multirun(tmp_path):
     assert "experiment_slurm.sh: error: the datasets are incomplete" in proc.stderr
 
 
+def calls_by_folder(calls: list[list[str]], tool: str) -> dict[str, list[str]]:
+    """The stub ``tool``'s calls by the last folder of their ``out_dir=``."""
+    return {next(a for a in c if a.startswith("out_dir=")).rsplit("/", 1)[1]: c for c in calls if c[0] == tool}
+
+
 def test_small_experiment_runs_each_seeds_rows_after_the_seed_before(tmp_path):
     """jobs/small_experiment.sh with SEEDS="0 1" and every optional row (tests/test_experiment_smoke.py runs the real
     tools for one seed): seed 1's trainings and rows follow seed 0's complete block, with the suffix _seed1 on its
     folders and steps and " seed1" on its labels, NoMaD-Neg seed 1 adopts seed 1's NoMaD-PointGoal (at its earlier
     checkpoint too), and the report gets both seeds' rows and pairs (tests/test_report.py pools them over seeds)."""
     real_python = sys.executable
-    stub(tmp_path / "bin", "rvn-gen", 'for a in "$@"; do [[ "$a" == out_dir=* ]] && out=${a#out_dir=}; done\n'
-                                      'mkdir -p "$out/data_splits/${out##*/}/train"\n'
+    out_dir = 'for a in "$@"; do [[ "$a" == out_dir=* ]] && out=${a#out_dir=}; done\n'  # the call's out_dir= as $out
+    stub(tmp_path / "bin", "rvn-gen", out_dir + 'mkdir -p "$out/data_splits/${out##*/}/train"\n'
                                       'printf "proc_train_0000_expert_0000\\nproc_train_0000_expert_0001\\n" '
                                       '>"$out/data_splits/${out##*/}/train/traj_names.txt"')
-    stub(tmp_path / "bin", "rvn-train", 'for a in "$@"; do [[ "$a" == out_dir=* ]] && out=${a#out_dir=}; done\n'
-                                        'mkdir -p "$out/model/ckpt_00000001" "$out/model/ckpt_00000002"')
+    stub(tmp_path / "bin", "rvn-train", out_dir + 'mkdir -p "$out/model/ckpt_00000001" "$out/model/ckpt_00000002"')
     stub(tmp_path / "bin", "rvn-eval")
     stub(tmp_path / "bin", "python", f'[[ "$1" == -c ]] && exec {shlex.quote(real_python)} "$@"\nexit 0')
     out = tmp_path / "exp"
@@ -487,12 +491,12 @@ def test_small_experiment_runs_each_seeds_rows_after_the_seed_before(tmp_path):
     assert steps == ["gen_expert", "gen_negative", "gen_val", "train_vint", "eval_random", "eval_oracle",
                      "eval_goal_follower", "eval_trajectory_oracle", "eval_vint", *per_seed, *seed1]
     exp = str(out.resolve())
-    trains = {next(a for a in c if a.startswith("out_dir=")).rsplit("/", 1)[1]: c for c in calls if c[0] == "rvn-train"}
+    trains = calls_by_folder(calls, "rvn-train")
     assert "seed=1" in trains["nomad_pointgoal_seed1"] and "seed=0" in trains["nomad_pointgoal"]
     for name in ("nomad_neg_seed1", "nomad_neg_seed1_ckpt1"):
         assert f"train.expert_from={exp}/train/nomad_pointgoal_seed1" in trains[name] and "seed=1" in trains[name]
     assert "train.expert_step=1" in trains["nomad_neg_seed1_ckpt1"]
-    evals = {next(a for a in c if a.startswith("out_dir=")).rsplit("/", 1)[1]: c for c in calls if c[0] == "rvn-eval"}
+    evals = calls_by_folder(calls, "rvn-eval")
     for method, name in (("NoMaD-PointGoal", "nomad_pointgoal"), ("NoMaD-PointGoal-vote", "nomad_pointgoal_vote"),
                          ("NoMaD-Neg", "nomad_neg"), ("NoMaD-PointGoal-vote-veto", "nomad_pointgoal_vote_veto"),
                          ("NoMaD-Neg-veto", "nomad_neg_veto"), ("NoMaD-Neg-veto-commit", "nomad_neg_veto_commit"),
