@@ -16,14 +16,22 @@ for n in random goal_follower trajectory_oracle oracle nomad_pointgoal; do DIRS+
 DIRS+=("../2026-12-07_neg_checkpoints/eval/nomad_neg" "../2026-12-06_cor_controls/eval/nomad_pointgoal_veto")
 for n in nomad_pointgoal_seed0 nomad_pointgoal_veto_seed0; do DIRS+=("../2026-12-07_data2x/eval/$n"); done
 TAGS=("")  # the seeds' row suffixes
-if compgen -G "$RUN/eval/*_seed1" >/dev/null; then  # seed 1's 11,266-step rows, where seed 1 ran here
+if compgen -G "$RUN/eval/*_seed1" >/dev/null || compgen -G "$HERE/eval/*_seed1" >/dev/null; then  # seed 1's 11,266-step rows, where seed 1 ran
   TAGS+=(" seed1")
   DIRS+=(../2026-12-07_seed1_checkpoints/eval/nomad_{pointgoal,neg} ../2026-12-06_cor_controls/eval/nomad_pointgoal_veto_seed1)
   for n in nomad_pointgoal_seed1 nomad_pointgoal_veto_seed1; do DIRS+=("../2026-12-07_data2x/eval/$n"); done
 fi
+n_ref=${#DIRS[@]}
 copy_evals "$RUN" "$HERE" '*'
 copy_trainings "$RUN" "$HERE" '*'
-cp "$RUN/timings.tsv" "$HERE/timings.tsv"
+# this folder's rows: every finished one here, RUN's just copied and those an earlier RUN left (a session's run folder
+# need not outlive it: seed 1 ran in a fresh one), in name order
+DIRS=("${DIRS[@]:0:n_ref}")
+for d in "$HERE"/eval/*/; do [ -f "$d/metrics.json" ] && DIRS+=("eval/$(basename "$d")"); done
+# timings: RUN's steps over the same steps' earlier figures, the others kept (first-seen order)
+cat "$HERE/timings.tsv" "$RUN/timings.tsv" 2>/dev/null | awk -F'\t' '!($1 in v) {k[++n] = $1} {v[$1] = $0}
+  END {for (i = 1; i <= n; i++) print v[k[i]]}' >"$HERE/.timings.tsv.tmp"
+mv "$HERE/.timings.tsv.tmp" "$HERE/timings.tsv"
 cd "$HERE"
 S=" 22532 steps"
 CMP=("NoMaD-PointGoal$S 128 scenes=Goal follower" "NoMaD-PointGoal$S 128 scenes=Trajectory oracle")
