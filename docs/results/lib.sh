@@ -42,3 +42,13 @@ copy_trainings() {
     done
   done
 }
+
+# merge_timings RUN HERE: RUN/timings.tsv's steps into HERE/timings.tsv, each step's figure RUN's where both have it,
+# HERE's other steps kept (first-seen order): a later run folder (another seed's, made in a fresh session) adds to the
+# folder's timings instead of replacing them. RUN's file must exist; HERE's need not.
+merge_timings() {
+  [ -f "$1/timings.tsv" ] || { echo "assemble: $1/timings.tsv not found: is $1 the run folder?" >&2; return 1; }
+  { if [ -f "$2/timings.tsv" ]; then cat "$2/timings.tsv"; fi; cat "$1/timings.tsv"; } |
+    awk -F'\t' '!($1 in v) {k[++n] = $1} {v[$1] = $0} END {for (i = 1; i <= n; i++) print v[k[i]]}' >"$2/.timings.tsv.tmp"
+  mv "$2/.timings.tsv.tmp" "$2/timings.tsv"
+}

@@ -10,7 +10,7 @@
 set -euo pipefail
 RUN=$(cd "${1:-runs/steps2x}" && pwd -P)
 HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
-source "$HERE/../lib.sh"  # copy_evals, copy_trainings
+source "$HERE/../lib.sh"  # copy_evals, copy_trainings, merge_timings
 DIRS=()
 for n in random goal_follower trajectory_oracle oracle nomad_pointgoal; do DIRS+=("../2026-12-07_nomad_checkpoints/eval/$n"); done
 DIRS+=("../2026-12-07_neg_checkpoints/eval/nomad_neg" "../2026-12-06_cor_controls/eval/nomad_pointgoal_veto")
@@ -25,13 +25,10 @@ n_ref=${#DIRS[@]}
 copy_evals "$RUN" "$HERE" '*'
 copy_trainings "$RUN" "$HERE" '*'
 # this folder's rows: every finished one here, RUN's just copied and those an earlier RUN left (a session's run folder
-# need not outlive it: seed 1 ran in a fresh one), in name order
+# need not outlive it: seed 1 ran in a fresh one), in name order, in place of the ones copy_evals listed
 DIRS=("${DIRS[@]:0:n_ref}")
 for d in "$HERE"/eval/*/; do [ -f "$d/metrics.json" ] && DIRS+=("eval/$(basename "$d")"); done
-# timings: RUN's steps over the same steps' earlier figures, the others kept (first-seen order)
-cat "$HERE/timings.tsv" "$RUN/timings.tsv" 2>/dev/null | awk -F'\t' '!($1 in v) {k[++n] = $1} {v[$1] = $0}
-  END {for (i = 1; i <= n; i++) print v[k[i]]}' >"$HERE/.timings.tsv.tmp"
-mv "$HERE/.timings.tsv.tmp" "$HERE/timings.tsv"
+merge_timings "$RUN" "$HERE"
 cd "$HERE"
 S=" 22532 steps"
 CMP=("NoMaD-PointGoal$S 128 scenes=Goal follower" "NoMaD-PointGoal$S 128 scenes=Trajectory oracle")
